@@ -1,0 +1,134 @@
+//! Contact detection for the three elements of the paper: sphere-sphere (1)-(3),
+//! sphere-finite plane (4)-(12) and sphere-cylindrical surface (13).
+
+use super::ContactElement;
+use crate::dynamics::Frame;
+use nalgebra::Vector3;
+
+/// The shape a sphere can touch, in its body's frame.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// Another sphere.
+    Sphere {
+        /// Centre.
+        center: Vector3<f64>,
+        /// Radius [m].
+        radius: f64,
+    },
+    /// A finite rectangle: centre, outward normal, in-plane axes u and v, half side lengths.
+    Plane {
+        /// Centre of the rectangle.
+        origin: Vector3<f64>,
+        /// Unit outward normal (the side the sphere may touch).
+        normal: Vector3<f64>,
+        /// First in-plane axis.
+        u: Vector3<f64>,
+        /// Second in-plane axis (normal × u).
+        v: Vector3<f64>,
+        /// Half side lengths along u and v [m].
+        half: [f64; 2],
+    },
+    /// A cylindrical surface patch.
+    Cylinder {
+        /// Point on the axis at the middle of the patch's length.
+        point: Vector3<f64>,
+        /// Unit axis.
+        axis: Vector3<f64>,
+        /// Unit direction perpendicular to the axis where θ = 0.
+        reference: Vector3<f64>,
+        /// Cylinder radius ρ [m].
+        radius: f64,
+        /// Half length along the axis [m].
+        half_length: f64,
+        /// Angular range [min, max] [rad] (None: the whole circumference).
+        theta_range: Option<[f64; 2]>,
+        /// Sphere inside (concave) rather than outside (convex).
+        inside: bool,
+    },
+}
+
+/// Result of detection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    /// Penetration δ (negative when apart) [m].
+    pub delta: f64,
+    /// Penetration rate δ̇ [m/s].
+    pub delta_dot: f64,
+    /// Unit normal from the other shape toward the sphere.
+    pub normal: Vector3<f64>,
+    /// Contact point (world) [m].
+    pub point: Vector3<f64>,
+    /// Signed distance of the sphere centre's projection inside the patch (positive
+    /// inside; infinite for shapes without edges) [m].
+    pub margin: f64,
+}
+
+/// Detects contact between the sphere of `c` (on frame `fs`) and its other shape (on `fo`).
+pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
+    let center = fs.pos + fs.rot * c.center;
+    let r = c.radius;
+    let (delta, normal, point, margin) = match &c.shape {
+        Shape::Sphere { center: oc, radius } => {
+            let other = fo.pos + fo.rot * oc;
+            let d = center - other;
+            let dist = d.norm();
+            let n = if dist > 0.0 { d / dist } else { Vector3::z() };
+            let delta = r + radius - dist;
+            (delta, n, other + n * (radius - 0.5 * delta), f64::INFINITY)
+        }
+        Shape::Plane {
+            origin,
+            normal,
+            u,
+            v,
+            half,
+        } => {
+            let o = fo.pos + fo.rot * origin;
+            let n = fo.rot * normal;
+            let d = center - o;
+            let h = d.dot(&n);
+            let su = d.dot(&(fo.rot * u));
+            let sv = d.dot(&(fo.rot * v));
+            let margin = (half[0] - su.abs()).min(half[1] - sv.abs());
+            (r - h, n, center - n * h, margin)
+        }
+        Shape::Cylinder {
+            point,
+            axis,
+            reference,
+            radius,
+            half_length,
+            theta_range,
+            inside,
+        } => {
+            let a0 = fo.pos + fo.rot * point;
+            let k = fo.rot * axis;
+            let d = center - a0;
+            let s = d.dot(&k);
+            let radial = d - k * s;
+            let dist = radial.norm();
+            let er = if dist > 0.0 { radial / dist } else { fo.rot * reference };
+            let mut margin = half_length - s.abs();
+            if let Some([lo, hi]) = theta_range {
+                let refw = fo.rot * reference;
+                let theta = er.dot(&k.cross(&refw)).atan2(er.dot(&refw));
+                margin = margin.min(radius * (theta - lo)).min(radius * (hi - theta));
+            }
+            let surface = a0 + k * s + er * *radius;
+            if *inside {
+                (dist - (radius - r), -er, surface, margin)
+            } else {
+                (radius + r - dist, er, surface, margin)
+            }
+        }
+    };
+    let vs = fs.vel.point_velocity(&point);
+    let vo = fo.vel.point_velocity(&point);
+    Gap {
+        delta,
+        delta_dot: -(vs - vo).dot(&normal),
+        normal,
+        point,
+        margin,
+    }
+}

@@ -1,0 +1,718 @@
+//! The 34 exported C functions of FMI 2.0 Co-Simulation (25 common, 9 co-simulation).
+//!
+//! Each one catches panics (`std::panic::catch_unwind`), checks its pointers and the calling
+//! state (a bit mask per function, see `lifecycle`), and forwards to [`Instance`]. Nothing is
+//! global: everything an instance allocates is freed by `fmi2FreeInstance` (saved states by
+//! `fmi2FreeFMUstate`), so a host may unload the library afterwards.
+
+#![allow(non_snake_case)]
+
+use super::instance::{log_raw, Access, Failure, FmiResult, Instance, InstantiateArgs, INSTANCE_MAGIC};
+use super::lifecycle::{self, LifeState};
+use super::saved::SavedState;
+use super::types::*;
+use std::ffi::CStr;
+use std::os::raw::{c_char, c_int};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::ptr;
+
+/// The text of a panic payload.
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".to_string()
+    }
+}
+
+/// Borrows the instance behind a component pointer, if it is one of ours and alive.
+///
+/// # Safety
+/// `c` is NULL or a pointer returned by `fmi2Instantiate`.
+unsafe fn instance<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
+    let p = c as *mut Instance;
+    if p.is_null() || (*p).magic != INSTANCE_MAGIC {
+        return None;
+    }
+    Some(&mut *p)
+}
+
+/// Runs one FMI call: looks up the instance, checks the calling state, catches panics and
+/// turns failures into a logged status.
+///
+/// # Safety
+/// `c` is NULL or a pointer returned by `fmi2Instantiate`; `body` upholds the safety of the
+/// pointers it reads.
+unsafe fn call(c: fmi2Component, func: &'static str, mask: u32, body: impl FnOnce(&mut Instance) -> FmiResult) -> fmi2Status {
+    let outer = catch_unwind(AssertUnwindSafe(|| {
+        let Some(inst) = instance(c) else {
+            return fmi2Status::fmi2Error;
+        };
+        if inst.state.bit() & mask == 0 {
+            let message = format!("illegal call sequence: {func} is not allowed in the {} state", inst.state.name());
+            return inst.fail(func, Failure::error(message));
+        }
+        match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
+            Ok(Ok(())) => fmi2Status::fmi2OK,
+            Ok(Err(failure)) => inst.fail(func, failure),
+            Err(payload) => {
+                inst.poisoned = true;
+                let message = format!("internal error (panic): {}", panic_text(payload.as_ref()));
+                inst.fail(func, Failure::error(message))
+            }
+        }
+    }));
+    outer.unwrap_or(fmi2Status::fmi2Fatal)
+}
+
+/// A slice from a C array, or a failure when the array is NULL but its length is not 0.
+///
+/// # Safety
+/// When not NULL, `p` points to `n` valid elements.
+unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResult<&'a [T]> {
+    if n == 0 {
+        Ok(&[])
+    } else if p.is_null() {
+        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
+    } else {
+        Ok(std::slice::from_raw_parts(p, n))
+    }
+}
+
+/// A mutable slice from a C array (see [`slice`]).
+///
+/// # Safety
+/// When not NULL, `p` points to `n` valid, writable elements.
+unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> FmiResult<&'a mut [T]> {
+    if n == 0 {
+        Ok(&mut [])
+    } else if p.is_null() {
+        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
+    } else {
+        Ok(std::slice::from_raw_parts_mut(p, n))
+    }
+}
+
+/// A string argument, or `None` for NULL.
+///
+/// # Safety
+/// When not NULL, `s` is a NUL-terminated string.
+unsafe fn string_arg(s: fmi2String) -> Option<String> {
+    if s.is_null() {
+        None
+    } else {
+        Some(CStr::from_ptr(s).to_string_lossy().into_owned())
+    }
+}
+
+/// Borrows a saved state, if it is one of ours and alive.
+///
+/// # Safety
+/// `s` is NULL or a pointer returned by `fmi2GetFMUstate`/`fmi2DeSerializeFMUstate`.
+unsafe fn saved_state<'a>(s: fmi2FMUstate) -> FmiResult<&'a SavedState> {
+    let p = s as *const SavedState;
+    if p.is_null() {
+        return Err(Failure::error("the FMU state is NULL"));
+    }
+    if !(*p).is_valid() {
+        return Err(Failure::error("the FMU state was not made by this FMU or has been freed"));
+    }
+    Ok(&*p)
+}
+
+/// Stores a state into `*slot`: allocates when `*slot` is NULL, otherwise overwrites it.
+///
+/// # Safety
+/// `slot` is a valid pointer; `*slot` is NULL or a live state of this library.
+unsafe fn store_state(slot: *mut fmi2FMUstate, state: SavedState) -> FmiResult {
+    if slot.is_null() {
+        return Err(Failure::error("the FMUstate pointer is NULL"));
+    }
+    let existing = *slot as *mut SavedState;
+    if existing.is_null() {
+        *slot = Box::into_raw(Box::new(state)) as fmi2FMUstate;
+    } else if (*existing).is_valid() {
+        *existing = state;
+    } else {
+        return Err(Failure::error("*FMUstate is neither NULL nor a live FMU state of this FMU"));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// Common functions
+// ---------------------------------------------------------------------------------------
+
+/// `fmi2GetTypesPlatform`: `"default"`.
+#[no_mangle]
+pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+/// `fmi2GetVersion`: `"2.0"`.
+#[no_mangle]
+pub extern "C" fn fmi2GetVersion() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+/// `fmi2SetDebugLogging`
+///
+/// # Safety
+/// FMI 2.0 calling conventions: `c` from `fmi2Instantiate`, `categories` holds
+/// `n_categories` strings.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetDebugLogging(
+    c: fmi2Component,
+    logging_on: fmi2Boolean,
+    n_categories: usize,
+    categories: *const fmi2String,
+) -> fmi2Status {
+    call(c, "fmi2SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
+        let names = slice(categories, n_categories, "categories")?;
+        let mut list = Vec::with_capacity(names.len());
+        for &n in names {
+            list.push(string_arg(n).ok_or_else(|| Failure::error("a log category is NULL"))?);
+        }
+        inst.set_debug_logging(logging_on != FMI2_FALSE, &list)
+    })
+}
+
+/// `fmi2Instantiate`: reads `<resources>/scene.toml`, checks the GUID, copies the callbacks
+/// and strings. Returns NULL (after logging why) on any problem.
+///
+/// # Safety
+/// FMI 2.0 calling conventions: string arguments are NULL or NUL-terminated, `functions`
+/// is NULL or points to a callbacks struct.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Instantiate(
+    instance_name: fmi2String,
+    fmu_type: c_int,
+    fmu_guid: fmi2String,
+    fmu_resource_location: fmi2String,
+    functions: *const fmi2CallbackFunctions,
+    _visible: fmi2Boolean,
+    logging_on: fmi2Boolean,
+) -> fmi2Component {
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        if functions.is_null() {
+            return ptr::null_mut();
+        }
+        let callbacks = *functions;
+        let name = string_arg(instance_name).unwrap_or_default();
+        let report = |message: &str| {
+            let cname = std::ffi::CString::new(name.replace('\0', " ")).unwrap_or_default();
+            log_raw(
+                callbacks.logger,
+                callbacks.component_environment,
+                &cname,
+                fmi2Status::fmi2Error,
+                c"logStatusError",
+                message,
+            );
+        };
+        let (Some(guid), Some(location)) = (string_arg(fmu_guid), string_arg(fmu_resource_location)) else {
+            report("fmi2Instantiate: fmuGUID and fmuResourceLocation must not be NULL");
+            return ptr::null_mut();
+        };
+        let args = InstantiateArgs {
+            instance_name: &name,
+            fmu_type,
+            guid: &guid,
+            resource_location: &location,
+            callbacks,
+            logging_on: logging_on != FMI2_FALSE,
+        };
+        match catch_unwind(AssertUnwindSafe(|| Instance::new(&args))) {
+            Ok(Ok(inst)) => Box::into_raw(Box::new(inst)) as fmi2Component,
+            Ok(Err(message)) => {
+                report(&message);
+                ptr::null_mut()
+            }
+            Err(payload) => {
+                report(&format!("fmi2Instantiate: internal error (panic): {}", panic_text(payload.as_ref())));
+                ptr::null_mut()
+            }
+        }
+    }));
+    result.unwrap_or(ptr::null_mut())
+}
+
+/// `fmi2FreeInstance`: frees everything the instance holds (allowed in every state).
+///
+/// # Safety
+/// `c` is NULL or a pointer returned by `fmi2Instantiate` and not freed before.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
+    let _ = catch_unwind(AssertUnwindSafe(|| {
+        if instance(c).is_some() {
+            let mut boxed = Box::from_raw(c as *mut Instance);
+            boxed.magic = 0;
+            drop(boxed);
+        }
+    }));
+}
+
+/// `fmi2SetupExperiment`
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetupExperiment(
+    c: fmi2Component,
+    tolerance_defined: fmi2Boolean,
+    tolerance: fmi2Real,
+    start_time: fmi2Real,
+    stop_time_defined: fmi2Boolean,
+    stop_time: fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2SetupExperiment", lifecycle::SETUP_EXPERIMENT, |inst| {
+        inst.setup_experiment(
+            (tolerance_defined != FMI2_FALSE).then_some(tolerance),
+            start_time,
+            (stop_time_defined != FMI2_FALSE).then_some(stop_time),
+        )
+    })
+}
+
+/// `fmi2EnterInitializationMode`
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
+    call(c, "fmi2EnterInitializationMode", lifecycle::ENTER_INITIALIZATION_MODE, |inst| {
+        inst.enter_initialization_mode()
+    })
+}
+
+/// `fmi2ExitInitializationMode`: checks every parameter's range (the message names the
+/// variable) and compiles the model.
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
+    call(c, "fmi2ExitInitializationMode", lifecycle::EXIT_INITIALIZATION_MODE, |inst| {
+        inst.exit_initialization_mode()
+    })
+}
+
+/// `fmi2Terminate`
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
+    call(c, "fmi2Terminate", lifecycle::TERMINATE, |inst| inst.terminate())
+}
+
+/// `fmi2Reset`
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
+    call(c, "fmi2Reset", lifecycle::RESET, |inst| inst.reset())
+}
+
+/// `fmi2GetReal`
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetReal(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let out = slice_mut(value, nvr, "value")?;
+        inst.get_values(Access::Real, vrs, |k, x| out[k] = x)
+    })
+}
+
+/// `fmi2GetInteger` (Integer and enumeration variables)
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetInteger(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
+    call(c, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let out = slice_mut(value, nvr, "value")?;
+        inst.get_values(Access::Integer, vrs, |k, x| out[k] = x.round() as fmi2Integer)
+    })
+}
+
+/// `fmi2GetBoolean`
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetBoolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
+    call(c, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let out = slice_mut(value, nvr, "value")?;
+        inst.get_values(Access::Boolean, vrs, |k, x| out[k] = if x != 0.0 { FMI2_TRUE } else { FMI2_FALSE })
+    })
+}
+
+/// `fmi2GetString` (this model has no String variables: only `nvr = 0` succeeds)
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetString(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *mut fmi2String,
+) -> fmi2Status {
+    call(c, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        inst.get_values(Access::String, vrs, |_, _| {})
+    })
+}
+
+/// `fmi2SetReal`
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetReal(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let vals = slice(value, nvr, "value")?;
+        inst.set_values(Access::Real, vrs, |k| vals[k])
+    })
+}
+
+/// `fmi2SetInteger` (Integer and enumeration variables)
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetInteger(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Integer,
+) -> fmi2Status {
+    call(c, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let vals = slice(value, nvr, "value")?;
+        inst.set_values(Access::Integer, vrs, |k| f64::from(vals[k]))
+    })
+}
+
+/// `fmi2SetBoolean`
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetBoolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Boolean,
+) -> fmi2Status {
+    call(c, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        let vals = slice(value, nvr, "value")?;
+        inst.set_values(Access::Boolean, vrs, |k| if vals[k] != FMI2_FALSE { 1.0 } else { 0.0 })
+    })
+}
+
+/// `fmi2SetString` (this model has no String variables: only `nvr = 0` succeeds)
+///
+/// # Safety
+/// `vr` and `value` hold `nvr` elements.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetString(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *const fmi2String,
+) -> fmi2Status {
+    call(c, "fmi2SetString", lifecycle::SET_VALUES, |inst| {
+        let vrs = slice(vr, nvr, "vr")?;
+        inst.set_values(Access::String, vrs, |_| 0.0)
+    })
+}
+
+/// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.
+///
+/// # Safety
+/// `state` points to NULL or to a live state of this library.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    call(c, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| store_state(state, inst.save()))
+}
+
+/// `fmi2SetFMUstate`: copies the state into the instance (the state stays valid), including
+/// its lifecycle state, time and stop time.
+///
+/// # Safety
+/// `state` is a live state of this library.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+    call(c, "fmi2SetFMUstate", lifecycle::FMU_STATE, |inst| {
+        let saved = saved_state(state)?;
+        inst.restore(saved)
+    })
+}
+
+/// `fmi2FreeFMUstate`: frees `*state` (NULL is ignored) and sets it to NULL.
+///
+/// # Safety
+/// `state` is NULL or points to NULL or to a live state of this library.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    call(c, "fmi2FreeFMUstate", lifecycle::FMU_STATE, |_| {
+        if state.is_null() || (*state).is_null() {
+            return Ok(());
+        }
+        let p = *state as *mut SavedState;
+        if !(*p).is_valid() {
+            return Err(Failure::error("the FMU state was not made by this FMU or has been freed"));
+        }
+        let mut boxed = Box::from_raw(p);
+        boxed.magic = 0;
+        drop(boxed);
+        *state = ptr::null_mut();
+        Ok(())
+    })
+}
+
+/// `fmi2SerializedFMUstateSize`
+///
+/// # Safety
+/// `state` is a live state of this library, `size` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+    call(c, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
+        let saved = saved_state(state)?;
+        if size.is_null() {
+            return Err(Failure::error("size is NULL"));
+        }
+        *size = saved.to_bytes().len();
+        Ok(())
+    })
+}
+
+/// `fmi2SerializeFMUstate`: writes exactly `fmi2SerializedFMUstateSize` bytes.
+///
+/// # Safety
+/// `state` is a live state of this library, `serialized` holds `size` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SerializeFMUstate(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    serialized: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
+    call(c, "fmi2SerializeFMUstate", lifecycle::FMU_STATE, |_| {
+        let bytes = saved_state(state)?.to_bytes();
+        if size < bytes.len() {
+            return Err(Failure::error(format!(
+                "the buffer holds {size} bytes, the state needs {} (ask fmi2SerializedFMUstateSize)",
+                bytes.len()
+            )));
+        }
+        let out = slice_mut(serialized as *mut u8, bytes.len(), "serializedState")?;
+        out.copy_from_slice(&bytes);
+        Ok(())
+    })
+}
+
+/// `fmi2DeSerializeFMUstate`: checks magic, version and length, then allocates a state (or
+/// overwrites `*state` when it is not NULL).
+///
+/// # Safety
+/// `serialized` holds `size` bytes; `state` points to NULL or to a live state.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+    c: fmi2Component,
+    serialized: *const fmi2Byte,
+    size: usize,
+    state: *mut fmi2FMUstate,
+) -> fmi2Status {
+    call(c, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |_| {
+        let bytes = slice(serialized as *const u8, size, "serializedState")?;
+        let saved = SavedState::from_bytes(bytes).map_err(Failure::error)?;
+        store_state(state, saved)
+    })
+}
+
+/// `fmi2GetDirectionalDerivative`: not supported (`providesDirectionalDerivative` is false).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
+    c: fmi2Component,
+    _v_unknown_ref: *const fmi2ValueReference,
+    _n_unknown: usize,
+    _v_known_ref: *const fmi2ValueReference,
+    _n_known: usize,
+    _dv_known: *const fmi2Real,
+    _dv_unknown: *mut fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2GetDirectionalDerivative", lifecycle::GET_DIRECTIONAL_DERIVATIVE, |_| {
+        Err(Failure::error("not supported (providesDirectionalDerivative is false)"))
+    })
+}
+
+// ---------------------------------------------------------------------------------------
+// Co-simulation functions
+// ---------------------------------------------------------------------------------------
+
+/// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs` is false).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+    c: fmi2Component,
+    _vr: *const fmi2ValueReference,
+    _nvr: usize,
+    _order: *const fmi2Integer,
+    _value: *const fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2SetRealInputDerivatives", lifecycle::SET_REAL_INPUT_DERIVATIVES, |_| {
+        Err(Failure::error("not supported (canInterpolateInputs is false)"))
+    })
+}
+
+/// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+    c: fmi2Component,
+    _vr: *const fmi2ValueReference,
+    _nvr: usize,
+    _order: *const fmi2Integer,
+    _value: *mut fmi2Real,
+) -> fmi2Status {
+    call(c, "fmi2GetRealOutputDerivatives", lifecycle::GET_REAL_OUTPUT_DERIVATIVES, |_| {
+        Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)"))
+    })
+}
+
+/// `fmi2DoStep`: integrates from `current_communication_point` (which must be the current
+/// time) to exactly `current_communication_point + communication_step_size`.
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2DoStep(
+    c: fmi2Component,
+    current_communication_point: fmi2Real,
+    communication_step_size: fmi2Real,
+    _no_set_fmu_state_prior_to_current_point: fmi2Boolean,
+) -> fmi2Status {
+    call(c, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
+        inst.do_step(current_communication_point, communication_step_size)
+    })
+}
+
+/// `fmi2CancelStep`: never allowed, since `fmi2DoStep` never returns `fmi2Pending`.
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
+    call(c, "fmi2CancelStep", lifecycle::CANCEL_STEP, |_| Ok(()))
+}
+
+/// `fmi2GetStatus`: not supported (only meaningful after `fmi2Pending`, never returned).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *mut c_int) -> fmi2Status {
+    call(c, "fmi2GetStatus", lifecycle::GET_STATUS, |_| {
+        Err(Failure::error("not supported: fmi2DoStep is synchronous and never returns fmi2Pending"))
+    })
+}
+
+/// `fmi2GetRealStatus`: answers `fmi2LastSuccessfulTime`.
+///
+/// # Safety
+/// `value` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Real) -> fmi2Status {
+    call(c, "fmi2GetRealStatus", lifecycle::GET_STATUS, |inst| {
+        let x = inst.real_status(kind)?;
+        let out = slice_mut(value, 1, "value")?;
+        out[0] = x;
+        Ok(())
+    })
+}
+
+/// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2Integer) -> fmi2Status {
+    call(c, "fmi2GetIntegerStatus", lifecycle::GET_STATUS, |_| {
+        Err(Failure::error(format!("status kind {kind} has no Integer value")))
+    })
+}
+
+/// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
+///
+/// # Safety
+/// `value` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Boolean) -> fmi2Status {
+    call(c, "fmi2GetBooleanStatus", lifecycle::GET_STATUS, |inst| {
+        let b = inst.boolean_status(kind)?;
+        let out = slice_mut(value, 1, "value")?;
+        out[0] = if b { FMI2_TRUE } else { FMI2_FALSE };
+        Ok(())
+    })
+}
+
+/// `fmi2GetStringStatus`: not supported (`fmi2PendingStatus` needs an asynchronous step).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2String) -> fmi2Status {
+    call(c, "fmi2GetStringStatus", lifecycle::GET_STATUS, |_| {
+        Err(Failure::error(format!(
+            "not supported (status kind {kind}; fmi2PendingStatus needs an asynchronous step)"
+        )))
+    })
+}
+
+/// Whether an instance is in a given state (for tests).
+///
+/// # Safety
+/// `c` from `fmi2Instantiate`.
+pub unsafe fn instance_state(c: fmi2Component) -> Option<LifeState> {
+    instance(c).map(|i| i.state)
+}

@@ -1,0 +1,497 @@
+//! One FMU instance: the FMI state machine, logging and value access in safe Rust, on top of
+//! the [`Simulation`] facade. The `extern "C"` functions in `exports` only check pointers and
+//! call states, catch panics and forward here.
+
+use super::lifecycle::LifeState;
+use super::saved::SavedState;
+use super::types::*;
+use super::uri::resource_dir;
+use crate::simulation::{SimError, Simulation};
+use crate::variables::{Causality, VarType, Variable};
+use std::ffi::{CStr, CString};
+use std::os::raw::c_int;
+
+/// Marks a live [`Instance`] behind an `fmi2Component`.
+pub(crate) const INSTANCE_MAGIC: u64 = 0x494e_5354_4346_4d55; // "UMFCTSNI"
+
+/// The log categories declared in the model description: (name, description).
+pub const LOG_CATEGORIES: [(&CStr, &str); 6] = [
+    (c"logEvents", "Instantiation, initialisation, reset, restored states"),
+    (c"logStatusWarning", "Calls that return fmi2Warning"),
+    (c"logStatusDiscard", "Calls that return fmi2Discard"),
+    (c"logStatusError", "Calls that return fmi2Error (always logged unless disabled)"),
+    (c"logStatusFatal", "Calls that return fmi2Fatal (always logged unless disabled)"),
+    (c"logAll", "All of the above"),
+];
+
+const LOG_EVENTS: usize = 0;
+const LOG_ALL: usize = 5;
+
+/// The log category of a status.
+fn category_of(status: fmi2Status) -> usize {
+    match status {
+        fmi2Status::fmi2OK | fmi2Status::fmi2Pending => LOG_EVENTS,
+        fmi2Status::fmi2Warning => 1,
+        fmi2Status::fmi2Discard => 2,
+        fmi2Status::fmi2Error => 3,
+        fmi2Status::fmi2Fatal => 4,
+    }
+}
+
+/// A failed call: the status to return and the message to log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// `fmi2Error` or `fmi2Fatal` (or a milder status).
+    pub status: fmi2Status,
+    /// What went wrong, for the log.
+    pub message: String,
+}
+
+impl Failure {
+    /// An `fmi2Error` with a message.
+    pub fn error(message: impl Into<String>) -> Failure {
+        Failure { status: fmi2Status::fmi2Error, message: message.into() }
+    }
+}
+
+impl From<SimError> for Failure {
+    fn from(e: SimError) -> Failure {
+        Failure::error(e.to_string())
+    }
+}
+
+/// The result of an instance method.
+pub type FmiResult<T = ()> = Result<T, Failure>;
+
+/// Sends one message through a host's logger, if there is one. The format string is always
+/// `"%s"`, so the text may contain `%`; NUL bytes in it are replaced.
+pub fn log_raw(
+    logger: fmi2CallbackLogger,
+    environment: fmi2ComponentEnvironment,
+    instance_name: &CStr,
+    status: fmi2Status,
+    category: &CStr,
+    message: &str,
+) {
+    let Some(logger) = logger else { return };
+    let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    // SAFETY: the logger is the host's function with the fmi2CallbackLogger signature; every
+    // pointer passed is a valid NUL-terminated string that lives until the call returns.
+    unsafe {
+        logger(environment, instance_name.as_ptr(), status as c_int, category.as_ptr(), c"%s".as_ptr(), text.as_ptr());
+    }
+}
+
+/// The value type an `fmi2Get/SetXxx` function accesses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Access {
+    /// `fmi2Real`
+    Real,
+    /// `fmi2Integer` (also enumerations)
+    Integer,
+    /// `fmi2Boolean`
+    Boolean,
+    /// `fmi2String`
+    String,
+}
+
+impl Access {
+    fn name(self) -> &'static str {
+        match self {
+            Access::Real => "Real",
+            Access::Integer => "Integer",
+            Access::Boolean => "Boolean",
+            Access::String => "String",
+        }
+    }
+    fn accepts(self, t: VarType) -> bool {
+        matches!(
+            (self, t),
+            (Access::Real, VarType::Real)
+                | (Access::Integer, VarType::Integer)
+                | (Access::Integer, VarType::Enumeration(_))
+                | (Access::Boolean, VarType::Boolean)
+        )
+    }
+}
+
+fn type_name(t: VarType) -> &'static str {
+    match t {
+        VarType::Real => "Real",
+        VarType::Integer => "Integer",
+        VarType::Boolean => "Boolean",
+        VarType::Enumeration(_) => "Enumeration (accessed as Integer)",
+    }
+}
+
+/// What `fmi2Instantiate` received, decoded into Rust values.
+pub struct InstantiateArgs<'a> {
+    /// Instance name.
+    pub instance_name: &'a str,
+    /// `fmi2ModelExchange` or `fmi2CoSimulation`.
+    pub fmu_type: c_int,
+    /// The GUID the host read from the model description.
+    pub guid: &'a str,
+    /// The resource folder URI.
+    pub resource_location: &'a str,
+    /// The host's callbacks (copied).
+    pub callbacks: fmi2CallbackFunctions,
+    /// Debug logging requested.
+    pub logging_on: bool,
+}
+
+/// One FMU instance.
+pub struct Instance {
+    pub(crate) magic: u64,
+    name: CString,
+    logger: fmi2CallbackLogger,
+    environment: fmi2ComponentEnvironment,
+    logging_on: bool,
+    enabled: [bool; LOG_CATEGORIES.len()],
+    /// The state-machine state.
+    pub(crate) state: LifeState,
+    sim: Simulation,
+    scene_text: String,
+    origin: String,
+    model_hash: u64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    time: f64,
+    last_successful_time: f64,
+    /// Set after a panic inside a call: the simulation may be half-updated, so restoring a
+    /// state rebuilds it first.
+    pub(crate) poisoned: bool,
+}
+
+impl Instance {
+    /// Checks the arguments of `fmi2Instantiate`, reads `<resources>/scene.toml` and builds the
+    /// instance; the error is the message to log.
+    pub fn new(args: &InstantiateArgs) -> Result<Instance, String> {
+        if args.instance_name.is_empty() {
+            return Err("fmi2Instantiate: the instance name is empty".into());
+        }
+        if args.fmu_type != FMI2_CO_SIMULATION {
+            return Err(format!(
+                "fmi2Instantiate: this FMU supports Co-Simulation only (fmuType = {}, expected fmi2CoSimulation = {FMI2_CO_SIMULATION})",
+                args.fmu_type
+            ));
+        }
+        let dir = resource_dir(args.resource_location).map_err(|e| format!("fmi2Instantiate: {e}"))?;
+        let path = dir.join("scene.toml");
+        let scene_text = std::fs::read_to_string(&path)
+            .map_err(|e| format!("fmi2Instantiate: cannot read the scene {}: {e}", path.display()))?;
+        let expected = crate::export::guid(&scene_text);
+        if args.guid != expected {
+            return Err(format!(
+                "fmi2Instantiate: GUID mismatch: the host passed {:?} but this FMU's model description has {expected:?} (modelDescription.xml and resources/scene.toml do not belong together)",
+                args.guid
+            ));
+        }
+        let origin = path.display().to_string();
+        let sim = Simulation::from_scene_str(&scene_text, &origin).map_err(|e| format!("fmi2Instantiate: {e}"))?;
+        let name = CString::new(args.instance_name.replace('\0', " ")).unwrap_or_default();
+        let inst = Instance {
+            magic: INSTANCE_MAGIC,
+            name,
+            logger: args.callbacks.logger,
+            environment: args.callbacks.component_environment,
+            logging_on: args.logging_on,
+            enabled: [true; LOG_CATEGORIES.len()],
+            state: LifeState::Instantiated,
+            sim,
+            model_hash: crate::export::model_hash(&scene_text),
+            scene_text,
+            origin,
+            start_time: 0.0,
+            stop_time: None,
+            time: 0.0,
+            last_successful_time: 0.0,
+            poisoned: false,
+        };
+        inst.log_event(&format!("fmi2Instantiate: model {} from {}", inst.sim.scene().model.name, inst.origin));
+        Ok(inst)
+    }
+
+    /// The instance name given by the host.
+    pub fn name(&self) -> &CStr {
+        &self.name
+    }
+
+    /// The simulation (for tests).
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    /// Current communication point [s].
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Logs a message. Messages with a status of Warning or worse are delivered unless their
+    /// category was switched off by `fmi2SetDebugLogging`; `logEvents` messages only when
+    /// debug logging is on.
+    pub fn log(&self, status: fmi2Status, message: &str) {
+        let cat = category_of(status);
+        let wanted = self.enabled[cat] && (status > fmi2Status::fmi2OK || self.logging_on);
+        if wanted {
+            log_raw(self.logger, self.environment, &self.name, status, LOG_CATEGORIES[cat].0, message);
+        }
+    }
+
+    fn log_event(&self, message: &str) {
+        self.log(fmi2Status::fmi2OK, message);
+    }
+
+    /// Logs a failure of `func`, moves to the error (or fatal) state and returns the status.
+    pub fn fail(&mut self, func: &str, failure: Failure) -> fmi2Status {
+        self.log(failure.status, &format!("{func}: {}", failure.message));
+        match failure.status {
+            fmi2Status::fmi2Error => {
+                if self.state != LifeState::Fatal {
+                    self.state = LifeState::Error;
+                }
+            }
+            fmi2Status::fmi2Fatal => self.state = LifeState::Fatal,
+            _ => {}
+        }
+        failure.status
+    }
+
+    /// `fmi2SetDebugLogging`
+    pub fn set_debug_logging(&mut self, logging_on: bool, categories: &[String]) -> FmiResult {
+        if categories.is_empty() {
+            self.logging_on = logging_on;
+            if logging_on {
+                self.enabled = [true; LOG_CATEGORIES.len()];
+            }
+            return Ok(());
+        }
+        for c in categories {
+            let Some(i) = LOG_CATEGORIES.iter().position(|(name, _)| name.to_bytes() == c.as_bytes()) else {
+                let known: Vec<&str> = LOG_CATEGORIES.iter().filter_map(|(n, _)| n.to_str().ok()).collect();
+                return Err(Failure::error(format!("unknown log category {c:?} (known: {})", known.join(", "))));
+            };
+            if i == LOG_ALL {
+                self.enabled = [logging_on; LOG_CATEGORIES.len()];
+            } else {
+                self.enabled[i] = logging_on;
+            }
+        }
+        if logging_on {
+            self.logging_on = true;
+        }
+        Ok(())
+    }
+
+    /// `fmi2SetupExperiment`. A defined tolerance becomes `solver.rtol` (a later explicit
+    /// `fmi2SetReal` of `solver.rtol` wins).
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> FmiResult {
+        if !start_time.is_finite() {
+            return Err(Failure::error(format!("startTime must be finite (got {start_time})")));
+        }
+        if let Some(stop) = stop_time {
+            if !(stop.is_finite() && stop >= start_time) {
+                return Err(Failure::error(format!("stopTime = {stop} must be finite and >= startTime = {start_time}")));
+            }
+        }
+        if let Some(tol) = tolerance {
+            if !(tol.is_finite() && tol > 0.0) {
+                return Err(Failure::error(format!("tolerance = {tol} must be > 0")));
+            }
+            self.sim.set_by_name("solver.rtol", tol)?;
+        }
+        self.start_time = start_time;
+        self.stop_time = stop_time;
+        self.time = start_time;
+        self.last_successful_time = start_time;
+        Ok(())
+    }
+
+    /// `fmi2EnterInitializationMode`
+    pub fn enter_initialization_mode(&mut self) -> FmiResult {
+        self.state = LifeState::InitializationMode;
+        Ok(())
+    }
+
+    /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model.
+    pub fn exit_initialization_mode(&mut self) -> FmiResult {
+        self.sim.initialize(self.start_time)?;
+        self.time = self.start_time;
+        self.last_successful_time = self.start_time;
+        self.state = LifeState::StepComplete;
+        self.log_event(&format!("fmi2ExitInitializationMode: initialised at t = {}", self.start_time));
+        Ok(())
+    }
+
+    /// `fmi2Terminate`
+    pub fn terminate(&mut self) -> FmiResult {
+        self.state = LifeState::Terminated;
+        Ok(())
+    }
+
+    /// `fmi2Reset`: back to the state after `fmi2Instantiate`, with the start values.
+    pub fn reset(&mut self) -> FmiResult {
+        self.sim = Simulation::from_scene_str(&self.scene_text, &self.origin).map_err(|e| Failure::error(e.to_string()))?;
+        self.state = LifeState::Instantiated;
+        self.start_time = 0.0;
+        self.stop_time = None;
+        self.time = 0.0;
+        self.last_successful_time = 0.0;
+        self.poisoned = false;
+        self.log_event("fmi2Reset: back to the instantiated state with start values");
+        Ok(())
+    }
+
+    fn variable(&self, vr: fmi2ValueReference, access: Access) -> FmiResult<&Variable> {
+        let var = self.sim.variables().get(vr as usize).ok_or_else(|| {
+            Failure::error(format!(
+                "unknown value reference {vr} (this model has {} variables)",
+                self.sim.variables().len()
+            ))
+        })?;
+        if !access.accepts(var.vtype) {
+            return Err(Failure::error(format!(
+                "value reference {vr} ({}) is of type {}, not {}",
+                var.name,
+                type_name(var.vtype),
+                access.name()
+            )));
+        }
+        Ok(var)
+    }
+
+    /// Reads variables of one type as `f64` (Integer and Boolean values are whole numbers).
+    pub fn get_values(&mut self, access: Access, vrs: &[fmi2ValueReference], mut put: impl FnMut(usize, f64)) -> FmiResult {
+        if access == Access::String && !vrs.is_empty() {
+            return Err(Failure::error(format!("this model has no String variables (value reference {})", vrs[0])));
+        }
+        for (k, &vr) in vrs.iter().enumerate() {
+            self.variable(vr, access)?;
+            let x = self.sim.get(vr as usize)?;
+            put(k, x);
+        }
+        Ok(())
+    }
+
+    /// Sets variables of one type, checking that each may be set in the current state.
+    pub fn set_values(&mut self, access: Access, vrs: &[fmi2ValueReference], value: impl Fn(usize) -> f64) -> FmiResult {
+        if access == Access::String && !vrs.is_empty() {
+            return Err(Failure::error(format!("this model has no String variables (value reference {})", vrs[0])));
+        }
+        for (k, &vr) in vrs.iter().enumerate() {
+            let var = self.variable(vr, access)?;
+            match var.causality {
+                Causality::Input => {}
+                Causality::Parameter => {
+                    if !matches!(self.state, LifeState::Instantiated | LifeState::InitializationMode) {
+                        return Err(Failure::error(format!(
+                            "{} is a fixed parameter: it can be set only before fmi2ExitInitializationMode (state is {})",
+                            var.name,
+                            self.state.name()
+                        )));
+                    }
+                }
+                Causality::CalculatedParameter => {
+                    return Err(Failure::error(format!("{} is a calculated parameter and cannot be set", var.name)))
+                }
+                Causality::Output => return Err(Failure::error(format!("{} is an output and cannot be set", var.name))),
+            }
+            self.sim.set(vr as usize, value(k))?;
+        }
+        Ok(())
+    }
+
+    /// `fmi2DoStep`: integrates from the current time to `current + h`.
+    pub fn do_step(&mut self, current: f64, h: f64) -> FmiResult {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Failure::error(format!("communicationStepSize = {h} must be > 0")));
+        }
+        let scale = self.time.abs().max(h);
+        if !current.is_finite() || (current - self.time).abs() > 1e-9 * scale {
+            return Err(Failure::error(format!(
+                "currentCommunicationPoint = {current} is not the FMU's current time {}",
+                self.time
+            )));
+        }
+        let t_end = current + h;
+        if t_end <= self.time {
+            return Err(Failure::error(format!("the step from {current} by {h} does not advance past the current time {}", self.time)));
+        }
+        if let Some(stop) = self.stop_time {
+            if t_end > stop + 1e-9 * stop.abs().max(h) {
+                return Err(Failure::error(format!("the step to t = {t_end} goes past stopTime = {stop}")));
+            }
+        }
+        match self.sim.step_to(t_end) {
+            Ok(()) => {
+                self.time = t_end;
+                self.last_successful_time = t_end;
+                Ok(())
+            }
+            Err(SimError::Step { time, message }) => {
+                self.time = time;
+                self.last_successful_time = time;
+                Err(Failure::error(format!(
+                    "the step from t = {current} to {t_end} failed at t = {time}: {message}"
+                )))
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// `fmi2GetRealStatus`
+    pub fn real_status(&self, kind: c_int) -> FmiResult<f64> {
+        if kind == status_kind::LAST_SUCCESSFUL_TIME {
+            Ok(self.last_successful_time)
+        } else {
+            Err(Failure::error(format!("status kind {kind} has no Real value (only fmi2LastSuccessfulTime = 2)")))
+        }
+    }
+
+    /// `fmi2GetBooleanStatus`: `fmi2Terminated` is true once the instance is terminated.
+    pub fn boolean_status(&self, kind: c_int) -> FmiResult<bool> {
+        if kind == status_kind::TERMINATED {
+            Ok(self.state == LifeState::Terminated)
+        } else {
+            Err(Failure::error(format!("status kind {kind} has no Boolean value (only fmi2Terminated = 3)")))
+        }
+    }
+
+    /// `fmi2GetFMUstate`: everything needed to come back here.
+    pub fn save(&self) -> SavedState {
+        SavedState::new(
+            self.model_hash,
+            self.state,
+            self.time,
+            self.start_time,
+            self.stop_time,
+            self.last_successful_time,
+            self.sim.snapshot(),
+        )
+    }
+
+    /// `fmi2SetFMUstate`: restores values, engine state and lifecycle (also into a fresh or a
+    /// terminated instance).
+    pub fn restore(&mut self, saved: &SavedState) -> FmiResult {
+        if saved.model_hash != self.model_hash {
+            return Err(Failure::error("the FMU state belongs to a different model (its scene differs from this instance's)"));
+        }
+        if self.poisoned {
+            self.sim = Simulation::from_scene_str(&self.scene_text, &self.origin).map_err(|e| Failure::error(e.to_string()))?;
+            self.poisoned = false;
+        }
+        self.sim.restore(&saved.snapshot)?;
+        self.state = saved.lifecycle;
+        self.time = saved.time;
+        self.start_time = saved.start_time;
+        self.stop_time = saved.stop_time;
+        self.last_successful_time = saved.last_successful_time;
+        self.log_event(&format!("fmi2SetFMUstate: restored a state at t = {} ({})", self.time, self.state.name()));
+        Ok(())
+    }
+}

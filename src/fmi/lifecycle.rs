@@ -1,0 +1,140 @@
+//! The co-simulation state machine of FMI 2.0 (section 4.2.4) as bit masks: each function
+//! lists the states it may be called in, in the style of the Reference-FMUs. A call outside
+//! them is logged as "illegal call sequence" and answered with `fmi2Error`.
+
+/// The states an instance can be in. (`StepInProgress` does not occur: `fmi2DoStep` is
+/// synchronous.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum LifeState {
+    /// After `fmi2Instantiate` or `fmi2Reset`.
+    Instantiated = 1 << 0,
+    /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
+    InitializationMode = 1 << 1,
+    /// Ready for `fmi2DoStep`.
+    StepComplete = 1 << 2,
+    /// A step returned `fmi2Discard` (not produced by this library, restorable from a state).
+    StepFailed = 1 << 3,
+    /// A step was canceled (not produced by this library).
+    StepCanceled = 1 << 4,
+    /// After `fmi2Terminate`.
+    Terminated = 1 << 5,
+    /// A call returned `fmi2Error`: only free, reset, get values or restore a state.
+    Error = 1 << 6,
+    /// A call returned `fmi2Fatal`.
+    Fatal = 1 << 7,
+}
+
+impl LifeState {
+    /// The state's bit.
+    pub fn bit(self) -> u32 {
+        self as u32
+    }
+
+    /// A stable number for serialized states.
+    pub fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// Inverse of [`LifeState::code`].
+    pub fn from_code(code: u32) -> Option<LifeState> {
+        use LifeState::*;
+        [Instantiated, InitializationMode, StepComplete, StepFailed, StepCanceled, Terminated, Error, Fatal]
+            .into_iter()
+            .find(|s| s.code() == code)
+    }
+
+    /// The name used in log messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            LifeState::Instantiated => "instantiated",
+            LifeState::InitializationMode => "initialization mode",
+            LifeState::StepComplete => "step complete",
+            LifeState::StepFailed => "step failed",
+            LifeState::StepCanceled => "step canceled",
+            LifeState::Terminated => "terminated",
+            LifeState::Error => "error",
+            LifeState::Fatal => "fatal",
+        }
+    }
+}
+
+const INSTANTIATED: u32 = LifeState::Instantiated as u32;
+const INIT: u32 = LifeState::InitializationMode as u32;
+const COMPLETE: u32 = LifeState::StepComplete as u32;
+const FAILED: u32 = LifeState::StepFailed as u32;
+const CANCELED: u32 = LifeState::StepCanceled as u32;
+const TERMINATED: u32 = LifeState::Terminated as u32;
+const ERROR: u32 = LifeState::Error as u32;
+
+/// Every state except fatal.
+pub const ANY_BUT_FATAL: u32 = INSTANTIATED | INIT | COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+
+/// `fmi2SetDebugLogging`
+pub const SET_DEBUG_LOGGING: u32 = ANY_BUT_FATAL;
+/// `fmi2SetupExperiment`
+pub const SETUP_EXPERIMENT: u32 = INSTANTIATED;
+/// `fmi2EnterInitializationMode`
+pub const ENTER_INITIALIZATION_MODE: u32 = INSTANTIATED;
+/// `fmi2ExitInitializationMode`
+pub const EXIT_INITIALIZATION_MODE: u32 = INIT;
+/// `fmi2Terminate`
+pub const TERMINATE: u32 = COMPLETE | FAILED;
+/// `fmi2Reset`
+pub const RESET: u32 = ANY_BUT_FATAL;
+/// `fmi2GetReal` and the other getters.
+pub const GET_VALUES: u32 = INIT | COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+/// `fmi2SetReal` and the other setters (which variables may be set is checked per state).
+pub const SET_VALUES: u32 = INSTANTIATED | INIT | COMPLETE;
+/// `fmi2GetFMUstate`, `fmi2SetFMUstate`, `fmi2FreeFMUstate` and (de)serialization.
+pub const FMU_STATE: u32 = ANY_BUT_FATAL;
+/// `fmi2GetDirectionalDerivative` (unsupported)
+pub const GET_DIRECTIONAL_DERIVATIVE: u32 = INIT | COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+/// `fmi2SetRealInputDerivatives` (unsupported)
+pub const SET_REAL_INPUT_DERIVATIVES: u32 = INSTANTIATED | INIT | COMPLETE;
+/// `fmi2GetRealOutputDerivatives` (unsupported)
+pub const GET_REAL_OUTPUT_DERIVATIVES: u32 = COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+/// `fmi2DoStep`
+pub const DO_STEP: u32 = COMPLETE;
+/// `fmi2CancelStep` (only meaningful while a step is pending, which never happens)
+pub const CANCEL_STEP: u32 = 0;
+/// `fmi2GetStatus` and its typed variants. Error is included so that a host can ask for the
+/// last successful time after a failed step.
+pub const GET_STATUS: u32 = COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_round_trip_and_bits_are_distinct() {
+        let all = [
+            LifeState::Instantiated,
+            LifeState::InitializationMode,
+            LifeState::StepComplete,
+            LifeState::StepFailed,
+            LifeState::StepCanceled,
+            LifeState::Terminated,
+            LifeState::Error,
+            LifeState::Fatal,
+        ];
+        let mut seen = 0u32;
+        for s in all {
+            assert_eq!(LifeState::from_code(s.code()), Some(s));
+            assert_eq!(seen & s.bit(), 0);
+            seen |= s.bit();
+        }
+        assert_eq!(LifeState::from_code(3), None);
+    }
+
+    #[test]
+    fn the_calling_sequence_of_a_co_simulation() {
+        assert_ne!(DO_STEP & LifeState::StepComplete.bit(), 0);
+        assert_eq!(DO_STEP & LifeState::Instantiated.bit(), 0);
+        assert_eq!(DO_STEP & LifeState::InitializationMode.bit(), 0);
+        assert_eq!(GET_VALUES & LifeState::Instantiated.bit(), 0);
+        assert_eq!(FMU_STATE & LifeState::Fatal.bit(), 0);
+        assert_ne!(FMU_STATE & LifeState::Terminated.bit(), 0);
+        assert_eq!(SET_VALUES & LifeState::Terminated.bit(), 0);
+    }
+}

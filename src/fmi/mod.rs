@@ -1,0 +1,23 @@
+//! The FMI 2.0 Co-Simulation interface: the C functions a host such as fmpy calls.
+//!
+//! This layer knows nothing of physics; it drives the [`crate::simulation::Simulation`]
+//! facade. One library serves every exported scene: `fmi2Instantiate` reads the scene from
+//! the FMU's `resources/scene.toml` and checks the host's GUID against the one derived from
+//! that text (see [`crate::export::guid`]).
+//!
+//! - `types`: the C types of `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h`.
+//! - `lifecycle`: the state machine, one bit mask of allowed states per function.
+//! - `instance`: one instance in safe Rust (logging, values, steps, states).
+//! - `saved`: `fmi2FMUstate` and its serialized bytes.
+//! - `uri`: decoding `fmuResourceLocation`.
+//! - `exports`: the 34 `extern "C"` functions.
+
+pub mod exports;
+pub mod instance;
+pub mod lifecycle;
+pub mod saved;
+pub mod types;
+pub mod uri;
+
+pub use instance::{Instance, LOG_CATEGORIES};
+pub use types::fmi2Status;

@@ -1,0 +1,230 @@
+//! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
+
+use super::{error_norm, initial_step, Integrator, IntegratorError, OdeSystem, Stats};
+
+const C2: f64 = 1.0 / 5.0;
+const C3: f64 = 3.0 / 10.0;
+const C4: f64 = 4.0 / 5.0;
+const C5: f64 = 8.0 / 9.0;
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const A71: f64 = 35.0 / 384.0;
+const A73: f64 = 500.0 / 1113.0;
+const A74: f64 = 125.0 / 192.0;
+const A75: f64 = -2187.0 / 6784.0;
+const A76: f64 = 11.0 / 84.0;
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+/// The Dormand-Prince 5(4) method.
+pub struct Dopri5 {
+    rtol: f64,
+    atol: f64,
+    hmax: f64,
+    t: f64,
+    t_prev: f64,
+    h: f64,
+    err_old: f64,
+    y: Vec<f64>,
+    y_new: Vec<f64>,
+    k: [Vec<f64>; 7],
+    tmp: Vec<f64>,
+    err: Vec<f64>,
+    cont: [Vec<f64>; 5],
+    stats: Stats,
+}
+
+impl Dopri5 {
+    /// A method for systems of size `n`.
+    pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> Dopri5 {
+        let v = || vec![0.0; n];
+        Dopri5 {
+            rtol,
+            atol,
+            hmax,
+            t: 0.0,
+            t_prev: 0.0,
+            h: 0.0,
+            err_old: 1e-4,
+            y: v(),
+            y_new: v(),
+            k: [v(), v(), v(), v(), v(), v(), v()],
+            tmp: v(),
+            err: v(),
+            cont: [v(), v(), v(), v(), v()],
+            stats: Stats::default(),
+        }
+    }
+}
+
+impl Integrator for Dopri5 {
+    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.t = t;
+        self.t_prev = t;
+        self.y.copy_from_slice(y);
+        sys.rhs(t, y, &mut self.k[0]);
+        self.stats.rhs_evals += 1;
+        self.err_old = 1e-4;
+        self.h = if h > 0.0 {
+            h.min(self.hmax)
+        } else {
+            let [k0, k1, ..] = &mut self.k;
+            self.stats.rhs_evals += 1;
+            initial_step(
+                sys,
+                t,
+                &self.y,
+                k0,
+                self.rtol,
+                self.atol,
+                5,
+                &mut self.tmp,
+                k1,
+                self.hmax,
+            )
+        };
+        // dense output of a zero-length step
+        for c in self.cont.iter_mut() {
+            c.iter_mut().for_each(|x| *x = 0.0);
+        }
+        self.cont[0].copy_from_slice(y);
+    }
+
+    fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
+        let n = self.y.len();
+        loop {
+            let mut h = self.h.min(self.hmax);
+            let last = self.t + h >= t_max;
+            if last {
+                h = t_max - self.t;
+            }
+            if h <= 16.0 * f64::EPSILON * self.t.abs().max(1e-300) {
+                return Err(IntegratorError::StepSizeUnderflow(self.t));
+            }
+            let (t, y) = (self.t, &self.y);
+            let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k;
+            let tmp = &mut self.tmp;
+            for i in 0..n {
+                tmp[i] = y[i] + h * A21 * k1[i];
+            }
+            sys.rhs(t + C2 * h, tmp, k2);
+            for i in 0..n {
+                tmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
+            }
+            sys.rhs(t + C3 * h, tmp, k3);
+            for i in 0..n {
+                tmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
+            }
+            sys.rhs(t + C4 * h, tmp, k4);
+            for i in 0..n {
+                tmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
+            }
+            sys.rhs(t + C5 * h, tmp, k5);
+            for i in 0..n {
+                tmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+            }
+            let t_new = if last { t_max } else { t + h };
+            sys.rhs(t_new, tmp, k6);
+            let y_new = &mut self.y_new;
+            for i in 0..n {
+                y_new[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+            }
+            sys.rhs(t_new, y_new, k7);
+            self.stats.rhs_evals += 6;
+            for i in 0..n {
+                self.err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            }
+            let err = error_norm(&self.err, y, y_new, self.rtol, self.atol);
+            if !err.is_finite() {
+                self.stats.rejected += 1;
+                self.h = h * 0.1;
+                if !y_new.iter().all(|v| v.is_finite()) && h < 1e-14 {
+                    return Err(IntegratorError::NotFinite(t));
+                }
+                continue;
+            }
+            // PI controller (Hairer's dopri5: beta = 0.04)
+            let fac11 = err.powf(0.2 - 0.04 * 0.75);
+            let fac = (fac11 / self.err_old.powf(0.04) / 0.9).clamp(0.1, 5.0);
+            let h_new = h / fac;
+            if err <= 1.0 {
+                self.err_old = err.max(1e-4);
+                for i in 0..n {
+                    let dy = y_new[i] - y[i];
+                    let bspl = h * k1[i] - dy;
+                    self.cont[0][i] = y[i];
+                    self.cont[1][i] = dy;
+                    self.cont[2][i] = bspl;
+                    self.cont[3][i] = dy - h * k7[i] - bspl;
+                    self.cont[4][i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+                }
+                std::mem::swap(k1, k7);
+                std::mem::swap(&mut self.y, &mut self.y_new);
+                self.t_prev = self.t;
+                self.t = t_new;
+                self.stats.steps += 1;
+                // keep the unclipped proposal when the step was cut short by t_max
+                self.h = if last { h_new.max(self.h) } else { h_new };
+                self.h = self.h.min(self.hmax);
+                return Ok(());
+            }
+            self.stats.rejected += 1;
+            self.h = h / (fac11 / 0.9).min(5.0);
+        }
+    }
+
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        let h = self.t - self.t_prev;
+        if h <= 0.0 {
+            out.copy_from_slice(&self.y);
+            return;
+        }
+        let s = (t - self.t_prev) / h;
+        let s1 = 1.0 - s;
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.cont[0][i]
+                + s * (self.cont[1][i] + s1 * (self.cont[2][i] + s * (self.cont[3][i] + s1 * self.cont[4][i])));
+        }
+    }
+    fn next_step(&self) -> f64 {
+        self.h
+    }
+    fn stats(&self) -> Stats {
+        self.stats
+    }
+    fn set_stats(&mut self, s: Stats) {
+        self.stats = s;
+    }
+}

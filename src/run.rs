@@ -1,0 +1,268 @@
+//! Native runs for the command line: `simulate` and the main job (export and run every
+//! bundled scene, print one summary table).
+
+use crate::simulation::{SimError, Simulation};
+use crate::variables::{Causality, VarRef, VarType};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options of `contact-fmu simulate`.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Stop time (default: the scene's).
+    pub stop_time: Option<f64>,
+    /// Communication interval (default: the scene's).
+    pub interval: Option<f64>,
+    /// `NAME=VALUE` settings.
+    pub set: Vec<String>,
+    /// CSV output file.
+    pub csv: Option<PathBuf>,
+    /// No progress or summary.
+    pub quiet: bool,
+}
+
+/// Summary of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSummary {
+    /// Scene name.
+    pub name: String,
+    /// Simulated time [s].
+    pub simulated: f64,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// Wall-clock run time [s].
+    pub seconds: f64,
+    /// Relative energy-balance error at the end: |ΔE_total + E_dissipated| / E_scale, with
+    /// E_scale the larger of |E_total(0)| and the largest kinetic energy seen.
+    pub energy_error: f64,
+}
+
+/// Applies `NAME=VALUE` settings.
+pub fn apply_settings(sim: &mut Simulation, set: &[String]) -> Result<(), String> {
+    for s in set {
+        let (name, value) = s
+            .split_once('=')
+            .ok_or_else(|| format!("--set {s:?}: expected NAME=VALUE"))?;
+        let name = name.trim();
+        let value = value.trim();
+        let vr = sim
+            .table()
+            .index_of(name)
+            .ok_or_else(|| format!("--set {s:?}: unknown variable {name:?}"))?;
+        let var = &sim.variables()[vr];
+        let x = match var.vtype {
+            VarType::Enumeration(e) => match e.items().iter().find(|(n, _)| *n == value) {
+                Some((_, i)) => *i as f64,
+                None => value.parse::<f64>().map_err(|_| {
+                    let names: Vec<&str> = e.items().iter().map(|(n, _)| *n).collect();
+                    format!("--set {s:?}: {value:?} is not one of {}", names.join(", "))
+                })?,
+            },
+            VarType::Boolean => match value {
+                "true" | "1" => 1.0,
+                "false" | "0" => 0.0,
+                _ => return Err(format!("--set {s:?}: expected true or false")),
+            },
+            _ => value
+                .parse::<f64>()
+                .map_err(|_| format!("--set {s:?}: {value:?} is not a number"))?,
+        };
+        sim.set(vr, x).map_err(|e| format!("--set {s:?}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Runs a simulation on communication points `interval` apart to `stop_time`, calling
+/// `each(sim)` at every point (the start included). Returns the summary.
+pub fn run_simulation(
+    sim: &mut Simulation,
+    stop_time: f64,
+    interval: f64,
+    mut each: impl FnMut(&mut Simulation) -> Result<(), String>,
+    mut progress: impl FnMut(f64),
+) -> Result<RunSummary, String> {
+    if !(stop_time > 0.0 && stop_time.is_finite()) {
+        return Err(format!("stop time must be > 0 (got {stop_time})"));
+    }
+    if !(interval > 0.0 && interval.is_finite()) {
+        return Err(format!("interval must be > 0 (got {interval})"));
+    }
+    sim.initialize(0.0).map_err(|e| e.to_string())?;
+    let e0 = energy_of(sim)?;
+    let mut scale = e0[0].abs().max(e0[1]);
+    each(sim)?;
+    let start = Instant::now();
+    let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
+    for k in 1..=n {
+        let t = if k == n { stop_time } else { k as f64 * interval };
+        sim.step_to(t).map_err(|e| match e {
+            SimError::Step { time, message } => format!("simulation failed at t = {time}: {message}"),
+            other => other.to_string(),
+        })?;
+        each(sim)?;
+        let e = energy_of(sim)?;
+        scale = scale.max(e[1]);
+        progress(t);
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let e1 = energy_of(sim)?;
+    let c = sim.engine().map(|e| e.counters()).unwrap_or_default();
+    let err = ((e1[0] + e1[2]) - (e0[0] + e0[2])).abs() / scale.max(f64::MIN_POSITIVE);
+    Ok(RunSummary {
+        name: sim.scene().model.name.clone(),
+        simulated: stop_time,
+        steps: c.steps,
+        rhs_evals: c.rhs_evals,
+        seconds,
+        energy_error: err,
+    })
+}
+
+/// [total, kinetic, dissipated]
+fn energy_of(sim: &mut Simulation) -> Result<[f64; 3], String> {
+    let e = sim.engine_mut().ok_or("not initialised")?;
+    let [k, p, c, d] = e.energies();
+    Ok([k + p + c, k, d])
+}
+
+/// `contact-fmu simulate`.
+pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, String> {
+    let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
+    for w in warnings_of(&mut sim) {
+        eprintln!("warning: {w}");
+    }
+    apply_settings(&mut sim, &o.set)?;
+    let stop = o.stop_time.unwrap_or(sim.scene().model.stop_time);
+    let interval = o.interval.unwrap_or(sim.scene().model.interval);
+    let outputs: Vec<usize> = sim
+        .variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .map(|(i, _)| i)
+        .collect();
+    let mut writer = match &o.csv {
+        Some(p) => {
+            if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            }
+            let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut w = std::io::BufWriter::new(f);
+            let header: Vec<&str> = outputs.iter().map(|&i| sim.variables()[i].name.as_str()).collect();
+            writeln!(w, "time,{}", header.join(",")).map_err(|e| e.to_string())?;
+            Some(w)
+        }
+        None => None,
+    };
+    let mut last_report = Instant::now();
+    let quiet = o.quiet;
+    let summary = run_simulation(
+        &mut sim,
+        stop,
+        interval,
+        |s| {
+            if let Some(w) = writer.as_mut() {
+                let t = s.time();
+                let mut line = format_value(t);
+                for &i in &outputs {
+                    line.push(',');
+                    line.push_str(&format_value(s.get(i).map_err(|e| e.to_string())?));
+                }
+                writeln!(w, "{line}").map_err(|e| e.to_string())?;
+            }
+            Ok(())
+        },
+        |t| {
+            if !quiet && last_report.elapsed().as_secs_f64() > 2.0 {
+                eprintln!("  t = {t:.6} s of {stop} s ({:.0} %)", 100.0 * t / stop);
+                last_report = Instant::now();
+            }
+        },
+    )?;
+    if let Some(mut w) = writer {
+        w.flush().map_err(|e| e.to_string())?;
+    }
+    if !o.quiet {
+        print_table(std::slice::from_ref(&summary));
+        if let Some(p) = &o.csv {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(summary)
+}
+
+fn warnings_of(sim: &mut Simulation) -> Vec<String> {
+    let _ = sim.get(sim.variables().len().saturating_sub(1));
+    sim.engine().map(|e| e.model().warnings.clone()).unwrap_or_default()
+}
+
+/// Shortest round-trip representation of a value (so the CSV is exact).
+pub fn format_value(x: f64) -> String {
+    format!("{x:?}")
+}
+
+/// Prints the summary table.
+pub fn print_table(rows: &[RunSummary]) {
+    println!(
+        "{:<16} {:>10} {:>9} {:>10} {:>10} {:>10} {:>12}",
+        "scene", "sim time", "steps", "rhs evals", "run time", "RT factor", "energy err"
+    );
+    for r in rows {
+        println!(
+            "{:<16} {:>9.3}s {:>9} {:>10} {:>9.3}s {:>10.1} {:>12.3e}",
+            r.name,
+            r.simulated,
+            r.steps,
+            r.rhs_evals,
+            r.seconds,
+            r.simulated / r.seconds.max(1e-9),
+            r.energy_error
+        );
+    }
+}
+
+/// The main job: export every `fmu/<name>/scene.toml` to `out_dir/<name>.fmu`, run each
+/// default experiment natively and print one table.
+pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(fmu_dir)
+        .map_err(|e| format!("{}: {e} (run from the repository root)", fmu_dir.display()))?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path().join("scene.toml"))
+        .filter(|p| p.is_file())
+        .collect();
+    scenes.sort();
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        let sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
+        let name = sim.scene().model.name.clone();
+        let folder = scene
+            .parent()
+            .and_then(|p| p.file_name())
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
+        if folder != name {
+            return Err(format!(
+                "{}: model.name {name:?} must equal the folder name {folder:?}",
+                scene.display()
+            ));
+        }
+        let out = out_dir.join(format!("{name}.fmu"));
+        let exported = crate::export::export_command(scene, Some(&out)).map_err(|e| e.to_string())?;
+        eprintln!("exported {}", exported.path.display());
+        let opts = RunOptions {
+            quiet: true,
+            ..Default::default()
+        };
+        rows.push(simulate_command(scene, &opts)?);
+    }
+    print_table(&rows);
+    Ok(())
+}
+
+/// Value of output `target` (helper for tests).
+pub fn output(sim: &mut Simulation, target: VarRef) -> f64 {
+    sim.engine_mut().map(|e| e.output(target)).unwrap_or(f64::NAN)
+}

@@ -1,0 +1,866 @@
+//! Scene files: the user's TOML description of a multibody system (see the README and
+//! `CONTRACT.md`). Parsing is done by serde; [`Scene::validate`] checks what serde cannot
+//! (names that refer to each other, signs, ranges) and reports the file, the item and the field.
+//!
+//! Units are SI. Positions, axes and velocities are in the world frame at the initial
+//! configuration.
+
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::path::Path;
+
+/// An error in a scene: names the file (origin), the item and the field.
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
+#[error("{origin}: {item}: {field}: {message}")]
+pub struct SceneError {
+    /// File name (or other origin) of the scene.
+    pub origin: String,
+    /// The item, e.g. `body "arm"` or `[model]`.
+    pub item: String,
+    /// The field inside the item, e.g. `mass`.
+    pub field: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl SceneError {
+    /// Builds an error.
+    pub fn new(origin: &str, item: impl Into<String>, field: &str, message: impl Into<String>) -> Self {
+        SceneError {
+            origin: origin.to_string(),
+            item: item.into(),
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+}
+
+/// The whole scene file.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// `[model]`: name, gravity, default experiment.
+    pub model: ModelSection,
+    /// `[solver]`: integrator and tolerances.
+    #[serde(default)]
+    pub solver: SolverSection,
+    /// `[[material]]`
+    #[serde(default)]
+    pub material: Vec<MaterialSpec>,
+    /// `[[body]]`
+    #[serde(default)]
+    pub body: Vec<BodySpec>,
+    /// `[[joint]]`
+    #[serde(default)]
+    pub joint: Vec<JointSpec>,
+    /// `[[spring_damper]]`
+    #[serde(default)]
+    pub spring_damper: Vec<SpringDamperSpec>,
+    /// `[[contact]]`
+    #[serde(default)]
+    pub contact: Vec<ContactSpec>,
+    /// `[[input]]`
+    #[serde(default)]
+    pub input: Vec<InputSpec>,
+}
+
+/// `[model]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSection {
+    /// Model name: the FMU's modelIdentifier and file name.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Gravity vector [m/s^2].
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Default experiment stop time [s].
+    #[serde(default = "default_stop_time")]
+    pub stop_time: f64,
+    /// Default communication step [s].
+    #[serde(default = "default_interval")]
+    pub interval: f64,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+fn default_stop_time() -> f64 {
+    1.0
+}
+fn default_interval() -> f64 {
+    1e-3
+}
+
+/// Integration methods, by their scene-file name. The numbers are the FMU enumeration values
+/// of `solver.method`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location (default).
+    #[default]
+    Dopri5 = 1,
+    /// Adaptive implicit (L-stable SDIRK) for stiff contact.
+    Sdirk = 2,
+    /// Classical fixed-step Runge-Kutta 4 (step = `max_step`), a baseline.
+    Rk4 = 3,
+}
+
+impl Method {
+    /// All methods, in enumeration order.
+    pub const ALL: [Method; 3] = [Method::Dopri5, Method::Sdirk, Method::Rk4];
+    /// Scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Dopri5 => "dopri5",
+            Method::Sdirk => "sdirk",
+            Method::Rk4 => "rk4",
+        }
+    }
+    /// From the FMU enumeration value.
+    pub fn from_index(i: i64) -> Option<Method> {
+        Method::ALL.iter().copied().find(|m| *m as i64 == i)
+    }
+}
+
+/// `[solver]`: every key is also an FMU parameter `solver.<key>`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSection {
+    /// Integration method.
+    #[serde(default)]
+    pub method: Method,
+    /// Relative tolerance.
+    #[serde(default = "default_rtol")]
+    pub rtol: f64,
+    /// Absolute tolerance.
+    #[serde(default = "default_atol")]
+    pub atol: f64,
+    /// Largest internal step [s] (the fixed step of `rk4`).
+    #[serde(default = "default_max_step")]
+    pub max_step: f64,
+}
+
+fn default_rtol() -> f64 {
+    1e-8
+}
+fn default_atol() -> f64 {
+    1e-10
+}
+fn default_max_step() -> f64 {
+    1e-3
+}
+
+impl Default for SolverSection {
+    fn default() -> Self {
+        SolverSection {
+            method: Method::default(),
+            rtol: default_rtol(),
+            atol: default_atol(),
+            max_step: default_max_step(),
+        }
+    }
+}
+
+/// `[[material]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Name, referred to by contacts.
+    pub name: String,
+    /// Young's modulus E [Pa].
+    pub youngs_modulus: f64,
+    /// Poisson's ratio ν (0 ≤ ν < 0.5).
+    pub poisson_ratio: f64,
+}
+
+/// `[[body]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name; "ground" is reserved for the fixed world.
+    pub name: String,
+    /// Mass [kg].
+    pub mass: f64,
+    /// Principal moments of inertia about the centre of mass [kg m^2].
+    pub inertia: [f64; 3],
+    /// Centre of mass, world frame [m].
+    pub position: [f64; 3],
+    /// Orientation quaternion (w, x, y, z) of the principal axes.
+    #[serde(default = "identity_quaternion")]
+    pub orientation: [f64; 4],
+    /// Centre-of-mass velocity, world frame [m/s].
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Angular velocity, world frame [rad/s].
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
+}
+
+fn identity_quaternion() -> [f64; 4] {
+    [1.0, 0.0, 0.0, 0.0]
+}
+
+/// Joint types.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JointType {
+    /// One rotation about `axis` through `anchor`.
+    Revolute,
+    /// One translation along `axis`.
+    Prismatic,
+    /// Three rotations about `anchor` (quaternion).
+    Spherical,
+    /// No relative motion.
+    Fixed,
+    /// Six degrees of freedom.
+    Free,
+}
+
+/// `[[joint]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// Name.
+    pub name: String,
+    /// Type.
+    #[serde(rename = "type")]
+    pub kind: JointType,
+    /// Parent body name ("ground" for the world).
+    pub parent: String,
+    /// Child body name.
+    pub child: String,
+    /// Joint point, world frame [m]. Default: the child's centre of mass.
+    #[serde(default)]
+    pub anchor: Option<[f64; 3]>,
+    /// Joint axis, world frame (revolute and prismatic).
+    #[serde(default)]
+    pub axis: Option<[f64; 3]>,
+}
+
+/// `[[spring_damper]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SpringDamperSpec {
+    /// Name.
+    pub name: String,
+    /// First body.
+    pub body_a: String,
+    /// Attachment point on body_a, world frame [m].
+    pub point_a: [f64; 3],
+    /// Second body.
+    pub body_b: String,
+    /// Attachment point on body_b, world frame [m].
+    pub point_b: [f64; 3],
+    /// Stiffness [N/m].
+    pub stiffness: f64,
+    /// Damping [N s/m].
+    #[serde(default)]
+    pub damping: f64,
+    /// Free length [m]; default the initial distance.
+    #[serde(default)]
+    pub free_length: Option<f64>,
+}
+
+/// Contact element types.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactType {
+    /// Sphere against sphere.
+    SphereSphere,
+    /// Sphere against a finite rectangle.
+    SpherePlane,
+    /// Sphere against a cylindrical surface patch.
+    SphereCylinder,
+}
+
+/// Contact laws. The numbers are the FMU enumeration values of `<contact>.law`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Law {
+    /// F = K δ + c δ̇ (20)
+    KelvinVoigt = 1,
+    /// F = K δ^n (21)
+    Hertz = 2,
+    /// Hertz with Lankarani-Nikravesh hysteresis damping (24)-(26)
+    HertzLn = 3,
+    /// Hunt-Crossley: F = K δ^n (1 + α δ̇), α = 3(1-e)/(2 δ̇⁻)
+    HuntCrossley = 4,
+    /// Flores et al. (2011): F = K δ^n [1 + 8(1-e)/(5e) δ̇/δ̇⁻]
+    Flores = 5,
+    /// Piecewise analysis: instantaneous impact with restitution.
+    Impulse = 6,
+}
+
+impl Law {
+    /// All laws, in enumeration order.
+    pub const ALL: [Law; 6] = [
+        Law::KelvinVoigt,
+        Law::Hertz,
+        Law::HertzLn,
+        Law::HuntCrossley,
+        Law::Flores,
+        Law::Impulse,
+    ];
+    /// Scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Law::KelvinVoigt => "kelvin_voigt",
+            Law::Hertz => "hertz",
+            Law::HertzLn => "hertz_ln",
+            Law::HuntCrossley => "hunt_crossley",
+            Law::Flores => "flores",
+            Law::Impulse => "impulse",
+        }
+    }
+    /// From the FMU enumeration value.
+    pub fn from_index(i: i64) -> Option<Law> {
+        Law::ALL.iter().copied().find(|m| *m as i64 == i)
+    }
+}
+
+/// Which side of a cylindrical surface the sphere is on.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Convex: the sphere outside the cylinder (rail head, cam).
+    #[default]
+    Outside,
+    /// Concave: the sphere inside (groove, bearing shell).
+    Inside,
+}
+
+/// `[[contact]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Name.
+    pub name: String,
+    /// Element type.
+    #[serde(rename = "type")]
+    pub kind: ContactType,
+    /// Force law.
+    pub law: Law,
+    /// Coefficient of restitution e (0..=1).
+    #[serde(default = "default_restitution")]
+    pub restitution: f64,
+    /// Body that carries the sphere.
+    pub sphere_body: String,
+    /// Sphere centre, world frame [m].
+    pub center: [f64; 3],
+    /// Sphere radius [m].
+    pub radius: f64,
+    /// Sphere material.
+    #[serde(default)]
+    pub sphere_material: Option<String>,
+    /// Body that carries the other shape.
+    pub body: String,
+    /// Material of the other shape.
+    #[serde(default)]
+    pub material: Option<String>,
+    /// sphere_sphere: centre of the other sphere, world frame [m].
+    #[serde(default)]
+    pub other_center: Option<[f64; 3]>,
+    /// sphere_sphere: radius of the other sphere [m].
+    #[serde(default)]
+    pub other_radius: Option<f64>,
+    /// sphere_plane: centre of the rectangle [m].
+    #[serde(default)]
+    pub origin: Option<[f64; 3]>,
+    /// sphere_plane: outward normal.
+    #[serde(default)]
+    pub normal: Option<[f64; 3]>,
+    /// sphere_plane: first in-plane axis.
+    #[serde(default)]
+    pub u_axis: Option<[f64; 3]>,
+    /// sphere_plane: side lengths [lu, lv] [m].
+    #[serde(default)]
+    pub size: Option<[f64; 2]>,
+    /// sphere_cylinder: a point on the axis (the middle of the patch's length) [m].
+    #[serde(default)]
+    pub axis_point: Option<[f64; 3]>,
+    /// sphere_cylinder: axis direction.
+    #[serde(default)]
+    pub axis: Option<[f64; 3]>,
+    /// sphere_cylinder: cylinder radius [m].
+    #[serde(default)]
+    pub cylinder_radius: Option<f64>,
+    /// sphere_cylinder: length along the axis [m].
+    #[serde(default)]
+    pub length: Option<f64>,
+    /// sphere_cylinder: angular range [min, max] from `ref_axis` [rad].
+    #[serde(default)]
+    pub theta_range: Option<[f64; 2]>,
+    /// sphere_cylinder: direction (perpendicular to the axis) where θ = 0.
+    #[serde(default)]
+    pub ref_axis: Option<[f64; 3]>,
+    /// sphere_cylinder: outside (convex) or inside (concave).
+    #[serde(default)]
+    pub side: Side,
+    /// Contact stiffness K [N/m^n]; derived for the Hertz family when absent.
+    #[serde(default)]
+    pub stiffness: Option<f64>,
+    /// Kelvin-Voigt damping c [N s/m].
+    #[serde(default)]
+    pub damping: Option<f64>,
+    /// Exponent n (default 1.5).
+    #[serde(default)]
+    pub exponent: Option<f64>,
+    /// Largest admissible penetration [m].
+    #[serde(default)]
+    pub max_penetration: Option<f64>,
+    /// Floor on the remembered impact velocity δ̇⁻ [m/s].
+    #[serde(default)]
+    pub min_impact_velocity: Option<f64>,
+}
+
+fn default_restitution() -> f64 {
+    1.0
+}
+
+/// Input types.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum InputType {
+    /// Force on a body's centre of mass along a world direction [N].
+    Force,
+    /// Torque on a body about a world direction [N m].
+    Torque,
+    /// Generalised force on a 1-DOF joint [N or N m].
+    JointForce,
+}
+
+/// `[[input]]`
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InputSpec {
+    /// Name: the FMU input variable.
+    pub name: String,
+    /// Type.
+    #[serde(rename = "type")]
+    pub kind: InputType,
+    /// Body (force, torque).
+    #[serde(default)]
+    pub body: Option<String>,
+    /// Joint (joint_force).
+    #[serde(default)]
+    pub joint: Option<String>,
+    /// World direction (force, torque).
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+    /// Start value.
+    #[serde(default)]
+    pub start: f64,
+}
+
+/// The reserved name of the fixed world.
+pub const GROUND: &str = "ground";
+
+impl Scene {
+    /// Parses a scene from TOML text; `origin` names the file in messages. Also validates.
+    pub fn from_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| {
+            let (line, col) = e.span().map(|s| line_col(text, s.start)).unwrap_or((0, 0));
+            SceneError::new(
+                origin,
+                format!("line {line}, column {col}"),
+                "toml",
+                e.message().to_string(),
+            )
+        })?;
+        scene.validate(origin)?;
+        Ok(scene)
+    }
+
+    /// Reads and parses a scene file.
+    pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError::new(&origin, "file", "-", format!("cannot read: {e}")))?;
+        Scene::from_str(&text, &origin)
+    }
+
+    /// Checks references, signs and ranges. Geometry-level checks that need the compiled tree
+    /// (cycles, loops) are done by the model compiler.
+    pub fn validate(&self, origin: &str) -> Result<(), SceneError> {
+        let err = |item: String, field: &str, msg: String| SceneError::new(origin, item, field, msg);
+        let m = &self.model;
+        if m.name.is_empty()
+            || !m.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            || m.name.starts_with(|c: char| c.is_ascii_digit())
+        {
+            return Err(err(
+                "[model]".into(),
+                "name",
+                format!("{:?} must be a C identifier (letters, digits, _)", m.name),
+            ));
+        }
+        finite3(origin, "[model]", "gravity", m.gravity)?;
+        if !(m.stop_time > 0.0 && m.stop_time.is_finite()) {
+            return Err(err("[model]".into(), "stop_time", "must be > 0".into()));
+        }
+        if !(m.interval > 0.0 && m.interval.is_finite()) {
+            return Err(err("[model]".into(), "interval", "must be > 0".into()));
+        }
+        let s = &self.solver;
+        for (f, v) in [("rtol", s.rtol), ("atol", s.atol), ("max_step", s.max_step)] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(err("[solver]".into(), f, format!("must be > 0 (got {v})")));
+            }
+        }
+        let mut names = HashSet::new();
+        let mut unique = |item: String, name: &str| -> Result<(), SceneError> {
+            if name.is_empty() || name.contains(['.', '[', ']', ' ', '"']) {
+                return Err(err(
+                    item,
+                    "name",
+                    format!("{name:?} is not a valid name (no '.', '[', ']', spaces)"),
+                ));
+            }
+            if !names.insert(name.to_string()) {
+                return Err(err(item, "name", format!("duplicate name {name:?}")));
+            }
+            Ok(())
+        };
+        let mut materials = HashSet::new();
+        for mat in &self.material {
+            let item = format!("material {:?}", mat.name);
+            unique(item.clone(), &mat.name)?;
+            materials.insert(mat.name.as_str());
+            if !(mat.youngs_modulus > 0.0 && mat.youngs_modulus.is_finite()) {
+                return Err(err(item, "youngs_modulus", "must be > 0".into()));
+            }
+            if !(mat.poisson_ratio >= 0.0 && mat.poisson_ratio < 0.5) {
+                return Err(err(
+                    item,
+                    "poisson_ratio",
+                    format!("must be in [0, 0.5) (got {})", mat.poisson_ratio),
+                ));
+            }
+        }
+        let mut bodies = HashSet::new();
+        for b in &self.body {
+            let item = format!("body {:?}", b.name);
+            if b.name == GROUND {
+                return Err(err(item, "name", "\"ground\" is reserved for the fixed world".into()));
+            }
+            unique(item.clone(), &b.name)?;
+            bodies.insert(b.name.as_str());
+            if !(b.mass > 0.0 && b.mass.is_finite()) {
+                return Err(err(item, "mass", format!("must be > 0 (got {})", b.mass)));
+            }
+            let [a, bb, c] = b.inertia;
+            if !(a > 0.0 && bb > 0.0 && c > 0.0) || !(a.is_finite() && bb.is_finite() && c.is_finite()) {
+                return Err(err(
+                    item,
+                    "inertia",
+                    "principal moments must be > 0 (positive definite)".into(),
+                ));
+            }
+            let tol = 1e-9 * (a + bb + c);
+            if a + bb < c - tol || bb + c < a - tol || a + c < bb - tol {
+                return Err(err(
+                    item,
+                    "inertia",
+                    "violates the triangle inequality (no physical body has these moments)".into(),
+                ));
+            }
+            finite3(origin, &item, "position", b.position)?;
+            finite3(origin, &item, "velocity", b.velocity)?;
+            finite3(origin, &item, "angular_velocity", b.angular_velocity)?;
+            let q = b.orientation;
+            let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+            if !(n.is_finite() && (n - 1.0).abs() < 1e-6) {
+                return Err(err(
+                    item,
+                    "orientation",
+                    format!("must be a unit quaternion (norm {n})"),
+                ));
+            }
+        }
+        let is_body = |n: &str| n == GROUND || bodies.contains(n);
+        for j in &self.joint {
+            let item = format!("joint {:?}", j.name);
+            unique(item.clone(), &j.name)?;
+            if !is_body(&j.parent) {
+                return Err(err(item, "parent", format!("unknown body {:?}", j.parent)));
+            }
+            if !bodies.contains(j.child.as_str()) {
+                return Err(err(
+                    item,
+                    "child",
+                    format!("unknown body {:?} (the ground cannot be a child)", j.child),
+                ));
+            }
+            if j.parent == j.child {
+                return Err(err(item, "child", "a body cannot be joined to itself".into()));
+            }
+            if let Some(a) = j.anchor {
+                finite3(origin, &item, "anchor", a)?;
+            }
+            match j.kind {
+                JointType::Revolute | JointType::Prismatic => {
+                    let Some(ax) = j.axis else {
+                        return Err(err(item, "axis", "required for revolute and prismatic joints".into()));
+                    };
+                    nonzero3(origin, &item, "axis", ax)?;
+                }
+                _ => {}
+            }
+        }
+        for s in &self.spring_damper {
+            let item = format!("spring_damper {:?}", s.name);
+            unique(item.clone(), &s.name)?;
+            if !is_body(&s.body_a) {
+                return Err(err(item, "body_a", format!("unknown body {:?}", s.body_a)));
+            }
+            if !is_body(&s.body_b) {
+                return Err(err(item, "body_b", format!("unknown body {:?}", s.body_b)));
+            }
+            if s.body_a == s.body_b {
+                return Err(err(item, "body_b", "must differ from body_a".into()));
+            }
+            if !(s.stiffness >= 0.0 && s.stiffness.is_finite()) {
+                return Err(err(item, "stiffness", "must be >= 0".into()));
+            }
+            if !(s.damping >= 0.0 && s.damping.is_finite()) {
+                return Err(err(item, "damping", "must be >= 0".into()));
+            }
+            if let Some(l) = s.free_length {
+                if !(l >= 0.0 && l.is_finite()) {
+                    return Err(err(item, "free_length", "must be >= 0".into()));
+                }
+            }
+        }
+        for c in &self.contact {
+            let item = format!("contact {:?}", c.name);
+            unique(item.clone(), &c.name)?;
+            self.validate_contact(origin, &item, c, &bodies, &materials)?;
+        }
+        for i in &self.input {
+            let item = format!("input {:?}", i.name);
+            unique(item.clone(), &i.name)?;
+            match i.kind {
+                InputType::Force | InputType::Torque => {
+                    let Some(b) = &i.body else {
+                        return Err(err(item, "body", "required for force and torque inputs".into()));
+                    };
+                    if !bodies.contains(b.as_str()) {
+                        return Err(err(item, "body", format!("unknown body {b:?}")));
+                    }
+                    let Some(d) = i.direction else {
+                        return Err(err(item, "direction", "required for force and torque inputs".into()));
+                    };
+                    nonzero3(origin, &item, "direction", d)?;
+                }
+                InputType::JointForce => {
+                    let Some(jn) = &i.joint else {
+                        return Err(err(item, "joint", "required for joint_force inputs".into()));
+                    };
+                    let Some(j) = self.joint.iter().find(|j| &j.name == jn) else {
+                        return Err(err(item, "joint", format!("unknown joint {jn:?}")));
+                    };
+                    if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
+                        return Err(err(item, "joint", format!("joint {jn:?} is not a 1-DOF joint")));
+                    }
+                }
+            }
+            if !i.start.is_finite() {
+                return Err(err(item, "start", "must be finite".into()));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_contact(
+        &self,
+        origin: &str,
+        item: &str,
+        c: &ContactSpec,
+        bodies: &HashSet<&str>,
+        materials: &HashSet<&str>,
+    ) -> Result<(), SceneError> {
+        let err = |field: &str, msg: String| SceneError::new(origin, item, field, msg);
+        let is_body = |n: &str| n == GROUND || bodies.contains(n);
+        if !is_body(&c.sphere_body) {
+            return Err(err("sphere_body", format!("unknown body {:?}", c.sphere_body)));
+        }
+        if !is_body(&c.body) {
+            return Err(err("body", format!("unknown body {:?}", c.body)));
+        }
+        if c.sphere_body == GROUND && c.body == GROUND {
+            return Err(err(
+                "body",
+                "both shapes are on the ground: this contact can never act".into(),
+            ));
+        }
+        if c.sphere_body == c.body {
+            return Err(err("body", "both shapes are on the same body".into()));
+        }
+        if !(0.0..=1.0).contains(&c.restitution) {
+            return Err(err("restitution", format!("must be in [0, 1] (got {})", c.restitution)));
+        }
+        if c.law == Law::Flores && c.restitution <= 0.0 {
+            return Err(err("restitution", "the flores law needs e > 0".into()));
+        }
+        if !(c.radius > 0.0 && c.radius.is_finite()) {
+            return Err(err("radius", format!("must be > 0 (got {})", c.radius)));
+        }
+        finite3(origin, item, "center", c.center)?;
+        for (f, m) in [("sphere_material", &c.sphere_material), ("material", &c.material)] {
+            if let Some(m) = m {
+                if !materials.contains(m.as_str()) {
+                    return Err(err(f, format!("unknown material {m:?}")));
+                }
+            }
+        }
+        let need = |f: &str, present: bool| -> Result<(), SceneError> {
+            if present {
+                Ok(())
+            } else {
+                Err(err(f, format!("required for a {} contact", kind_name(c.kind))))
+            }
+        };
+        match c.kind {
+            ContactType::SphereSphere => {
+                need("other_center", c.other_center.is_some())?;
+                need("other_radius", c.other_radius.is_some())?;
+                let r = c.other_radius.unwrap_or(0.0);
+                if !(r > 0.0 && r.is_finite()) {
+                    return Err(err("other_radius", format!("must be > 0 (got {r})")));
+                }
+            }
+            ContactType::SpherePlane => {
+                need("origin", c.origin.is_some())?;
+                need("normal", c.normal.is_some())?;
+                need("u_axis", c.u_axis.is_some())?;
+                need("size", c.size.is_some())?;
+                nonzero3(origin, item, "normal", c.normal.unwrap_or_default())?;
+                nonzero3(origin, item, "u_axis", c.u_axis.unwrap_or_default())?;
+                let n = unit(c.normal.unwrap_or_default());
+                let u = unit(c.u_axis.unwrap_or_default());
+                if (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]).abs() > 1e-6 {
+                    return Err(err("u_axis", "must be perpendicular to normal".into()));
+                }
+                let [a, b] = c.size.unwrap_or_default();
+                if !(a > 0.0 && b > 0.0) {
+                    return Err(err("size", "both side lengths must be > 0".into()));
+                }
+            }
+            ContactType::SphereCylinder => {
+                need("axis_point", c.axis_point.is_some())?;
+                need("axis", c.axis.is_some())?;
+                need("cylinder_radius", c.cylinder_radius.is_some())?;
+                need("length", c.length.is_some())?;
+                nonzero3(origin, item, "axis", c.axis.unwrap_or_default())?;
+                let rho = c.cylinder_radius.unwrap_or(0.0);
+                if !(rho > 0.0 && rho.is_finite()) {
+                    return Err(err("cylinder_radius", format!("must be > 0 (got {rho})")));
+                }
+                if c.side == Side::Inside && rho <= c.radius {
+                    return Err(err(
+                        "cylinder_radius",
+                        "must exceed the sphere radius for an inside contact".into(),
+                    ));
+                }
+                let l = c.length.unwrap_or(0.0);
+                if !(l > 0.0 && l.is_finite()) {
+                    return Err(err("length", format!("must be > 0 (got {l})")));
+                }
+                if let Some([a, b]) = c.theta_range {
+                    if !(a < b) {
+                        return Err(err("theta_range", "needs min < max".into()));
+                    }
+                    if c.ref_axis.is_none() {
+                        return Err(err("ref_axis", "required with theta_range".into()));
+                    }
+                }
+                if let Some(r) = c.ref_axis {
+                    nonzero3(origin, item, "ref_axis", r)?;
+                    let a = unit(c.axis.unwrap_or_default());
+                    let r = unit(r);
+                    if (a[0] * r[0] + a[1] * r[1] + a[2] * r[2]).abs() > 1e-6 {
+                        return Err(err("ref_axis", "must be perpendicular to axis".into()));
+                    }
+                }
+            }
+        }
+        match c.law {
+            Law::KelvinVoigt => {
+                if c.stiffness.is_none() {
+                    return Err(err("stiffness", "required for the kelvin_voigt law".into()));
+                }
+            }
+            Law::Impulse => {}
+            _ => {
+                if c.stiffness.is_none() && (c.sphere_material.is_none() || c.material.is_none()) {
+                    return Err(err(
+                        "stiffness",
+                        "give stiffness, or both sphere_material and material to derive it".into(),
+                    ));
+                }
+            }
+        }
+        if let Some(k) = c.stiffness {
+            if !(k > 0.0 && k.is_finite()) {
+                return Err(err("stiffness", format!("must be > 0 (got {k})")));
+            }
+        }
+        for (f, v) in [
+            ("damping", c.damping),
+            ("max_penetration", c.max_penetration),
+            ("min_impact_velocity", c.min_impact_velocity),
+        ] {
+            if let Some(v) = v {
+                if !(v >= 0.0 && v.is_finite()) {
+                    return Err(err(f, format!("must be >= 0 (got {v})")));
+                }
+            }
+        }
+        if let Some(n) = c.exponent {
+            if !(n >= 1.0 && n.is_finite()) {
+                return Err(err("exponent", format!("must be >= 1 (got {n})")));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn kind_name(k: ContactType) -> &'static str {
+    match k {
+        ContactType::SphereSphere => "sphere_sphere",
+        ContactType::SpherePlane => "sphere_plane",
+        ContactType::SphereCylinder => "sphere_cylinder",
+    }
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] / n, v[1] / n, v[2] / n]
+}
+
+fn finite3(origin: &str, item: &str, field: &str, v: [f64; 3]) -> Result<(), SceneError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(SceneError::new(origin, item, field, "must be finite"))
+    }
+}
+
+fn nonzero3(origin: &str, item: &str, field: &str, v: [f64; 3]) -> Result<(), SceneError> {
+    finite3(origin, item, field, v)?;
+    if v.iter().map(|x| x * x).sum::<f64>() > 1e-24 {
+        Ok(())
+    } else {
+        Err(SceneError::new(origin, item, field, "must not be the zero vector"))
+    }
+}
+
+fn line_col(text: &str, byte: usize) -> (usize, usize) {
+    let before = &text[..byte.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
+    (line, col)
+}
