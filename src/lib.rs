@@ -8,6 +8,7 @@
 //! facade that both the FMI layer and the command line drive, through the variable table of
 //! [`variables`].
 
+pub mod bench;
 pub mod contact;
 pub mod dynamics;
 pub mod engine;

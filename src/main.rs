@@ -46,6 +46,11 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Benchmarks: work-precision, stress, scaling, targets (tables and CSV).
+    Bench {
+        #[command(subcommand)]
+        what: contact_fmu::bench::BenchCommand,
+    },
 }
 
 fn main() -> ExitCode {
@@ -73,6 +78,7 @@ fn main() -> ExitCode {
             },
         )
         .map(|_| ()),
+        Some(Command::Bench { what }) => contact_fmu::bench::bench_command(what),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

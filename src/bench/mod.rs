@@ -1,0 +1,499 @@
+//! Benchmarks: programs that print tables and write CSV (never timed tests).
+//!
+//! `contact-fmu bench <what>`:
+//! - `work-precision`: every bundled scene × every integrator × a sweep of tolerances (step
+//!   sizes for rk4); error against a closed form or a tight reference; median run time of
+//!   several runs and the deterministic work counters ([`work_precision`]).
+//! - `stress`: stiffness, restitution, impact speed, communication step, long resting
+//!   contact, Newton's cradle, slow touches of `hertz_ln` ([`stress`]).
+//! - `scaling`: N free spheres in a box, time per simulated second against N ([`scaling`]).
+//! - `targets`: the rail vehicle's speed and accuracy targets, RHS cost, allocations
+//!   ([`targets`]).
+//! - `run`: one scene, repeated, with its median time, counters and a trajectory CSV (used by
+//!   the Python peer comparison in `scripts/`).
+//!
+//! Machines are noisy: times are medians of `--repeats` runs (default 5), both wall clock
+//! and the thread's CPU time; the counters (steps, RHS and Jacobian evaluations, events)
+//! are exact and repeat bit for bit.
+
+pub mod scaling;
+pub mod scenes;
+pub mod stress;
+pub mod targets;
+pub mod work_precision;
+
+use crate::engine::Counters;
+use crate::simulation::{SimError, Simulation};
+use crate::variables::{Causality, VarRef};
+use clap::Subcommand;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The `bench` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Work-precision diagrams: error vs run time for every bundled scene and integrator.
+    WorkPrecision {
+        /// Folder of bundled scenes (`<dir>/<name>/scene.toml`).
+        #[arg(long, default_value = "fmu")]
+        scenes: PathBuf,
+        /// Only scenes whose name contains this.
+        #[arg(long)]
+        only: Option<String>,
+        /// Timed runs per point (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Stop refining a method once one run takes longer than this [s].
+        #[arg(long, default_value_t = 4.0)]
+        budget: f64,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/work_precision.csv")]
+        csv: PathBuf,
+    },
+    /// Stability stress cases: each finishes or fails with a clear error.
+    Stress {
+        /// Simulated duration of the long resting-contact cases [s].
+        #[arg(long, default_value_t = 1000.0)]
+        resting_time: f64,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/stress.csv")]
+        csv: PathBuf,
+        /// Write the generated scenes (ball, bar with loop, cradle) to this folder and exit.
+        #[arg(long)]
+        write_scenes: Option<PathBuf>,
+    },
+    /// N free spheres in a box: time per simulated second vs N.
+    Scaling {
+        /// Sphere counts.
+        #[arg(long, value_delimiter = ',', default_value = "10,30,100,300,1000,3000,10000")]
+        n: Vec<usize>,
+        /// Simulated time per run [s].
+        #[arg(long, default_value_t = 0.05)]
+        time: f64,
+        /// Timed runs per point.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/scaling.csv")]
+        csv: PathBuf,
+        /// Write the generated scene for this N to a file and exit (for profiling).
+        #[arg(long)]
+        write_scene: Option<PathBuf>,
+    },
+    /// Speed and accuracy targets (rail vehicle), RHS cost per scene, allocations per step.
+    Targets {
+        /// Folder of bundled scenes.
+        #[arg(long, default_value = "fmu")]
+        scenes: PathBuf,
+        /// Timed runs per point.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/targets.csv")]
+        csv: PathBuf,
+    },
+    /// One scene, repeated: median time, counters, and the outputs at every communication
+    /// point written to a CSV.
+    Run {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Stop time [s] (default: the scene's).
+        #[arg(long)]
+        stop_time: Option<f64>,
+        /// Communication interval [s] (default: the scene's).
+        #[arg(long)]
+        interval: Option<f64>,
+        /// Set a parameter: NAME=VALUE (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        /// Timed runs.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Trajectory CSV (time and every output).
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
+}
+
+/// Runs a `bench` subcommand.
+pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
+    match cmd {
+        BenchCommand::WorkPrecision {
+            scenes,
+            only,
+            repeats,
+            budget,
+            csv,
+        } => work_precision::run(&scenes, only.as_deref(), repeats, budget, &csv),
+        BenchCommand::Stress {
+            resting_time,
+            csv,
+            write_scenes,
+        } => match write_scenes {
+            Some(dir) => stress::write_scenes(&dir, resting_time),
+            None => stress::run(resting_time, &csv),
+        },
+        BenchCommand::Scaling {
+            n,
+            time,
+            repeats,
+            csv,
+            write_scene,
+        } => match write_scene {
+            Some(p) => {
+                let text = scenes::sphere_box(n.first().copied().unwrap_or(100), time);
+                std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
+            }
+            None => scaling::run(&n, time, repeats, &csv),
+        },
+        BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
+        BenchCommand::Run {
+            scene,
+            stop_time,
+            interval,
+            set,
+            repeats,
+            csv,
+        } => run_command(&scene, stop_time, interval, &set, repeats, csv.as_deref()),
+    }
+}
+
+/// Median of a list (NaN for an empty one).
+pub fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+/// CPU time of the calling thread [s] (immune to other processes on a busy machine).
+pub fn thread_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes one timespec into the pointer we own.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// What one scene is run with.
+#[derive(Debug, Clone)]
+pub struct RunSpec {
+    /// Scene text (TOML).
+    pub text: String,
+    /// Name for messages.
+    pub origin: String,
+    /// `NAME=VALUE` parameter settings.
+    pub set: Vec<(String, f64)>,
+    /// Stop time [s].
+    pub stop_time: f64,
+    /// Communication interval [s].
+    pub interval: f64,
+}
+
+/// Outputs recorded at every communication point.
+#[derive(Debug, Clone, Default)]
+pub struct Trajectory {
+    /// Output names (the first is `time`).
+    pub names: Vec<String>,
+    /// One row per communication point.
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl Trajectory {
+    /// Column index of an output.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+    /// Writes the trajectory as CSV.
+    pub fn write_csv(&self, path: &Path) -> Result<(), String> {
+        let mut w = create_csv(path)?;
+        writeln!(w, "{}", self.names.join(",")).map_err(|e| e.to_string())?;
+        for r in &self.rows {
+            let line: Vec<String> = r.iter().map(|x| format!("{x:?}")).collect();
+            writeln!(w, "{}", line.join(",")).map_err(|e| e.to_string())?;
+        }
+        w.flush().map_err(|e| e.to_string())
+    }
+}
+
+/// Result of one (untimed, recorded) run.
+#[derive(Debug, Clone, Default)]
+pub struct Outcome {
+    /// Trajectory at the communication points reached.
+    pub traj: Trajectory,
+    /// Counters at the end (or at the failure).
+    pub counters: Counters,
+    /// The error message when the run failed.
+    pub failure: Option<String>,
+    /// Largest |E_total + E_dissipated − E_0| seen, relative to max(|E_0|, max kinetic).
+    pub energy_error: f64,
+    /// Largest ratio penetration / max_penetration over all contacts and points.
+    pub penetration_ratio: f64,
+    /// Largest penetration seen [m].
+    pub max_penetration: f64,
+    /// Largest loop-constraint residual |Φ| seen.
+    pub constraint_residual: f64,
+    /// Wall time of the run [s].
+    pub seconds: f64,
+}
+
+/// Builds and initialises a simulation.
+pub fn setup(spec: &RunSpec) -> Result<Simulation, String> {
+    let mut sim = Simulation::from_scene_str(&spec.text, &spec.origin).map_err(|e| e.to_string())?;
+    for (name, value) in &spec.set {
+        sim.set_by_name(name, *value).map_err(|e| e.to_string())?;
+    }
+    sim.initialize(0.0).map_err(|e| e.to_string())?;
+    Ok(sim)
+}
+
+fn comm_points(stop: f64, interval: f64) -> u64 {
+    (stop / interval - 1e-9).ceil().max(1.0) as u64
+}
+
+fn step_error(e: SimError) -> String {
+    match e {
+        SimError::Step { time, message } => format!("failed at t = {time}: {message}"),
+        other => other.to_string(),
+    }
+}
+
+/// Times `repeats` runs (setup excluded). Returns (median wall [s], median thread CPU [s],
+/// counters of the last run, failure of the last run).
+pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, Option<String>), String> {
+    let mut wall = Vec::new();
+    let mut cpu = Vec::new();
+    let mut counters = Counters::default();
+    let mut failure = None;
+    let n = comm_points(spec.stop_time, spec.interval);
+    for _ in 0..repeats.max(1) {
+        let mut sim = setup(spec)?;
+        let c0 = thread_cpu_seconds();
+        let t0 = Instant::now();
+        failure = None;
+        for k in 1..=n {
+            let t = if k == n {
+                spec.stop_time
+            } else {
+                k as f64 * spec.interval
+            };
+            if let Err(e) = sim.step_to(t) {
+                failure = Some(step_error(e));
+                break;
+            }
+        }
+        wall.push(t0.elapsed().as_secs_f64());
+        cpu.push(thread_cpu_seconds() - c0);
+        counters = sim.engine().map(|e| e.counters()).unwrap_or_default();
+    }
+    Ok((median(&wall), median(&cpu), counters, failure))
+}
+
+/// Runs once, recording the named outputs (all outputs when `outputs` is empty) at every
+/// communication point, with the energy balance, penetrations and loop residuals.
+pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
+    let mut sim = setup(spec)?;
+    let vars: Vec<(usize, String)> = sim
+        .variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .filter(|(_, v)| outputs.is_empty() || outputs.contains(&v.name.as_str()))
+        .map(|(i, v)| (i, v.name.clone()))
+        .collect();
+    let mut traj = Trajectory {
+        names: std::iter::once("time".to_string())
+            .chain(vars.iter().map(|(_, n)| n.clone()))
+            .collect(),
+        rows: Vec::new(),
+    };
+    let mut out = Outcome::default();
+    let e0 = energies(&mut sim);
+    let mut scale = (e0[0] + e0[1] + e0[2]).abs().max(e0[0]);
+    let mut sample = |sim: &mut Simulation, out: &mut Outcome, traj: &mut Trajectory| {
+        let mut row = vec![sim.time()];
+        for (i, _) in &vars {
+            row.push(sim.get(*i).unwrap_or(f64::NAN));
+        }
+        traj.rows.push(row);
+        let e = energies(sim);
+        scale = scale.max(e[0]);
+        let balance = (e[0] + e[1] + e[2] + e[3]) - (e0[0] + e0[1] + e0[2] + e0[3]);
+        out.energy_error = out.energy_error.max(balance.abs() / scale.max(f64::MIN_POSITIVE));
+        if let Some(engine) = sim.engine_mut() {
+            out.constraint_residual = out.constraint_residual.max(engine.constraint_residual());
+            let nc = engine.model().contacts.len();
+            for i in 0..nc {
+                let d = engine.output(VarRef::ContactDelta(i));
+                let dm = engine.model().contacts[i].max_penetration;
+                out.max_penetration = out.max_penetration.max(d);
+                out.penetration_ratio = out.penetration_ratio.max(d / dm);
+            }
+        }
+    };
+    sample(&mut sim, &mut out, &mut traj);
+    let n = comm_points(spec.stop_time, spec.interval);
+    let t0 = Instant::now();
+    for k in 1..=n {
+        let t = if k == n {
+            spec.stop_time
+        } else {
+            k as f64 * spec.interval
+        };
+        if let Err(e) = sim.step_to(t) {
+            out.failure = Some(step_error(e));
+            break;
+        }
+        sample(&mut sim, &mut out, &mut traj);
+    }
+    out.seconds = t0.elapsed().as_secs_f64();
+    out.counters = sim.engine().map(|e| e.counters()).unwrap_or_default();
+    out.traj = traj;
+    Ok(out)
+}
+
+/// [kinetic, potential, contact, dissipated] energies [J].
+pub fn energies(sim: &mut Simulation) -> [f64; 4] {
+    sim.engine_mut().map(|e| e.energies()).unwrap_or([f64::NAN; 4])
+}
+
+/// Creates a CSV file (and its folder).
+pub fn create_csv(path: &Path) -> Result<std::io::BufWriter<std::fs::File>, String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let f = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(std::io::BufWriter::new(f))
+}
+
+/// A CSV table built row by row and written at the end.
+pub struct Csv {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Csv {
+    /// A table with these columns.
+    pub fn new(header: &[&str]) -> Csv {
+        Csv {
+            header: header.iter().map(|s| s.to_string()).collect(),
+            rows: Vec::new(),
+        }
+    }
+    /// Appends a row.
+    pub fn push(&mut self, row: Vec<String>) {
+        self.rows.push(row);
+    }
+    /// Writes the table.
+    pub fn write(&self, path: &Path) -> Result<(), String> {
+        let mut w = create_csv(path)?;
+        writeln!(w, "{}", self.header.join(",")).map_err(|e| e.to_string())?;
+        for r in &self.rows {
+            let cells: Vec<String> = r
+                .iter()
+                .map(|c| {
+                    if c.contains(',') {
+                        format!("\"{}\"", c.replace('"', "'"))
+                    } else {
+                        c.clone()
+                    }
+                })
+                .collect();
+            writeln!(w, "{}", cells.join(",")).map_err(|e| e.to_string())?;
+        }
+        w.flush().map_err(|e| e.to_string())?;
+        println!("wrote {}", path.display());
+        Ok(())
+    }
+}
+
+/// Bundled scenes: `(name, path)` for every `<dir>/<name>/scene.toml`, sorted.
+pub fn bundled_scenes(dir: &Path) -> Result<Vec<(String, PathBuf)>, String> {
+    let mut v: Vec<(String, PathBuf)> = std::fs::read_dir(dir)
+        .map_err(|e| format!("{}: {e} (run from the repository root)", dir.display()))?
+        .filter_map(|e| e.ok())
+        .map(|e| (e.file_name().to_string_lossy().to_string(), e.path().join("scene.toml")))
+        .filter(|(_, p)| p.is_file())
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// Parses `NAME=VALUE` settings (enumerations by number or name are handled by
+/// [`crate::run::apply_settings`]; here values must be numbers).
+pub fn parse_settings(set: &[String]) -> Result<Vec<(String, f64)>, String> {
+    set.iter()
+        .map(|s| {
+            let (n, v) = s
+                .split_once('=')
+                .ok_or_else(|| format!("--set {s:?}: expected NAME=VALUE"))?;
+            let x = match v.trim() {
+                "dopri5" => 1.0,
+                "sdirk" => 2.0,
+                "rk4" => 3.0,
+                "kelvin_voigt" => 1.0,
+                "hertz" => 2.0,
+                "hertz_ln" => 3.0,
+                "hunt_crossley" => 4.0,
+                "flores" => 5.0,
+                "impulse" => 6.0,
+                t => t
+                    .parse::<f64>()
+                    .map_err(|_| format!("--set {s:?}: {t:?} is not a number"))?,
+            };
+            Ok((n.trim().to_string(), x))
+        })
+        .collect()
+}
+
+fn run_command(
+    scene: &Path,
+    stop_time: Option<f64>,
+    interval: Option<f64>,
+    set: &[String],
+    repeats: usize,
+    csv: Option<&Path>,
+) -> Result<(), String> {
+    let text = std::fs::read_to_string(scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+    let sim = Simulation::from_scene_str(&text, &scene.display().to_string()).map_err(|e| e.to_string())?;
+    let spec = RunSpec {
+        stop_time: stop_time.unwrap_or(sim.scene().model.stop_time),
+        interval: interval.unwrap_or(sim.scene().model.interval),
+        text,
+        origin: scene.display().to_string(),
+        set: parse_settings(set)?,
+    };
+    let (wall, cpu, c, failure) = time_runs(&spec, repeats)?;
+    if let Some(p) = csv {
+        let out = record(&spec, &[])?;
+        out.traj.write_csv(p)?;
+    }
+    println!(
+        "seconds={wall:.6e} cpu_seconds={cpu:.6e} steps={} rejected={} rhs_evals={} jac_evals={} events={} status={}",
+        c.steps,
+        c.rejected,
+        c.rhs_evals,
+        c.jac_evals,
+        c.events,
+        failure
+            .as_deref()
+            .map(|f| f.replace(' ', "_"))
+            .unwrap_or_else(|| "ok".into())
+    );
+    Ok(())
+}
+
+/// Formats a float for a CSV cell.
+pub fn f(x: f64) -> String {
+    format!("{x:.6e}")
+}

@@ -1,0 +1,340 @@
+//! Work-precision: for every bundled scene and every integrator, a sweep of tolerances
+//! (fixed step sizes for rk4); the error against a closed form where one exists, otherwise
+//! against a dopri5 run at 100× tighter tolerance than the tightest of the sweep (that
+//! reference is confirmed by the other methods converging to it); the median run time and
+//! the work counters.
+
+use super::{bundled_scenes, f, record, time_runs, Csv, RunSpec, Trajectory};
+use crate::scene::{Method, Scene};
+use std::path::Path;
+
+/// Relative tolerances of the adaptive sweep.
+const RTOLS: [f64; 8] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10];
+/// Fixed steps of the rk4 sweep [s].
+const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
+/// Tolerance of the reference run (100× tighter than the tightest of the sweep).
+const RTOL_REF: f64 = 1e-12;
+
+/// How the error of a run is measured.
+enum Truth {
+    /// Closed-form final velocities of a central elastic impact of two free spheres:
+    /// (output names, exact values, speed scale).
+    FinalVelocities(Vec<String>, Vec<f64>, f64),
+    /// A reference trajectory of the body positions.
+    Reference(Trajectory),
+}
+
+/// The closed form where the scene is a central impact of two free spheres under the pure
+/// Hertz law without gravity (elastic: the exact post-impact velocities are known).
+fn closed_form(scene: &Scene) -> Option<Truth> {
+    use crate::scene::{ContactType, Law};
+    if scene.body.len() != 2
+        || !scene.joint.is_empty()
+        || scene.contact.len() != 1
+        || scene.model.gravity != [0.0; 3]
+        || !scene.spring_damper.is_empty()
+    {
+        return None;
+    }
+    let c = &scene.contact[0];
+    if c.kind != ContactType::SphereSphere || c.law != Law::Hertz {
+        return None;
+    }
+    let (a, b) = (&scene.body[0], &scene.body[1]);
+    let (m1, m2) = (a.mass, b.mass);
+    let (v1, v2) = (a.velocity, b.velocity);
+    let dir = {
+        let d = [
+            b.position[0] - a.position[0],
+            b.position[1] - a.position[1],
+            b.position[2] - a.position[2],
+        ];
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        [d[0] / n, d[1] / n, d[2] / n]
+    };
+    let dot = |v: [f64; 3]| v[0] * dir[0] + v[1] * dir[1] + v[2] * dir[2];
+    let (u1, u2) = (dot(v1), dot(v2));
+    // Elastic central impact: normal components exchange as (14)-(15) with e = 1.
+    let w1 = ((m1 - m2) * u1 + 2.0 * m2 * u2) / (m1 + m2);
+    let w2 = ((m2 - m1) * u2 + 2.0 * m1 * u1) / (m1 + m2);
+    let mut names = Vec::new();
+    let mut vals = Vec::new();
+    for (body, v, u, w) in [(a, v1, u1, w1), (b, v2, u2, w2)] {
+        for k in 0..3 {
+            names.push(format!("{}.v[{}]", body.name, k + 1));
+            vals.push(v[k] + (w - u) * dir[k]);
+        }
+    }
+    let scale = (u1 - u2).abs().max(1e-300);
+    Some(Truth::FinalVelocities(names, vals, scale))
+}
+
+/// Names of the body-position outputs of a scene.
+fn position_outputs(scene: &Scene) -> Vec<String> {
+    scene
+        .body
+        .iter()
+        .flat_map(|b| (1..=3).map(move |k| format!("{}.r[{k}]", b.name)))
+        .collect()
+}
+
+/// Largest position error over all communication points, relative to the largest range of
+/// motion of any coordinate in the reference. NaN when the run stopped early.
+pub fn trajectory_error(run: &Trajectory, reference: &Trajectory) -> f64 {
+    if run.rows.len() != reference.rows.len() {
+        return f64::NAN;
+    }
+    let ncol = reference.names.len();
+    let mut range = 0.0_f64;
+    for c in 1..ncol {
+        let (lo, hi) = reference
+            .rows
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                (lo.min(r[c]), hi.max(r[c]))
+            });
+        range = range.max(hi - lo);
+    }
+    let mut err = 0.0_f64;
+    for (a, b) in run.rows.iter().zip(&reference.rows) {
+        for c in 1..ncol {
+            let e = (a[c] - b[c]).abs();
+            if e.is_nan() {
+                return f64::NAN;
+            }
+            err = err.max(e);
+        }
+    }
+    err / range.max(1e-300)
+}
+
+fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
+    match truth {
+        Truth::Reference(r) => trajectory_error(traj, r),
+        Truth::FinalVelocities(names, vals, scale) => {
+            let Some(last) = traj.rows.last() else { return f64::NAN };
+            let mut e = 0.0_f64;
+            for (n, v) in names.iter().zip(vals) {
+                match traj.column(n) {
+                    Some(c) => e = e.max((last[c] - v).abs()),
+                    None => return f64::NAN,
+                }
+            }
+            e / scale
+        }
+    }
+}
+
+/// One point of a sweep.
+struct Point {
+    method: Method,
+    tolerance: f64,
+    error: f64,
+    seconds: f64,
+    cpu: f64,
+    repeats: usize,
+    counters: crate::engine::Counters,
+    status: String,
+}
+
+/// Runs the benchmark and writes the CSV.
+pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path: &Path) -> Result<(), String> {
+    let mut csv = Csv::new(&[
+        "scene",
+        "method",
+        "tolerance",
+        "error",
+        "error_kind",
+        "seconds",
+        "cpu_seconds",
+        "repeats",
+        "steps",
+        "rejected",
+        "rhs_evals",
+        "jac_evals",
+        "events",
+        "status",
+    ]);
+    let mut summary: Vec<String> = Vec::new();
+    for (name, path) in bundled_scenes(dir)? {
+        if only.is_some_and(|o| !name.contains(o)) {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let origin = path.display().to_string();
+        let scene = match Scene::from_str(&text, &origin) {
+            Ok(s) => s,
+            Err(e) => {
+                println!("{name}: skipped, the scene does not load: {e}");
+                continue;
+            }
+        };
+        let ratio = scene.solver.atol / scene.solver.rtol;
+        let base = RunSpec {
+            text: text.clone(),
+            origin: origin.clone(),
+            set: Vec::new(),
+            stop_time: scene.model.stop_time,
+            interval: scene.model.interval,
+        };
+        let with = |method: Method, tol: f64| -> RunSpec {
+            let mut s = base.clone();
+            s.set.push(("solver.method".into(), method as i64 as f64));
+            match method {
+                Method::Rk4 => s.set.push(("solver.max_step".into(), tol)),
+                _ => {
+                    s.set.push(("solver.rtol".into(), tol));
+                    s.set.push(("solver.atol".into(), tol * ratio));
+                }
+            }
+            s
+        };
+        let positions = position_outputs(&scene);
+        let pos_refs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+        let (truth, kind) = match closed_form(&scene) {
+            Some(t) => (t, "closed_form_final_velocity"),
+            None => {
+                println!("{name}: reference run (dopri5, rtol {RTOL_REF:e}) ...");
+                let r = record(&with(Method::Dopri5, RTOL_REF), &pos_refs)?;
+                if let Some(fail) = r.failure {
+                    println!("{name}: reference run failed: {fail}; skipped");
+                    continue;
+                }
+                println!("{name}: reference took {:.3} s, {} steps", r.seconds, r.counters.steps);
+                (Truth::Reference(r.traj), "reference_position")
+            }
+        };
+        let mut outputs: Vec<&str> = pos_refs.clone();
+        if let Truth::FinalVelocities(names, _, _) = &truth {
+            outputs.extend(names.iter().map(|s| s.as_str()));
+        }
+        println!(
+            "\n{name} ({kind}): {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>6} {:>7}",
+            "method", "tol/step", "error", "seconds", "steps", "rhs_evals", "jac", "events"
+        );
+        let mut points: Vec<Point> = Vec::new();
+        for method in Method::ALL {
+            let tols: Vec<f64> = match method {
+                Method::Rk4 => STEPS
+                    .iter()
+                    .copied()
+                    .filter(|h| *h <= scene.model.interval * 1.0001)
+                    .collect(),
+                _ => RTOLS.to_vec(),
+            };
+            let mut consecutive_failures = 0;
+            for tol in tols {
+                let spec = with(method, tol);
+                let rec = record(&spec, &outputs)?;
+                let error = error_of(&truth, &rec.traj);
+                let (seconds, cpu, reps) = if rec.seconds > budget || rec.failure.is_some() {
+                    (rec.seconds, f64::NAN, 1)
+                } else {
+                    let (w, c, _, _) = time_runs(&spec, repeats)?;
+                    (w, c, repeats)
+                };
+                let status = rec.failure.clone().unwrap_or_else(|| "ok".into());
+                let c = rec.counters;
+                println!(
+                    "{name:>12}  {:<7} {:>9.1e} {:>10.3e} {:>10.3e} {:>9} {:>10} {:>6} {:>7} {}",
+                    method.name(),
+                    tol,
+                    error,
+                    seconds,
+                    c.steps,
+                    c.rhs_evals,
+                    c.jac_evals,
+                    c.events,
+                    if status == "ok" { "" } else { &status }
+                );
+                points.push(Point {
+                    method,
+                    tolerance: tol,
+                    error,
+                    seconds,
+                    cpu,
+                    repeats: reps,
+                    counters: c,
+                    status: status.clone(),
+                });
+                if status != "ok" {
+                    consecutive_failures += 1;
+                    if consecutive_failures >= 2 {
+                        break;
+                    }
+                } else {
+                    consecutive_failures = 0;
+                }
+                if rec.seconds > budget {
+                    println!(
+                        "{name:>12}  {} stops refining: one run took {:.1} s",
+                        method.name(),
+                        rec.seconds
+                    );
+                    break;
+                }
+            }
+        }
+        for p in &points {
+            csv.push(vec![
+                name.clone(),
+                p.method.name().into(),
+                format!("{:e}", p.tolerance),
+                f(p.error),
+                kind.into(),
+                f(p.seconds),
+                f(p.cpu),
+                p.repeats.to_string(),
+                p.counters.steps.to_string(),
+                p.counters.rejected.to_string(),
+                p.counters.rhs_evals.to_string(),
+                p.counters.jac_evals.to_string(),
+                p.counters.events.to_string(),
+                p.status.clone(),
+            ]);
+        }
+        // Summary: the fastest method reaching each error level.
+        for target in [1e-2, 1e-4, 1e-6, 1e-8] {
+            let mut best: Option<&Point> = None;
+            for p in points.iter().filter(|p| p.status == "ok" && p.error <= target) {
+                if best.is_none_or(|b| p.seconds < b.seconds) {
+                    best = Some(p);
+                }
+            }
+            let alt: Vec<String> = Method::ALL
+                .iter()
+                .map(|m| {
+                    points
+                        .iter()
+                        .filter(|p| p.method == *m && p.status == "ok" && p.error <= target)
+                        .map(|p| p.seconds)
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .map(|s| {
+                    if s.is_finite() {
+                        format!("{s:.2e}")
+                    } else {
+                        "—".into()
+                    }
+                })
+                .collect();
+            summary.push(match best {
+                Some(b) => format!(
+                    "| {name} | {target:.0e} | **{}** ({} {:.0e}) | {} |",
+                    b.method.name(),
+                    if b.method == Method::Rk4 { "h" } else { "rtol" },
+                    b.tolerance,
+                    alt.join(" | ")
+                ),
+                None => format!("| {name} | {target:.0e} | none reached it | {} |", alt.join(" | ")),
+            });
+        }
+    }
+    csv.write(csv_path)?;
+    println!("\n| scene | error ≤ | fastest | dopri5 [s] | sdirk [s] | rk4 [s] |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for s in summary {
+        println!("{s}");
+    }
+    Ok(())
+}
