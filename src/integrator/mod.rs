@@ -5,6 +5,7 @@
 //! separation) and restarts the method after each discontinuity with [`Integrator::reset`].
 
 pub mod dopri5;
+pub mod lu;
 pub mod rk4;
 pub mod sdirk;
 
@@ -127,4 +128,180 @@ pub fn initial_step(
         (0.01 / d1.max(d2)).powf(1.0 / (order as f64 + 1.0))
     };
     (100.0 * h0).min(h1).min(hmax)
+}
+
+/// Test problems with closed-form solutions, shared by the integrators' unit tests.
+#[cfg(test)]
+pub(crate) mod test_problems {
+    use super::{Integrator, OdeSystem};
+
+    /// `y₀' = y₀, y₁' = y₂, y₂' = −y₁` from `(1, 0, 1)`: `(eᵗ, sin t, cos t)`.
+    pub struct Growth;
+    impl OdeSystem for Growth {
+        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = y[0];
+            dy[1] = y[2];
+            dy[2] = -y[1];
+        }
+    }
+    impl Growth {
+        pub fn exact(t: f64) -> [f64; 3] {
+            [t.exp(), t.sin(), t.cos()]
+        }
+    }
+
+    /// Nonlinear and non-autonomous: `y₀' = −2t y₀²`, plus the oscillator of [`Growth`];
+    /// `y = (1/(1+t²), sin t, cos t)`.
+    pub struct Smooth;
+    impl OdeSystem for Smooth {
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = -2.0 * t * y[0] * y[0];
+            dy[1] = y[2];
+            dy[2] = -y[1];
+        }
+    }
+    impl Smooth {
+        pub fn exact(t: f64) -> [f64; 3] {
+            [1.0 / (1.0 + t * t), t.sin(), t.cos()]
+        }
+    }
+
+    /// Prothero-Robinson `y' = λ(y − sin t) + cos t`, `y(0) = 0`: `y = sin t` (stiff for λ ≪ 0).
+    pub struct ProtheroRobinson {
+        pub lambda: f64,
+    }
+    impl OdeSystem for ProtheroRobinson {
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = self.lambda * (y[0] - t.sin()) + t.cos();
+        }
+    }
+
+    /// A unit mass on a stiff, critically damped spring under gravity (a resting contact):
+    /// `x'' = −ω²x − 2ωx' − g`, from `x = 0`, `x' = v₀`.
+    pub struct SpringDamper {
+        pub omega: f64,
+        pub g: f64,
+    }
+    impl OdeSystem for SpringDamper {
+        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = y[1];
+            dy[1] = -self.omega * self.omega * y[0] - 2.0 * self.omega * y[1] - self.g;
+        }
+    }
+    impl SpringDamper {
+        /// `x(t) = x_eq + (A + Bt) e^{−ωt}` with `x_eq = −g/ω²`.
+        pub fn exact(&self, t: f64, v0: f64) -> [f64; 2] {
+            let w = self.omega;
+            let x_eq = -self.g / (w * w);
+            let a = -x_eq;
+            let b = v0 + w * a;
+            let e = (-w * t).exp();
+            [x_eq + (a + b * t) * e, (b - w * (a + b * t)) * e]
+        }
+    }
+
+    /// Integrates from `(t0, y0)` to `t_end`; returns the final state.
+    pub fn run(m: &mut dyn Integrator, sys: &mut dyn OdeSystem, t0: f64, y0: &[f64], t_end: f64) -> Vec<f64> {
+        m.reset(sys, t0, y0, 0.0);
+        while m.t() < t_end {
+            m.step(sys, t_end).expect("step failed");
+        }
+        m.y().to_vec()
+    }
+
+    /// Largest absolute difference.
+    pub fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+        a.iter().zip(b).fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+    }
+
+    /// Largest error of the dense output over the last step against `exact`.
+    pub fn dense_error(m: &dyn Integrator, exact: impl Fn(f64) -> Vec<f64>) -> f64 {
+        let (t0, t1) = (m.t_prev(), m.t());
+        let mut out = vec![0.0; m.y().len()];
+        let mut worst = 0.0_f64;
+        for i in 1..40 {
+            let t = t0 + (t1 - t0) * i as f64 / 40.0;
+            m.interpolate(t, &mut out);
+            worst = worst.max(max_diff(&out, &exact(t)));
+        }
+        worst
+    }
+
+    /// Observed order `log2(e(h)/e(h/2))`.
+    pub fn order(e_h: f64, e_half: f64) -> f64 {
+        (e_h / e_half).log2()
+    }
+}
+
+/// Counts heap allocations made by the current thread (to check that stepping allocates
+/// nothing).
+#[cfg(test)]
+pub(crate) mod alloc_counter {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static COUNT: Cell<u64> = const { Cell::new(0) };
+    }
+
+    /// The system allocator, counting.
+    pub struct Counting;
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+            System.alloc(layout)
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            System.dealloc(ptr, layout)
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+            System.realloc(ptr, layout, new_size)
+        }
+    }
+
+    #[global_allocator]
+    static GLOBAL: Counting = Counting;
+
+    /// Allocations made by this thread so far.
+    pub fn count() -> u64 {
+        COUNT.try_with(|c| c.get()).unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_problems::*;
+    use super::*;
+
+    /// After construction and reset, stepping allocates nothing (every method).
+    #[test]
+    fn stepping_does_not_allocate() {
+        let settings = |method| SolverSection {
+            method,
+            rtol: 1e-8,
+            atol: 1e-10,
+            max_step: 1e-2,
+        };
+        for method in Method::ALL {
+            let mut m = create(&settings(method), 2);
+            let mut sys = SpringDamper { omega: 10.0, g: 9.81 };
+            m.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
+            m.step(&mut sys, 1.0).unwrap();
+            let before = alloc_counter::count();
+            let mut out = [0.0; 2];
+            while m.t() < 0.5 {
+                m.step(&mut sys, 0.5).unwrap();
+                m.interpolate(0.5 * (m.t() + m.t_prev()), &mut out);
+            }
+            m.reset(&mut sys, 0.5, &[0.0, 1.0], m.next_step());
+            m.step(&mut sys, 1.0).unwrap();
+            assert_eq!(
+                alloc_counter::count() - before,
+                0,
+                "{method:?} allocated while stepping"
+            );
+        }
+    }
 }
