@@ -439,6 +439,27 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
     if nc == 0 {
         return;
     }
+    factor_schur(m, d);
+    for r in 0..nc {
+        let jr = &d.phi_q[r * nv..(r + 1) * nv];
+        d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
+    }
+    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, &mut d.lambda, &mut d.work[..nc]);
+    for r in 0..nc {
+        let l = d.lambda[r];
+        if l != 0.0 {
+            for (a, b) in d.qacc.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
+                *a -= l * b;
+            }
+        }
+    }
+}
+
+/// Forms `M̄⁻¹ Φ_qᵀ` and the Schur complement `Φ_q M̄⁻¹ Φ_qᵀ` from the factorised mass blocks
+/// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
+/// leading `d.schur_rank` pivots.
+fn factor_schur(m: &Model, d: &mut Data) {
+    let (nv, nc) = (m.nv, m.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
         col.copy_from_slice(&d.phi_q[r * nv..(r + 1) * nv]);
@@ -449,19 +470,123 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
         for c in 0..nc {
             d.schur[r * nc + c] = linalg::dot(jr, &d.minv_phit[c * nv..(c + 1) * nv]);
         }
-        d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
     }
-    let rank = linalg::pivoted_cholesky_in_place(&mut d.schur, nc, &mut d.schur_perm, REDUNDANT_PIVOT);
-    d.schur_rank = rank;
-    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, rank, &mut d.lambda, &mut d.work[..nc]);
+    d.schur_rank = linalg::pivoted_cholesky_in_place(&mut d.schur, nc, &mut d.schur_perm, REDUNDANT_PIVOT);
+}
+
+/// Loop-constraint residual above which [`project_loops`] corrects the state: `|Φ|` in m
+/// (point rows) or rad (orientation rows), `|Φ_q q̇|` in m/s or rad/s.
+pub const PROJECTION_TOL: f64 = 1e-10;
+
+/// Newton iterations of the position projection.
+const PROJECTION_ITERATIONS: usize = 4;
+
+/// Number of loop-constraint rows: the first rows of Φ (rows of resting contacts follow).
+fn loop_row_count(m: &Model) -> usize {
+    m.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0_f64, |a, b| a.max(b.abs()))
+}
+
+/// Kinematics, factorised mass matrix, constraint rows and factorised Schur complement at
+/// `state`. False when the mass matrix is not positive definite.
+fn factor_at(m: &Model, d: &mut Data, state: &[f64]) -> bool {
+    kinematics(m, d, state);
+    mass_and_bias(m, d);
+    if !factor_mass(m, d) {
+        return false;
+    }
+    constraints(m, d, &state[m.nq..m.nq + m.nv]);
+    factor_schur(m, d);
+    true
+}
+
+/// The smallest correction in the mass metric that removes `rhs` (the first `nl` rows of
+/// `d.lambda` on entry; the other rows are held): `Δv = M̄⁻¹ Φ_qᵀ (Φ_q M̄⁻¹ Φ_qᵀ)⁺ rhs`,
+/// written to `d.work2`.
+fn mass_metric_correction(m: &Model, d: &mut Data, nl: usize) {
+    let (nv, nc) = (m.nv, m.nc);
+    d.lambda[nl..nc].iter_mut().for_each(|x| *x = 0.0);
+    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, &mut d.lambda, &mut d.work[..nc]);
+    d.work2.iter_mut().for_each(|x| *x = 0.0);
     for r in 0..nc {
         let l = d.lambda[r];
         if l != 0.0 {
-            for (a, b) in d.qacc.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
-                *a -= l * b;
+            for (a, b) in d.work2.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
+                *a += l * b;
             }
         }
     }
+}
+
+/// Moves the position coordinates by the velocity-space increment `dv` (a rotation vector in
+/// the child frame for spherical and free joints, applied as `Q ← Q ⊗ exp(dv/2)`).
+fn displace_positions(m: &Model, qpos: &mut [f64], dv: &[f64]) {
+    for j in &m.joints {
+        let (a, v) = (j.qpos, j.qvel);
+        let rotate = |q: &mut [f64], w: &[f64]| {
+            let dq = UnitQuaternion::from_scaled_axis(Vector3::new(w[0], w[1], w[2]));
+            let r = Quaternion::new(q[0], q[1], q[2], q[3]) * dq.quaternion();
+            q.copy_from_slice(&[r.w, r.i, r.j, r.k]);
+        };
+        match j.kind {
+            JointType::Revolute | JointType::Prismatic => qpos[a] += dv[v],
+            JointType::Fixed => {}
+            JointType::Spherical => rotate(&mut qpos[a..a + 4], &dv[v..v + 3]),
+            JointType::Free => {
+                for k in 0..3 {
+                    qpos[a + k] += dv[v + k];
+                }
+                rotate(&mut qpos[a + 3..a + 7], &dv[v + 3..v + 6]);
+            }
+        }
+    }
+}
+
+/// Projects `d.state` back onto the loop constraints when their residual exceeds `tol`:
+/// Newton iterations on `Φ(q) = 0`, then `Φ_q q̇ = 0`, each the smallest change in the mass
+/// metric (the redundant rows dropped by the pivoted factorisation). Baumgarte stabilisation
+/// keeps the drift small between projections; this removes it. Rows of resting contacts are
+/// held unchanged. Returns true when the state changed (the caller must restart its
+/// integrator). Allocates nothing.
+pub fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
+    let nl = loop_row_count(m);
+    if nl == 0 {
+        return false;
+    }
+    let (nq, nv) = (m.nq, m.nv);
+    let mut state = std::mem::take(&mut d.state);
+    kinematics(m, d, &state);
+    constraints(m, d, &state[nq..nq + nv]);
+    if max_abs(&d.phi[..nl]) <= tol && max_abs(&d.phi_dot[..nl]) <= tol {
+        d.state = state;
+        return false;
+    }
+    let mut changed = false;
+    for it in 0..=PROJECTION_ITERATIONS {
+        if !factor_at(m, d, &state) {
+            break;
+        }
+        if it < PROJECTION_ITERATIONS && max_abs(&d.phi[..nl]) > 1e-3 * tol {
+            d.lambda[..nl].copy_from_slice(&d.phi[..nl]);
+            mass_metric_correction(m, d, nl);
+            d.work2.iter_mut().for_each(|x| *x = -*x);
+            displace_positions(m, &mut state[..nq], &d.work2);
+            changed = true;
+            continue;
+        }
+        d.lambda[..nl].copy_from_slice(&d.phi_dot[..nl]);
+        mass_metric_correction(m, d, nl);
+        for (q, dq) in state[nq..nq + nv].iter_mut().zip(&d.work2) {
+            *q -= dq;
+        }
+        changed = true;
+        break;
+    }
+    d.state = state;
+    changed
 }
 
 /// Kinetic energy ½ Σ Vᵀ I V [J].

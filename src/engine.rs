@@ -181,6 +181,15 @@ impl Engine {
         }
     }
 
+    /// After an accepted step: projects the state back onto the loop constraints when their
+    /// residual exceeds [`dynamics::PROJECTION_TOL`], and then restarts the integrator from the
+    /// corrected state (deterministic, so restored FMU states still continue bit for bit).
+    fn project_after_step(&mut self) {
+        if dynamics::project_loops(&self.model, &mut self.data, dynamics::PROJECTION_TOL) {
+            self.restart_with(self.integrator.next_step());
+        }
+    }
+
     fn restart_with(&mut self, h: f64) {
         let state = self.data.state.clone();
         let t = self.data.time;
@@ -233,6 +242,7 @@ impl Engine {
             if nc == 0 {
                 self.data.state.copy_from_slice(&self.y_work);
                 self.data.time = t1;
+                self.project_after_step();
                 continue;
             }
             let (m, d) = (&self.model, &mut self.data);
@@ -244,6 +254,7 @@ impl Engine {
                 self.data.state.copy_from_slice(&self.y_work);
                 self.data.time = t1;
                 std::mem::swap(&mut self.g, &mut self.g_new);
+                self.project_after_step();
                 continue;
             }
             // Locate the earliest crossing by bisection-secant (Illinois) on each crossing
