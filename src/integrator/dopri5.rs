@@ -39,6 +39,8 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
+/// Steps (and gaps to the end) below this multiple of |t| are rounding noise.
+const ROUNDOFF_GAP: f64 = 16.0 * f64::EPSILON;
 /// The Dormand-Prince 5(4) method.
 pub struct Dopri5 {
     rtol: f64,
@@ -115,13 +117,25 @@ impl Integrator for Dopri5 {
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
         let n = self.y.len();
+        let mut rejected_before = false;
+        if t_max - self.t <= ROUNDOFF_GAP * self.t.abs() {
+            // the end is within rounding of the current time: arrive without a step
+            for c in self.cont.iter_mut() {
+                c.iter_mut().for_each(|x| *x = 0.0);
+            }
+            self.cont[0].copy_from_slice(&self.y);
+            self.t_prev = self.t;
+            self.t = self.t.max(t_max);
+            return Ok(());
+        }
         loop {
             let mut h = self.h.min(self.hmax);
-            let last = self.t + h >= t_max;
+            // stretch a step by up to 1 % rather than leave a sliver before t_max (Hairer)
+            let last = self.t + 1.01 * h >= t_max;
             if last {
                 h = t_max - self.t;
             }
-            if h <= 16.0 * f64::EPSILON * self.t.abs().max(1e-300) {
+            if h <= ROUNDOFF_GAP * self.t.abs().max(1e-300) {
                 return Err(IntegratorError::StepSizeUnderflow(self.t));
             }
             let (t, y) = (self.t, &self.y);
@@ -169,7 +183,8 @@ impl Integrator for Dopri5 {
             // PI controller (Hairer's dopri5: beta = 0.04)
             let fac11 = err.powf(0.2 - 0.04 * 0.75);
             let fac = (fac11 / self.err_old.powf(0.04) / 0.9).clamp(0.1, 5.0);
-            let h_new = h / fac;
+            // no increase right after a rejection (Hairer)
+            let h_new = if rejected_before { (h / fac).min(h) } else { h / fac };
             if err <= 1.0 {
                 self.err_old = err.max(1e-4);
                 for i in 0..n {
@@ -192,6 +207,7 @@ impl Integrator for Dopri5 {
                 return Ok(());
             }
             self.stats.rejected += 1;
+            rejected_before = true;
             self.h = h / (fac11 / 0.9).min(5.0);
         }
     }
@@ -226,5 +242,99 @@ impl Integrator for Dopri5 {
     }
     fn set_stats(&mut self, s: Stats) {
         self.stats = s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_problems::*;
+    use super::*;
+
+    /// Tolerances so loose that every step of `h` is accepted: the formula alone.
+    fn fixed(n: usize, h: f64) -> Dopri5 {
+        Dopri5::new(n, 1e6, 1e6, h)
+    }
+
+    #[test]
+    fn converges_with_order_five() {
+        let y0 = Smooth::exact(0.0);
+        let err = |steps: usize| {
+            let h = 2.0 / steps as f64;
+            let mut m = fixed(3, h);
+            let y = run_from(&mut m, &mut Smooth, 0.0, &y0, 2.0, h);
+            assert_eq!(m.stats().steps as usize, steps);
+            max_diff(&y, &Smooth::exact(2.0))
+        };
+        // h = 1/30..1/80: larger steps are not yet asymptotic (observed ratio above 2⁵),
+        // smaller ones meet rounding (errors near 1e-14)
+        let (e1, e2, e3, e4) = (err(60), err(120), err(80), err(160));
+        let (p1, p2) = (order(e1, e2), order(e3, e4));
+        assert!(
+            (p1 - 5.0).abs() < 0.3 && (p2 - 5.0).abs() < 0.3,
+            "orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e} {e4:e})"
+        );
+    }
+
+    #[test]
+    fn dense_output_has_local_order_five() {
+        // one step from the exact state: the order-4 interpolant errs by O(h⁵)
+        for (name, exact) in [
+            ("growth", Growth::exact as fn(f64) -> [f64; 3]),
+            ("smooth", Smooth::exact as fn(f64) -> [f64; 3]),
+        ] {
+            let err = |h: f64| {
+                let mut m = fixed(3, h);
+                if name == "growth" {
+                    m.reset(&mut Growth, 0.3, &exact(0.3), h);
+                    m.step(&mut Growth, 10.0).unwrap();
+                } else {
+                    m.reset(&mut Smooth, 0.3, &exact(0.3), h);
+                    m.step(&mut Smooth, 10.0).unwrap();
+                }
+                assert!((m.t() - 0.3 - h).abs() < 1e-15);
+                dense_error(&m, |t| exact(t).to_vec())
+            };
+            let (e1, e2, e3) = (err(0.1), err(0.05), err(0.025));
+            let (p1, p2) = (order(e1, e2), order(e2, e3));
+            assert!(
+                (p1 - 5.0).abs() < 0.3 && (p2 - 5.0).abs() < 0.3,
+                "{name}: orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e})"
+            );
+        }
+    }
+
+    #[test]
+    fn global_error_is_proportional_to_the_tolerance() {
+        // y' = y and y'' = −y over [0, 4]
+        let y0 = Growth::exact(0.0);
+        let mut errs = Vec::new();
+        for tol in [1e-5, 1e-7, 1e-9, 1e-11] {
+            let mut m = Dopri5::new(3, tol, tol, f64::INFINITY);
+            let y = run(&mut m, &mut Growth, 0.0, &y0, 4.0);
+            let exact = Growth::exact(4.0);
+            let e = (0..3)
+                .map(|i| (y[i] - exact[i]).abs() / (1.0 + exact[i].abs()))
+                .fold(0.0, f64::max);
+            assert!(e < 100.0 * tol, "tol {tol:e}: relative error {e:e}");
+            errs.push(e);
+        }
+        // slope of log(error) against log(tol) over six decades
+        let slope = (errs[0] / errs[3]).log10() / 6.0;
+        assert!(slope > 0.7 && slope < 1.3, "error ∝ tol^{slope}: {errs:?}");
+    }
+
+    #[test]
+    fn rejected_steps_are_retried_smaller_and_counted() {
+        // a first step far too large must be rejected, then the run must still be accurate
+        let y0 = Smooth::exact(0.0);
+        let mut m = Dopri5::new(3, 1e-9, 1e-9, f64::INFINITY);
+        m.reset(&mut Smooth, 0.0, &y0, 1.5);
+        while m.t() < 2.0 {
+            m.step(&mut Smooth, 2.0).unwrap();
+        }
+        let s = m.stats();
+        assert!(s.rejected >= 1, "{s:?}");
+        assert_eq!(s.rhs_evals, 1 + 6 * (s.steps + s.rejected));
+        assert!(max_diff(m.y(), &Smooth::exact(2.0)) < 1e-7);
     }
 }

@@ -202,7 +202,19 @@ pub(crate) mod test_problems {
 
     /// Integrates from `(t0, y0)` to `t_end`; returns the final state.
     pub fn run(m: &mut dyn Integrator, sys: &mut dyn OdeSystem, t0: f64, y0: &[f64], t_end: f64) -> Vec<f64> {
-        m.reset(sys, t0, y0, 0.0);
+        run_from(m, sys, t0, y0, t_end, 0.0)
+    }
+
+    /// [`run`] with first step `h0`.
+    pub fn run_from(
+        m: &mut dyn Integrator,
+        sys: &mut dyn OdeSystem,
+        t0: f64,
+        y0: &[f64],
+        t_end: f64,
+        h0: f64,
+    ) -> Vec<f64> {
+        m.reset(sys, t0, y0, h0);
         while m.t() < t_end {
             m.step(sys, t_end).expect("step failed");
         }

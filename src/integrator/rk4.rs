@@ -47,7 +47,8 @@ impl Integrator for Rk4 {
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
         let n = self.y.len();
-        let last = self.t + self.h >= t_max * (1.0 - 1e-15);
+        // stretch the last step by up to 1 % rather than leave a sliver before t_max
+        let last = self.t + 1.01 * self.h >= t_max;
         let h = if last { t_max - self.t } else { self.h };
         if h <= 0.0 {
             return Err(IntegratorError::StepSizeUnderflow(self.t));
@@ -118,5 +119,61 @@ impl Integrator for Rk4 {
     }
     fn set_stats(&mut self, s: Stats) {
         self.stats = s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_problems::*;
+    use super::*;
+
+    #[test]
+    fn converges_with_order_four() {
+        let y0 = Smooth::exact(0.0);
+        let err = |steps: usize| {
+            let mut m = Rk4::new(3, 2.0 / steps as f64);
+            let y = run(&mut m, &mut Smooth, 0.0, &y0, 2.0);
+            assert_eq!(m.stats().steps as usize, steps);
+            max_diff(&y, &Smooth::exact(2.0))
+        };
+        let (e1, e2, e3) = (err(20), err(40), err(80));
+        let (p1, p2) = (order(e1, e2), order(e2, e3));
+        assert!(
+            (p1 - 4.0).abs() < 0.3 && (p2 - 4.0).abs() < 0.3,
+            "orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e})"
+        );
+    }
+
+    #[test]
+    fn hermite_dense_output_has_local_order_four() {
+        // from t = 1 (near t = 0.325 the fourth derivative of 1/(1+t²), which sets the
+        // interpolation error, changes sign)
+        let y0 = Smooth::exact(1.0);
+        let err = |h: f64| {
+            let mut m = Rk4::new(3, h);
+            m.reset(&mut Smooth, 1.0, &y0, h);
+            m.step(&mut Smooth, 10.0).unwrap();
+            dense_error(&m, |t| Smooth::exact(t).to_vec())
+        };
+        let (e1, e2, e3) = (err(0.1), err(0.05), err(0.025));
+        let (p1, p2) = (order(e1, e2), order(e2, e3));
+        assert!(
+            (p1 - 4.0).abs() < 0.3 && (p2 - 4.0).abs() < 0.3,
+            "orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e})"
+        );
+    }
+
+    #[test]
+    fn stability_ends_at_the_real_axis_bound() {
+        // RK4 is stable on the negative real axis for h|λ| ≤ 2.785
+        let lambda = -1e3;
+        let decay = |h: f64| {
+            let mut m = Rk4::new(1, h);
+            let y = run(&mut m, &mut ProtheroRobinson { lambda }, 0.0, &[1.0], 1.0);
+            (y[0] - 1f64.sin()).abs()
+        };
+        // stable: the error stays at the truncation error of the forced solution
+        assert!(decay(2.70e-3) < 1e-4, "stable side: {:e}", decay(2.70e-3));
+        assert!(decay(2.85e-3) > 1.0, "unstable side: {:e}", decay(2.85e-3));
     }
 }

@@ -55,6 +55,8 @@ const SAFETY: f64 = 0.9;
 const MAX_GROW: f64 = 8.0;
 const MAX_SHRINK: f64 = 5.0;
 
+/// Steps (and gaps to the end) below this multiple of |t| are rounding noise.
+const ROUNDOFF_GAP: f64 = 16.0 * f64::EPSILON;
 /// The SDIRK4 method (scene name `"sdirk"`).
 pub struct Sdirk {
     rtol: f64,
@@ -333,13 +335,24 @@ impl Integrator for Sdirk {
             self.jacobian(sys);
         }
         let mut rejected_before = false;
+        if t_max - self.t <= ROUNDOFF_GAP * self.t.abs() {
+            // the end is within rounding of the current time: arrive without a step
+            self.y_prev.copy_from_slice(&self.y);
+            for d in self.dense.iter_mut() {
+                d.iter_mut().for_each(|x| *x = 0.0);
+            }
+            self.t_prev = self.t;
+            self.t = self.t.max(t_max);
+            return Ok(());
+        }
         loop {
             let mut h = self.h.min(self.hmax);
-            let last = self.t + h >= t_max;
+            // stretch a step by up to 1 % rather than leave a sliver before t_max (Hairer)
+            let last = self.t + 1.01 * h >= t_max;
             if last {
                 h = t_max - self.t;
             }
-            if h <= 16.0 * f64::EPSILON * self.t.abs().max(1e-300) {
+            if h <= ROUNDOFF_GAP * self.t.abs().max(1e-300) {
                 return Err(IntegratorError::StepSizeUnderflow(self.t));
             }
             let Some((err, theta)) = self.attempt(sys, h) else {
