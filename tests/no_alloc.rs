@@ -1,0 +1,181 @@
+//! No allocation inside a step: a counting global allocator records the allocations made by
+//! this thread while `Engine::advance` runs, after a warm-up (the first advances may size
+//! buffers lazily). Asserts a count, not a time.
+
+use contact_fmu::scene::Method;
+use contact_fmu::simulation::Simulation;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<u64> = const { Cell::new(0) };
+}
+static TOTAL: AtomicU64 = AtomicU64::new(0);
+
+fn note() {
+    let _ = COUNTING.try_with(|c| {
+        if c.get() {
+            let _ = COUNT.try_with(|n| n.set(n.get() + 1));
+            TOTAL.fetch_add(1, Ordering::Relaxed);
+        }
+    });
+}
+
+// SAFETY: forwards to the system allocator; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note();
+        System.alloc(layout)
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note();
+        System.alloc_zeroed(layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note();
+        System.realloc(ptr, layout, new_size)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        System.dealloc(ptr, layout)
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Allocations made by this thread while `f` runs.
+fn count(f: impl FnOnce()) -> u64 {
+    COUNT.with(|n| n.set(0));
+    COUNTING.with(|c| c.set(true));
+    f();
+    COUNTING.with(|c| c.set(false));
+    COUNT.with(|n| n.get())
+}
+
+fn start(scene: &str, method: Method) -> Simulation {
+    let path = format!("{}/fmu/{scene}/scene.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut sim = Simulation::from_file(std::path::Path::new(&path)).expect("scene loads");
+    sim.set_by_name("solver.method", method as i64 as f64).expect("method");
+    sim.initialize(0.0).expect("initialises");
+    sim
+}
+
+/// Allocations during `advance` over `steps` communication intervals after `warmup` ones,
+/// and the number of integrator steps and events meanwhile.
+fn allocations(scene: &str, method: Method, warmup: usize, steps: usize) -> (u64, u64, u64) {
+    let mut sim = start(scene, method);
+    let h = sim.scene().model.interval;
+    let mut t = 0.0;
+    for _ in 0..warmup {
+        t += h;
+        sim.step_to(t).expect("warm-up advances");
+    }
+    let engine = sim.engine_mut().expect("engine");
+    let (s0, e0) = (engine.counters().steps, engine.counters().events);
+    let n = count(|| {
+        for _ in 0..steps {
+            t += h;
+            engine.advance(t).expect("advances");
+        }
+    });
+    (n, engine.counters().steps - s0, engine.counters().events - e0)
+}
+
+/// Allocations of one `advance` over `span` seconds starting at `t0` (after a warm-up
+/// advance to `t0`), and the steps it took.
+fn one_advance(scene: &str, method: Method, t0: f64, span: f64) -> (u64, u64, u64) {
+    let mut sim = start(scene, method);
+    sim.step_to(t0).expect("warm-up advance");
+    let engine = sim.engine_mut().expect("engine");
+    let (s0, e0) = (engine.counters().steps, engine.counters().events);
+    let n = count(|| engine.advance(t0 + span).expect("advances"));
+    (n, engine.counters().steps - s0, engine.counters().events - e0)
+}
+
+/// Inside one `advance` without events, the allocation count does not grow with the number
+/// of integrator steps: the step itself allocates nothing.
+fn check_steps(scene: &str, method: Method, t0: f64, span: f64) -> Result<(), String> {
+    let (a, sa, ea) = one_advance(scene, method, t0, span);
+    let (b, sb, eb) = one_advance(scene, method, t0, 4.0 * span);
+    println!(
+        "{scene} {}: {a} allocations in one advance of {sa} steps, {b} in one of {sb} steps",
+        method.name()
+    );
+    if (ea, eb) != (0, 0) {
+        return Err(format!("{scene}: the window must be free of events"));
+    }
+    if !(sb > sa && sa > 0) {
+        return Err(format!("{scene}: the longer advance must take more steps ({sa}, {sb})"));
+    }
+    if a != b {
+        return Err(format!(
+            "{scene} {}: allocations grow with the steps ({a} in {sa} steps, {b} in {sb})",
+            method.name()
+        ));
+    }
+    Ok(())
+}
+
+fn check(scene: &str, method: Method, warmup: usize, steps: usize) {
+    let (n, taken, events) = allocations(scene, method, warmup, steps);
+    println!(
+        "{scene} {}: {n} allocations in {steps} advances, {taken} steps, {events} events",
+        method.name()
+    );
+    assert!(taken > 0, "{scene}: no integrator step was taken");
+    assert_eq!(
+        n,
+        0,
+        "{scene} {}: {n} allocations in {steps} advances ({taken} steps, {events} events)",
+        method.name()
+    );
+}
+
+#[test]
+fn counting_allocator_sees_allocations() {
+    // The counter itself works: a vector allocates once.
+    let n = count(|| {
+        let v: Vec<u64> = Vec::with_capacity(16);
+        std::hint::black_box(&v);
+    });
+    assert_eq!(n, 1);
+}
+
+#[test]
+fn integrator_steps_do_not_allocate() {
+    // Free flight of the ball (it touches at t ≈ 0.14 s), of the two spheres (touch at 1 ms),
+    // the rail vehicle in rolling contact (no events), the slider-crank with its loop.
+    let mut failures = Vec::new();
+    for m in [Method::Dopri5, Method::Rk4, Method::Sdirk] {
+        failures.extend(check_steps("bouncing_ball", m, 0.001, 0.02).err());
+        failures.extend(check_steps("two_spheres", m, 1e-5, 1e-4).err());
+    }
+    // rk4 at the scene's 1 ms step locates contact events on the rail vehicle; the adaptive
+    // methods roll without any.
+    for m in [Method::Dopri5, Method::Sdirk] {
+        failures.extend(check_steps("rail_vehicle", m, 0.01, 0.01).err());
+    }
+    failures.extend(check_steps("slider_crank", Method::Dopri5, 0.001, 0.005).err());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+// Whole `advance` calls (restart, event handling) — the target is zero; see
+// docs/benchmarks.md for the counts measured and where they come from.
+
+#[test]
+#[ignore = "target missed: each advance restarts the integrator from a cloned state, and event handling allocates (docs/benchmarks.md)"]
+fn bouncing_ball_advance_does_not_allocate() {
+    check("bouncing_ball", Method::Dopri5, 10, 300);
+    check("bouncing_ball", Method::Rk4, 10, 300);
+}
+
+#[test]
+#[ignore = "target missed: each advance restarts the integrator from a cloned state (docs/benchmarks.md)"]
+fn rail_vehicle_and_slider_crank_advance_do_not_allocate() {
+    check("rail_vehicle", Method::Dopri5, 5, 20);
+    check("slider_crank", Method::Dopri5, 10, 200);
+}
