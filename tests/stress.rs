@@ -1,0 +1,270 @@
+//! Quick stability stress cases (the full set is `contact-fmu bench stress`): extreme
+//! stiffness and impact speed against the Hertz closed forms, restitution, independence of
+//! the communication step, resting contact without chatter or drift, Newton's cradle, and
+//! `hertz_ln` touched at a vanishing speed. Every case must finish, or fail with a clear
+//! error where the physics cannot be described.
+
+use contact_fmu::bench::stress::{hertz_duration, hertz_max_penetration, steel_ball_plane_stiffness};
+use contact_fmu::bench::{record, scenes, Outcome, RunSpec};
+use contact_fmu::scene::Method;
+
+const M: f64 = 0.0329;
+
+fn spec(text: String, method: Method, set: &[(&str, f64)], stop: f64, interval: f64) -> RunSpec {
+    let mut s: Vec<(String, f64)> = vec![("solver.method".into(), method as i64 as f64)];
+    s.extend(set.iter().map(|(n, v)| (n.to_string(), *v)));
+    RunSpec {
+        text,
+        origin: "stress".into(),
+        set: s,
+        stop_time: stop,
+        interval,
+    }
+}
+
+fn last(out: &Outcome, name: &str) -> f64 {
+    let c = out.traj.column(name).expect("output recorded");
+    out.traj.rows.last().expect("rows")[c]
+}
+
+fn finished(out: &Outcome, what: &str) {
+    assert!(
+        out.failure.is_none(),
+        "{what}: {}",
+        out.failure.as_deref().unwrap_or("")
+    );
+}
+
+/// Undamped Hertz impact at 1 m/s without gravity: the ball leaves at exactly v0, the largest
+/// penetration is the closed form, energy is conserved — at K = 1e4 and at 1e13 N/m^1.5.
+#[test]
+fn hertz_impact_matches_closed_form_from_soft_to_very_stiff() {
+    for k in [1e4, 1e13] {
+        let v0 = 1.0;
+        let tc = hertz_duration(M, v0, k);
+        let stop = 1e-3 / v0 + 2.0 * tc;
+        let interval = tc / 400.0;
+        let text = scenes::ball_plane(
+            "k",
+            "hertz",
+            1.0,
+            v0,
+            1e-3,
+            false,
+            stop,
+            interval,
+            &format!("stiffness = {k:e}"),
+        );
+        for m in [Method::Dopri5, Method::Sdirk] {
+            let out = record(&spec(text.clone(), m, &[], stop, interval), &["ball.v[3]"]).unwrap();
+            finished(&out, &format!("K={k:e} {}", m.name()));
+            let v = last(&out, "ball.v[3]");
+            assert!(
+                (v - v0).abs() < 1e-5 * v0,
+                "K={k:e} {}: rebound {v} m/s, expected {v0}",
+                m.name()
+            );
+            let dmax = hertz_max_penetration(M, v0, k);
+            // Sampled at t_c/400: the sampled peak is within (π/400)²/2 ≈ 3e-5 of the true one.
+            assert!(
+                (out.max_penetration - dmax).abs() < 1e-4 * dmax,
+                "K={k:e}: largest penetration {} m, closed form {dmax} m",
+                out.max_penetration
+            );
+            assert!(
+                out.energy_error < 1e-6,
+                "K={k:e}: energy balance error {}",
+                out.energy_error
+            );
+        }
+    }
+}
+
+/// A penetration beyond max_penetration is an error the user sees, not silent nonsense.
+#[test]
+fn penetration_beyond_max_penetration_fails_clearly() {
+    // K = 1e4 at 10 m/s: the closed-form penetration 44 mm exceeds the 10 mm radius.
+    let k = 1e4;
+    assert!(hertz_max_penetration(M, 10.0, k) > 0.01);
+    let text = scenes::ball_plane(
+        "deep",
+        "hertz",
+        1.0,
+        10.0,
+        1e-3,
+        false,
+        0.05,
+        1e-4,
+        &format!("stiffness = {k:e}"),
+    );
+    let out = record(&spec(text, Method::Dopri5, &[], 0.05, 1e-4), &[]).unwrap();
+    let msg = out.failure.expect("the run must fail");
+    assert!(msg.contains("max_penetration"), "unclear message: {msg}");
+    assert!(
+        out.penetration_ratio <= 1.0 + 1e-9,
+        "penetration ratio {}",
+        out.penetration_ratio
+    );
+}
+
+/// Steel at 50 m/s and at 1e-3 m/s: finishes, stays within max_penetration, hertz_ln gives
+/// the same rebound ratio at both speeds (the law is rate-scaled by δ̇⁻).
+#[test]
+fn impact_speeds_over_five_decades() {
+    let ks = steel_ball_plane_stiffness();
+    let mut ratios = Vec::new();
+    for v0 in [1e-3, 50.0] {
+        let tc = hertz_duration(M, v0, ks);
+        let stop = 1e-3 + 3.0 * tc;
+        let text = scenes::ball_plane("speed", "hertz_ln", 0.8, v0, v0 * 1e-3, false, stop, stop / 100.0, "");
+        let out = record(&spec(text, Method::Dopri5, &[], stop, stop / 100.0), &["ball.v[3]"]).unwrap();
+        finished(&out, &format!("v0={v0}"));
+        assert!(out.penetration_ratio < 1.0);
+        assert!(
+            out.energy_error < 1e-5,
+            "v0={v0}: energy balance error {}",
+            out.energy_error
+        );
+        ratios.push(last(&out, "ball.v[3]") / v0);
+    }
+    assert!((ratios[0] - ratios[1]).abs() < 1e-4, "rebound ratios {ratios:?}");
+}
+
+/// Flores et al. reproduce the requested restitution for moderate and high e within the
+/// accuracy of their energy-balance approximation (a few per cent; below e ≈ 0.5 the model
+/// dissipates more than requested, 0.26 for e = 0.3, which `bench stress` reports);
+/// e = 1 is elastic for every law.
+#[test]
+fn flores_restitution_over_the_range() {
+    let ks = steel_ball_plane_stiffness();
+    let tc = hertz_duration(M, 1.0, ks);
+    let stop = 1e-3 + 3.0 * tc;
+    for (law, e) in [
+        ("flores", 0.3),
+        ("flores", 0.8),
+        ("flores", 0.95),
+        ("hertz_ln", 1.0),
+        ("hunt_crossley", 1.0),
+    ] {
+        let text = scenes::ball_plane("e", law, e, 1.0, 1e-3, false, stop, stop / 100.0, "");
+        let out = record(&spec(text, Method::Dopri5, &[], stop, stop / 100.0), &["ball.v[3]"]).unwrap();
+        finished(&out, law);
+        let eff = last(&out, "ball.v[3]");
+        assert!((eff - e).abs() < 0.1 * e, "{law} e={e}: effective restitution {eff}");
+        assert!(
+            out.energy_error < 1e-5,
+            "{law} e={e}: energy balance error {}",
+            out.energy_error
+        );
+    }
+}
+
+/// Events are located inside a communication interval: the bouncing ball ends at the same
+/// height whether the host steps by 0.1 ms or by the whole 0.3 s.
+#[test]
+fn result_does_not_depend_on_the_communication_step() {
+    let text = scenes::ball_plane("comm", "hertz_ln", 0.8, 0.0, 0.1, true, 0.3, 1e-3, "");
+    let z = |h: f64| {
+        let out = record(&spec(text.clone(), Method::Dopri5, &[], 0.3, h), &["ball.r[3]"]).unwrap();
+        finished(&out, "comm");
+        last(&out, "ball.r[3]")
+    };
+    let (a, b) = (z(1e-4), z(0.3));
+    // Local error control at rtol 1e-8 over a bounce: a few 1e-8 of the 0.1 m drop.
+    assert!(
+        (a - b).abs() < 1e-6,
+        "z(0.3 s) = {a} with 0.1 ms steps, {b} with one step"
+    );
+}
+
+/// Ten seconds of resting contact: the ball settles at the static Hertz penetration, with no
+/// chatter (no event after it settled) and no energy creep.
+#[test]
+fn resting_contact_settles_without_chatter_or_creep() {
+    let ks = steel_ball_plane_stiffness();
+    let delta = (M * 9.81 / ks).powf(2.0 / 3.0);
+    let text = scenes::ball_plane("rest", "hertz_ln", 0.8, 0.0, 1e-4, true, 10.0, 0.1, "");
+    let s = spec(text, Method::Dopri5, &[], 10.0, 0.1);
+    let mut sim = contact_fmu::bench::setup(&s).unwrap();
+    sim.step_to(5.0).unwrap();
+    let e = sim.engine_mut().unwrap();
+    let events_half = e.counters().events;
+    let [k0, p0, c0, d0] = e.energies();
+    sim.step_to(10.0).unwrap();
+    let e = sim.engine_mut().unwrap();
+    assert_eq!(e.counters().events, events_half, "contact toggled while resting");
+    let [k1, p1, c1, d1] = e.energies();
+    let creep = (k1 + p1 + c1 + d1) - (k0 + p0 + c0 + d0);
+    assert!(creep.abs() < 1e-9 * (M * 9.81 * 0.01), "energy creep {creep} J in 5 s");
+    let z = e.output(contact_fmu::variables::VarRef::BodyPosition(0, 2));
+    assert!((z - (0.01 - delta)).abs() < 1e-12, "z = {z}, static {}", 0.01 - delta);
+}
+
+/// Newton's cradle, pure Hertz: momentum and energy conserved, the last ball leaves with
+/// nearly all the speed (Hertz dispersion leaves a little in the others).
+#[test]
+fn newtons_cradle_conserves_momentum_and_energy() {
+    let n = 5;
+    let v0 = 0.1;
+    let text = scenes::newtons_cradle(n, v0, 1e-5, "hertz", 1.0, 3e-3);
+    for m in [Method::Dopri5, Method::Sdirk] {
+        let out = record(&spec(text.clone(), m, &[], 3e-3, 1e-5), &[]).unwrap();
+        finished(&out, "cradle");
+        let v: Vec<f64> = (0..n).map(|i| last(&out, &format!("b{i}.v[1]"))).collect();
+        let p: f64 = v.iter().sum::<f64>() * M;
+        let e: f64 = v.iter().map(|x| 0.5 * M * x * x).sum();
+        assert!((p - M * v0).abs() < 1e-12 * M * v0, "{}: momentum {p}", m.name());
+        assert!(
+            (e / (0.5 * M * v0 * v0) - 1.0).abs() < 1e-6,
+            "{}: energy ratio {}",
+            m.name(),
+            e / (0.5 * M * v0 * v0)
+        );
+        assert!(v[n - 1] > 0.95 * v0, "{}: last ball {} m/s", m.name(), v[n - 1]);
+    }
+}
+
+/// hertz_ln touched at 1e-8 m/s with no floor on δ̇⁻: the damping term is huge but the
+/// run finishes and the ball rests at the static penetration.
+#[test]
+fn hertz_ln_with_vanishing_impact_velocity() {
+    let ks = steel_ball_plane_stiffness();
+    let delta = (M * 9.81 / ks).powf(2.0 / 3.0);
+    let v = 1e-8;
+    let text = scenes::ball_plane(
+        "slow",
+        "hertz_ln",
+        0.8,
+        v,
+        v * 1e-4,
+        true,
+        0.1,
+        1e-3,
+        "min_impact_velocity = 0.0",
+    );
+    for m in [Method::Dopri5, Method::Sdirk] {
+        let out = record(&spec(text.clone(), m, &[], 0.1, 1e-3), &["ball.r[3]"]).unwrap();
+        finished(&out, m.name());
+        let z = last(&out, "ball.r[3]");
+        assert!((z - (0.01 - delta)).abs() < 1e-12, "{}: z = {z}", m.name());
+        assert!(
+            out.energy_error < 1e-8,
+            "{}: energy balance error {}",
+            m.name(),
+            out.energy_error
+        );
+    }
+}
+
+/// A bar on a revolute pivot whose loop is closed by a redundant coaxial spherical joint,
+/// resting on the floor: it must stay at rest with |Φ| small.
+#[test]
+#[ignore = "fails: step size underflow about 2 s after the loop-closed bar comes to rest (docs/benchmarks.md)"]
+fn resting_bar_with_redundant_loop() {
+    let text = scenes::resting_bar("hertz_ln", 0.8, 5.0, 0.1);
+    for m in [Method::Dopri5, Method::Sdirk] {
+        let out = record(&spec(text.clone(), m, &[], 5.0, 0.1), &["pivot.q"]).unwrap();
+        finished(&out, m.name());
+        assert!(out.constraint_residual < 1e-9, "|Φ| = {}", out.constraint_residual);
+    }
+}
