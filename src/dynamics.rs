@@ -545,13 +545,45 @@ fn displace_positions(m: &Model, qpos: &mut [f64], dv: &[f64]) {
     }
 }
 
+/// Deviation of a joint quaternion's norm from 1 above which [`project_state`] rescales it.
+/// `Q̇ = ½ Q ⊗ w` keeps |Q| constant in exact arithmetic and the kinematics normalise, so the
+/// drift (about `rtol` per second) is harmless; rescaling only keeps it bounded in long runs.
+pub const QUATERNION_NORM_TOL: f64 = 1e-8;
+
+/// Rescales the quaternions of spherical and free joints whose norm drifted from 1 by more than
+/// `tol`. Returns true when one changed.
+fn normalise_quaternions(m: &Model, qpos: &mut [f64], tol: f64) -> bool {
+    let mut changed = false;
+    for j in &m.joints {
+        let a = match j.kind {
+            JointType::Spherical => j.qpos,
+            JointType::Free => j.qpos + 3,
+            _ => continue,
+        };
+        let q = &mut qpos[a..a + 4];
+        let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if (n - 1.0).abs() > tol && n > 0.0 {
+            q.iter_mut().for_each(|x| *x /= n);
+            changed = true;
+        }
+    }
+    changed
+}
+
 /// Projects `d.state` back onto the loop constraints when their residual exceeds `tol`:
 /// Newton iterations on `Φ(q) = 0`, then `Φ_q q̇ = 0`, each the smallest change in the mass
 /// metric (the redundant rows dropped by the pivoted factorisation). Baumgarte stabilisation
 /// keeps the drift small between projections; this removes it. Rows of resting contacts are
-/// held unchanged. Returns true when the state changed (the caller must restart its
-/// integrator). Allocates nothing.
-pub fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
+/// held unchanged. Also rescales drifted joint quaternions ([`QUATERNION_NORM_TOL`]).
+/// Returns true when the state changed (the caller must restart its integrator). Allocates
+/// nothing.
+pub fn project_state(m: &Model, d: &mut Data, tol: f64) -> bool {
+    let rescaled = normalise_quaternions(m, &mut d.state[..m.nq], QUATERNION_NORM_TOL);
+    rescaled | project_loops(m, d, tol)
+}
+
+/// The loop-constraint part of [`project_state`].
+fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
     let nl = loop_row_count(m);
     if nl == 0 {
         return false;

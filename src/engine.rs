@@ -182,10 +182,11 @@ impl Engine {
     }
 
     /// After an accepted step: projects the state back onto the loop constraints when their
-    /// residual exceeds [`dynamics::PROJECTION_TOL`], and then restarts the integrator from the
-    /// corrected state (deterministic, so restored FMU states still continue bit for bit).
+    /// residual exceeds [`dynamics::PROJECTION_TOL`] (and rescales drifted joint quaternions),
+    /// then restarts the integrator from the corrected state (deterministic, so restored FMU
+    /// states still continue bit for bit).
     fn project_after_step(&mut self) {
-        if dynamics::project_loops(&self.model, &mut self.data, dynamics::PROJECTION_TOL) {
+        if dynamics::project_state(&self.model, &mut self.data, dynamics::PROJECTION_TOL) {
             self.restart_with(self.integrator.next_step());
         }
     }

@@ -407,16 +407,192 @@ fn slider_crank_closed_by_prismatic_follows_closed_form() {
     check_slider_crank(true);
 }
 
-#[test]
-#[ignore]
-fn probe_residual_vs_rtol() {
-    for rtol in [1e-6, 1e-7, 1e-8, 1e-10] {
-        for method in ["dopri5"] {
-            let mut s = start(&four_bar(method, rtol, 1.0, 2.0 * PI));
-            let mut resid = 0.0_f64;
-            let tend = if method == "sdirk" { 2.0 } else { 10.0 };
-            run(&mut s, tend, 0.01, |s, _| resid = resid.max(s.engine_mut().unwrap().constraint_residual()));
-            eprintln!("{method} rtol {rtol:e}: four-bar max |Φ| {resid:.3e} over {tend} s, steps {}", get(&mut s, "solver.steps"));
+// ---------------------------------------------------------------------------------------------
+// pendulum: small-oscillation period
+
+/// Zero crossings of a sampled signal, located on the cubic through the four samples around
+/// each sign change.
+fn zero_crossings(t: &[f64], y: &[f64]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for i in 1..y.len().saturating_sub(2) {
+        if (y[i] > 0.0) != (y[i + 1] > 0.0) {
+            let (ts, ys) = (&t[i - 1..i + 3], &y[i - 1..i + 3]);
+            let p = |x: f64| -> f64 {
+                (0..4)
+                    .map(|a| {
+                        let mut l = ys[a];
+                        for b in 0..4 {
+                            if a != b {
+                                l *= (x - ts[b]) / (ts[a] - ts[b]);
+                            }
+                        }
+                        l
+                    })
+                    .sum()
+            };
+            let (mut lo, mut hi) = (t[i], t[i + 1]);
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if (p(mid) > 0.0) == (p(lo) > 0.0) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            out.push(0.5 * (lo + hi));
         }
     }
+    out
+}
+
+#[test]
+fn pendulum_small_oscillation_period() {
+    let (m, d) = (1.3, 0.35);
+    let principal = [0.02, 0.05, 0.04];
+    let q0 = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(0.3, -0.5, 1.0)), 0.8);
+    let r = q0.to_rotation_matrix();
+    let i_c = r.matrix() * Matrix3::from_diagonal(&Vector3::from(principal)) * r.matrix().transpose();
+    let axis = Vector3::y();
+    let i_pivot = axis.dot(&(i_c * axis)) + m * d * d;
+    let omega_n = (m * G * d / i_pivot).sqrt();
+    let amplitude = 1e-4;
+    let w0 = axis * amplitude * omega_n;
+    let com = Vector3::new(0.0, 0.0, -d);
+    let mut t = header("pendulum", [0.0, 0.0, -G], "dopri5", 1e-12, 1e-17, 0.05);
+    t += &body("bob", m, principal, com, q0, w0.cross(&com), w0);
+    t += &joint("pivot", "revolute", "ground", "bob", Vector3::zeros(), Some(axis));
+    let mut s = start(&t);
+    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    let period = 2.0 * PI / omega_n;
+    let dt = 1e-3;
+    let (mut ts, mut qd) = (Vec::new(), Vec::new());
+    run(&mut s, 10.0 * period, dt, |s, t| {
+        ts.push(t);
+        qd.push(get(s, "pivot.qd"));
+    });
+    let z = zero_crossings(&ts, &qd);
+    assert!(z.len() >= 18, "{} crossings", z.len());
+    let measured = 2.0 * (z[z.len() - 1] - z[0]) / (z.len() - 1) as f64;
+    // finite-amplitude correction T = T0 (1 + θ0²/16 + 11 θ0⁴/3072)
+    let expected = period * (1.0 + amplitude * amplitude / 16.0 + 11.0 * amplitude.powi(4) / 3072.0);
+    let rel = (measured - expected).abs() / expected;
+    eprintln!("pendulum period: measured {measured:.12} s, 2π sqrt(I/(m g d)) = {expected:.12} s, relative error {rel:.3e}");
+    assert!(rel < 1e-6, "period off by {rel:.3e}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// prismatic joint with a spring-damper: analytic motion
+
+/// Mass on a tilted prismatic joint pulled by a spring from a ground point on the joint line;
+/// gravity has a component along the line. Returns (scene, s_eq, ω) where s is the distance
+/// from the attachment point.
+fn spring_slider(damping: f64, method: &str, rtol: f64) -> (String, f64, f64) {
+    let (m, k, free) = (2.0, 50.0, 0.8);
+    let a = Vector3::new(1.0, 0.4, 0.6).normalize();
+    let p_ground = Vector3::new(0.2, -0.1, 0.5);
+    let c0 = p_ground + a;
+    let q = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 1.0, 0.0)), 0.4);
+    let mut t = header("spring_slider", [0.0, 0.0, -G], method, rtol, rtol * 1e-3, 0.05);
+    t += &body("block", m, [0.01, 0.012, 0.015], c0, q, at_rest(), at_rest());
+    t += &joint("slide", "prismatic", "ground", "block", c0, Some(a));
+    t += &format!(
+        "[[spring_damper]]\nname = \"spring\"\nbody_a = \"ground\"\npoint_a = {}\nbody_b = \"block\"\npoint_b = {}\nstiffness = {k:?}\ndamping = {damping:?}\nfree_length = {free:?}\n\n",
+        v3(p_ground),
+        v3(c0)
+    );
+    let g_along = Vector3::new(0.0, 0.0, -G).dot(&a);
+    (t, free + m * g_along / k, (k / m).sqrt())
+}
+
+fn check_spring_slider(damping: f64) {
+    let (text, s_eq, w) = spring_slider(damping, "dopri5", 1e-10);
+    let m = 2.0;
+    let zeta = damping / (2.0 * m * w);
+    let wd = w * (1.0 - zeta * zeta).sqrt();
+    let a0 = 1.0 - s_eq;
+    let exact = |t: f64| s_eq + (-zeta * w * t).exp() * (a0 * (wd * t).cos() + zeta * w * a0 / wd * (wd * t).sin());
+    let mut s = start(&text);
+    let e0 = get(&mut s, "energy.total");
+    let (mut err, mut balance) = (0.0_f64, 0.0_f64);
+    run(&mut s, 5.0, 0.01, |s, t| {
+        err = err.max((1.0 + get(s, "slide.q") - exact(t)).abs());
+        balance = balance.max((get(s, "energy.total") + get(s, "energy.dissipated") - e0).abs());
+    });
+    let ke = 0.5 * 50.0 * a0 * a0;
+    eprintln!(
+        "spring slider c = {damping}: max |s − s_exact| = {err:.3e} m (amplitude {a0:.3} m), energy balance {:.3e} of the spring energy",
+        balance / ke
+    );
+    assert!(err < 1e-8 * a0.abs().max(1.0), "position error {err:.3e}");
+    assert!(balance / ke < 1e-8, "energy balance {:.3e}", balance / ke);
+}
+
+#[test]
+fn prismatic_spring_undamped_matches_analytic() {
+    check_spring_slider(0.0);
+}
+
+#[test]
+fn prismatic_spring_damped_matches_analytic() {
+    check_spring_slider(2.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// spherical pendulum: energy and the vertical angular momentum about the pivot
+
+fn spherical_pendulum(method: &str, rtol: f64) -> String {
+    let com = Vector3::new(0.3, 0.1, -0.4);
+    let w0 = Vector3::new(0.5, 2.0, 1.0);
+    let q = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(0.2, -1.0, 0.4)), 1.1);
+    let mut t = header("spherical", [0.0, 0.0, -G], method, rtol, rtol * 1e-2, 0.05);
+    t += &body("top", 1.5, [0.03, 0.05, 0.07], com, q, w0.cross(&com), w0);
+    t += &joint("ball", "spherical", "ground", "top", Vector3::zeros(), None);
+    t
+}
+
+#[test]
+fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
+    let principal = [0.03, 0.05, 0.07];
+    let mut s = start(&spherical_pendulum("dopri5", 1e-10));
+    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    let lz = |s: &mut Simulation| -> f64 {
+        let i_w = world_inertia(s, "top", principal);
+        let (r, v, w) = (vec_out(s, "top.r"), vec_out(s, "top.v"), vec_out(s, "top.w"));
+        (i_w * w + 1.5 * r.cross(&v)).z
+    };
+    let (e0, l0) = (get(&mut s, "energy.total"), lz(&mut s));
+    let (mut de, mut dl, mut ke_max, mut z_min, mut z_max) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64, -1.0_f64);
+    run(&mut s, 10.0, 0.01, |s, _| {
+        de = de.max((get(s, "energy.total") - e0).abs());
+        dl = dl.max((lz(s) - l0).abs());
+        ke_max = ke_max.max(get(s, "energy.kinetic"));
+        let z = get(s, "top.r[3]");
+        z_min = z_min.min(z);
+        z_max = z_max.max(z);
+    });
+    let e = s.engine().unwrap();
+    let j = &e.model().joints[0];
+    let qn: f64 = e.data().state[j.qpos..j.qpos + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+    eprintln!(
+        "spherical pendulum 10 s rtol 1e-10: |ΔE|/KE_max = {:.3e}, |ΔL_z|/|L_z| = {:.3e}, z in [{z_min:.3}, {z_max:.3}], | |Q| − 1 | = {:.1e}",
+        de / ke_max,
+        dl / l0.abs(),
+        (qn - 1.0).abs()
+    );
+    assert!(z_max - z_min > 0.05, "no 3-D motion");
+    assert!(de / ke_max < 1e-8, "energy drift {:.3e}", de / ke_max);
+    assert!(dl / l0.abs() < 1e-8, "L_z drift {:.3e}", dl / l0.abs());
+    assert!((qn - 1.0).abs() < 1e-8, "joint quaternion norm {qn}");
+}
+
+#[test]
+fn long_run_keeps_joint_quaternions_normalised() {
+    // at a loose tolerance the norm of Q drifts by about rtol per second unless rescaled
+    let mut s = start(&spherical_pendulum("dopri5", 1e-6));
+    s.step_to(200.0).unwrap();
+    let e = s.engine().unwrap();
+    let j = &e.model().joints[0];
+    let qn: f64 = e.data().state[j.qpos..j.qpos + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+    eprintln!("spherical pendulum 200 s rtol 1e-6: | |Q| − 1 | = {:.2e}", (qn - 1.0).abs());
+    assert!((qn - 1.0).abs() <= 2.0 * contact_fmu::dynamics::QUATERNION_NORM_TOL, "|Q| = {qn}");
 }
