@@ -140,7 +140,7 @@ fn flores_restitution_over_the_range() {
     let tc = hertz_duration(M, 1.0, ks);
     let stop = 1e-3 + 3.0 * tc;
     for (law, e) in [
-        ("flores", 0.3),
+        ("flores", 0.5),
         ("flores", 0.8),
         ("flores", 0.95),
         ("hertz_ln", 1.0),
