@@ -416,6 +416,7 @@ pub fn constraints(m: &Model, d: &mut Data, qvel: &[f64]) {
             gamma[r] = -row.bias;
         });
     }
+    crate::contact::resting_rows(m, d, &mut phi_q, &mut phi, &mut gamma);
     let alpha = m.baumgarte;
     for r in 0..m.nc {
         let rate: f64 = phi_q[r * nv..(r + 1) * nv].iter().zip(qvel).map(|(a, b)| a * b).sum();

@@ -45,11 +45,19 @@ pub fn evaluate(m: &Model, d: &mut Data, state: &[f64], dy: Option<&mut [f64]>) 
     dynamics::mass_and_bias(m, d);
     let ok = dynamics::factor_mass(m, d);
     if ok {
-        if m.nc > 0 {
+        // The constraint rows: the loops, and the rows of resting impulse contacts (skipped
+        // when there are no loops and nothing rests).
+        let resting = any_resting(m, d);
+        if m.nc > 0 && (resting || contact::loop_rows(m) > 0) {
             let (nq, nv) = (m.nq, m.nv);
             dynamics::constraints(m, d, &state[nq..nq + nv]);
+            dynamics::solve_constrained(m, d);
+            if resting {
+                contact::resting_outputs(m, d);
+            }
+        } else {
+            dynamics::solve_mass(m, &d.mass_blocks, &mut d.qacc);
         }
-        dynamics::solve_constrained(m, d);
     } else {
         d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
     }
@@ -62,20 +70,78 @@ pub fn evaluate(m: &Model, d: &mut Data, state: &[f64], dy: Option<&mut [f64]>) 
     ok
 }
 
+/// True when some impulse-law contact is resting (its constraint row is on).
+fn any_resting(m: &Model, d: &Data) -> bool {
+    m.contacts
+        .iter()
+        .zip(&d.contact_memory)
+        .any(|(c, mem)| mem.active && c.law == Law::Impulse)
+}
+
 impl OdeSystem for Rhs<'_> {
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         evaluate(self.model, self.data, y, Some(dy));
     }
 }
 
+/// What happened at a contact event (see [`ContactEvent`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactEventKind {
+    /// A continuous-law contact starts (δ becomes positive inside the patch).
+    Touch,
+    /// A continuous-law contact ends (δ returns to zero or the sphere leaves the patch).
+    Separation,
+    /// An impulse-law impact (a velocity jump); `delta_dot` is the approach rate before it.
+    Impact,
+    /// An impulse-law contact comes to rest (resting constraint on).
+    Rest,
+    /// A resting contact lets go (its normal force would pull, or the sphere left the patch).
+    Release,
+    /// The damping term cuts the force at zero before δ does (the law would pull).
+    Clamp,
+    /// The cut ends (the law's force is positive again).
+    Unclamp,
+    /// Largest penetration of a continuous-law contact (δ̇ = 0), located on the dense output
+    /// without interrupting the integration.
+    Peak,
+}
+
+/// One located contact event, with the contact's state at that instant. A diagnostic log (see
+/// [`Engine::contact_events`]); not part of the FMU state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactEvent {
+    /// Time [s].
+    pub time: f64,
+    /// Contact index (scene order).
+    pub contact: usize,
+    /// What happened.
+    pub kind: ContactEventKind,
+    /// Penetration δ [m] (signed).
+    pub delta: f64,
+    /// Penetration rate δ̇ [m/s] (for an impact: before it).
+    pub delta_dot: f64,
+    /// Normal force [N] (continuous laws; resting contacts: the constraint force).
+    pub force: f64,
+}
+
+/// Relative tolerance of event location in time.
+const EVENT_TIME_TOL: f64 = 1e-13;
+
+/// Oldest entries are dropped beyond this many logged contact events.
+const EVENT_LOG_CAPACITY: usize = 100_000;
+
 /// Model, data, integrator and event bookkeeping.
 pub struct Engine {
     model: Model,
     data: Data,
     integrator: Box<dyn Integrator + Send>,
-    /// Event functions at the current state.
+    /// Event functions at the current state: per contact its mode function (touch /
+    /// separation / release), then per contact its clamp function (the force law's sign).
     g: Vec<f64>,
     g_new: Vec<f64>,
+    /// Per contact (δ, δ̇) at the current state (δ is the broad-phase stand-in when skipped).
+    aux: Vec<(f64, f64)>,
+    aux_new: Vec<(f64, f64)>,
     y_work: Vec<f64>,
     y_event: Vec<f64>,
     /// True when the integrator holds the current state.
@@ -86,10 +152,22 @@ pub struct Engine {
     base_stats: Stats,
     /// Step size to try at the next restart when the integrator has not run yet.
     next_h: f64,
+    /// Locate the instants a damped law's force is cut at zero (and restart there).
+    clamp_events: bool,
+    /// Diagnostic log of contact events.
+    events: Vec<ContactEvent>,
 }
 
-/// Relative tolerance of event location in time.
-const EVENT_TIME_TOL: f64 = 1e-13;
+/// One scalar function the event locator can follow.
+#[derive(Debug, Clone, Copy)]
+enum Probe {
+    /// Event function `k` of the `g` vector.
+    Event(usize),
+    /// Exact penetration δ of contact `i` (tunnelling check).
+    Delta(usize),
+    /// Penetration rate δ̇ of contact `i` (peaks).
+    Rate(usize),
+}
 
 impl Engine {
     /// Compiles a validated scene.
@@ -102,17 +180,55 @@ impl Engine {
             model,
             data,
             integrator,
-            g: vec![0.0; nc],
-            g_new: vec![0.0; nc],
+            g: vec![0.0; 2 * nc],
+            g_new: vec![0.0; 2 * nc],
+            aux: vec![(0.0, 0.0); nc],
+            aux_new: vec![(0.0, 0.0); nc],
             y_work: vec![0.0; n],
             y_event: vec![0.0; n],
             started: false,
             outputs_valid: false,
             base_stats: Stats::default(),
             next_h: 0.0,
+            clamp_events: true,
+            events: Vec::new(),
         };
-        e.init_contacts();
+        e.init_contacts()
+            .map_err(|err| SceneError::new(origin, "contact", "-", format!("at the initial state: {}", err.message)))?;
         Ok(e)
+    }
+
+    /// The located contact events since compilation (or the last
+    /// [`Engine::clear_contact_events`]), oldest first; at most the last 100 000.
+    pub fn contact_events(&self) -> &[ContactEvent] {
+        &self.events
+    }
+
+    /// Empties the contact event log.
+    pub fn clear_contact_events(&mut self) {
+        self.events.clear();
+    }
+
+    /// Turns the location of force cuts ([`ContactEventKind::Clamp`]) on (default) or off.
+    /// Off, the integrator steps over the kink of a damped law's force at zero, with only its
+    /// error control to notice it.
+    pub fn set_clamp_events(&mut self, on: bool) {
+        self.clamp_events = on;
+        self.started = false;
+    }
+
+    fn log(&mut self, contact: usize, kind: ContactEventKind, delta: f64, delta_dot: f64, force: f64) {
+        if self.events.len() >= EVENT_LOG_CAPACITY {
+            self.events.drain(..EVENT_LOG_CAPACITY / 2);
+        }
+        self.events.push(ContactEvent {
+            time: self.data.time,
+            contact,
+            kind,
+            delta,
+            delta_dot,
+            force,
+        });
     }
 
     /// The compiled model.
@@ -146,8 +262,9 @@ impl Engine {
     }
 
     /// Contacts that overlap at the initial state start active, with δ̇⁻ from the initial
-    /// rate (floored).
-    fn init_contacts(&mut self) {
+    /// rate (floored); impulse-law contacts that touch are resolved (an impact at the start
+    /// if they approach, resting if they press).
+    fn init_contacts(&mut self) -> Result<(), EngineError> {
         let m = &self.model;
         let d = &mut self.data;
         let state = d.state.clone();
@@ -155,21 +272,103 @@ impl Engine {
         for i in 0..m.contacts.len() {
             let g = contact::gap(m, d, i);
             let c = &m.contacts[i];
-            let ev = contact::event_function(c, &g);
-            self.g[i] = ev;
-            if ev > 0.0 && c.law != Law::Impulse {
+            if contact::event_function(c, &g) > 0.0 && c.law != Law::Impulse {
                 d.contact_memory[i].active = true;
                 d.contact_memory[i].impact_velocity = g.delta_dot.max(c.min_impact_velocity);
             }
         }
+        if m.contacts.iter().any(|c| c.law == Law::Impulse) {
+            evaluate(m, d, &state, None);
+            self.settle_impulse_contacts()?;
+        }
+        let state = self.data.state.clone();
+        self.compute_events(&state, false);
+        Ok(())
     }
 
-    fn event_values(m: &Model, d: &mut Data, state: &[f64], out: &mut [f64]) {
-        dynamics::kinematics(m, d, state);
-        for (i, o) in out.iter_mut().enumerate() {
-            let c = &m.contacts[i];
-            *o = contact::event_function(c, &contact::gap(m, d, i));
+    /// Evaluates the event functions and the per-contact (δ, δ̇) at `state` into `g`/`aux`
+    /// (`into_new`: into `g_new`/`aux_new`).
+    fn compute_events(&mut self, state: &[f64], into_new: bool) {
+        let (m, d) = (&self.model, &mut self.data);
+        let (g, aux) = if into_new {
+            (&mut self.g_new, &mut self.aux_new)
+        } else {
+            (&mut self.g, &mut self.aux)
+        };
+        Self::event_values(m, d, state, self.clamp_events, g, aux);
+    }
+
+    fn event_values(m: &Model, d: &mut Data, state: &[f64], clamp: bool, out: &mut [f64], aux: &mut [(f64, f64)]) {
+        if any_resting(m, d) {
+            evaluate(m, d, state, None);
+        } else {
+            dynamics::kinematics(m, d, state);
         }
+        let nc = m.contacts.len();
+        for i in 0..nc {
+            let (mode, clamp_value, a) = Self::contact_event_values(m, d, i, clamp);
+            out[i] = mode;
+            out[nc + i] = clamp_value;
+            aux[i] = a;
+        }
+    }
+
+    /// Mode function, clamp function and (δ, δ̇) of contact `i` at the evaluated state.
+    fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64, f64)) {
+        let c = &m.contacts[i];
+        let mem = d.contact_memory[i];
+        if c.law == Law::Impulse && mem.active {
+            // Resting: holds while the normal force pushes and the sphere stays on the patch.
+            let g = contact::gap(m, d, i);
+            return (
+                contact::resting_force(m, d, i).min(g.margin),
+                1.0,
+                (g.delta, g.delta_dot),
+            );
+        }
+        if let Some(v) = contact::broad_phase(c, d) {
+            return (v, 1.0, (v, 0.0));
+        }
+        let g = contact::gap(m, d, i);
+        let clamp_value = if clamp && mem.active && c.law != Law::Impulse && contact::laws::can_clamp(c) {
+            contact::laws::clamp_function(c, g.delta.max(0.0), g.delta_dot, mem.impact_velocity)
+        } else {
+            1.0
+        };
+        let mut mode = contact::event_function(c, &g);
+        if c.law == Law::Impulse && g.delta_dot < 0.0 {
+            // An impulse contact that separates is apart whatever its (tiny) overlap: the
+            // state right after an impact (located a hair past δ = 0) must not count as in
+            // contact, or a bounce shorter than one step would go unseen.
+            mode = mode.min(0.0);
+        }
+        (mode, clamp_value, (g.delta, g.delta_dot))
+    }
+
+    /// The value of one probe at the evaluated state.
+    fn probe_value(m: &Model, d: &Data, probe: Probe, clamp: bool) -> f64 {
+        let nc = m.contacts.len();
+        match probe {
+            Probe::Event(k) if k < nc => Self::contact_event_values(m, d, k, clamp).0,
+            Probe::Event(k) => Self::contact_event_values(m, d, k - nc, clamp).1,
+            Probe::Delta(i) => contact::gap(m, d, i).delta,
+            Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
+        }
+    }
+
+    /// Evaluates `probe` on the dense output at `t` (leaves the interpolated state in
+    /// `y_event` and the data evaluated there).
+    fn probe_at(&mut self, probe: Probe, t: f64) -> f64 {
+        self.integrator.interpolate(t, &mut self.y_event);
+        let (m, d) = (&self.model, &mut self.data);
+        let needs_dynamics = matches!(probe, Probe::Event(k) if k < m.contacts.len()
+            && m.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
+        if needs_dynamics {
+            evaluate(m, d, &self.y_event, None);
+        } else {
+            dynamics::kinematics(m, d, &self.y_event);
+        }
+        Self::probe_value(m, d, probe, self.clamp_events)
     }
 
     /// The step size the next restart will try.
@@ -199,9 +398,28 @@ impl Engine {
             data: &mut self.data,
         };
         self.integrator.reset(&mut rhs, t, &state, h);
-        let (m, d) = (&self.model, &mut self.data);
-        Self::event_values(m, d, &state, &mut self.g);
+        self.compute_events(&state, false);
         self.started = true;
+    }
+
+    /// True when the crossing of event function `k` from `g0` to `g1` needs handling (an
+    /// impulse contact leaving its zone after an impact does not; a cut of the force only
+    /// matters while the contact is active).
+    fn relevant_crossing(&self, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
+        let crossed = (g0 <= 0.0) != (g1 <= 0.0);
+        if !crossed {
+            return false;
+        }
+        let nc = self.model.contacts.len();
+        if k >= nc {
+            return self.data.contact_memory[k - nc].active;
+        }
+        let c = &self.model.contacts[k];
+        if c.law == Law::Impulse && !self.data.contact_memory[k].active && g1 <= 0.0 {
+            // Leaving after an impact: nothing to do, unless δ went past δ_max.
+            return delta1 >= 0.5 * c.max_penetration;
+        }
+        true
     }
 
     /// Integrates to `t_end`, locating and handling contact events.
@@ -213,11 +431,18 @@ impl Engine {
             });
         }
         self.outputs_valid = false;
+        // An input changed at this communication point may have made a resting contact pull.
+        if any_resting(&self.model, &self.data) && self.resting_violated() {
+            self.settle_impulse_contacts()?;
+        }
         // Every advance restarts the method from the current state (one extra evaluation),
         // so that a restored FMU state continues bit for bit like the original.
         self.restart_with(self.pending_step());
         let nc = self.model.contacts.len();
-        while self.data.time < t_end {
+        // A remainder of a few ulps (a step or an event that ended a rounding error short of
+        // t_end) is not a step any method can take.
+        let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
+        while t_end - self.data.time > t_close {
             {
                 let mut rhs = Rhs {
                     model: &self.model,
@@ -246,38 +471,82 @@ impl Engine {
                 self.project_after_step();
                 continue;
             }
-            let (m, d) = (&self.model, &mut self.data);
-            let mut gn = std::mem::take(&mut self.g_new);
-            Self::event_values(m, d, &self.y_work, &mut gn);
-            self.g_new = gn;
-            let crossed = |a: f64, b: f64| (a <= 0.0) != (b <= 0.0);
-            if !(0..nc).any(|i| crossed(self.g[i], self.g_new[i])) {
+            let y1 = std::mem::take(&mut self.y_work);
+            self.compute_events(&y1, true);
+            self.y_work = y1;
+            let t0 = self.integrator.t_prev();
+            // Earliest relevant crossing.
+            let mut t_first = t1;
+            let mut any = false;
+            for k in 0..2 * nc {
+                let delta1 = self.aux_new[k % nc].0;
+                if self.relevant_crossing(k, self.g[k], self.g_new[k], delta1) {
+                    let t = self.locate(Probe::Event(k), t0, t1, self.g[k], self.g_new[k], t_first);
+                    any = true;
+                    t_first = t_first.min(t);
+                }
+            }
+            // Tunnelling: δ of a contact that is not in contact crossed zero without its event
+            // function turning positive at the end of the step (it passed δ_max or the patch).
+            for i in 0..nc {
+                let (d0, d1) = (self.aux[i].0, self.aux_new[i].0);
+                if self.data.contact_memory[i].active || !(d0 <= 0.0 && d1 > 0.0) || self.g_new[i] > 0.0 {
+                    continue;
+                }
+                let d0_exact = {
+                    self.integrator.interpolate(t0, &mut self.y_event);
+                    let (m, d) = (&self.model, &mut self.data);
+                    dynamics::kinematics(m, d, &self.y_event);
+                    contact::gap(m, d, i).delta
+                };
+                if d0_exact > 0.0 {
+                    continue;
+                }
+                let t = self.locate(Probe::Delta(i), t0, t1, d0_exact, d1, t_first);
+                if t < t_first && self.probe_at(Probe::Event(i), t) > 0.0 {
+                    any = true;
+                    t_first = t;
+                }
+            }
+            // Peaks of continuous contacts inside the accepted part of the step (diagnostic).
+            for i in 0..nc {
+                let c = &self.model.contacts[i];
+                if c.law == Law::Impulse || !self.data.contact_memory[i].active {
+                    continue;
+                }
+                let (r0, r1) = (self.aux[i].1, self.aux_new[i].1);
+                if r0 > 0.0 && r1 <= 0.0 {
+                    let t = self.locate(Probe::Rate(i), t0, t1, r0, r1, t1);
+                    if t <= t_first {
+                        self.integrator.interpolate(t, &mut self.y_event);
+                        let (m, d) = (&self.model, &mut self.data);
+                        dynamics::kinematics(m, d, &self.y_event);
+                        let g = contact::gap(m, d, i);
+                        let mem = d.contact_memory[i];
+                        let f =
+                            contact::laws::force(&m.contacts[i], g.delta.max(0.0), g.delta_dot, mem.impact_velocity);
+                        let saved = self.data.time;
+                        self.data.time = t;
+                        self.log(i, ContactEventKind::Peak, g.delta, g.delta_dot, f.total);
+                        self.data.time = saved;
+                    }
+                }
+            }
+            if !any {
                 self.data.state.copy_from_slice(&self.y_work);
                 self.data.time = t1;
                 std::mem::swap(&mut self.g, &mut self.g_new);
+                std::mem::swap(&mut self.aux, &mut self.aux_new);
                 self.project_after_step();
                 continue;
-            }
-            // Locate the earliest crossing by bisection-secant (Illinois) on each crossing
-            // function, then take the right end of its bracket.
-            let t0 = self.integrator.t_prev();
-            let mut t_first = t1;
-            for i in 0..nc {
-                if crossed(self.g[i], self.g_new[i]) {
-                    let tr = self.locate(i, t0, t1, self.g[i], self.g_new[i], t_first);
-                    if tr < t_first {
-                        t_first = tr;
-                    }
-                }
             }
             self.integrator.interpolate(t_first, &mut self.y_event);
             self.data.state.copy_from_slice(&self.y_event);
             self.data.time = t_first;
             self.data.counters.events += 1;
-            let mut gn = std::mem::take(&mut self.g_new);
-            let (m, d) = (&self.model, &mut self.data);
-            Self::event_values(m, d, &self.y_event, &mut gn);
-            self.g_new = gn;
+            let ye = std::mem::take(&mut self.y_event);
+            self.compute_events(&ye, true);
+            self.y_event = ye;
             let result = self.handle_events();
             let h = self.integrator.next_step();
             self.restart_with(h);
@@ -288,8 +557,10 @@ impl Engine {
         Ok(())
     }
 
-    /// Finds the right end of the bracket of a sign change of event `i` in `[t0, t1]`.
-    fn locate(&mut self, i: usize, t0: f64, t1: f64, g0: f64, g1: f64, t_limit: f64) -> f64 {
+    /// Finds the right end of the bracket of a sign change of `probe` in `[t0, t1]` (values
+    /// `g0`, `g1` at the ends) by the Illinois method; stops early once the bracket lies
+    /// beyond `t_limit` (a crossing found earlier wins).
+    fn locate(&mut self, probe: Probe, t0: f64, t1: f64, g0: f64, g1: f64, t_limit: f64) -> f64 {
         let (mut a, mut b, mut ga, mut gb) = (t0, t1, g0, g1);
         let mut side = 0;
         let tol = EVENT_TIME_TOL * t1.abs().max(1e-3);
@@ -301,10 +572,7 @@ impl Engine {
             if !(t > a && t < b) {
                 t = 0.5 * (a + b);
             }
-            self.integrator.interpolate(t, &mut self.y_event);
-            let (m, d) = (&self.model, &mut self.data);
-            dynamics::kinematics(m, d, &self.y_event);
-            let gt = contact::event_function(&m.contacts[i], &contact::gap(m, d, i));
+            let gt = self.probe_at(probe, t);
             if (gt <= 0.0) == (ga <= 0.0) {
                 a = t;
                 ga = gt;
@@ -324,48 +592,165 @@ impl Engine {
         b
     }
 
+    /// True when a resting contact's normal force does not push or it left its patch.
+    fn resting_violated(&mut self) -> bool {
+        let state = self.data.state.clone();
+        let (m, d) = (&self.model, &mut self.data);
+        evaluate(m, d, &state, None);
+        (0..m.contacts.len()).any(|i| {
+            m.contacts[i].law == Law::Impulse
+                && d.contact_memory[i].active
+                && Self::contact_event_values(m, d, i, false).0 <= 0.0
+        })
+    }
+
     /// Applies the mode changes at an event state (`self.g` before, `self.g_new` now).
     fn handle_events(&mut self) -> Result<(), EngineError> {
-        let m = &self.model;
         let state = self.data.state.clone();
-        evaluate(m, &mut self.data, &state, None);
-        let mut impacts: Vec<usize> = Vec::new();
-        for i in 0..m.contacts.len() {
+        evaluate(&self.model, &mut self.data, &state, None);
+        let nc = self.model.contacts.len();
+        let mut impulse_work = false;
+        for i in 0..nc {
+            let c = &self.model.contacts[i];
+            let gap = contact::gap(&self.model, &self.data, i);
+            let mem = self.data.contact_memory[i];
             let (before, now) = (self.g[i], self.g_new[i]);
-            let c = &m.contacts[i];
-            let gap = contact::gap(m, &self.data, i);
-            if before <= 0.0 && now > 0.0 {
-                // touch
-                if c.law == Law::Impulse {
-                    if gap.delta_dot > 0.0 {
-                        impacts.push(i);
-                    }
+            let crossed = self.relevant_crossing(i, before, now, gap.delta);
+            if crossed
+                && now <= 0.0
+                && !(c.law == Law::Impulse && mem.active)
+                && gap.delta >= c.max_penetration * (1.0 - 1e-9)
+            {
+                return Err(EngineError {
+                    time: self.data.time,
+                    message: format!(
+                        "contact {:?}: penetration {:.6e} m reached max_penetration {:.6e} m (the contact is too \
+                         soft or the impact too fast for this model, or the step too long: raise max_penetration or \
+                         stiffness, or lower solver.max_step)",
+                        c.name, gap.delta, c.max_penetration
+                    ),
+                });
+            }
+            if c.law == Law::Impulse {
+                impulse_work |= crossed;
+                continue;
+            }
+            if crossed {
+                if now > 0.0 && !mem.active {
+                    let v = gap.delta_dot.max(c.min_impact_velocity);
+                    let m = &mut self.data.contact_memory[i];
+                    m.active = true;
+                    m.impact_velocity = v;
+                    self.log(i, ContactEventKind::Touch, gap.delta, gap.delta_dot, 0.0);
+                } else if now <= 0.0 && mem.active {
+                    self.data.contact_memory[i].active = false;
+                    self.log(i, ContactEventKind::Separation, gap.delta, gap.delta_dot, 0.0);
+                }
+            }
+            if self.relevant_crossing(nc + i, self.g[nc + i], self.g_new[nc + i], gap.delta) {
+                let kind = if self.g_new[nc + i] <= 0.0 {
+                    ContactEventKind::Clamp
                 } else {
-                    let mem = &mut self.data.contact_memory[i];
-                    mem.active = true;
-                    mem.impact_velocity = gap.delta_dot.max(c.min_impact_velocity);
-                }
-            } else if before > 0.0 && now <= 0.0 {
-                let mem = &mut self.data.contact_memory[i];
-                if mem.active && gap.delta >= c.max_penetration * (1.0 - 1e-9) {
-                    return Err(EngineError {
-                        time: self.data.time,
-                        message: format!(
-                            "contact {:?}: penetration {:.6e} m reached max_penetration {:.6e} m (the contact is too soft or the impact too fast for this model)",
-                            c.name, gap.delta, c.max_penetration
-                        ),
-                    });
-                }
-                mem.active = false;
+                    ContactEventKind::Unclamp
+                };
+                let f = self.data.contact_out[i].force;
+                self.log(i, kind, gap.delta, gap.delta_dot, f);
             }
         }
-        if !impacts.is_empty() {
-            let lost = impulse::resolve(m, &mut self.data, &impacts).map_err(|message| EngineError {
-                time: self.data.time,
-                message,
-            })?;
+        if impulse_work {
+            self.settle_impulse_contacts()?;
+        }
+        Ok(())
+    }
+
+    /// Resolves the impulse-law contacts at the current (evaluated) state: rounds of
+    /// simultaneous impacts of the touching contacts that approach, until none does
+    /// (an impact can make a neighbour approach: Newton's cradle); approach slower than
+    /// `min_impact_velocity` is plastic (e = 0). Then the touching contacts that neither
+    /// approach nor separate rest if their constraint force pushes (an active set: the most
+    /// tensile one is dropped until all push).
+    fn settle_impulse_contacts(&mut self) -> Result<(), EngineError> {
+        let nc = self.model.contacts.len();
+        let err = |time: f64, message: String| EngineError { time, message };
+        let time = self.data.time;
+        let max_rounds = 100 + 20 * nc;
+        let mut rounds = 0;
+        loop {
+            let (m, d) = (&self.model, &mut self.data);
+            let mut set = Vec::new();
+            let mut e = Vec::new();
+            let mut approach = Vec::new();
+            for (i, c) in m.contacts.iter().enumerate() {
+                if c.law != Law::Impulse {
+                    continue;
+                }
+                let g = contact::gap(m, d, i);
+                if touching(c, &g, d.contact_memory[i].active) && g.delta_dot > velocity_tolerance(c) {
+                    set.push(i);
+                    e.push(impulse::restitution_for(c, g.delta_dot));
+                    approach.push((g.delta, g.delta_dot));
+                }
+            }
+            if set.is_empty() {
+                break;
+            }
+            rounds += 1;
+            if rounds > max_rounds {
+                let names: Vec<&str> = set.iter().map(|&i| m.contacts[i].name.as_str()).collect();
+                return Err(err(
+                    time,
+                    format!("impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"),
+                ));
+            }
+            let lost = impulse::resolve(m, d, &set, &e).map_err(|msg| err(time, msg))?;
             let di = m.dissipated_index();
-            self.data.state[di] += lost;
+            d.state[di] += lost;
+            for (k, &i) in set.iter().enumerate() {
+                self.log(i, ContactEventKind::Impact, approach[k].0, approach[k].1, 0.0);
+            }
+        }
+        // Resting set.
+        let (m, d) = (&self.model, &mut self.data);
+        let was: Vec<bool> = d.contact_memory.iter().map(|x| x.active).collect();
+        let mut candidates = Vec::new();
+        for (i, c) in m.contacts.iter().enumerate() {
+            if c.law != Law::Impulse {
+                continue;
+            }
+            let g = contact::gap(m, d, i);
+            let rest = touching(c, &g, was[i]) && g.margin > 0.0 && g.delta_dot.abs() <= velocity_tolerance(c);
+            d.contact_memory[i].active = rest;
+            if rest {
+                candidates.push(i);
+            }
+        }
+        let state = d.state.clone();
+        evaluate(m, d, &state, None);
+        while !candidates.is_empty() {
+            let (k, p) = candidates
+                .iter()
+                .enumerate()
+                .map(|(k, &i)| (k, contact::resting_force(m, d, i)))
+                .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+            if p > 0.0 {
+                break;
+            }
+            let i = candidates.remove(k);
+            d.contact_memory[i].active = false;
+            evaluate(m, d, &state, None);
+        }
+        for i in 0..nc {
+            let now = self.data.contact_memory[i].active;
+            if self.model.contacts[i].law == Law::Impulse && now != was[i] {
+                let g = contact::gap(&self.model, &self.data, i);
+                let f = contact::resting_force(&self.model, &self.data, i);
+                let kind = if now {
+                    ContactEventKind::Rest
+                } else {
+                    ContactEventKind::Release
+                };
+                self.log(i, kind, g.delta, g.delta_dot, f);
+            }
         }
         Ok(())
     }
@@ -543,9 +928,20 @@ impl Engine {
         self.outputs_valid = false;
         self.started = false;
         self.next_h = h;
-        let (m, d) = (&self.model, &mut self.data);
-        let state = d.state.clone();
-        Self::event_values(m, d, &state, &mut self.g);
+        let state = self.data.state.clone();
+        self.compute_events(&state, false);
         Ok(())
     }
+}
+
+/// Touching for the impulse law: resting, or within a hair of δ = 0 (simultaneous impacts)
+/// or overlapping, on the patch and short of δ_max.
+fn touching(c: &contact::ContactElement, g: &contact::Gap, resting: bool) -> bool {
+    (resting || g.delta >= -1e-10 * c.radius) && g.margin > 0.0 && g.delta < c.max_penetration
+}
+
+/// Normal speeds below this count as zero for the impulse law (neither approach nor
+/// separation) [m/s].
+fn velocity_tolerance(c: &contact::ContactElement) -> f64 {
+    (1e-6 * c.min_impact_velocity).max(1e-12)
 }

@@ -183,7 +183,8 @@ pub struct Model {
     pub scene_joint: Vec<Result<usize, usize>>,
     /// Loop-closing constraints.
     pub loops: Vec<LoopConstraint>,
-    /// Total constraint rows.
+    /// Total constraint rows: the loops' rows, then one row per impulse-law contact (its
+    /// resting mode; zero while the contact does not rest).
     pub nc: usize,
     /// Spring-dampers.
     pub springs: Vec<SpringDamper>,
@@ -592,6 +593,8 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
             },
         )?);
     }
+    // One constraint row per impulse-law contact after the loop rows (its resting mode).
+    nc = contact::reserve_constraint_rows(&mut contacts, nc);
 
     let inputs = scene
         .input

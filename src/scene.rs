@@ -332,6 +332,19 @@ pub enum Side {
     Inside,
 }
 
+/// How the impulse law computes the normal impulse of an impact.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ImpulseMethod {
+    /// Generalised impulse-momentum balance in joint coordinates with the loops closed
+    /// (PHYSICS.md §3.1): Newton's law `J q̇⁺ = −e J q̇⁻` holds exactly.
+    #[default]
+    Exact,
+    /// The paper's effective masses (17) and velocity formulas (18)-(19) (with the corrected
+    /// (19)); an approximation kept for comparison.
+    EffectiveMass,
+}
+
 /// `[[contact]]`
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -411,9 +424,13 @@ pub struct ContactSpec {
     /// Largest admissible penetration [m].
     #[serde(default)]
     pub max_penetration: Option<f64>,
-    /// Floor on the remembered impact velocity δ̇⁻ [m/s].
+    /// Floor on the remembered impact velocity δ̇⁻ [m/s]; for the impulse law, approach
+    /// speeds below it end in a resting contact.
     #[serde(default)]
     pub min_impact_velocity: Option<f64>,
+    /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
+    #[serde(default)]
+    pub impulse_method: ImpulseMethod,
 }
 
 fn default_restitution() -> f64 {

@@ -109,10 +109,10 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
             let dist = radial.norm();
             let er = if dist > 0.0 { radial / dist } else { fo.rot * reference };
             let mut margin = half_length - s.abs();
-            if let Some([lo, hi]) = theta_range {
+            if let Some(range) = theta_range {
                 let refw = fo.rot * reference;
                 let theta = er.dot(&k.cross(&refw)).atan2(er.dot(&refw));
-                margin = margin.min(radius * (theta - lo)).min(radius * (hi - theta));
+                margin = margin.min(radius * angular_margin(theta, *range));
             }
             let surface = a0 + k * s + er * *radius;
             if *inside {
@@ -131,4 +131,80 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
         point,
         margin,
     }
+}
+
+/// Signed angular margin [rad] of the angle `theta` inside the arc `[lo, hi]` (measured
+/// counter-clockwise about the axis): half the arc minus the angular distance from its middle,
+/// wrapped to `[0, π]`. Continuous in θ everywhere (no jump at ±π), positive strictly inside.
+/// An arc of 2π or more has no edge (infinite margin).
+pub fn angular_margin(theta: f64, [lo, hi]: [f64; 2]) -> f64 {
+    let half = 0.5 * (hi - lo);
+    if half >= std::f64::consts::PI {
+        return f64::INFINITY;
+    }
+    let mid = 0.5 * (hi + lo);
+    let off = (theta - mid).rem_euclid(std::f64::consts::TAU);
+    let dist = if off > std::f64::consts::PI {
+        std::f64::consts::TAU - off
+    } else {
+        off
+    };
+    half - dist
+}
+
+/// Centre of the other shape's bounding sphere, in its body frame (see
+/// [`ContactElement::bound_radius`]).
+pub fn bound_center(shape: &Shape) -> Vector3<f64> {
+    match shape {
+        Shape::Sphere { center, .. } => *center,
+        Shape::Plane { origin, .. } => *origin,
+        Shape::Cylinder { point, .. } => *point,
+    }
+}
+
+/// Second time derivative of the separation `s = −δ` at zero joint accelerations (the
+/// velocity-product part `J̇ q̇` of `s̈ = J q̈ + J̇ q̇`), for the resting-contact constraint.
+///
+/// With `u = v_sphere(c) − v_other(c)` the velocity of the sphere centre `c` relative to the
+/// other body's material point at `c`, and `H` the Hessian of the distance function of the
+/// shape (zero for a plane; `(I − n nᵀ)/d` for a sphere; `±(I − k kᵀ − n nᵀ)/d` for a
+/// cylinder, `d` the distance to the centre or axis):
+/// `s̈₀ = n · (a_c − a_other(c) − 2 ω_other × u) + uᵀ H u`.
+pub fn separation_acceleration_bias(c: &ContactElement, fs: &Frame, fo: &Frame, g: &Gap) -> f64 {
+    use crate::spatial::point_acceleration;
+    let center = fs.pos + fs.rot * c.center;
+    let u = fs.vel.point_velocity(&center) - fo.vel.point_velocity(&center);
+    let a_rel = point_acceleration(&fs.acc, &fs.vel, &center) - point_acceleration(&fo.acc, &fo.vel, &center);
+    let n = g.normal;
+    let un = u.dot(&n);
+    let curvature = match &c.shape {
+        Shape::Plane { .. } => 0.0,
+        Shape::Sphere { center: oc, .. } => {
+            let dist = (center - (fo.pos + fo.rot * oc)).norm();
+            if dist > 0.0 {
+                (u.norm_squared() - un * un) / dist
+            } else {
+                0.0
+            }
+        }
+        Shape::Cylinder {
+            point, axis, inside, ..
+        } => {
+            let k = fo.rot * axis;
+            let d = center - (fo.pos + fo.rot * point);
+            let dist = (d - k * d.dot(&k)).norm();
+            let uk = u.dot(&k);
+            let t = if dist > 0.0 {
+                (u.norm_squared() - uk * uk - un * un) / dist
+            } else {
+                0.0
+            };
+            if *inside {
+                -t
+            } else {
+                t
+            }
+        }
+    };
+    n.dot(&(a_rel - 2.0 * fo.vel.ang.cross(&u))) + curvature
 }

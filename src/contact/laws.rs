@@ -1,9 +1,12 @@
 //! Contact force laws (paper (20)-(26) and the modern Hunt-Crossley and Flores laws).
 //!
 //! Every law returns the total normal force, its elastic part `K δ^n` and the elastic energy
-//! `K δ^(n+1)/(n+1)`. The force never pulls: a damping term that would make the total
-//! negative (a tensile force near separation) is cut at zero, and the energy balance counts
-//! the difference `(F − F_elastic) δ̇` as dissipated power.
+//! `K δ^(n+1)/(n+1)` (Kelvin-Voigt: `K δ²/2`). The force never pulls: a damping term that
+//! would make the total negative (a tensile force near separation, which Kelvin-Voigt always
+//! produces and the hysteresis laws produce when the exit rate exceeds what their damping
+//! factor assumes) is cut at zero, and the energy balance counts the difference
+//! `(F − F_elastic) δ̇` as dissipated power. The unclamped value is returned as well, so the
+//! engine can locate the instant the cut starts.
 
 use super::ContactElement;
 use crate::scene::Law;
@@ -13,16 +16,30 @@ use crate::scene::Law;
 pub struct Force {
     /// Total normal force, ≥ 0 [N].
     pub total: f64,
+    /// The law's value before the cut at zero (negative: the law would pull) [N].
+    pub unclamped: f64,
     /// Elastic part [N].
     pub elastic: f64,
     /// Elastic energy stored [J].
     pub energy: f64,
 }
 
-/// Normal force of contact `c` at penetration `delta` ≥ 0, rate `delta_dot` and remembered
-/// impact velocity `impact_velocity` (δ̇⁻, already floored).
+/// Damping factor `d` of the hysteresis laws, `F = K δ^n (1 + d δ̇/δ̇⁻)`:
+/// Lankarani-Nikravesh (26) `3(1 − e²)/4`, Hunt-Crossley `3(1 − e)/2`, Flores `8(1 − e)/(5e)`.
+/// Zero for the other laws.
+pub fn hysteresis_factor(law: Law, e: f64) -> f64 {
+    match law {
+        Law::HertzLn => 0.75 * (1.0 - e * e),
+        Law::HuntCrossley => 1.5 * (1.0 - e),
+        Law::Flores => 1.6 * (1.0 - e) / e,
+        _ => 0.0,
+    }
+}
+
+/// Normal force of contact `c` at penetration `delta` ≥ 0 [m], rate `delta_dot` [m/s] and
+/// remembered impact velocity `impact_velocity` (δ̇⁻, already floored) [m/s].
 pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f64) -> Force {
-    let (k, n, e) = (c.stiffness, c.exponent, c.restitution);
+    let (k, n) = (c.stiffness, c.exponent);
     let (elastic, energy) = match c.law {
         Law::KelvinVoigt => (k * delta, 0.5 * k * delta * delta),
         _ => {
@@ -30,17 +47,41 @@ pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f6
             (k * p, k * p * delta / (n + 1.0))
         }
     };
-    let v = impact_velocity;
-    let total = match c.law {
+    let unclamped = match c.law {
         Law::KelvinVoigt => elastic + c.damping * delta_dot,
         Law::Hertz | Law::Impulse => elastic,
-        Law::HertzLn => elastic * (1.0 + 0.75 * (1.0 - e * e) * delta_dot / v),
-        Law::HuntCrossley => elastic * (1.0 + 1.5 * (1.0 - e) * delta_dot / v),
-        Law::Flores => elastic * (1.0 + 1.6 * (1.0 - e) / e * delta_dot / v),
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => {
+            elastic * (1.0 + hysteresis_factor(c.law, c.restitution) * delta_dot / impact_velocity)
+        }
     };
     Force {
-        total: total.max(0.0),
+        total: unclamped.max(0.0),
+        unclamped,
         elastic,
         energy,
+    }
+}
+
+/// True for the laws whose force can be cut at zero before δ returns to zero (they have a
+/// damping term).
+pub fn can_clamp(c: &ContactElement) -> bool {
+    match c.law {
+        Law::KelvinVoigt => c.damping > 0.0,
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => hysteresis_factor(c.law, c.restitution) > 0.0,
+        Law::Hertz | Law::Impulse => false,
+    }
+}
+
+/// A function whose sign tells whether the law is cut at zero at this instant (negative: the
+/// unclamped law would pull): `K δ + c δ̇` for Kelvin-Voigt, the hysteresis bracket
+/// `1 + d δ̇/δ̇⁻` for the Hertz family (its sign is the force's for δ > 0, and it does not
+/// vanish together with δ at separation), 1 for laws without damping.
+pub fn clamp_function(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f64) -> f64 {
+    match c.law {
+        Law::KelvinVoigt => c.stiffness * delta + c.damping * delta_dot,
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => {
+            1.0 + hysteresis_factor(c.law, c.restitution) * delta_dot / impact_velocity
+        }
+        Law::Hertz | Law::Impulse => 1.0,
     }
 }

@@ -9,12 +9,20 @@
 //! contact point `p`, so the same coefficient vectors give δ̇, the Jacobian row of the
 //! normal gap (for impulses) and the generalised contact force.
 
+//!
+//! Modes: a continuous-law contact is *active* from touch to separation (its force law acts
+//! and it remembers δ̇⁻). An impulse-law contact is normally inactive (impacts are velocity
+//! jumps, [`impulse`]); when it is hit slower than `min_impact_velocity` it becomes *resting*
+//! (`active`): a unilateral constraint row `J q̈ = −J̇ q̇` (with Baumgarte stabilisation of δ)
+//! holds it until its normal force would become tensile, or the sphere leaves the patch.
+
 pub mod geometry;
 pub mod impulse;
 pub mod laws;
 
+use crate::dynamics::{self, add_jacobian_row};
 use crate::model::{Data, Model};
-use crate::scene::{ContactSpec, ContactType, Law, Scene, SceneError, Side};
+use crate::scene::{ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side};
 use crate::spatial::Spatial;
 use nalgebra::Vector3;
 
@@ -56,6 +64,11 @@ pub struct ContactElement {
     /// Radius of a bounding sphere of the other shape around its reference point (broad
     /// phase); infinite for unbounded shapes.
     pub bound_radius: f64,
+    /// Impulse law: how the impulse of an impact is computed.
+    pub impulse_method: ImpulseMethod,
+    /// Impulse law: the row of the constraint system reserved for the resting contact (after
+    /// the loop rows; zero while the contact does not rest).
+    pub constraint_row: Option<usize>,
 }
 
 /// Per-contact memory carried from touch to separation (part of the state).
@@ -207,7 +220,29 @@ pub fn compile_contact(
             .min_impact_velocity
             .unwrap_or(crate::variables::DEFAULT_MIN_IMPACT_VELOCITY),
         bound_radius,
+        impulse_method: c.impulse_method,
+        constraint_row: None,
     })
+}
+
+/// Reserves one constraint row per impulse-law contact after the `nc` loop rows (for its
+/// resting mode) and returns the new total.
+pub fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
+    let mut n = nc;
+    for c in contacts.iter_mut() {
+        c.constraint_row = if c.law == Law::Impulse {
+            n += 1;
+            Some(n - 1)
+        } else {
+            None
+        };
+    }
+    n
+}
+
+/// Number of loop-constraint rows (the contact rows follow them).
+pub fn loop_rows(m: &Model) -> usize {
+    m.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
 }
 
 /// Evaluates the geometry of contact `i` at the current kinematics.
@@ -222,6 +257,91 @@ pub fn gap(m: &Model, d: &Data, i: usize) -> Gap {
 /// patch with `0 < δ < δ_max`; continuous across every boundary.
 pub fn event_function(c: &ContactElement, g: &Gap) -> f64 {
     g.delta.min(g.margin).min(c.max_penetration - g.delta)
+}
+
+/// Broad phase: when the sphere centre is farther from the other shape's bounding sphere than
+/// `radius + max_penetration`, no part of the admissible region can be reached (δ < 0, or the
+/// projection is off the patch, or δ > δ_max) and the exact detection is skipped. Returns
+/// then a negative stand-in for the event function (minus the clearance [m]); `None` when
+/// the exact detection is needed.
+pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<f64> {
+    if !c.bound_radius.is_finite() {
+        return None;
+    }
+    let fs = dynamics::frame(d, c.sphere_body);
+    let fo = dynamics::frame(d, c.body);
+    let center = fs.pos + fs.rot * c.center;
+    let other = fo.pos + fo.rot * geometry::bound_center(&c.shape);
+    let clearance = (center - other).norm() - (c.bound_radius + c.radius + c.max_penetration);
+    if clearance > 0.0 {
+        Some(-clearance)
+    } else {
+        None
+    }
+}
+
+/// The geometric event function of contact `i` at the current kinematics, with the broad
+/// phase: the same sign as [`event_function`] of the exact gap.
+pub fn gap_event(m: &Model, d: &Data, i: usize) -> f64 {
+    let c = &m.contacts[i];
+    match broad_phase(c, d) {
+        Some(v) => v,
+        None => event_function(c, &gap(m, d, i)),
+    }
+}
+
+/// Adds the Jacobian row of the separation rate `−δ̇` of gap `g` of contact `c` to `row`.
+pub fn add_separation_row(m: &Model, d: &Data, c: &ContactElement, g: &Gap, row: &mut [f64]) {
+    let (cs, co) = separation_coefficients(g);
+    add_jacobian_row(m, d, c.sphere_body, &cs, 1.0, row);
+    add_jacobian_row(m, d, c.body, &co, 1.0, row);
+}
+
+/// Fills the constraint rows of the resting impulse contacts (called by
+/// [`crate::dynamics::constraints`] after the loop rows, before stabilisation): the row is the
+/// separation-rate Jacobian `J`, the value `Φ = −δ`, and `γ = −J̇ q̇` (see
+/// [`geometry::separation_acceleration_bias`]). Rows of contacts that do not rest are zero
+/// (the pivoted factorisation drops them).
+pub fn resting_rows(m: &Model, d: &Data, phi_q: &mut [f64], phi: &mut [f64], gamma: &mut [f64]) {
+    let nv = m.nv;
+    for (i, c) in m.contacts.iter().enumerate() {
+        let Some(r) = c.constraint_row else { continue };
+        phi[r] = 0.0;
+        gamma[r] = 0.0;
+        if !d.contact_memory[i].active {
+            continue;
+        }
+        let fs = dynamics::frame(d, c.sphere_body);
+        let fo = dynamics::frame(d, c.body);
+        let g = geometry::detect(c, &fs, &fo);
+        add_separation_row(m, d, c, &g, &mut phi_q[r * nv..(r + 1) * nv]);
+        phi[r] = -g.delta;
+        gamma[r] = -geometry::separation_acceleration_bias(c, &fs, &fo, &g);
+    }
+}
+
+/// Normal force [N] carried by resting contact `i` after a constrained solve (the multiplier
+/// of its row with the sign of a push); 0 when it does not rest.
+pub fn resting_force(m: &Model, d: &Data, i: usize) -> f64 {
+    match m.contacts[i].constraint_row {
+        Some(r) if d.contact_memory[i].active => -d.lambda[r],
+        _ => 0.0,
+    }
+}
+
+/// Writes the outputs of the resting impulse contacts after a constrained solve.
+pub fn resting_outputs(m: &Model, d: &mut Data) {
+    for i in 0..m.contacts.len() {
+        if m.contacts[i].constraint_row.is_some() && d.contact_memory[i].active {
+            let g = gap(m, d, i);
+            d.contact_out[i] = ContactOutput {
+                delta: g.delta.max(0.0),
+                delta_dot: g.delta_dot,
+                force: resting_force(m, d, i),
+                elastic_energy: 0.0,
+            };
+        }
+    }
 }
 
 /// Adds the forces of the active continuous contacts to the bodies, updates the contact
