@@ -690,8 +690,10 @@ pub fn initial_velocities(m: &mut Model, d: &mut Data, scene: &Scene) {
         let sol = svd.solve(&y, 1e-12).unwrap_or_else(|_| DVector::zeros(n));
         let resid = (&bmat * &sol - &y).norm();
         if resid > 1e-6 * (1.0 + y.norm()) {
+            let names: Vec<&str> = bodies.iter().map(|&b| m.bodies[b].name.as_str()).collect();
             m.warnings.push(format!(
-                "initial body velocities are inconsistent with the joints (least-squares residual {resid:.3e} m/s); using the projection"
+                "initial velocities of bodies {} are inconsistent with their joints (least-squares residual {resid:.3e} in [v; ω]); using the least-squares projection",
+                names.join(", ")
             ));
         }
         qvel[t0..t0 + n].copy_from_slice(sol.as_slice());

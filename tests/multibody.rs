@@ -59,7 +59,14 @@ fn body(
 }
 
 /// A `[[joint]]` table.
-fn joint(name: &str, kind: &str, parent: &str, child: &str, anchor: Vector3<f64>, axis: Option<Vector3<f64>>) -> String {
+fn joint(
+    name: &str,
+    kind: &str,
+    parent: &str,
+    child: &str,
+    anchor: Vector3<f64>,
+    axis: Option<Vector3<f64>>,
+) -> String {
     let mut s = format!(
         "[[joint]]\nname = \"{name}\"\ntype = \"{kind}\"\nparent = \"{parent}\"\nchild = \"{child}\"\nanchor = {}\n",
         v3(anchor)
@@ -153,9 +160,32 @@ fn double_pendulum(method: &str, rtol: f64, atol: f64) -> String {
     let mut t = header("double_pendulum", [0.0, 0.0, -G], method, rtol, atol, 0.05);
     // principal axes tilted so that the world inertias are full 3x3 matrices
     let tilt = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 0.4, -0.3)), 0.5);
-    t += &body("upper", 1.0, [0.004, 0.09, 0.092], xz(0.5, 0.0), tilt, at_rest(), at_rest());
-    t += &body("lower", 0.6, [0.003, 0.05, 0.051], xz(1.3, -0.4), tilt.inverse(), at_rest(), at_rest());
-    t += &joint("shoulder", "revolute", "ground", "upper", Vector3::zeros(), Some(Vector3::y()));
+    t += &body(
+        "upper",
+        1.0,
+        [0.004, 0.09, 0.092],
+        xz(0.5, 0.0),
+        tilt,
+        at_rest(),
+        at_rest(),
+    );
+    t += &body(
+        "lower",
+        0.6,
+        [0.003, 0.05, 0.051],
+        xz(1.3, -0.4),
+        tilt.inverse(),
+        at_rest(),
+        at_rest(),
+    );
+    t += &joint(
+        "shoulder",
+        "revolute",
+        "ground",
+        "upper",
+        Vector3::zeros(),
+        Some(Vector3::y()),
+    );
     t += &joint("elbow", "revolute", "upper", "lower", xz(1.0, 0.0), Some(Vector3::y()));
     t
 }
@@ -188,7 +218,15 @@ fn free_body_conserves_angular_momentum_and_energy() {
     // spin mostly about the intermediate axis: the body tumbles (Dzhanibekov flips)
     let omega0 = q0 * Vector3::new(0.2, 3.0, 0.1);
     let mut t = header("tumbling", [0.0; 3], "dopri5", 1e-12, 1e-14, 0.05);
-    t += &body("brick", 2.0, principal, Vector3::new(0.1, -0.2, 0.3), q0, Vector3::new(0.5, 0.0, -0.2), omega0);
+    t += &body(
+        "brick",
+        2.0,
+        principal,
+        Vector3::new(0.1, -0.2, 0.3),
+        q0,
+        Vector3::new(0.5, 0.0, -0.2),
+        omega0,
+    );
     let mut s = start(&t);
     let momentum = |s: &mut Simulation| -> (Vector3<f64>, f64) {
         let i_w = world_inertia(s, "brick", principal);
@@ -269,7 +307,15 @@ fn four_bar(method: &str, rtol: f64, th0: f64, rate: f64) -> String {
     let h = 1e-5;
     let dang = |f: &dyn Fn(f64) -> f64| (f(th0 + h) - f(th0 - h)) / (2.0 * h);
     let mut t = header("four_bar", [0.0, 0.0, -G], method, rtol, rtol * 1e-2, 0.05);
-    t += &body("crank", 1.0, rod_inertia(1.0, a), crank_com(th0), planar(th0), d_dtheta(&crank_com, th0) * rate, spin(1.0));
+    t += &body(
+        "crank",
+        1.0,
+        rod_inertia(1.0, a),
+        crank_com(th0),
+        planar(th0),
+        d_dtheta(&crank_com, th0) * rate,
+        spin(1.0),
+    );
     t += &body(
         "coupler",
         1.5,
@@ -291,7 +337,14 @@ fn four_bar(method: &str, rtol: f64, th0: f64, rate: f64) -> String {
     t += &joint("crank_pivot", "revolute", "ground", "crank", pa, Some(-Vector3::y()));
     t += &joint("crank_pin", "revolute", "crank", "coupler", pb(th0), Some(Vector3::y()));
     t += &joint("rocker_pivot", "revolute", "ground", "rocker", pd, Some(-Vector3::y()));
-    t += &joint("coupler_pin", "revolute", "coupler", "rocker", four_bar_c(th0), Some(Vector3::y()));
+    t += &joint(
+        "coupler_pin",
+        "revolute",
+        "coupler",
+        "rocker",
+        four_bar_c(th0),
+        Some(Vector3::y()),
+    );
     t
 }
 
@@ -321,7 +374,10 @@ fn four_bar_keeps_its_loop_closed() {
         de / ke_max
     );
     assert!(turns.abs() > 3.0, "the crank did not turn: {turns}");
-    assert_eq!(rank, 2, "a planar four-bar closed by a 3-D revolute has 2 independent rows");
+    assert_eq!(
+        rank, 2,
+        "a planar four-bar closed by a 3-D revolute has 2 independent rows"
+    );
     assert!(resid < 1e-9, "constraint residual {resid:.3e}");
     assert!(dpsi < 1e-8, "rocker angle off the closed form by {dpsi:.3e}");
     assert!(de / ke_max < 1e-6, "energy drift {:.3e}", de / ke_max);
@@ -347,10 +403,41 @@ fn slider_crank(method: &str, rtol: f64, th0: f64, rate: f64, close_at_slider: b
     let h = 1e-5;
     let drod = (rod_angle(th0 + h) - rod_angle(th0 - h)) / (2.0 * h);
     let mut t = header("slider_crank", [0.0, 0.0, -G], method, rtol, rtol * 1e-2, 0.05);
-    t += &body("crank", 2.0, [0.004, 0.006, 0.008], pb(th0) * 0.3, ident(), d_dtheta(&|th| pb(th) * 0.3, th0) * rate, Vector3::new(0.0, -rate, 0.0));
-    t += &body("rod", 1.0, rod_inertia(1.0, l), rod_com(th0), planar(rod_angle(th0)), d_dtheta(&rod_com, th0) * rate, Vector3::new(0.0, -drod * rate, 0.0));
-    t += &body("slider", 0.5, [0.001, 0.001, 0.001], pc(th0), ident(), d_dtheta(&pc, th0) * rate, at_rest());
-    t += &joint("crank_pivot", "revolute", "ground", "crank", Vector3::zeros(), Some(-Vector3::y()));
+    t += &body(
+        "crank",
+        2.0,
+        [0.004, 0.006, 0.008],
+        pb(th0) * 0.3,
+        ident(),
+        d_dtheta(&|th| pb(th) * 0.3, th0) * rate,
+        Vector3::new(0.0, -rate, 0.0),
+    );
+    t += &body(
+        "rod",
+        1.0,
+        rod_inertia(1.0, l),
+        rod_com(th0),
+        planar(rod_angle(th0)),
+        d_dtheta(&rod_com, th0) * rate,
+        Vector3::new(0.0, -drod * rate, 0.0),
+    );
+    t += &body(
+        "slider",
+        0.5,
+        [0.001, 0.001, 0.001],
+        pc(th0),
+        ident(),
+        d_dtheta(&pc, th0) * rate,
+        at_rest(),
+    );
+    t += &joint(
+        "crank_pivot",
+        "revolute",
+        "ground",
+        "crank",
+        Vector3::zeros(),
+        Some(-Vector3::y()),
+    );
     t += &joint("crank_pin", "revolute", "crank", "rod", pb(th0), Some(-Vector3::y()));
     let slide = joint("slide", "prismatic", "ground", "slider", pc(th0), Some(Vector3::x()));
     let wrist = joint("wrist", "revolute", "rod", "slider", pc(th0), Some(Vector3::y()));
@@ -476,7 +563,9 @@ fn pendulum_small_oscillation_period() {
     // finite-amplitude correction T = T0 (1 + θ0²/16 + 11 θ0⁴/3072)
     let expected = period * (1.0 + amplitude * amplitude / 16.0 + 11.0 * amplitude.powi(4) / 3072.0);
     let rel = (measured - expected).abs() / expected;
-    eprintln!("pendulum period: measured {measured:.12} s, 2π sqrt(I/(m g d)) = {expected:.12} s, relative error {rel:.3e}");
+    eprintln!(
+        "pendulum period: measured {measured:.12} s, 2π sqrt(I/(m g d)) = {expected:.12} s, relative error {rel:.3e}"
+    );
     assert!(rel < 1e-6, "period off by {rel:.3e}");
 }
 
@@ -572,7 +661,11 @@ fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
     });
     let e = s.engine().unwrap();
     let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt();
     eprintln!(
         "spherical pendulum 10 s rtol 1e-10: |ΔE|/KE_max = {:.3e}, |ΔL_z|/|L_z| = {:.3e}, z in [{z_min:.3}, {z_max:.3}], | |Q| − 1 | = {:.1e}",
         de / ke_max,
@@ -592,7 +685,644 @@ fn long_run_keeps_joint_quaternions_normalised() {
     s.step_to(200.0).unwrap();
     let e = s.engine().unwrap();
     let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
-    eprintln!("spherical pendulum 200 s rtol 1e-6: | |Q| − 1 | = {:.2e}", (qn - 1.0).abs());
-    assert!((qn - 1.0).abs() <= 2.0 * contact_fmu::dynamics::QUATERNION_NORM_TOL, "|Q| = {qn}");
+    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt();
+    eprintln!(
+        "spherical pendulum 200 s rtol 1e-6: | |Q| − 1 | = {:.2e}",
+        (qn - 1.0).abs()
+    );
+    assert!(
+        (qn - 1.0).abs() <= 2.0 * contact_fmu::dynamics::QUATERNION_NORM_TOL,
+        "|Q| = {qn}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// fixed joint: a welded pair moves like one body with the combined inertia
+
+#[test]
+fn fixed_joint_behaves_as_one_rigid_body() {
+    let axis = Vector3::new(0.2, 1.0, -0.1).normalize();
+    let (m1, m2) = (1.0, 0.7);
+    let (p1, p2) = (Vector3::new(0.4, 0.0, -0.1), Vector3::new(0.6, 0.2, -0.5));
+    let (q1, q2) = (
+        UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 0.0, 1.0)), 0.3),
+        UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(0.0, 1.0, 1.0)), -0.6),
+    );
+    let (i1, i2) = ([0.01, 0.03, 0.035], [0.02, 0.02, 0.03]);
+    let world = |q: UnitQuaternion<f64>, i: [f64; 3]| {
+        let r = q.to_rotation_matrix();
+        r.matrix() * Matrix3::from_diagonal(&Vector3::from(i)) * r.matrix().transpose()
+    };
+    // combined body: mass, centre of mass and inertia by the parallel-axis theorem
+    let m = m1 + m2;
+    let c = (p1 * m1 + p2 * m2) / m;
+    let shift = |p: Vector3<f64>, mass: f64| {
+        let d = p - c;
+        (Matrix3::identity() * d.dot(&d) - d * d.transpose()) * mass
+    };
+    let i_c = world(q1, i1) + shift(p1, m1) + world(q2, i2) + shift(p2, m2);
+    let eig = i_c.symmetric_eigen();
+    let mut r = eig.eigenvectors;
+    if r.determinant() < 0.0 {
+        r.set_column(2, &(-r.column(2)));
+    }
+    let qc = UnitQuaternion::from_matrix(&r);
+    let ic = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+
+    let pivot = Vector3::zeros();
+    let mut welded = header("welded", [0.0, 0.0, -G], "dopri5", 1e-10, 1e-12, 0.05);
+    welded += &body("arm", m1, i1, p1, q1, at_rest(), at_rest());
+    welded += &body("weight", m2, i2, p2, q2, at_rest(), at_rest());
+    welded += &joint("pivot", "revolute", "ground", "arm", pivot, Some(axis));
+    welded += &joint("weld", "fixed", "arm", "weight", p2, None);
+    let mut single = header("single", [0.0, 0.0, -G], "dopri5", 1e-10, 1e-12, 0.05);
+    single += &body("arm", m, ic, c, qc, at_rest(), at_rest());
+    single += &joint("pivot", "revolute", "ground", "arm", pivot, Some(axis));
+
+    let (mut a, mut b) = (start(&welded), start(&single));
+    let rel0 = q1.inverse() * q2;
+    let (mut dq, mut drigid) = (0.0_f64, 0.0_f64);
+    let mut sb = Vec::new();
+    run(&mut b, 3.0, 0.01, |s, _| sb.push(get(s, "pivot.q")));
+    let mut k = 0;
+    run(&mut a, 3.0, 0.01, |s, _| {
+        dq = dq.max((get(s, "pivot.q") - sb[k]).abs());
+        k += 1;
+        let (ra, rw) = (vec_out(s, "arm.r"), vec_out(s, "weight.r"));
+        let (qa, qw) = (quat_out(s, "arm"), quat_out(s, "weight"));
+        // the weight stays where it was in the arm's frame
+        let local = qa.inverse() * (rw - ra);
+        drigid = drigid.max((local - q1.inverse() * (p2 - p1)).norm());
+        drigid = drigid.max((qa.inverse() * qw).angle_to(&rel0));
+    });
+    let swing = sb.iter().fold(0.0_f64, |x, y| x.max(y.abs()));
+    eprintln!("fixed joint: |q_welded − q_single| = {dq:.3e} rad (swing {swing:.2} rad), rigidity error {drigid:.3e}");
+    assert!(swing > 0.5);
+    assert!(dq < 1e-7, "welded pair and combined body differ by {dq:.3e} rad");
+    assert!(drigid < 1e-12, "the weld moved by {drigid:.3e}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// free joint with a parent body: the child flies as if the parent were not there
+
+#[test]
+fn free_joint_on_a_moving_parent_is_ballistic() {
+    let principal = [0.02, 0.04, 0.05];
+    let (r0, v0) = (Vector3::new(1.2, 0.3, -0.2), Vector3::new(0.4, -0.2, 1.5));
+    let q0 = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 2.0, 0.5)), 0.9);
+    let w0 = Vector3::new(1.0, -2.0, 3.0);
+    let pendulum = |with_child: bool| {
+        let mut t = header("free_child", [0.0, 0.0, -G], "dopri5", 1e-11, 1e-13, 0.05);
+        t += &body(
+            "arm",
+            1.0,
+            [0.01, 0.08, 0.08],
+            xz(0.5, 0.0),
+            ident(),
+            at_rest(),
+            Vector3::new(0.0, 1.0, 0.0),
+        );
+        t += &joint(
+            "pivot",
+            "revolute",
+            "ground",
+            "arm",
+            Vector3::zeros(),
+            Some(Vector3::y()),
+        );
+        if with_child {
+            t += &body("drone", 0.8, principal, r0, q0, v0, w0);
+            t += &joint("tether", "free", "arm", "drone", r0, None);
+        }
+        t
+    };
+    // the arm's com velocity (0,1,0) × (0.5,0,0) must be given for consistency
+    let fix = |t: String| {
+        t.replacen(
+            "velocity = [0.0, 0.0, 0.0]\nangular_velocity = [0.0, 1.0, 0.0]",
+            "velocity = [0.0, 0.0, -0.5]\nangular_velocity = [0.0, 1.0, 0.0]",
+            1,
+        )
+    };
+    let (mut a, mut b) = (start(&fix(pendulum(true))), start(&fix(pendulum(false))));
+    assert!(warnings(&a).is_empty(), "{:?}", warnings(&a));
+    let mut arm_alone = Vec::new();
+    run(&mut b, 2.0, 0.01, |s, _| arm_alone.push(get(s, "pivot.q")));
+    let l0 = {
+        let r = q0.to_rotation_matrix();
+        r.matrix() * Matrix3::from_diagonal(&Vector3::from(principal)) * r.matrix().transpose() * w0
+    };
+    let (mut dr, mut dl, mut darm) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let mut k = 0;
+    run(&mut a, 2.0, 0.01, |s, t| {
+        let expect = r0 + v0 * t + Vector3::new(0.0, 0.0, -G) * (0.5 * t * t);
+        dr = dr.max((vec_out(s, "drone.r") - expect).norm());
+        let l = world_inertia(s, "drone", principal) * vec_out(s, "drone.w");
+        dl = dl.max((l - l0).norm() / l0.norm());
+        darm = darm.max((get(s, "pivot.q") - arm_alone[k]).abs());
+        k += 1;
+    });
+    eprintln!(
+        "free joint on a parent: ballistic error {dr:.3e} m, |ΔL|/|L| = {dl:.3e}, arm disturbed by {darm:.3e} rad"
+    );
+    assert!(dr < 1e-8, "centre of mass off the parabola by {dr:.3e} m");
+    assert!(dl < 1e-8, "angular momentum drift {dl:.3e}");
+    assert!(darm < 1e-8, "the child disturbed the parent by {darm:.3e} rad");
+}
+
+// ---------------------------------------------------------------------------------------------
+// a chain driven by inputs: force on a carriage, joint force (or torque) on an arm
+
+fn carriage_arm(arm_drive: &str) -> String {
+    let mut t = header("carriage_arm", [0.0, 0.0, -G], "dopri5", 1e-10, 1e-12, 0.05);
+    t += &body(
+        "carriage",
+        3.0,
+        [0.05, 0.06, 0.07],
+        Vector3::zeros(),
+        ident(),
+        at_rest(),
+        at_rest(),
+    );
+    t += &body(
+        "arm",
+        1.0,
+        [0.002, 0.01, 0.011],
+        Vector3::new(0.3, 0.0, 0.1),
+        ident(),
+        at_rest(),
+        at_rest(),
+    );
+    t += &joint(
+        "rail",
+        "prismatic",
+        "ground",
+        "carriage",
+        Vector3::zeros(),
+        Some(Vector3::x()),
+    );
+    t += &joint(
+        "hinge",
+        "revolute",
+        "carriage",
+        "arm",
+        Vector3::new(0.0, 0.0, 0.1),
+        Some(Vector3::z()),
+    );
+    t += "[[input]]\nname = \"push\"\ntype = \"force\"\nbody = \"carriage\"\ndirection = [1.0, 0.0, 0.0]\nstart = 2.0\n\n";
+    t += &match arm_drive {
+        "joint_force" => "[[input]]\nname = \"motor\"\ntype = \"joint_force\"\njoint = \"hinge\"\nstart = 0.5\n\n".to_string(),
+        _ => "[[input]]\nname = \"motor\"\ntype = \"torque\"\nbody = \"arm\"\ndirection = [0.0, 0.0, 1.0]\nstart = 0.5\n\n".to_string(),
+    };
+    t
+}
+
+#[test]
+fn inputs_drive_a_chain_by_momentum_and_work() {
+    let mut s = start(&carriage_arm("joint_force"));
+    let (mut dp, mut dw) = (0.0_f64, 0.0_f64);
+    // momentum along the rail: dP/dt = F (the rail's reactions are normal to x);
+    // kinetic energy = work of the inputs: F Δx + τ Δθ (gravity does no work on this chain)
+    let (mut impulse, mut work, mut t_prev, mut x_prev, mut th_prev, mut f) = (0.0, 0.0, 0.0, 0.0, 0.0, 2.0);
+    let tau = 0.5;
+    let mut arm = Vec::new();
+    run(&mut s, 3.0, 0.01, |s, t| {
+        let x = get(s, "carriage.r[1]");
+        let th = get(s, "hinge.q");
+        impulse += f * (t - t_prev);
+        work += f * (x - x_prev) + tau * (th - th_prev);
+        let p = 3.0 * get(s, "carriage.v[1]") + 1.0 * get(s, "arm.v[1]");
+        dp = dp.max((p - impulse).abs());
+        dw = dw.max((get(s, "energy.kinetic") - work).abs());
+        arm.push((th, get(s, "arm.r[2]")));
+        (t_prev, x_prev, th_prev) = (t, x, th);
+        if t >= 1.0 - 1e-12 && f == 2.0 {
+            f = -1.0;
+            s.set_by_name("push", f).unwrap();
+        }
+    });
+    let turn = get(&mut s, "hinge.q");
+    eprintln!("inputs: |P_x − ∫F dt| = {dp:.3e} N s, |KE − work| = {dw:.3e} J, arm turned {turn:.2} rad");
+    assert!(turn > 1.0, "the arm did not turn ({turn})");
+    assert!(dp < 1e-9, "momentum balance {dp:.3e}");
+    assert!(dw < 1e-8, "work balance {dw:.3e}");
+
+    // a body torque about the hinge axis moves the chain exactly like the joint force
+    let mut s2 = start(&carriage_arm("torque"));
+    let mut k = 0;
+    let mut diff = 0.0_f64;
+    run(&mut s2, 3.0, 0.01, |s, t| {
+        diff = diff
+            .max((get(s, "hinge.q") - arm[k].0).abs())
+            .max((get(s, "arm.r[2]") - arm[k].1).abs());
+        k += 1;
+        if t >= 1.0 - 1e-12 && k == 101 {
+            s.set_by_name("push", -1.0).unwrap();
+        }
+    });
+    eprintln!("torque input vs joint force: max difference {diff:.3e}");
+    assert!(diff < 1e-9, "torque and joint force differ by {diff:.3e}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// initial velocities from body velocities (paper (35)-(37))
+
+fn hinged(vel: Vector3<f64>, omega: Vector3<f64>) -> (String, Vector3<f64>, Vector3<f64>) {
+    let axis = Vector3::new(0.3, 0.9, -0.2).normalize();
+    let (pivot, com) = (Vector3::new(0.1, 0.2, 0.3), Vector3::new(0.5, 0.1, -0.1));
+    let mut t = header("hinged", [0.0, 0.0, -G], "dopri5", 1e-10, 1e-12, 0.05);
+    t += &body("door", 2.0, [0.1, 0.2, 0.25], com, ident(), vel, omega);
+    t += &joint("hinge", "revolute", "ground", "door", pivot, Some(axis));
+    (t, axis, com - pivot)
+}
+
+#[test]
+fn initial_velocity_consistent_with_joint_gives_joint_rate() {
+    let (_, axis, arm) = hinged(at_rest(), at_rest());
+    let rate = 1.7;
+    let (text, ..) = hinged((axis * rate).cross(&arm), axis * rate);
+    let mut s = start(&text);
+    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    let qd = get(&mut s, "hinge.qd");
+    let v = vec_out(&mut s, "door.v");
+    assert!((qd - rate).abs() < 1e-12, "joint rate {qd}");
+    assert!((v - (axis * rate).cross(&arm)).norm() < 1e-12);
+}
+
+#[test]
+fn initial_velocity_inconsistent_with_joint_warns_and_projects() {
+    let (_, axis, arm) = hinged(at_rest(), at_rest());
+    // angular velocity about the hinge but no translation: least squares over
+    // [v; ω] = [a × r; a] q̇ gives q̇ = ω (a·a) / (|a × r|² + 1)
+    let rate = 1.7;
+    let (text, ..) = hinged(at_rest(), axis * rate);
+    let mut s = start(&text);
+    let w = warnings(&s);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("inconsistent"), "{w:?}");
+    let expect = rate / (axis.cross(&arm).norm_squared() + 1.0);
+    let qd = get(&mut s, "hinge.qd");
+    eprintln!(
+        "inconsistent initial velocity: warning {:?}; q̇ = {qd} (least squares {expect})",
+        w[0]
+    );
+    assert!((qd - expect).abs() < 1e-12, "joint rate {qd}, expected {expect}");
+    // a velocity along the hinge axis cannot be followed at all: warned, rate unchanged
+    let (text, ..) = hinged((axis * rate).cross(&arm) + axis * 0.3, axis * rate);
+    let mut s = start(&text);
+    assert_eq!(warnings(&s).len(), 1);
+    assert!((get(&mut s, "hinge.qd") - rate).abs() < 1e-12);
+}
+
+#[test]
+fn initial_velocity_projected_onto_loop_constraints() {
+    // only the crank of a four-bar is given its velocity: the tree's least squares leaves the
+    // loop violated, the projection (28) fixes it and says so
+    let mut text = four_bar("dopri5", 1e-8, 1.0, 2.0 * PI);
+    let rocker = text.find("name = \"rocker\"").unwrap();
+    let v = text[rocker..].find("velocity = ").unwrap() + rocker;
+    let end = text[v..].find("\n\n").unwrap() + v;
+    text.replace_range(v..end, "velocity = [0.0, 0.0, 0.0]\nangular_velocity = [0.0, 0.0, 0.0]");
+    let mut s = start(&text);
+    let w = warnings(&s);
+    assert!(w.iter().any(|w| w.contains("loop constraints")), "{w:?}");
+    let e = s.engine_mut().unwrap();
+    e.constraint_residual();
+    let rate = e.data().phi_dot.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
+    assert!(rate < 1e-12, "constraint rate after projection {rate:.3e}");
+    assert!(
+        get(&mut s, "rocker_pivot.qd").abs() > 0.1,
+        "the rocker was left at rest"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// explicit and implicit methods agree
+
+/// Runs `text` to `t_end` with the method chosen through the `solver.method` parameter;
+/// returns the listed outputs at every 0.05 s.
+fn trajectory(text: &str, method: &str, rtol: f64, t_end: f64, outputs: &[&str]) -> (Vec<Vec<f64>>, f64) {
+    let mut s = Simulation::from_scene_str(text, "test.toml").unwrap();
+    let vr = s.table().index_of("solver.method").unwrap();
+    let value = match s.variables()[vr].vtype {
+        contact_fmu::variables::VarType::Enumeration(e) => e.items().iter().find(|(n, _)| *n == method).unwrap().1,
+        _ => unreachable!(),
+    };
+    s.set(vr, value as f64).unwrap();
+    s.set_by_name("solver.rtol", rtol).unwrap();
+    s.set_by_name("solver.atol", rtol * 1e-2).unwrap();
+    s.initialize(0.0).unwrap();
+    let mut out = Vec::new();
+    run(&mut s, t_end, 0.05, |s, _| {
+        out.push(outputs.iter().map(|n| get(s, n)).collect())
+    });
+    let steps = get(&mut s, "solver.steps");
+    (out, steps)
+}
+
+#[test]
+fn explicit_and_implicit_methods_agree() {
+    let rtol = 1e-8;
+    let cases: Vec<(&str, String, f64, Vec<&str>)> = vec![
+        (
+            "double pendulum",
+            double_pendulum("dopri5", rtol, rtol),
+            2.0,
+            vec!["shoulder.q", "elbow.q"],
+        ),
+        (
+            "four-bar",
+            four_bar("dopri5", rtol, 1.0, 2.0 * PI),
+            2.0,
+            vec!["crank_pivot.q", "rocker_pivot.q"],
+        ),
+        (
+            "slider-crank",
+            slider_crank("dopri5", rtol, 2.0, 3.0 * PI, true),
+            2.0,
+            vec!["crank_pivot.q", "slider.r[1]"],
+        ),
+        (
+            "spherical pendulum",
+            spherical_pendulum("dopri5", rtol),
+            2.0,
+            vec!["top.r[1]", "top.r[2]", "top.r[3]"],
+        ),
+        (
+            "damped spring",
+            spring_slider(2.0, "dopri5", rtol).0,
+            2.0,
+            vec!["slide.q"],
+        ),
+    ];
+    for (name, text, t_end, outputs) in cases {
+        let (a, na) = trajectory(&text, "dopri5", rtol, t_end, &outputs);
+        let (b, nb) = trajectory(&text, "sdirk", rtol, t_end, &outputs);
+        let scale = a.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let diff = a
+            .iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
+        eprintln!("{name}: dopri5 ({na} steps) vs sdirk ({nb} steps) over {t_end} s at rtol {rtol:e}: max difference {:.3e} of {scale:.3}", diff);
+        // both methods keep the local error near rtol; over a few hundred steps the global
+        // difference stays within a couple of orders of magnitude of rtol
+        assert!(
+            diff < 100.0 * rtol * scale,
+            "{name}: methods differ by {diff:.3e} (scale {scale})"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// loop-constraint rows: values, rates and bias terms against finite differences
+
+/// A non-planar chain (revolute, prismatic, spherical and revolute tree joints with skew axes)
+/// closed back to the ground and onto itself by a revolute, a prismatic, a spherical and a
+/// fixed loop joint, each tested on its own.
+fn loop_zoo(closing: &str) -> String {
+    let mut t = header("zoo", [0.0, 0.0, -G], "dopri5", 1e-8, 1e-10, 0.05);
+    let q = |x: f64, y: f64, z: f64, a: f64| {
+        UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(x, y, z)), a)
+    };
+    t += &body(
+        "a",
+        1.0,
+        [0.01, 0.02, 0.025],
+        Vector3::new(0.3, 0.1, 0.0),
+        q(1.0, 0.2, 0.0, 0.3),
+        at_rest(),
+        at_rest(),
+    );
+    t += &body(
+        "b",
+        1.2,
+        [0.02, 0.02, 0.03],
+        Vector3::new(0.6, 0.3, 0.2),
+        q(0.0, 1.0, 0.3, -0.4),
+        at_rest(),
+        at_rest(),
+    );
+    t += &body(
+        "c",
+        0.8,
+        [0.01, 0.015, 0.02],
+        Vector3::new(0.8, 0.1, 0.5),
+        q(0.5, 0.5, 1.0, 0.7),
+        at_rest(),
+        at_rest(),
+    );
+    t += &body(
+        "d",
+        0.5,
+        [0.005, 0.006, 0.007],
+        Vector3::new(1.0, -0.2, 0.6),
+        q(1.0, -1.0, 0.2, 1.2),
+        at_rest(),
+        at_rest(),
+    );
+    t += &joint(
+        "j1",
+        "revolute",
+        "ground",
+        "a",
+        Vector3::zeros(),
+        Some(Vector3::new(0.1, 0.2, 1.0)),
+    );
+    t += &joint(
+        "j2",
+        "prismatic",
+        "a",
+        "b",
+        Vector3::new(0.5, 0.2, 0.1),
+        Some(Vector3::new(1.0, 0.3, -0.2)),
+    );
+    t += &joint("j3", "spherical", "b", "c", Vector3::new(0.7, 0.2, 0.4), None);
+    t += &joint(
+        "j4",
+        "revolute",
+        "c",
+        "d",
+        Vector3::new(0.9, 0.0, 0.55),
+        Some(Vector3::new(-0.3, 1.0, 0.4)),
+    );
+    let (parent, anchor, axis) = match closing {
+        "prismatic" => ("a", Vector3::new(1.1, -0.1, 0.7), Some(Vector3::new(0.2, -0.5, 1.0))),
+        "spherical" => ("ground", Vector3::new(1.1, -0.1, 0.7), None),
+        "fixed" => ("b", Vector3::new(1.0, -0.3, 0.6), None),
+        _ => (
+            "ground",
+            Vector3::new(1.1, -0.1, 0.7),
+            Some(Vector3::new(0.4, 0.1, 1.0)),
+        ),
+    };
+    t += &joint("close", closing, parent, "d", anchor, axis);
+    t
+}
+
+/// Advances joint positions by the velocity-space increment `dv` (quaternions through the
+/// exponential map in the child frame).
+fn displaced(m: &model::Model, qpos: &[f64], dv: &[f64]) -> Vec<f64> {
+    let mut q = qpos.to_vec();
+    for j in &m.joints {
+        let (a, v) = (j.qpos, j.qvel);
+        match j.nv() {
+            1 => q[a] += dv[v],
+            3 => {
+                let r = UnitQuaternion::from_quaternion(Quaternion::new(q[a], q[a + 1], q[a + 2], q[a + 3]))
+                    * UnitQuaternion::from_scaled_axis(Vector3::new(dv[v], dv[v + 1], dv[v + 2]));
+                q[a..a + 4].copy_from_slice(&[r.w, r.i, r.j, r.k]);
+            }
+            _ => {}
+        }
+    }
+    q
+}
+
+#[test]
+fn loop_constraint_rows_match_finite_differences() {
+    for closing in ["revolute", "prismatic", "spherical", "fixed"] {
+        let scene = Scene::from_str(&loop_zoo(closing), "zoo.toml").unwrap();
+        let (mut m, mut d) = model::compile(&scene, "zoo.toml").unwrap();
+        m.baumgarte = 0.0;
+        let (nq, nv, nc) = (m.nq, m.nv, m.nc);
+        assert!(nc > 0);
+        // a state away from the initial one, with velocities and accelerations
+        let mut state = d.state.clone();
+        let offset: Vec<f64> = (0..nv).map(|k| 0.3 * ((k as f64 + 1.0) * 1.7).sin()).collect();
+        let q1 = displaced(&m, &state[..nq], &offset);
+        state[..nq].copy_from_slice(&q1);
+        let qd: Vec<f64> = (0..nv).map(|k| 1.5 * ((k as f64 + 2.0) * 0.9).cos()).collect();
+        let qdd: Vec<f64> = (0..nv).map(|k| 2.0 * ((k as f64 + 0.5) * 2.3).sin()).collect();
+        state[nq..nq + nv].copy_from_slice(&qd);
+        dynamics::kinematics(&m, &mut d, &state);
+        dynamics::constraints(&m, &mut d, &qd);
+        let (phi_q, rate, gamma) = (d.phi_q.clone(), d.phi_dot.clone(), d.gamma.clone());
+        // Φ along q(t) = q ⊕ (t q̇ + t²/2 q̈)
+        let mut phi_at = |t: f64| -> Vec<f64> {
+            let dv: Vec<f64> = (0..nv).map(|k| t * qd[k] + 0.5 * t * t * qdd[k]).collect();
+            let mut st = state.clone();
+            st[..nq].copy_from_slice(&displaced(&m, &q1, &dv));
+            dynamics::kinematics(&m, &mut d, &st);
+            dynamics::constraints(&m, &mut d, &st[nq..nq + nv]);
+            d.phi.clone()
+        };
+        let h = 1e-4;
+        let (pp, p0, pm) = (phi_at(h), phi_at(0.0), phi_at(-h));
+        let (mut e1, mut e2) = (0.0_f64, 0.0_f64);
+        for r in 0..nc {
+            let fd1 = (pp[r] - pm[r]) / (2.0 * h);
+            let fd2 = (pp[r] - 2.0 * p0[r] + pm[r]) / (h * h);
+            // Φ̈ = Φ_q q̈ − γ with γ = −(Φ_q q̇)_q q̇ (no stabilisation)
+            let exact2: f64 = (0..nv).map(|k| phi_q[r * nv + k] * qdd[k]).sum::<f64>() - gamma[r];
+            e1 = e1.max((fd1 - rate[r]).abs());
+            e2 = e2.max((fd2 - exact2).abs());
+        }
+        eprintln!("{closing} loop ({nc} rows): |Φ̇ − Φ_q q̇| = {e1:.2e}, |Φ̈ − (Φ_q q̈ − γ)| = {e2:.2e}");
+        assert!(e1 < 1e-7, "{closing}: rate rows off by {e1:.3e}");
+        assert!(e2 < 1e-5, "{closing}: bias terms off by {e2:.3e}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// no allocation on the right-hand-side path
+
+mod alloc_count {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static COUNT: Cell<u64> = const { Cell::new(0) };
+    }
+
+    pub struct Counting;
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+            System.alloc(layout)
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            System.dealloc(ptr, layout)
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+            System.realloc(ptr, layout, new_size)
+        }
+    }
+
+    #[global_allocator]
+    static GLOBAL: Counting = Counting;
+
+    /// Allocations made by this thread so far.
+    pub fn count() -> u64 {
+        COUNT.try_with(|c| c.get()).unwrap_or(0)
+    }
+}
+
+#[test]
+fn right_hand_side_and_projection_do_not_allocate() {
+    for text in [
+        loop_zoo("prismatic"),
+        slider_crank("dopri5", 1e-8, 2.0, 3.0, false),
+        spherical_pendulum("dopri5", 1e-8),
+    ] {
+        let scene = Scene::from_str(&text, "x.toml").unwrap();
+        let (m, mut d) = model::compile(&scene, "x.toml").unwrap();
+        let mut state = d.state.clone();
+        let mut dy = vec![0.0; m.nstate()];
+        engine::evaluate(&m, &mut d, &state, Some(&mut dy));
+        let before = alloc_count::count();
+        for k in 0..10 {
+            state[m.nq - 1] += 1e-3 * k as f64;
+            engine::evaluate(&m, &mut d, &state, Some(&mut dy));
+        }
+        d.state.copy_from_slice(&state);
+        let moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL);
+        let n = alloc_count::count() - before;
+        assert!(dy.iter().all(|x| x.is_finite()));
+        assert_eq!(n, 0, "{} allocations on the right-hand-side path ({})", n, m.name);
+        if m.nc > 0 {
+            assert!(moved, "the perturbed state of {} was not projected", m.name);
+        }
+    }
+}
+
+#[test]
+#[ignore]
+fn probe_method_errors() {
+    let rtol = 1e-8;
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "double pendulum",
+            double_pendulum("dopri5", rtol, rtol),
+            vec!["shoulder.q", "elbow.q"],
+        ),
+        (
+            "four-bar",
+            four_bar("dopri5", rtol, 1.0, 2.0 * PI),
+            vec!["crank_pivot.q", "rocker_pivot.q"],
+        ),
+        (
+            "slider-crank",
+            slider_crank("dopri5", rtol, 2.0, 3.0 * PI, true),
+            vec!["crank_pivot.q", "slider.r[1]"],
+        ),
+    ];
+    for (name, text, outputs) in cases {
+        let (r, _) = trajectory(&text, "dopri5", 1e-13, 2.0, &outputs);
+        for method in ["dopri5", "sdirk"] {
+            let (a, na) = trajectory(&text, method, rtol, 2.0, &outputs);
+            let diff = a
+                .iter()
+                .flatten()
+                .zip(r.iter().flatten())
+                .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
+            eprintln!("{name} {method} ({na} steps): max error vs rtol 1e-13 reference {diff:.3e}");
+        }
+    }
 }
