@@ -367,3 +367,416 @@ fn kelvin_voigt_cut_at_zero_force() {
     assert!((on - exit).abs() < 1e-7 * exit);
     assert!((off - exit).abs() < 1e-6 * exit);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Energy balance
+
+fn energy_drift(law: &str, extra: &str, stop: f64) -> (f64, usize) {
+    let mut s = sim(&ball_on_floor(law, extra, 0.0, 9.81, 0.05));
+    let e0 = get(&mut s, "energy.total") + get(&mut s, "energy.dissipated");
+    let mut worst: f64 = 0.0;
+    let n = 200;
+    for k in 1..=n {
+        s.step_to(stop * k as f64 / n as f64).unwrap();
+        let e = get(&mut s, "energy.total") + get(&mut s, "energy.dissipated");
+        worst = worst.max((e - e0).abs() / e0.abs());
+    }
+    let bounces = events(&s).iter().filter(|e| e.kind == ContactEventKind::Touch).count();
+    let diss = get(&mut s, "energy.dissipated");
+    assert!(diss > 0.1 * e0, "{law}: little dissipated ({diss} of {e0})");
+    (worst, bounces)
+}
+
+#[test]
+fn damped_impacts_balance_energy() {
+    for (law, extra) in [
+        ("hertz_ln", "restitution = 0.5"),
+        ("flores", "restitution = 0.5"),
+        ("kelvin_voigt", "stiffness = 1e6\ndamping = 40.0"),
+    ] {
+        let (worst, bounces) = energy_drift(law, extra, 0.4);
+        println!("{law}: {bounces} bounces, max |total + dissipated - initial| / initial = {worst:.2e}");
+        assert!(worst < 1e-7, "{law}: energy drift {worst}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Impulse law
+
+fn sphere_contact(
+    name: &str,
+    law: &str,
+    e: f64,
+    a: &str,
+    ca: Vector3<f64>,
+    ra: f64,
+    b: &str,
+    cb: Vector3<f64>,
+    rb: f64,
+) -> String {
+    format!(
+        "[[contact]]\nname = \"{name}\"\ntype = \"sphere_sphere\"\nlaw = \"{law}\"\nrestitution = {e:?}\n\
+         sphere_body = \"{a}\"\ncenter = {}\nradius = {ra:?}\nsphere_material = \"steel\"\nbody = \"{b}\"\n\
+         material = \"steel\"\nother_center = {}\nother_radius = {rb:?}\n\n",
+        v3(ca),
+        v3(cb)
+    )
+}
+
+#[test]
+fn impulse_two_free_spheres_follow_14_15() {
+    let (m1, r1, v1, m2, r2, v2, e) = (1.0, 0.05, 2.0, 3.0, 0.08, -0.5, 0.6);
+    let c1 = Vector3::new(-r1 - 0.005, 0.0, 0.0);
+    let c2 = Vector3::new(r2 + 0.005, 0.0, 0.0);
+    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+    t += &ball("a", m1, r1, c1, Vector3::new(v1, 0.0, 0.0));
+    t += &ball("b", m2, r2, c2, Vector3::new(v2, 0.0, 0.0));
+    t += &sphere_contact("c", "impulse", e, "a", c1, r1, "b", c2, r2);
+    let mut s = sim(&t);
+    s.step_to(0.01).unwrap();
+    let (u1, u2) = (get(&mut s, "a.v[1]"), get(&mut s, "b.v[1]"));
+    let w1 = ((m1 - e * m2) * v1 + (1.0 + e) * m2 * v2) / (m1 + m2);
+    let w2 = ((m2 - e * m1) * v2 + (1.0 + e) * m1 * v1) / (m1 + m2);
+    let lost = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 - 0.5 * m1 * w1 * w1 - 0.5 * m2 * w2 * w2;
+    println!("two spheres, e = {e}: v1+ {u1:.15} (14: {w1}), v2+ {u2:.15} (15: {w2})");
+    assert!((u1 - w1).abs() < 1e-12 * w1.abs());
+    assert!((u2 - w2).abs() < 1e-12 * w2.abs());
+    assert_eq!(get(&mut s, "c.impacts"), 1.0);
+    assert!((get(&mut s, "energy.dissipated") - lost).abs() < 1e-12 * lost);
+    let ev = first(&events(&s), ContactEventKind::Impact);
+    assert!((ev.time - 0.01 / (v1 - v2)).abs() < 1e-12);
+}
+
+/// A rod (mass 2 kg, length 1 m) on a revolute joint about y at the origin, hanging along −z,
+/// turning at 1 rad/s, with a sphere (r = 10 mm) on its axis at distance `d` from the pivot
+/// that hits a wall x = −r when the rod is vertical. No gravity: ω is constant apart from
+/// the impact.
+fn rod_pendulum(d: f64, e: f64, method: &str) -> String {
+    let (m, l, r, w0, a0) = (2.0, 1.0, 0.01, 1.0, -0.05_f64);
+    let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), a0);
+    let com = q * Vector3::new(0.0, 0.0, -l / 2.0);
+    let omega = Vector3::new(0.0, w0, 0.0);
+    let center = q * Vector3::new(0.0, 0.0, -d);
+    let qq = q.quaternion();
+    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+    t += &format!(
+        "[[body]]\nname = \"rod\"\nmass = {m:?}\ninertia = [{i:?}, {i:?}, 1e-4]\nposition = {}\n\
+         orientation = [{:?}, {:?}, {:?}, {:?}]\nvelocity = {}\nangular_velocity = {}\n\n\
+         [[joint]]\nname = \"pivot\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"rod\"\n\
+         anchor = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\n\n\
+         [[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
+         impulse_method = \"{method}\"\nsphere_body = \"rod\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\n\
+         origin = [{:?}, 0.0, {:?}]\nnormal = [1.0, 0.0, 0.0]\nu_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
+        v3(com),
+        qq.w,
+        qq.i,
+        qq.j,
+        qq.k,
+        v3(omega.cross(&com)),
+        v3(omega),
+        v3(center),
+        -r,
+        -d,
+        i = m * l * l / 12.0,
+    );
+    t
+}
+
+/// ω after / ω before for the rod pendulum.
+fn rod_ratio(d: f64, e: f64, method: &str) -> Result<f64, String> {
+    let mut s = sim(&rod_pendulum(d, e, method));
+    s.step_to(0.2).map_err(|e| e.to_string())?;
+    assert_eq!(get(&mut s, "wall.impacts"), 1.0);
+    Ok(get(&mut s, "pivot.qd") / 1.0)
+}
+
+#[test]
+fn impulse_pendulum_wall_exact_and_effective_mass() {
+    let e = 0.5;
+    let l = 1.0;
+    println!("rod pendulum (pivot at one end, L = 1 m), struck at distance d from the pivot, e = {e}:");
+    println!("d/L     exact ω+/ω−    effective-mass ω+/ω−   (17)-(19) predicted 1 − (1+e)·3d/(2L)");
+    for d in [0.5, 2.0 / 3.0, 0.8, 1.0] {
+        let exact = rod_ratio(d, e, "exact").unwrap();
+        let eff = rod_ratio(d, e, "effective_mass").unwrap();
+        // (17): m_eff = m (L/2) / d; exact effective mass I_pivot / d² = m L²/(3 d²).
+        let predicted = 1.0 - (1.0 + e) * 3.0 * d / (2.0 * l);
+        println!("{:.4}  {exact:.15}  {eff:.15}  {predicted:.15}", d / l);
+        assert!((exact + e).abs() < 1e-12, "exact: {exact}");
+        assert!((eff - predicted).abs() < 1e-12, "effective mass: {eff} vs {predicted}");
+    }
+    // At the centre of percussion the two agree; struck near the pivot the effective mass
+    // (17) is too small to stop the approach: an error, not a silent pass-through.
+    assert!((rod_ratio(2.0 / 3.0, e, "effective_mass").unwrap() + e).abs() < 1e-12);
+    let err = rod_ratio(0.25, e, "effective_mass").unwrap_err();
+    println!("d = L/4, effective mass: {err}");
+    assert!(err.contains("approaching") && err.contains("\"wall\""), "{err}");
+}
+
+#[test]
+fn impulse_bob_on_oblique_wall_rebounds_with_minus_e() {
+    // A bob (point-like, 1 kg) on a 0.5 m revolute pendulum, no gravity, hitting a wall whose
+    // normal is tilted 16.7° from the bob's path: the normal rate after is −e times before.
+    let (l, r, w0, a0, e) = (0.5, 0.02, 2.0, -0.1_f64, 0.7);
+    let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), a0);
+    let c = q * Vector3::new(0.0, 0.0, -l);
+    let omega = Vector3::new(0.0, w0, 0.0);
+    let n = Vector3::new(1.0, 0.0, 0.3).normalize();
+    let origin = Vector3::new(0.0, 0.0, -l) - n * r;
+    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+    t += &ball("bob", 1.0, r, c, omega.cross(&c)).replace("\n\n", &format!("\nangular_velocity = {}\n\n", v3(omega)));
+    t += &format!(
+        "[[joint]]\nname = \"pivot\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"bob\"\n\
+         anchor = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\n\n\
+         [[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
+         sphere_body = \"bob\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\norigin = {}\nnormal = {}\n\
+         u_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
+        v3(c),
+        v3(origin),
+        v3(n)
+    );
+    let mut s = sim(&t);
+    assert!((get(&mut s, "pivot.qd") - w0).abs() < 1e-12);
+    s.step_to(0.2).unwrap();
+    let ev = first(&events(&s), ContactEventKind::Impact);
+    // The bob's velocity right after the impact (α = 0, where the wall is met): ω is
+    // constant after it (no gravity), the velocity turns with the pendulum.
+    let w_after = get(&mut s, "pivot.qd");
+    let c_impact = Vector3::new(0.0, 0.0, -l);
+    let approach_before = -(omega.cross(&c_impact)).dot(&n);
+    let approach_after = -(Vector3::new(0.0, w_after, 0.0).cross(&c_impact)).dot(&n);
+    assert!((ev.delta_dot - approach_before).abs() < 1e-12);
+    println!(
+        "bob on oblique wall: approach {:.15} m/s, after {:.15} m/s, ratio {:.15}",
+        ev.delta_dot,
+        approach_after,
+        approach_after / ev.delta_dot
+    );
+    assert!(ev.delta_dot > 0.5 * w0 * l * n.x);
+    assert!((approach_after / ev.delta_dot + e).abs() < 1e-12);
+}
+
+#[test]
+fn impulse_simultaneous_and_sequential_impacts() {
+    // Ball A hits B and C at once (normals ±30° from its path), equal masses, e = 0.8:
+    // P = m (1 + e) v0 cos θ / (1 + 2 cos² θ).
+    let (m, r, v0, e, th) = (0.5, 0.02, 1.0, 0.8, PI / 6.0);
+    let gap = 0.001;
+    let ca = Vector3::zeros();
+    let cb = Vector3::new(2.0 * r * th.cos() + gap, 2.0 * r * th.sin(), 0.0);
+    let cc = Vector3::new(cb.x, -cb.y, 0.0);
+    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+    t += &ball("a", m, r, ca, Vector3::new(v0, 0.0, 0.0));
+    t += &ball("b", m, r, cb, Vector3::zeros());
+    t += &ball("c", m, r, cc, Vector3::zeros());
+    t += &sphere_contact("ab", "impulse", e, "a", ca, r, "b", cb, r);
+    t += &sphere_contact("ac", "impulse", e, "a", ca, r, "c", cc, r);
+    let mut s = sim(&t);
+    s.step_to(0.05).unwrap();
+    let p = m * (1.0 + e) * v0 * th.cos() / (1.0 + 2.0 * th.cos().powi(2));
+    let va = get(&mut s, "a.v[1]");
+    let (vbx, vby) = (get(&mut s, "b.v[1]"), get(&mut s, "b.v[2]"));
+    println!(
+        "simultaneous impact: a {va:.15} (expected {:.15}), b ({vbx:.15}, {vby:.15})",
+        v0 - 2.0 * p * th.cos() / m
+    );
+    assert!((va - (v0 - 2.0 * p * th.cos() / m)).abs() < 1e-12);
+    assert!((vbx - p / m * th.cos()).abs() < 1e-12 && (vby - p / m * th.sin()).abs() < 1e-12);
+    assert_eq!(get(&mut s, "ab.impacts"), 1.0);
+    assert_eq!(get(&mut s, "ac.impacts"), 1.0);
+
+    // Three touching balls in a row, e = 1: the impact travels through (one round per
+    // contact, at the same instant); the first two stop, the last leaves at v0.
+    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+    let c: Vec<Vector3<f64>> = (0..3).map(|k| Vector3::new(2.0 * r * k as f64, 0.0, 0.0)).collect();
+    let c0 = Vector3::new(-gap, 0.0, 0.0);
+    t += &ball(
+        "b0",
+        m,
+        r,
+        c0 - Vector3::new(2.0 * r, 0.0, 0.0),
+        Vector3::new(v0, 0.0, 0.0),
+    );
+    for (k, ck) in c.iter().enumerate() {
+        t += &ball(&format!("b{}", k + 1), m, r, *ck, Vector3::zeros());
+    }
+    t += &sphere_contact(
+        "c01",
+        "impulse",
+        1.0,
+        "b0",
+        c0 - Vector3::new(2.0 * r, 0.0, 0.0),
+        r,
+        "b1",
+        c[0],
+        r,
+    );
+    t += &sphere_contact("c12", "impulse", 1.0, "b1", c[0], r, "b2", c[1], r);
+    t += &sphere_contact("c23", "impulse", 1.0, "b2", c[1], r, "b3", c[2], r);
+    let mut s = sim(&t);
+    s.step_to(0.05).unwrap();
+    let v: Vec<f64> = (0..4).map(|k| get(&mut s, &format!("b{k}.v[1]"))).collect();
+    println!("impulse cradle of 4: final velocities {v:?}");
+    assert!(v[0].abs() < 1e-12 && v[1].abs() < 1e-12 && v[2].abs() < 1e-12);
+    assert!((v[3] - v0).abs() < 1e-12);
+    let times: Vec<f64> = events(&s)
+        .iter()
+        .filter(|e| e.kind == ContactEventKind::Impact)
+        .map(|e| e.time)
+        .collect();
+    assert_eq!(times.len(), 3);
+    assert!(times.iter().all(|&x| x == times[0]));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Resting contact under the impulse law
+
+#[test]
+fn impulse_ball_comes_to_rest_on_the_floor() {
+    // Dropped from 0.1 m, e = 0.8: bounces at v0 e^k until the approach speed falls below
+    // min_impact_velocity (1 mm/s), then a plastic impact and a resting contact: no Zeno
+    // lock-up, no fall-through, energy balance exact.
+    let (h, e, vmin, g) = (0.1, 0.8, 1e-3, 9.81);
+    let text = ball_on_floor(
+        "impulse",
+        &format!("restitution = {e:?}\nmin_impact_velocity = {vmin:?}"),
+        0.0,
+        g,
+        h,
+    );
+    let text = text
+        + "[[input]]\nname = \"lift\"\ntype = \"force\"\nbody = \"ball\"\ndirection = [0.0, 0.0, 1.0]\nstart = 0.0\n";
+    let mut s = sim(&text);
+    let e0 = get(&mut s, "energy.total");
+    let v0 = (2.0 * g * h).sqrt();
+    let t_rest = v0 / g * (1.0 + 2.0 * e / (1.0 - e)); // upper bound: the geometric series
+    let mut t = 0.0;
+    let mut worst: f64 = 0.0;
+    while t < t_rest + 0.5 {
+        t += 0.01;
+        s.step_to(t).unwrap();
+        let z = get(&mut s, "ball.r[3]");
+        assert!(z > R - 1e-12, "fell through: z = {z} at t = {t}");
+        worst = worst.max((get(&mut s, "energy.total") + get(&mut s, "energy.dissipated") - e0).abs() / e0);
+    }
+    let ev = events(&s);
+    let impacts: Vec<&ContactEvent> = ev.iter().filter(|x| x.kind == ContactEventKind::Impact).collect();
+    let rest = first(&ev, ContactEventKind::Rest);
+    // impacts at v0 e^k for k = 0..K with v0 e^K < vmin, the last one plastic
+    let k_last = ((vmin / v0).ln() / e.ln()).ceil() as usize;
+    println!(
+        "impulse ball: {} impacts (expected {}), rest at t = {:.9} s (infinite series {:.9} s), normal force {:.9} N (m g = {:.9}), \
+         energy balance {worst:.2e}, {} events, {} steps",
+        impacts.len(),
+        k_last + 1,
+        rest.time,
+        t_rest,
+        rest.force,
+        M * g,
+        s.engine().unwrap().counters().events,
+        s.engine().unwrap().counters().steps
+    );
+    assert_eq!(impacts.len(), k_last + 1);
+    for (k, x) in impacts.iter().enumerate() {
+        assert!(
+            rel(x.delta_dot, v0 * e.powi(k as i32)) < 1e-6,
+            "impact {k}: {}",
+            x.delta_dot
+        );
+    }
+    let t_last = v0 / g + (1..=k_last).map(|k| 2.0 * v0 * e.powi(k as i32) / g).sum::<f64>();
+    assert!(rel(rest.time, t_last) < 1e-9, "rest at {} vs {t_last}", rest.time);
+    assert!(rel(rest.force, M * g) < 1e-9);
+    assert!(worst < 1e-12, "energy balance {worst}");
+    assert_eq!(get(&mut s, "floor.active"), 1.0);
+    assert!(rel(get(&mut s, "floor.force"), M * g) < 1e-9);
+    assert!((get(&mut s, "ball.r[3]") - R).abs() < 1e-12);
+    let lost = get(&mut s, "energy.dissipated");
+    assert!(
+        rel(lost, M * g * h) < 1e-9,
+        "all the energy went into the impacts: {lost}"
+    );
+
+    // Lift it with twice its weight: the constraint force would pull, the contact lets go,
+    // the ball rises with g upwards.
+    let vr = s.table().index_of("lift").unwrap();
+    s.set(vr, 2.0 * M * g).unwrap();
+    let t_release = t;
+    s.step_to(t + 0.1).unwrap();
+    let release = first(&events(&s), ContactEventKind::Release);
+    let z = get(&mut s, "ball.r[3]");
+    println!(
+        "released at t = {:.6} s, rose {:.9e} m in 0.1 s (g t²/2 = {:.9e})",
+        release.time,
+        z - R,
+        0.5 * g * 0.01
+    );
+    assert!((release.time - t_release).abs() < 1e-12);
+    assert!(rel(z - R, 0.5 * g * 0.01) < 1e-9);
+    assert_eq!(get(&mut s, "floor.active"), 0.0);
+}
+
+#[test]
+fn impulse_ball_slides_in_a_groove_as_a_pendulum() {
+    // A ball placed at rest on the inside of a horizontal cylinder (a groove, axis y,
+    // ρ = 0.1 m), 0.5 rad from the bottom: resting contact (the constraint row with the
+    // curvature term) makes it a frictionless pendulum of length ρ − r.
+    let (rho, r, th0, g) = (0.1, R, 0.5_f64, 9.81);
+    let len = rho - r;
+    let c = Vector3::new(len * th0.sin(), 0.0, -len * th0.cos());
+    let mut t = header(g, 1e-10, 1e-14, 1e-3);
+    t += &ball("ball", M, r, c, Vector3::zeros());
+    t += &format!(
+        "[[contact]]\nname = \"groove\"\ntype = \"sphere_cylinder\"\nlaw = \"impulse\"\nrestitution = 0.5\n\
+         sphere_body = \"ball\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\naxis_point = [0.0, 0.0, 0.0]\n\
+         axis = [0.0, 1.0, 0.0]\ncylinder_radius = {rho:?}\nlength = 0.2\nside = \"inside\"\n\
+         theta_range = [-1.5, 1.5]\nref_axis = [0.0, 0.0, -1.0]\n",
+        v3(c)
+    );
+    let mut s = sim(&t);
+    assert_eq!(get(&mut s, "groove.active"), 1.0, "resting from the start");
+    let e0 = get(&mut s, "energy.total");
+    // period of the pendulum with amplitude th0: 4 sqrt(l/g) K(sin(th0/2)), K by the AGM
+    let k = (th0 / 2.0).sin();
+    let (mut a, mut b) = (1.0_f64, (1.0 - k * k).sqrt());
+    for _ in 0..20 {
+        let an = 0.5 * (a + b);
+        b = (a * b).sqrt();
+        a = an;
+    }
+    let period = 4.0 * (len / g).sqrt() * PI / (2.0 * a);
+    // times of the upward zero crossings of x ... use the first return to x = max: x changes
+    // sign twice per period; measure the time of the second crossing of x = 0.
+    let dt = 1e-3;
+    let (mut t_prev, mut x_prev) = (0.0, c.x);
+    let mut crossings = Vec::new();
+    let mut worst: f64 = 0.0;
+    let mut worst_delta: f64 = 0.0;
+    while crossings.len() < 4 {
+        let tn = t_prev + dt;
+        s.step_to(tn).unwrap();
+        let x = get(&mut s, "ball.r[1]");
+        let z = get(&mut s, "ball.r[3]");
+        worst_delta = worst_delta.max(((x * x + z * z).sqrt() - len).abs());
+        worst = worst.max((get(&mut s, "energy.total") - e0).abs() / e0.abs());
+        if x_prev > 0.0 && x <= 0.0 || x_prev < 0.0 && x >= 0.0 {
+            crossings.push(t_prev + dt * x_prev / (x_prev - x));
+        }
+        t_prev = tn;
+        x_prev = x;
+        assert!(tn < 10.0 * period);
+    }
+    let measured = crossings[3] - crossings[1];
+    println!(
+        "groove pendulum: period {measured:.9} s (exact {period:.9} s, rel {:.2e}), |distance - (rho - r)| <= {worst_delta:.2e} m, \
+         energy drift {worst:.2e}",
+        rel(measured, period)
+    );
+    assert!(
+        rel(measured, period) < 1e-5,
+        "the crossing times are interpolated linearly over 1 ms"
+    );
+    assert!(worst_delta < 1e-9);
+    assert!(worst < 1e-8);
+    assert_eq!(get(&mut s, "groove.impacts"), 0.0);
+}
