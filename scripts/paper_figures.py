@@ -70,14 +70,14 @@ class Fmu:
         self.start = {v.name: v.start for v in self.md.modelVariables}
         self.stop_time = float(self.md.defaultExperiment.stopTime)
 
-    def instance(self, params, quiet=False):
+    def instance(self, params):
         fmu = FMU2Slave(
             guid=self.md.guid,
             unzipDirectory=self.dir,
             modelIdentifier=self.md.coSimulation.modelIdentifier,
             instanceName="paper",
         )
-        fmu.instantiate(loggingOn=not quiet)
+        fmu.instantiate(loggingOn=False)
         fmu.setupExperiment(startTime=0.0, stopTime=self.stop_time)
         fmu.enterInitializationMode()
         for name, value in params.items():
@@ -105,25 +105,30 @@ class Fmu:
         a = np.array(rows)
         return a[:, 0], {name: a[:, i + 1] for i, name in enumerate(outputs)}
 
-    def timed(self, params, h, runs):
-        """Median wall time of the doStep loop over `runs` runs, and the RHS evaluations."""
-        times, evals = [], None
+    def timed(self, cases, h, runs):
+        """Median CPU time of this process (FMU included) in the doStep loop over `runs` runs of
+        each parameter set in `cases`, interleaved (run 1 of every case, then run 2, ...) so that
+        a changing load on the machine affects every case alike; and each case's RHS evaluations
+        and steps."""
+        times = [[] for _ in cases]
+        counts = [None] * len(cases)
+        n = int(round(self.stop_time / h))
         for _ in range(runs):
-            fmu = self.instance(params)
-            n = int(round(self.stop_time / h))
-            t0 = time.perf_counter()
-            for k in range(n):
-                fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
-            times.append(time.perf_counter() - t0)
-            evals, steps = fmu.getInteger([self.vr["solver.rhs_evals"], self.vr["solver.steps"]])
-            fmu.terminate()
-            fmu.freeInstance()
-        return statistics.median(times), evals, steps
+            for i, params in enumerate(cases):
+                fmu = self.instance(params)
+                t0 = time.process_time()
+                for k in range(n):
+                    fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
+                times[i].append(time.process_time() - t0)
+                counts[i] = tuple(fmu.getInteger([self.vr["solver.rhs_evals"], self.vr["solver.steps"]]))
+                fmu.terminate()
+                fmu.freeInstance()
+        return [(statistics.median(t),) + c for t, c in zip(times, counts)]
 
     def _final_value(self, params, output, conn):
         """Child process: runs to the stop time with communication step 1e-2, sends the final
         `output` and the RHS evaluations (or None when a step fails)."""
-        fmu = self.instance(params, quiet=True)
+        fmu = self.instance(params)
         try:
             n = int(round(self.stop_time / 1e-2))
             for k in range(n):
@@ -133,7 +138,7 @@ class Fmu:
         except Exception:  # a failed step (penetration beyond max_penetration): too coarse
             conn.send(None)
 
-    def fixed_step_needed(self, params, reference, tol=1e-3, output="block.v[1]", timeout=60.0):
+    def fixed_step_needed(self, params, reference, tol=1e-3, output="block.v[1]", timeout=10.0):
         """Largest fixed RK4 step (1e-3 s halved until it fits) whose final `output` is within
         `tol` (relative) of `reference`, and the RHS evaluations it costs. Each trial runs in a
         child process with a time limit, so that a trial that does not finish counts as a
@@ -241,16 +246,31 @@ def slider_crank(sc, runs):
         ("block.v[1]", "block velocity [m/s]", "slider_crank_block_velocity.png"),
     ]:
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-        for ax, (lo, hi) in zip(axes, [(0.0, sc.stop_time), (t_imp - 0.004, t_imp + 0.012)]):
-            m = (tp >= lo) & (tp <= hi)
+        ax = axes[0]
+        ax.plot(tp, piecewise[key], color="k", lw=2.2, label="piecewise (impulse)")
+        for s, c in zip(FIGURE_SCALES, ["C0", "C1", "C3"]):
+            ax.plot(tp, continuous[s][key], color=c, lw=1.2, ls="--", label=f"continuous, E x {s:g}")
+        ax.set_title("Block struck by the slider-crank")
+        ax = axes[1]
+        if key == "block.r[1]":
+            # the differences are millimetres on a 1 m scale: plot them
+            for s, c in zip(FIGURE_SCALES, ["C0", "C1", "C3"]):
+                ax.plot(tp, 1e3 * (continuous[s][key] - piecewise[key]), color=c, lw=1.2, ls="--",
+                        label=f"continuous, E x {s:g}")
+            ax.axhline(0.0, color="k", lw=2.2, label="piecewise (impulse)")
+            ax.set_ylabel("continuous - piecewise [mm]")
+            ax.set_title("difference from the piecewise analysis")
+        else:
+            m = (tp >= t_imp - 0.004) & (tp <= t_imp + 0.012)
             ax.plot(tp[m], piecewise[key][m], color="k", lw=2.2, label="piecewise (impulse)")
             for s, c in zip(FIGURE_SCALES, ["C0", "C1", "C3"]):
                 ax.plot(tp[m], continuous[s][key][m], color=c, lw=1.2, ls="--", label=f"continuous, E x {s:g}")
-            ax.set_xlabel("time [s]")
             ax.set_ylabel(label)
+            ax.set_title("zoom on the impact")
+        axes[0].set_ylabel(label)
+        for ax in axes:
+            ax.set_xlabel("time [s]")
             ax.grid(alpha=0.3)
-        axes[0].set_title("Block struck by the slider-crank")
-        axes[1].set_title("zoom on the impact")
         axes[1].legend(fontsize=8)
         fig.tight_layout()
         fig.savefig(os.path.join(IMG, fname), dpi=120)
@@ -260,12 +280,12 @@ def slider_crank(sc, runs):
     e = float(sc.start["impact.restitution"])
     e_ln = lankarani_nikravesh_restitution(e)
     _, matched = sc.sample(params(LAW_IMPULSE, 1.0, e_ln), outputs, h)
-    t_pw, evals_pw, steps_pw = sc.timed(params(LAW_IMPULSE, 1.0), 1e-2, runs)
+    timing = sc.timed([params(LAW_IMPULSE, 1.0)] + [params(LAW_HERTZ_LN, s) for s in SCALES], 1e-2, runs)
+    t_pw, evals_pw, steps_pw = timing[0]
     h_rk4_pw, evals_rk4_pw = sc.fixed_step_needed(params(LAW_IMPULSE, 1.0), piecewise["block.v[1]"][-1])
     rows = []
-    for s in SCALES:
+    for s, (t_c, evals_c, steps_c) in zip(SCALES, timing[1:]):
         c = continuous[s]
-        t_c, evals_c, steps_c = sc.timed(params(LAW_HERTZ_LN, s), 1e-2, runs)
         h_rk4, evals_rk4 = sc.fixed_step_needed(params(LAW_HERTZ_LN, s), c["block.v[1]"][-1])
         rows.append(
             {
