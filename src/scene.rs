@@ -484,7 +484,13 @@ impl Scene {
                 origin,
                 format!("line {line}, column {col}"),
                 "toml",
-                e.message().to_string(),
+                // one line: the parser's message may span several
+                e.message()
+                    .lines()
+                    .map(str::trim)
+                    .filter(|l| !l.is_empty())
+                    .collect::<Vec<_>>()
+                    .join("; "),
             )
         })?;
         scene.validate(origin)?;
