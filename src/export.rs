@@ -17,9 +17,9 @@ use crate::variables::{Causality, EnumType, Range, VarType, Variability, Variabl
 use quick_xml::events::attributes::Attribute;
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::name::QName;
-use std::borrow::Cow;
 use quick_xml::Writer;
 use sha2::{Digest, Sha256};
+use std::borrow::Cow;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
@@ -87,7 +87,10 @@ pub enum ExportError {
 }
 
 fn io_error(path: &Path) -> impl FnOnce(io::Error) -> ExportError + '_ {
-    move |source| ExportError::Io { path: path.to_path_buf(), source }
+    move |source| ExportError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// What [`export_fmu`] wrote.
@@ -121,7 +124,14 @@ pub fn guid(scene_text: &str) -> String {
     b[6] = (b[6] & 0x0f) | 0x80;
     b[8] = (b[8] & 0x3f) | 0x80;
     let hex: String = b[..16].iter().map(|x| format!("{x:02x}")).collect();
-    format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
+    format!(
+        "{{{}-{}-{}-{}-{}}}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
 }
 
 /// A 64-bit fingerprint of the scene (the first bytes of the same digest), stored in
@@ -148,8 +158,15 @@ fn attrs<'k, V: AsRef<str>>(pairs: impl IntoIterator<Item = (&'k str, V)>) -> Ve
     pairs
         .into_iter()
         .map(|(key, value)| {
-            let v = value.as_ref().replace('&', "&amp;").replace('<', "&lt;").replace('"', "&quot;");
-            Attribute { key: QName(key.as_bytes()), value: Cow::Owned(v.into_bytes()) }
+            let v = value
+                .as_ref()
+                .replace('&', "&amp;")
+                .replace('<', "&lt;")
+                .replace('"', "&quot;");
+            Attribute {
+                key: QName(key.as_bytes()),
+                value: Cow::Owned(v.into_bytes()),
+            }
         })
         .collect()
 }
@@ -226,7 +243,11 @@ fn range_attributes(r: Option<Range>) -> Vec<(&'static str, String)> {
 
 /// The units used by the table, in [`UNITS`] order.
 fn used_units(table: &VariableTable) -> Vec<(&'static str, [i32; 3])> {
-    UNITS.iter().copied().filter(|(name, _)| table.vars.iter().any(|v| v.unit == Some(*name))).collect()
+    UNITS
+        .iter()
+        .copied()
+        .filter(|(name, _)| table.vars.iter().any(|v| v.unit == Some(*name)))
+        .collect()
 }
 
 /// The enumeration types used by the table, in declaration order.
@@ -239,7 +260,13 @@ fn used_enums(table: &VariableTable) -> Vec<EnumType> {
 
 /// The 1-based indices of `ModelStructure`: (every output, the initial unknowns).
 pub fn model_structure(table: &VariableTable) -> (Vec<usize>, Vec<usize>) {
-    let outputs = table.vars.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).map(|(i, _)| i + 1).collect();
+    let outputs = table
+        .vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .map(|(i, _)| i + 1)
+        .collect();
     let initial = table
         .vars
         .iter()
@@ -268,111 +295,127 @@ fn write_model_description(scene: &Scene, scene_text: &str) -> io::Result<Vec<u8
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
     let guid = guid(scene_text);
     let tool = format!("contact-fmu {VERSION}");
-    let mut root = vec![("fmiVersion", "2.0"), ("modelName", m.name.as_str()), ("guid", guid.as_str())];
+    let mut root = vec![
+        ("fmiVersion", "2.0"),
+        ("modelName", m.name.as_str()),
+        ("guid", guid.as_str()),
+    ];
     if !m.description.is_empty() {
         root.push(("description", m.description.as_str()));
     }
     root.push(("generationTool", tool.as_str()));
     root.push(("variableNamingConvention", "structured"));
-    w.create_element("fmiModelDescription").with_attributes(attrs(root)).write_inner_content(|w| {
-        w.create_element("CoSimulation")
-            .with_attributes(attrs([
-                ("modelIdentifier", m.name.as_str()),
-                ("canHandleVariableCommunicationStepSize", "true"),
-                ("canInterpolateInputs", "false"),
-                ("maxOutputDerivativeOrder", "0"),
-                ("canRunAsynchronuously", "false"),
-                ("canBeInstantiatedOnlyOncePerProcess", "false"),
-                ("canNotUseMemoryManagementFunctions", "true"),
-                ("canGetAndSetFMUstate", "true"),
-                ("canSerializeFMUstate", "true"),
-                ("providesDirectionalDerivative", "false"),
-            ]))
-            .write_empty()?;
-        let units = used_units(&table);
-        if !units.is_empty() {
-            w.create_element("UnitDefinitions").write_inner_content(|w| {
-                for (name, [kg, metre, s]) in units {
-                    let mut base: Vec<(&str, String)> = Vec::new();
-                    for (attr, e) in [("kg", kg), ("m", metre), ("s", s)] {
-                        if e != 0 {
-                            base.push((attr, e.to_string()));
-                        }
-                    }
-                    // Angular units: radian is FMI's base unit "rad" (dimensionless in UNITS).
-                    if name.starts_with("rad") {
-                        base.push(("rad", "1".into()));
-                    }
-                    w.create_element("Unit").with_attributes(attrs([("name", name)])).write_inner_content(|w| {
-                        w.create_element("BaseUnit").with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str())))).write_empty()?;
-                        Ok(())
-                    })?;
-                }
-                Ok(())
-            })?;
-        }
-        let enums = used_enums(&table);
-        if !enums.is_empty() {
-            w.create_element("TypeDefinitions").write_inner_content(|w| {
-                for e in enums {
-                    w.create_element("SimpleType").with_attributes(attrs([("name", e.type_name())])).write_inner_content(|w| {
-                        w.create_element("Enumeration").write_inner_content(|w| {
-                            for (name, value) in e.items() {
-                                let value = value.to_string();
-                                w.create_element("Item")
-                                    .with_attributes(attrs([("name", name), ("value", value.as_str())]))
-                                    .write_empty()?;
+    w.create_element("fmiModelDescription")
+        .with_attributes(attrs(root))
+        .write_inner_content(|w| {
+            w.create_element("CoSimulation")
+                .with_attributes(attrs([
+                    ("modelIdentifier", m.name.as_str()),
+                    ("canHandleVariableCommunicationStepSize", "true"),
+                    ("canInterpolateInputs", "false"),
+                    ("maxOutputDerivativeOrder", "0"),
+                    ("canRunAsynchronuously", "false"),
+                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
+                    ("canNotUseMemoryManagementFunctions", "true"),
+                    ("canGetAndSetFMUstate", "true"),
+                    ("canSerializeFMUstate", "true"),
+                    ("providesDirectionalDerivative", "false"),
+                ]))
+                .write_empty()?;
+            let units = used_units(&table);
+            if !units.is_empty() {
+                w.create_element("UnitDefinitions").write_inner_content(|w| {
+                    for (name, [kg, metre, s]) in units {
+                        let mut base: Vec<(&str, String)> = Vec::new();
+                        for (attr, e) in [("kg", kg), ("m", metre), ("s", s)] {
+                            if e != 0 {
+                                base.push((attr, e.to_string()));
                             }
-                            Ok(())
-                        })?;
-                        Ok(())
-                    })?;
-                }
-                Ok(())
-            })?;
-        }
-        w.create_element("LogCategories").write_inner_content(|w| {
-            for (name, description) in LOG_CATEGORIES {
-                let name = name.to_str().unwrap_or_default();
-                w.create_element("Category").with_attributes(attrs([("name", name), ("description", description)])).write_empty()?;
-            }
-            Ok(())
-        })?;
-        let stop = format_real(m.stop_time);
-        let tolerance = format_real(scene.solver.rtol);
-        let step = format_real(m.interval);
-        w.create_element("DefaultExperiment")
-            .with_attributes(attrs([
-                ("startTime", "0"),
-                ("stopTime", stop.as_str()),
-                ("tolerance", tolerance.as_str()),
-                ("stepSize", step.as_str()),
-            ]))
-            .write_empty()?;
-        w.create_element("ModelVariables").write_inner_content(|w| {
-            for (vr, v) in table.vars.iter().enumerate() {
-                write_variable(w, vr, v)?;
-            }
-            Ok(())
-        })?;
-        let (outputs, initial) = model_structure(&table);
-        w.create_element("ModelStructure").write_inner_content(|w| {
-            for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
-                if list.is_empty() {
-                    continue;
-                }
-                w.create_element(tag).write_inner_content(|w| {
-                    for i in list {
-                        let i = i.to_string();
-                        w.create_element("Unknown").with_attributes(attrs([("index", i.as_str())])).write_empty()?;
+                        }
+                        // Angular units: radian is FMI's base unit "rad" (dimensionless in UNITS).
+                        if name.starts_with("rad") {
+                            base.push(("rad", "1".into()));
+                        }
+                        w.create_element("Unit")
+                            .with_attributes(attrs([("name", name)]))
+                            .write_inner_content(|w| {
+                                w.create_element("BaseUnit")
+                                    .with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str()))))
+                                    .write_empty()?;
+                                Ok(())
+                            })?;
                     }
                     Ok(())
                 })?;
             }
+            let enums = used_enums(&table);
+            if !enums.is_empty() {
+                w.create_element("TypeDefinitions").write_inner_content(|w| {
+                    for e in enums {
+                        w.create_element("SimpleType")
+                            .with_attributes(attrs([("name", e.type_name())]))
+                            .write_inner_content(|w| {
+                                w.create_element("Enumeration").write_inner_content(|w| {
+                                    for (name, value) in e.items() {
+                                        let value = value.to_string();
+                                        w.create_element("Item")
+                                            .with_attributes(attrs([("name", name), ("value", value.as_str())]))
+                                            .write_empty()?;
+                                    }
+                                    Ok(())
+                                })?;
+                                Ok(())
+                            })?;
+                    }
+                    Ok(())
+                })?;
+            }
+            w.create_element("LogCategories").write_inner_content(|w| {
+                for (name, description) in LOG_CATEGORIES {
+                    let name = name.to_str().unwrap_or_default();
+                    w.create_element("Category")
+                        .with_attributes(attrs([("name", name), ("description", description)]))
+                        .write_empty()?;
+                }
+                Ok(())
+            })?;
+            let stop = format_real(m.stop_time);
+            let tolerance = format_real(scene.solver.rtol);
+            let step = format_real(m.interval);
+            w.create_element("DefaultExperiment")
+                .with_attributes(attrs([
+                    ("startTime", "0"),
+                    ("stopTime", stop.as_str()),
+                    ("tolerance", tolerance.as_str()),
+                    ("stepSize", step.as_str()),
+                ]))
+                .write_empty()?;
+            w.create_element("ModelVariables").write_inner_content(|w| {
+                for (vr, v) in table.vars.iter().enumerate() {
+                    write_variable(w, vr, v)?;
+                }
+                Ok(())
+            })?;
+            let (outputs, initial) = model_structure(&table);
+            w.create_element("ModelStructure").write_inner_content(|w| {
+                for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
+                    if list.is_empty() {
+                        continue;
+                    }
+                    w.create_element(tag).write_inner_content(|w| {
+                        for i in list {
+                            let i = i.to_string();
+                            w.create_element("Unknown")
+                                .with_attributes(attrs([("index", i.as_str())]))
+                                .write_empty()?;
+                        }
+                        Ok(())
+                    })?;
+                }
+                Ok(())
+            })?;
             Ok(())
         })?;
-        Ok(())
-    })?;
     let mut out = w.into_inner();
     out.push(b'\n');
     Ok(out)
@@ -392,49 +435,53 @@ fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Resul
     }
     let start_allowed = initial_of(v) != Some("calculated");
     let start = if start_allowed { v.start } else { None };
-    w.create_element("ScalarVariable").with_attributes(attrs(attributes)).write_inner_content(|w| {
-        let mut a: Vec<(&str, String)> = Vec::new();
-        let tag = match v.vtype {
-            VarType::Real => {
-                if let Some(u) = v.unit {
-                    a.push(("unit", u.to_string()));
+    w.create_element("ScalarVariable")
+        .with_attributes(attrs(attributes))
+        .write_inner_content(|w| {
+            let mut a: Vec<(&str, String)> = Vec::new();
+            let tag = match v.vtype {
+                VarType::Real => {
+                    if let Some(u) = v.unit {
+                        a.push(("unit", u.to_string()));
+                    }
+                    if v.causality == Causality::Parameter {
+                        a.extend(range_attributes(v.range));
+                    }
+                    if let Some(s) = start {
+                        a.push(("start", format_real(s)));
+                    }
+                    "Real"
                 }
-                if v.causality == Causality::Parameter {
-                    a.extend(range_attributes(v.range));
+                VarType::Integer => {
+                    if let Some(s) = start {
+                        a.push(("start", format!("{}", s.round() as i64)));
+                    }
+                    "Integer"
                 }
-                if let Some(s) = start {
-                    a.push(("start", format_real(s)));
+                VarType::Boolean => {
+                    if let Some(s) = start {
+                        a.push(("start", (if s != 0.0 { "true" } else { "false" }).to_string()));
+                    }
+                    "Boolean"
                 }
-                "Real"
-            }
-            VarType::Integer => {
-                if let Some(s) = start {
-                    a.push(("start", format!("{}", s.round() as i64)));
+                VarType::Enumeration(e) => {
+                    a.push(("declaredType", e.type_name().to_string()));
+                    if let Some(s) = start {
+                        a.push(("start", format!("{}", s.round() as i64)));
+                    }
+                    "Enumeration"
                 }
-                "Integer"
-            }
-            VarType::Boolean => {
-                if let Some(s) = start {
-                    a.push(("start", (if s != 0.0 { "true" } else { "false" }).to_string()));
-                }
-                "Boolean"
-            }
-            VarType::Enumeration(e) => {
-                a.push(("declaredType", e.type_name().to_string()));
-                if let Some(s) = start {
-                    a.push(("start", format!("{}", s.round() as i64)));
-                }
-                "Enumeration"
-            }
-        };
-        w.create_element(tag).with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str())))).write_empty()?;
-        Ok(())
-    })?;
+            };
+            w.create_element(tag)
+                .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
+                .write_empty()?;
+            Ok(())
+        })?;
     Ok(())
 }
 
 fn escape_html(s: &str) -> String {
-    quick_xml::escape::escape(s).into_owned()
+    quick_xml::escape::partial_escape(s).into_owned()
 }
 
 /// `documentation/index.html`: the model's variables as a table.
@@ -497,16 +544,21 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
     let origin = scene_path.display().to_string();
     let scene = Scene::from_str(&text, &origin)?;
     let mut trial = Simulation::new(scene.clone(), &origin);
-    trial
-        .initialize(0.0)
-        .map_err(|e| ExportError::Model { path: scene_path.to_path_buf(), message: e.to_string() })?;
+    trial.initialize(0.0).map_err(|e| ExportError::Model {
+        path: scene_path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let binary = std::fs::read(library).map_err(io_error(library))?;
     let xml = model_description_xml(&scene, &text);
     let html = documentation_html(&scene);
     let name = &scene.model.name;
     let entries: Vec<(String, &[u8], u32)> = vec![
         ("modelDescription.xml".into(), xml.as_bytes(), 0o644),
-        (format!("binaries/{PLATFORM}/{name}.{LIBRARY_EXTENSION}"), &binary, 0o755),
+        (
+            format!("binaries/{PLATFORM}/{name}.{LIBRARY_EXTENSION}"),
+            &binary,
+            0o755,
+        ),
         ("resources/scene.toml".into(), text.as_bytes(), 0o644),
         ("documentation/index.html".into(), html.as_bytes(), 0o644),
     ];
@@ -536,7 +588,13 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)]) -> io::Result<()> {
     let mut dirs: Vec<String> = Vec::new();
     for (name, _, _) in entries {
         let mut prefix = String::new();
-        for part in name.split('/').collect::<Vec<_>>().split_last().map(|(_, d)| d).unwrap_or(&[]) {
+        for part in name
+            .split('/')
+            .collect::<Vec<_>>()
+            .split_last()
+            .map(|(_, d)| d)
+            .unwrap_or(&[])
+        {
             prefix.push_str(part);
             prefix.push('/');
             if !dirs.contains(&prefix) {
@@ -545,10 +603,12 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)]) -> io::Result<()> {
         }
     }
     for d in &dirs {
-        zip.add_directory(d.as_str(), options.unix_permissions(0o755)).map_err(io::Error::other)?;
+        zip.add_directory(d.as_str(), options.unix_permissions(0o755))
+            .map_err(io::Error::other)?;
     }
     for (name, data, mode) in entries {
-        zip.start_file(name.as_str(), options.unix_permissions(*mode)).map_err(io::Error::other)?;
+        zip.start_file(name.as_str(), options.unix_permissions(*mode))
+            .map_err(io::Error::other)?;
         zip.write_all(data)?;
     }
     let mut inner = zip.finish().map_err(io::Error::other)?;
@@ -556,21 +616,35 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)]) -> io::Result<()> {
     Ok(())
 }
 
-/// Locates this crate's shared library next to the running executable: the executable's
-/// own folder (`target/release/contact-fmu` → `target/release/libcontact_fmu.so`), or its
-/// parent (test binaries live in `target/<profile>/deps/`).
+/// Locates this crate's shared library next to the running executable: in the executable's
+/// own folder (`target/release/contact-fmu` → `target/release/libcontact_fmu.so`), its
+/// `deps/` (where cargo rebuilds it) or its parent (test binaries live in
+/// `target/<profile>/deps/`); the newest of those found.
 pub fn find_library() -> Result<PathBuf, ExportError> {
-    let exe = std::env::current_exe().map_err(|e| ExportError::Library(format!("cannot locate the running executable: {e}")))?;
+    let exe = std::env::current_exe()
+        .map_err(|e| ExportError::Library(format!("cannot locate the running executable: {e}")))?;
     let dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
-    let candidates = [dir.join(LIBRARY_FILE), dir.join("..").join(LIBRARY_FILE)];
-    for c in &candidates {
-        if c.is_file() {
-            return Ok(c.clone());
-        }
+    let candidates = [
+        dir.join(LIBRARY_FILE),
+        dir.join("deps").join(LIBRARY_FILE),
+        dir.join("..").join(LIBRARY_FILE),
+    ];
+    // `cargo run` and `cargo test` rebuild the library in `deps/` without copying it up to
+    // `target/<profile>/`, so the copy next to the executable can be stale: take the newest.
+    let newest = candidates
+        .iter()
+        .filter_map(|c| Some((std::fs::metadata(c).ok().filter(|m| m.is_file())?.modified().ok()?, c)))
+        .max_by_key(|(modified, _)| *modified);
+    if let Some((_, path)) = newest {
+        return Ok(path.clone());
     }
     Err(ExportError::Library(format!(
         "cannot find the FMU library {LIBRARY_FILE} (looked in {}); build it with `cargo build --release`",
-        candidates.iter().map(|c| c.display().to_string()).collect::<Vec<_>>().join(" and ")
+        candidates
+            .iter()
+            .map(|c| c.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" and ")
     )))
 }
 
@@ -582,7 +656,9 @@ pub fn export_command(scene_path: &Path, out: Option<&Path>) -> Result<ExportedF
         Some(o) => o.to_path_buf(),
         None => {
             let scene = Scene::from_file(scene_path)?;
-            Path::new("target").join("fmu").join(format!("{}.fmu", scene.model.name))
+            Path::new("target")
+                .join("fmu")
+                .join(format!("{}.fmu", scene.model.name))
         }
     };
     export_fmu(scene_path, &out, &library)

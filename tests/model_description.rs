@@ -22,7 +22,12 @@ fn bundled_scenes() -> Vec<(String, PathBuf)> {
     let mut v: Vec<(String, PathBuf)> = std::fs::read_dir(root().join("fmu"))
         .expect("fmu/ exists")
         .filter_map(|e| e.ok())
-        .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path().join("scene.toml")))
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                e.path().join("scene.toml"),
+            )
+        })
         .filter(|(_, p)| p.is_file())
         .collect();
     v.sort();
@@ -48,7 +53,12 @@ fn bundled_model_descriptions_are_up_to_date() {
     for (name, path) in &scenes {
         let text = std::fs::read_to_string(path).unwrap();
         let scene = Scene::from_str(&text, &path.display().to_string()).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(&scene.model.name, name, "{}: model.name must equal the folder name", path.display());
+        assert_eq!(
+            &scene.model.name,
+            name,
+            "{}: model.name must equal the folder name",
+            path.display()
+        );
         let xml = model_description_xml(&scene, &text);
         let file = dir.join(format!("{name}.xml"));
         if update {
@@ -58,7 +68,11 @@ fn bundled_model_descriptions_are_up_to_date() {
         }
         match std::fs::read_to_string(&file) {
             Ok(old) if old == xml => {}
-            Ok(old) => stale.push(format!("{} differs from the exporter's output at {}", file.display(), first_difference(&old, &xml))),
+            Ok(old) => stale.push(format!(
+                "{} differs from the exporter's output at {}",
+                file.display(),
+                first_difference(&old, &xml)
+            )),
             Err(e) => stale.push(format!("{}: {e}", file.display())),
         }
     }
@@ -66,7 +80,10 @@ fn bundled_model_descriptions_are_up_to_date() {
     if let Ok(entries) = std::fs::read_dir(&dir) {
         for e in entries.filter_map(|e| e.ok()) {
             let p = e.path();
-            let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let stem = p
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
             if p.extension().is_some_and(|x| x == "xml") && !scenes.iter().any(|(n, _)| *n == stem) {
                 if update {
                     std::fs::remove_file(&p).unwrap();
@@ -101,35 +118,52 @@ fn model_structure_lists_every_output_and_exactly_the_initial_unknowns() {
         let mut outputs = Vec::new();
         let mut initial = Vec::new();
         for (i, v) in vars.iter().enumerate() {
-            let head = &v[..v.find('>').unwrap()];
+            let head = v.lines().next().unwrap();
             let causality = attribute(head, "causality").unwrap();
             let init = attribute(head, "initial");
             assert_eq!(attribute(head, "valueReference"), Some(i.to_string().as_str()));
             if causality == "output" {
                 outputs.push(i + 1);
             }
-            if (causality == "output" && matches!(init, Some("calculated") | Some("approx"))) || causality == "calculatedParameter" {
+            if (causality == "output" && matches!(init, Some("calculated") | Some("approx")))
+                || causality == "calculatedParameter"
+            {
                 initial.push(i + 1);
             }
             let body = &v[..v.find("</ScalarVariable>").unwrap()];
             match (causality, init) {
-                ("parameter", Some("exact")) | ("input", None) => assert!(body.contains(" start=\""), "{head}: needs a start"),
+                ("parameter", Some("exact")) | ("input", None) => {
+                    assert!(body.contains(" start=\""), "{head}: needs a start")
+                }
                 (_, Some("calculated")) => assert!(!body.contains(" start=\""), "{head}: calculated has no start"),
                 ("output", _) | ("calculatedParameter", _) => {}
                 other => panic!("{head}: unexpected causality/initial {other:?}"),
             }
             if !body.contains("<Real") {
-                assert_ne!(attribute(head, "variability"), Some("continuous"), "{head}: only Real may be continuous");
+                assert_ne!(
+                    attribute(head, "variability"),
+                    Some("continuous"),
+                    "{head}: only Real may be continuous"
+                );
             }
         }
         let section = |tag: &str| -> Vec<usize> {
-            let Some(s) = xml.find(&format!("<{tag}>")) else { return Vec::new() };
+            let Some(s) = xml.find(&format!("<{tag}>")) else {
+                return Vec::new();
+            };
             let e = xml[s..].find(&format!("</{tag}>")).unwrap() + s;
-            xml[s..e].split("<Unknown ").skip(1).map(|u| attribute(&format!(" {u}"), "index").unwrap().parse().unwrap()).collect()
+            xml[s..e]
+                .split("<Unknown ")
+                .skip(1)
+                .map(|u| attribute(&format!(" {u}"), "index").unwrap().parse().unwrap())
+                .collect()
         };
         assert_eq!(section("Outputs"), outputs, "{}", path.display());
         assert_eq!(section("InitialUnknowns"), initial, "{}", path.display());
-        assert!(!xml.contains("generationDateAndTime"), "the description must be deterministic");
+        assert!(
+            !xml.contains("generationDateAndTime"),
+            "the description must be deterministic"
+        );
     }
 }
 
@@ -144,6 +178,11 @@ fn the_description_is_a_pure_function_of_the_scene_text() {
     let edited = format!("{text}\n# edited\n");
     let b = model_description_xml(&scene, &edited);
     assert_ne!(a, b);
-    let strip = |s: &str| s.lines().filter(|l| !l.contains("guid=")).collect::<Vec<_>>().join("\n");
+    let strip = |s: &str| {
+        s.lines()
+            .filter(|l| !l.contains("guid="))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
     assert_eq!(strip(&a), strip(&b));
 }

@@ -45,13 +45,21 @@ unsafe fn instance<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
 /// # Safety
 /// `c` is NULL or a pointer returned by `fmi2Instantiate`; `body` upholds the safety of the
 /// pointers it reads.
-unsafe fn call(c: fmi2Component, func: &'static str, mask: u32, body: impl FnOnce(&mut Instance) -> FmiResult) -> fmi2Status {
+unsafe fn call(
+    c: fmi2Component,
+    func: &'static str,
+    mask: u32,
+    body: impl FnOnce(&mut Instance) -> FmiResult,
+) -> fmi2Status {
     let outer = catch_unwind(AssertUnwindSafe(|| {
         let Some(inst) = instance(c) else {
             return fmi2Status::fmi2Error;
         };
         if inst.state.bit() & mask == 0 {
-            let message = format!("illegal call sequence: {func} is not allowed in the {} state", inst.state.name());
+            let message = format!(
+                "illegal call sequence: {func} is not allowed in the {} state",
+                inst.state.name()
+            );
             return inst.fail(func, Failure::error(message));
         }
         match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
@@ -117,7 +125,9 @@ unsafe fn saved_state<'a>(s: fmi2FMUstate) -> FmiResult<&'a SavedState> {
         return Err(Failure::error("the FMU state is NULL"));
     }
     if !(*p).is_valid() {
-        return Err(Failure::error("the FMU state was not made by this FMU or has been freed"));
+        return Err(Failure::error(
+            "the FMU state was not made by this FMU or has been freed",
+        ));
     }
     Ok(&*p)
 }
@@ -136,7 +146,9 @@ unsafe fn store_state(slot: *mut fmi2FMUstate, state: SavedState) -> FmiResult {
     } else if (*existing).is_valid() {
         *existing = state;
     } else {
-        return Err(Failure::error("*FMUstate is neither NULL nor a live FMU state of this FMU"));
+        return Err(Failure::error(
+            "*FMUstate is neither NULL nor a live FMU state of this FMU",
+        ));
     }
     Ok(())
 }
@@ -231,7 +243,10 @@ pub unsafe extern "C" fn fmi2Instantiate(
                 ptr::null_mut()
             }
             Err(payload) => {
-                report(&format!("fmi2Instantiate: internal error (panic): {}", panic_text(payload.as_ref())));
+                report(&format!(
+                    "fmi2Instantiate: internal error (panic): {}",
+                    panic_text(payload.as_ref())
+                ));
                 ptr::null_mut()
             }
         }
@@ -282,9 +297,12 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 /// `c` from `fmi2Instantiate`.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
-    call(c, "fmi2EnterInitializationMode", lifecycle::ENTER_INITIALIZATION_MODE, |inst| {
-        inst.enter_initialization_mode()
-    })
+    call(
+        c,
+        "fmi2EnterInitializationMode",
+        lifecycle::ENTER_INITIALIZATION_MODE,
+        |inst| inst.enter_initialization_mode(),
+    )
 }
 
 /// `fmi2ExitInitializationMode`: checks every parameter's range (the message names the
@@ -294,9 +312,12 @@ pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2St
 /// `c` from `fmi2Instantiate`.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
-    call(c, "fmi2ExitInitializationMode", lifecycle::EXIT_INITIALIZATION_MODE, |inst| {
-        inst.exit_initialization_mode()
-    })
+    call(
+        c,
+        "fmi2ExitInitializationMode",
+        lifecycle::EXIT_INITIALIZATION_MODE,
+        |inst| inst.exit_initialization_mode(),
+    )
 }
 
 /// `fmi2Terminate`
@@ -367,7 +388,9 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     call(c, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
         let vrs = slice(vr, nvr, "vr")?;
         let out = slice_mut(value, nvr, "value")?;
-        inst.get_values(Access::Boolean, vrs, |k, x| out[k] = if x != 0.0 { FMI2_TRUE } else { FMI2_FALSE })
+        inst.get_values(Access::Boolean, vrs, |k, x| {
+            out[k] = if x != 0.0 { FMI2_TRUE } else { FMI2_FALSE }
+        })
     })
 }
 
@@ -465,7 +488,9 @@ pub unsafe extern "C" fn fmi2SetString(
 /// `state` points to NULL or to a live state of this library.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    call(c, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| store_state(state, inst.save()))
+    call(c, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| {
+        store_state(state, inst.save())
+    })
 }
 
 /// `fmi2SetFMUstate`: copies the state into the instance (the state stays valid), including
@@ -493,7 +518,9 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
         }
         let p = *state as *mut SavedState;
         if !(*p).is_valid() {
-            return Err(Failure::error("the FMU state was not made by this FMU or has been freed"));
+            return Err(Failure::error(
+                "the FMU state was not made by this FMU or has been freed",
+            ));
         }
         let mut boxed = Box::from_raw(p);
         boxed.magic = 0;
@@ -508,7 +535,11 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
 /// # Safety
 /// `state` is a live state of this library, `size` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    size: *mut usize,
+) -> fmi2Status {
     call(c, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
         let saved = saved_state(state)?;
         if size.is_null() {
@@ -577,9 +608,12 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     _dv_known: *const fmi2Real,
     _dv_unknown: *mut fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2GetDirectionalDerivative", lifecycle::GET_DIRECTIONAL_DERIVATIVE, |_| {
-        Err(Failure::error("not supported (providesDirectionalDerivative is false)"))
-    })
+    call(
+        c,
+        "fmi2GetDirectionalDerivative",
+        lifecycle::GET_DIRECTIONAL_DERIVATIVE,
+        |_| Err(Failure::error("not supported (providesDirectionalDerivative is false)")),
+    )
 }
 
 // ---------------------------------------------------------------------------------------
@@ -598,9 +632,12 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     _order: *const fmi2Integer,
     _value: *const fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2SetRealInputDerivatives", lifecycle::SET_REAL_INPUT_DERIVATIVES, |_| {
-        Err(Failure::error("not supported (canInterpolateInputs is false)"))
-    })
+    call(
+        c,
+        "fmi2SetRealInputDerivatives",
+        lifecycle::SET_REAL_INPUT_DERIVATIVES,
+        |_| Err(Failure::error("not supported (canInterpolateInputs is false)")),
+    )
 }
 
 /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
@@ -615,9 +652,12 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _order: *const fmi2Integer,
     _value: *mut fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2GetRealOutputDerivatives", lifecycle::GET_REAL_OUTPUT_DERIVATIVES, |_| {
-        Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)"))
-    })
+    call(
+        c,
+        "fmi2GetRealOutputDerivatives",
+        lifecycle::GET_REAL_OUTPUT_DERIVATIVES,
+        |_| Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)")),
+    )
 }
 
 /// `fmi2DoStep`: integrates from `current_communication_point` (which must be the current
@@ -653,7 +693,9 @@ pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *mut c_int) -> fmi2Status {
     call(c, "fmi2GetStatus", lifecycle::GET_STATUS, |_| {
-        Err(Failure::error("not supported: fmi2DoStep is synchronous and never returns fmi2Pending"))
+        Err(Failure::error(
+            "not supported: fmi2DoStep is synchronous and never returns fmi2Pending",
+        ))
     })
 }
 
@@ -715,4 +757,72 @@ pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, kind: c_int, _val
 /// `c` from `fmi2Instantiate`.
 pub unsafe fn instance_state(c: fmi2Component) -> Option<LifeState> {
     instance(c).map(|i| i.state)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ffi::CString;
+
+    /// An instance of the bundled bouncing ball, unpacked into a temporary folder.
+    fn instantiate(tag: &str) -> (fmi2Component, std::path::PathBuf) {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/bouncing_ball/scene.toml")).unwrap();
+        let dir = std::env::temp_dir().join(format!("contact-fmu-exports-{}-{tag}", std::process::id()));
+        std::fs::create_dir_all(dir.join("resources")).unwrap();
+        std::fs::write(dir.join("resources/scene.toml"), &text).unwrap();
+        let uri = CString::new(format!("file://{}", dir.join("resources").display())).unwrap();
+        let guid = CString::new(crate::export::guid(&text)).unwrap();
+        let callbacks = fmi2CallbackFunctions {
+            logger: None,
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: ptr::null_mut(),
+        };
+        // SAFETY: valid strings and callbacks for the duration of the call.
+        let c = unsafe {
+            fmi2Instantiate(
+                c"panic".as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                &callbacks,
+                0,
+                0,
+            )
+        };
+        assert!(!c.is_null());
+        (c, dir)
+    }
+
+    #[test]
+    fn a_panic_inside_a_call_becomes_an_error_and_a_state_restore_recovers() {
+        let (c, dir) = instantiate("panic");
+        // SAFETY: `c` is a live instance; the state slot is valid.
+        unsafe {
+            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), fmi2Status::fmi2OK);
+            assert_eq!(fmi2EnterInitializationMode(c), fmi2Status::fmi2OK);
+            assert_eq!(fmi2ExitInitializationMode(c), fmi2Status::fmi2OK);
+            assert_eq!(fmi2DoStep(c, 0.0, 1e-3, 1), fmi2Status::fmi2OK);
+            let mut state: fmi2FMUstate = ptr::null_mut();
+            assert_eq!(fmi2GetFMUstate(c, &mut state), fmi2Status::fmi2OK);
+
+            let status = call(c, "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| panic!("deliberate"));
+            assert_eq!(status, fmi2Status::fmi2Error);
+            assert_eq!(instance_state(c), Some(LifeState::Error));
+            assert_eq!(
+                fmi2DoStep(c, 1e-3, 1e-3, 1),
+                fmi2Status::fmi2Error,
+                "no stepping after an error"
+            );
+
+            assert_eq!(fmi2SetFMUstate(c, state), fmi2Status::fmi2OK);
+            assert_eq!(instance_state(c), Some(LifeState::StepComplete));
+            assert_eq!(fmi2DoStep(c, 1e-3, 1e-3, 1), fmi2Status::fmi2OK);
+            assert_eq!(fmi2FreeFMUstate(c, &mut state), fmi2Status::fmi2OK);
+            fmi2FreeInstance(c);
+        }
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }

@@ -19,8 +19,14 @@ pub const LOG_CATEGORIES: [(&CStr, &str); 6] = [
     (c"logEvents", "Instantiation, initialisation, reset, restored states"),
     (c"logStatusWarning", "Calls that return fmi2Warning"),
     (c"logStatusDiscard", "Calls that return fmi2Discard"),
-    (c"logStatusError", "Calls that return fmi2Error (always logged unless disabled)"),
-    (c"logStatusFatal", "Calls that return fmi2Fatal (always logged unless disabled)"),
+    (
+        c"logStatusError",
+        "Calls that return fmi2Error (always logged unless disabled)",
+    ),
+    (
+        c"logStatusFatal",
+        "Calls that return fmi2Fatal (always logged unless disabled)",
+    ),
     (c"logAll", "All of the above"),
 ];
 
@@ -50,7 +56,10 @@ pub struct Failure {
 impl Failure {
     /// An `fmi2Error` with a message.
     pub fn error(message: impl Into<String>) -> Failure {
-        Failure { status: fmi2Status::fmi2Error, message: message.into() }
+        Failure {
+            status: fmi2Status::fmi2Error,
+            message: message.into(),
+        }
     }
 }
 
@@ -65,7 +74,7 @@ pub type FmiResult<T = ()> = Result<T, Failure>;
 
 /// Sends one message through a host's logger, if there is one. The format string is always
 /// `"%s"`, so the text may contain `%`; NUL bytes in it are replaced.
-pub fn log_raw(
+pub(crate) fn log_raw(
     logger: fmi2CallbackLogger,
     environment: fmi2ComponentEnvironment,
     instance_name: &CStr,
@@ -78,7 +87,14 @@ pub fn log_raw(
     // SAFETY: the logger is the host's function with the fmi2CallbackLogger signature; every
     // pointer passed is a valid NUL-terminated string that lives until the call returns.
     unsafe {
-        logger(environment, instance_name.as_ptr(), status as c_int, category.as_ptr(), c"%s".as_ptr(), text.as_ptr());
+        logger(
+            environment,
+            instance_name.as_ptr(),
+            status as c_int,
+            category.as_ptr(),
+            c"%s".as_ptr(),
+            text.as_ptr(),
+        );
     }
 }
 
@@ -208,7 +224,11 @@ impl Instance {
             last_successful_time: 0.0,
             poisoned: false,
         };
-        inst.log_event(&format!("fmi2Instantiate: model {} from {}", inst.sim.scene().model.name, inst.origin));
+        inst.log_event(&format!(
+            "fmi2Instantiate: model {} from {}",
+            inst.sim.scene().model.name,
+            inst.origin
+        ));
         Ok(inst)
     }
 
@@ -222,7 +242,7 @@ impl Instance {
         &self.sim
     }
 
-    /// Current communication point [s].
+    /// Current communication point (s).
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -234,7 +254,14 @@ impl Instance {
         let cat = category_of(status);
         let wanted = self.enabled[cat] && (status > fmi2Status::fmi2OK || self.logging_on);
         if wanted {
-            log_raw(self.logger, self.environment, &self.name, status, LOG_CATEGORIES[cat].0, message);
+            log_raw(
+                self.logger,
+                self.environment,
+                &self.name,
+                status,
+                LOG_CATEGORIES[cat].0,
+                message,
+            );
         }
     }
 
@@ -246,11 +273,7 @@ impl Instance {
     pub fn fail(&mut self, func: &str, failure: Failure) -> fmi2Status {
         self.log(failure.status, &format!("{func}: {}", failure.message));
         match failure.status {
-            fmi2Status::fmi2Error => {
-                if self.state != LifeState::Fatal {
-                    self.state = LifeState::Error;
-                }
-            }
+            fmi2Status::fmi2Error if self.state != LifeState::Fatal => self.state = LifeState::Error,
             fmi2Status::fmi2Fatal => self.state = LifeState::Fatal,
             _ => {}
         }
@@ -267,9 +290,15 @@ impl Instance {
             return Ok(());
         }
         for c in categories {
-            let Some(i) = LOG_CATEGORIES.iter().position(|(name, _)| name.to_bytes() == c.as_bytes()) else {
+            let Some(i) = LOG_CATEGORIES
+                .iter()
+                .position(|(name, _)| name.to_bytes() == c.as_bytes())
+            else {
                 let known: Vec<&str> = LOG_CATEGORIES.iter().filter_map(|(n, _)| n.to_str().ok()).collect();
-                return Err(Failure::error(format!("unknown log category {c:?} (known: {})", known.join(", "))));
+                return Err(Failure::error(format!(
+                    "unknown log category {c:?} (known: {})",
+                    known.join(", ")
+                )));
             };
             if i == LOG_ALL {
                 self.enabled = [logging_on; LOG_CATEGORIES.len()];
@@ -285,18 +314,15 @@ impl Instance {
 
     /// `fmi2SetupExperiment`. A defined tolerance becomes `solver.rtol` (a later explicit
     /// `fmi2SetReal` of `solver.rtol` wins).
-    pub fn setup_experiment(
-        &mut self,
-        tolerance: Option<f64>,
-        start_time: f64,
-        stop_time: Option<f64>,
-    ) -> FmiResult {
+    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> FmiResult {
         if !start_time.is_finite() {
             return Err(Failure::error(format!("startTime must be finite (got {start_time})")));
         }
         if let Some(stop) = stop_time {
             if !(stop.is_finite() && stop >= start_time) {
-                return Err(Failure::error(format!("stopTime = {stop} must be finite and >= startTime = {start_time}")));
+                return Err(Failure::error(format!(
+                    "stopTime = {stop} must be finite and >= startTime = {start_time}"
+                )));
             }
         }
         if let Some(tol) = tolerance {
@@ -324,7 +350,10 @@ impl Instance {
         self.time = self.start_time;
         self.last_successful_time = self.start_time;
         self.state = LifeState::StepComplete;
-        self.log_event(&format!("fmi2ExitInitializationMode: initialised at t = {}", self.start_time));
+        self.log_event(&format!(
+            "fmi2ExitInitializationMode: initialised at t = {}",
+            self.start_time
+        ));
         Ok(())
     }
 
@@ -336,7 +365,8 @@ impl Instance {
 
     /// `fmi2Reset`: back to the state after `fmi2Instantiate`, with the start values.
     pub fn reset(&mut self) -> FmiResult {
-        self.sim = Simulation::from_scene_str(&self.scene_text, &self.origin).map_err(|e| Failure::error(e.to_string()))?;
+        self.sim =
+            Simulation::from_scene_str(&self.scene_text, &self.origin).map_err(|e| Failure::error(e.to_string()))?;
         self.state = LifeState::Instantiated;
         self.start_time = 0.0;
         self.stop_time = None;
@@ -366,9 +396,17 @@ impl Instance {
     }
 
     /// Reads variables of one type as `f64` (Integer and Boolean values are whole numbers).
-    pub fn get_values(&mut self, access: Access, vrs: &[fmi2ValueReference], mut put: impl FnMut(usize, f64)) -> FmiResult {
+    pub fn get_values(
+        &mut self,
+        access: Access,
+        vrs: &[fmi2ValueReference],
+        mut put: impl FnMut(usize, f64),
+    ) -> FmiResult {
         if access == Access::String && !vrs.is_empty() {
-            return Err(Failure::error(format!("this model has no String variables (value reference {})", vrs[0])));
+            return Err(Failure::error(format!(
+                "this model has no String variables (value reference {})",
+                vrs[0]
+            )));
         }
         for (k, &vr) in vrs.iter().enumerate() {
             self.variable(vr, access)?;
@@ -379,9 +417,17 @@ impl Instance {
     }
 
     /// Sets variables of one type, checking that each may be set in the current state.
-    pub fn set_values(&mut self, access: Access, vrs: &[fmi2ValueReference], value: impl Fn(usize) -> f64) -> FmiResult {
+    pub fn set_values(
+        &mut self,
+        access: Access,
+        vrs: &[fmi2ValueReference],
+        value: impl Fn(usize) -> f64,
+    ) -> FmiResult {
         if access == Access::String && !vrs.is_empty() {
-            return Err(Failure::error(format!("this model has no String variables (value reference {})", vrs[0])));
+            return Err(Failure::error(format!(
+                "this model has no String variables (value reference {})",
+                vrs[0]
+            )));
         }
         for (k, &vr) in vrs.iter().enumerate() {
             let var = self.variable(vr, access)?;
@@ -397,9 +443,14 @@ impl Instance {
                     }
                 }
                 Causality::CalculatedParameter => {
-                    return Err(Failure::error(format!("{} is a calculated parameter and cannot be set", var.name)))
+                    return Err(Failure::error(format!(
+                        "{} is a calculated parameter and cannot be set",
+                        var.name
+                    )))
                 }
-                Causality::Output => return Err(Failure::error(format!("{} is an output and cannot be set", var.name))),
+                Causality::Output => {
+                    return Err(Failure::error(format!("{} is an output and cannot be set", var.name)))
+                }
             }
             self.sim.set(vr as usize, value(k))?;
         }
@@ -420,11 +471,16 @@ impl Instance {
         }
         let t_end = current + h;
         if t_end <= self.time {
-            return Err(Failure::error(format!("the step from {current} by {h} does not advance past the current time {}", self.time)));
+            return Err(Failure::error(format!(
+                "the step from {current} by {h} does not advance past the current time {}",
+                self.time
+            )));
         }
         if let Some(stop) = self.stop_time {
             if t_end > stop + 1e-9 * stop.abs().max(h) {
-                return Err(Failure::error(format!("the step to t = {t_end} goes past stopTime = {stop}")));
+                return Err(Failure::error(format!(
+                    "the step to t = {t_end} goes past stopTime = {stop}"
+                )));
             }
         }
         match self.sim.step_to(t_end) {
@@ -449,7 +505,9 @@ impl Instance {
         if kind == status_kind::LAST_SUCCESSFUL_TIME {
             Ok(self.last_successful_time)
         } else {
-            Err(Failure::error(format!("status kind {kind} has no Real value (only fmi2LastSuccessfulTime = 2)")))
+            Err(Failure::error(format!(
+                "status kind {kind} has no Real value (only fmi2LastSuccessfulTime = 2)"
+            )))
         }
     }
 
@@ -458,7 +516,9 @@ impl Instance {
         if kind == status_kind::TERMINATED {
             Ok(self.state == LifeState::Terminated)
         } else {
-            Err(Failure::error(format!("status kind {kind} has no Boolean value (only fmi2Terminated = 3)")))
+            Err(Failure::error(format!(
+                "status kind {kind} has no Boolean value (only fmi2Terminated = 3)"
+            )))
         }
     }
 
@@ -479,10 +539,13 @@ impl Instance {
     /// terminated instance).
     pub fn restore(&mut self, saved: &SavedState) -> FmiResult {
         if saved.model_hash != self.model_hash {
-            return Err(Failure::error("the FMU state belongs to a different model (its scene differs from this instance's)"));
+            return Err(Failure::error(
+                "the FMU state belongs to a different model (its scene differs from this instance's)",
+            ));
         }
         if self.poisoned {
-            self.sim = Simulation::from_scene_str(&self.scene_text, &self.origin).map_err(|e| Failure::error(e.to_string()))?;
+            self.sim = Simulation::from_scene_str(&self.scene_text, &self.origin)
+                .map_err(|e| Failure::error(e.to_string()))?;
             self.poisoned = false;
         }
         self.sim.restore(&saved.snapshot)?;
@@ -491,7 +554,11 @@ impl Instance {
         self.start_time = saved.start_time;
         self.stop_time = saved.stop_time;
         self.last_successful_time = saved.last_successful_time;
-        self.log_event(&format!("fmi2SetFMUstate: restored a state at t = {} ({})", self.time, self.state.name()));
+        self.log_event(&format!(
+            "fmi2SetFMUstate: restored a state at t = {} ({})",
+            self.time,
+            self.state.name()
+        ));
         Ok(())
     }
 }

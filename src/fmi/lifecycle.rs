@@ -39,9 +39,18 @@ impl LifeState {
     /// Inverse of [`LifeState::code`].
     pub fn from_code(code: u32) -> Option<LifeState> {
         use LifeState::*;
-        [Instantiated, InitializationMode, StepComplete, StepFailed, StepCanceled, Terminated, Error, Fatal]
-            .into_iter()
-            .find(|s| s.code() == code)
+        [
+            Instantiated,
+            InitializationMode,
+            StepComplete,
+            StepFailed,
+            StepCanceled,
+            Terminated,
+            Error,
+            Fatal,
+        ]
+        .into_iter()
+        .find(|s| s.code() == code)
     }
 
     /// The name used in log messages.

@@ -24,13 +24,13 @@ pub struct SavedState {
     pub model_hash: u64,
     /// The state-machine state.
     pub lifecycle: LifeState,
-    /// Current communication point [s].
+    /// Current communication point (s).
     pub time: f64,
-    /// Start time from `fmi2SetupExperiment` [s].
+    /// Start time from `fmi2SetupExperiment` (s).
     pub start_time: f64,
-    /// Stop time, when defined [s].
+    /// Stop time, when defined (s).
     pub stop_time: Option<f64>,
-    /// End of the last successful step [s].
+    /// End of the last successful step (s).
     pub last_successful_time: f64,
     /// Parameter values and engine state.
     pub snapshot: Snapshot,
@@ -47,7 +47,16 @@ impl SavedState {
         last_successful_time: f64,
         snapshot: Snapshot,
     ) -> SavedState {
-        SavedState { magic: STATE_MAGIC, model_hash, lifecycle, time, start_time, stop_time, last_successful_time, snapshot }
+        SavedState {
+            magic: STATE_MAGIC,
+            model_hash,
+            lifecycle,
+            time,
+            start_time,
+            stop_time,
+            last_successful_time,
+            snapshot,
+        }
     }
 
     /// True for a state made by this library (and not yet freed).
@@ -68,7 +77,12 @@ impl SavedState {
         b.extend_from_slice(&self.model_hash.to_le_bytes());
         b.extend_from_slice(&self.lifecycle.code().to_le_bytes());
         b.extend_from_slice(&0u32.to_le_bytes());
-        for x in [self.time, self.start_time, self.stop_time.unwrap_or(0.0), self.last_successful_time] {
+        for x in [
+            self.time,
+            self.start_time,
+            self.stop_time.unwrap_or(0.0),
+            self.last_successful_time,
+        ] {
             b.extend_from_slice(&x.to_le_bytes());
         }
         b.extend_from_slice(&(snap.len() as u64).to_le_bytes());
@@ -80,7 +94,10 @@ impl SavedState {
     /// Parses bytes written by [`SavedState::to_bytes`], checking magic, version and lengths.
     pub fn from_bytes(b: &[u8]) -> Result<SavedState, String> {
         if b.len() < HEADER_LEN {
-            return Err(format!("serialized FMU state has {} bytes, fewer than its {HEADER_LEN}-byte header", b.len()));
+            return Err(format!(
+                "serialized FMU state has {} bytes, fewer than its {HEADER_LEN}-byte header",
+                b.len()
+            ));
         }
         if &b[0..8] != SERIAL_MAGIC {
             return Err("serialized FMU state has a wrong magic number (not written by contact-fmu)".into());
@@ -88,16 +105,22 @@ impl SavedState {
         let mut r = Reader { b, pos: 8 };
         let version = r.u32();
         if version != SERIAL_VERSION {
-            return Err(format!("serialized FMU state has version {version}, this library reads version {SERIAL_VERSION}"));
+            return Err(format!(
+                "serialized FMU state has version {version}, this library reads version {SERIAL_VERSION}"
+            ));
         }
         let flags = r.u32();
         let total = r.u64();
         if total != b.len() as u64 {
-            return Err(format!("serialized FMU state is {} bytes long but its header says {total}", b.len()));
+            return Err(format!(
+                "serialized FMU state is {} bytes long but its header says {total}",
+                b.len()
+            ));
         }
         let model_hash = r.u64();
         let code = r.u32();
-        let lifecycle = LifeState::from_code(code).ok_or_else(|| format!("serialized FMU state has an unknown lifecycle code {code}"))?;
+        let lifecycle = LifeState::from_code(code)
+            .ok_or_else(|| format!("serialized FMU state has an unknown lifecycle code {code}"))?;
         let _reserved = r.u32();
         let time = r.f64();
         let start_time = r.f64();
@@ -105,7 +128,10 @@ impl SavedState {
         let last_successful_time = r.f64();
         let snap_len = r.u64();
         if snap_len != (b.len() - HEADER_LEN) as u64 {
-            return Err(format!("serialized FMU state: snapshot length {snap_len} does not match the {} bytes present", b.len() - HEADER_LEN));
+            return Err(format!(
+                "serialized FMU state: snapshot length {snap_len} does not match the {} bytes present",
+                b.len() - HEADER_LEN
+            ));
         }
         let snapshot = Snapshot::from_bytes(&b[HEADER_LEN..])?;
         Ok(SavedState::new(
@@ -155,7 +181,11 @@ mod tests {
             0.0,
             Some(2.0),
             0.125,
-            Snapshot { values: vec![1.0, -2.5, 1e-300], initialized: true, state: vec![0.1, f64::MIN_POSITIVE, -0.0] },
+            Snapshot {
+                values: vec![1.0, -2.5, 1e-300],
+                initialized: true,
+                state: vec![0.1, f64::MIN_POSITIVE, -0.0],
+            },
         )
     }
 
@@ -176,7 +206,9 @@ mod tests {
     #[test]
     fn damaged_bytes_are_refused_with_a_reason() {
         let b = sample().to_bytes();
-        assert!(SavedState::from_bytes(&b[..b.len() - 1]).unwrap_err().contains("header says"));
+        assert!(SavedState::from_bytes(&b[..b.len() - 1])
+            .unwrap_err()
+            .contains("header says"));
         assert!(SavedState::from_bytes(&b[..10]).unwrap_err().contains("header"));
         let mut wrong_magic = b.clone();
         wrong_magic[0] ^= 1;

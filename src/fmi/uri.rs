@@ -117,7 +117,11 @@ mod tests {
             "/tmp/my fmu/resources",
         ] {
             let got = resource_dir(uri).unwrap_or_else(|e| panic!("{uri}: {e}"));
-            assert_eq!(got.components().collect::<Vec<_>>(), want.components().collect::<Vec<_>>(), "{uri}");
+            assert_eq!(
+                got.components().collect::<Vec<_>>(),
+                want.components().collect::<Vec<_>>(),
+                "{uri}"
+            );
         }
     }
 

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The project's test command: build, Rust tests, export the bundled FMUs, then test the
+# exported .fmu files through a real FMI host (fmpy) in a Python venv.
+#
+#   ./run_tests.sh            everything
+#   ./run_tests.sh -k guid    extra arguments go to pytest
+set -euo pipefail
+cd "$(dirname "$0")"
+
+echo "== cargo build --release"
+cargo build --release
+
+echo "== cargo test --release"
+cargo test --release
+
+echo "== export the bundled FMUs"
+mkdir -p target/fmu
+for scene in fmu/*/scene.toml; do
+    name="$(basename "$(dirname "$scene")")"
+    cargo run --release --quiet -- export "$scene" -o "target/fmu/$name.fmu"
+done
+
+echo "== Python venv (.venv)"
+if [ ! -x .venv/bin/python ]; then
+    python3 -m venv .venv
+fi
+if ! .venv/bin/python -c "import fmpy, pytest, numpy, matplotlib" 2>/dev/null; then
+    .venv/bin/python -m pip install --quiet --upgrade pip
+    .venv/bin/python -m pip install --quiet fmpy pytest numpy matplotlib
+fi
+
+echo "== pytest tests/python"
+# The FMUs were just built and exported: the fixtures need not rebuild them.
+CONTACT_FMU_SKIP_BUILD=1 .venv/bin/python -m pytest tests/python -q "$@"

@@ -1,0 +1,358 @@
+//! The FMI functions called through their C signatures, in-process (the Python tests drive
+//! the exported FMU files through fmpy; these pin the same behaviour without a host).
+
+use contact_fmu::export::guid;
+use contact_fmu::fmi::exports::*;
+use contact_fmu::fmi::lifecycle::LifeState;
+use contact_fmu::fmi::types::*;
+use contact_fmu::simulation::Simulation;
+use contact_fmu::variables::{Causality, VarType};
+use std::ffi::CString;
+use std::path::PathBuf;
+use std::ptr;
+
+const OK: fmi2Status = fmi2Status::fmi2OK;
+const ERROR: fmi2Status = fmi2Status::fmi2Error;
+
+/// A scene unpacked like an FMU, in a folder whose path contains a space.
+struct Unpacked {
+    root: PathBuf,
+    text: String,
+}
+
+impl Unpacked {
+    fn new(tag: &str) -> Unpacked {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/bouncing_ball/scene.toml")).unwrap();
+        let root = std::env::temp_dir().join(format!("contact fmu abi {} {tag}", std::process::id()));
+        std::fs::create_dir_all(root.join("resources")).unwrap();
+        std::fs::write(root.join("resources/scene.toml"), &text).unwrap();
+        Unpacked { root, text }
+    }
+
+    fn uri(&self) -> String {
+        let path = self.root.join("resources").display().to_string();
+        format!("file://{}", path.replace('%', "%25").replace(' ', "%20"))
+    }
+
+    fn instantiate_with(&self, name: &str, guid_text: &str, uri: &str) -> fmi2Component {
+        let callbacks = fmi2CallbackFunctions {
+            logger: None,
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: ptr::null_mut(),
+        };
+        let name = CString::new(name).unwrap();
+        let g = CString::new(guid_text).unwrap();
+        let u = CString::new(uri).unwrap();
+        // SAFETY: valid strings and callbacks that live for the call.
+        unsafe {
+            fmi2Instantiate(
+                name.as_ptr(),
+                FMI2_CO_SIMULATION,
+                g.as_ptr(),
+                u.as_ptr(),
+                &callbacks,
+                0,
+                0,
+            )
+        }
+    }
+
+    fn instantiate(&self) -> Component {
+        let c = self.instantiate_with("abi", &guid(&self.text), &self.uri());
+        assert!(!c.is_null());
+        Component(c)
+    }
+
+    fn simulation(&self) -> Simulation {
+        Simulation::from_scene_str(&self.text, "scene.toml").unwrap()
+    }
+}
+
+impl Drop for Unpacked {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.root);
+    }
+}
+
+/// An instance freed on drop.
+struct Component(fmi2Component);
+
+impl Drop for Component {
+    fn drop(&mut self) {
+        // SAFETY: a live instance from fmi2Instantiate, freed once.
+        unsafe { fmi2FreeInstance(self.0) }
+    }
+}
+
+impl Component {
+    fn state(&self) -> LifeState {
+        // SAFETY: a live instance.
+        unsafe { instance_state(self.0) }.unwrap()
+    }
+    fn init(&self) {
+        // SAFETY: a live instance.
+        unsafe {
+            assert_eq!(fmi2SetupExperiment(self.0, 0, 0.0, 0.0, 0, 0.0), OK);
+            assert_eq!(fmi2EnterInitializationMode(self.0), OK);
+            assert_eq!(fmi2ExitInitializationMode(self.0), OK);
+        }
+    }
+    fn step(&self, t: f64, h: f64) -> fmi2Status {
+        // SAFETY: a live instance.
+        unsafe { fmi2DoStep(self.0, t, h, FMI2_TRUE) }
+    }
+    fn reals(&self, vrs: &[u32]) -> Vec<f64> {
+        let mut out = vec![0.0; vrs.len()];
+        // SAFETY: arrays of vrs.len() elements.
+        let s = unsafe { fmi2GetReal(self.0, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        assert_eq!(s, OK);
+        out
+    }
+}
+
+fn real_outputs(sim: &Simulation) -> Vec<u32> {
+    sim.variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output && v.vtype == VarType::Real)
+        .map(|(i, _)| i as u32)
+        .collect()
+}
+
+#[test]
+fn stepping_through_fmi_equals_the_simulation_facade_bit_for_bit() {
+    let u = Unpacked::new("facade");
+    let mut sim = u.simulation();
+    let outs = real_outputs(&sim);
+    let c = u.instantiate();
+    c.init();
+    sim.initialize(0.0).unwrap();
+    let h = 1e-3;
+    for k in 0..300 {
+        let t = k as f64 * h;
+        assert_eq!(c.step(t, h), OK);
+        sim.step_to(t + h).unwrap();
+        let direct: Vec<f64> = outs.iter().map(|&vr| sim.get(vr as usize).unwrap()).collect();
+        assert_eq!(c.reals(&outs), direct, "t = {}", t + h);
+    }
+}
+
+#[test]
+fn wrong_guid_empty_name_or_missing_resources_give_null() {
+    let u = Unpacked::new("null");
+    assert!(u
+        .instantiate_with("x", "{00000000-0000-0000-0000-000000000000}", &u.uri())
+        .is_null());
+    assert!(u.instantiate_with("", &guid(&u.text), &u.uri()).is_null());
+    assert!(u
+        .instantiate_with("x", &guid(&u.text), "file:///nonexistent/resources")
+        .is_null());
+    assert!(u
+        .instantiate_with("x", &guid(&u.text), "http://example.org/resources")
+        .is_null());
+    // SAFETY: NULL arguments are part of what is checked.
+    unsafe {
+        assert!(fmi2Instantiate(ptr::null(), 1, ptr::null(), ptr::null(), ptr::null(), 0, 0).is_null());
+    }
+}
+
+#[test]
+fn null_component_and_null_arrays_are_errors_not_crashes() {
+    let u = Unpacked::new("nulls");
+    // SAFETY: NULL pointers are what is checked.
+    unsafe {
+        assert_eq!(fmi2DoStep(ptr::null_mut(), 0.0, 1e-3, 0), ERROR);
+        assert_eq!(fmi2Terminate(ptr::null_mut()), ERROR);
+        fmi2FreeInstance(ptr::null_mut());
+        let c = u.instantiate();
+        c.init();
+        assert_eq!(fmi2GetReal(c.0, ptr::null(), 1, ptr::null_mut()), ERROR);
+        assert_eq!(c.state(), LifeState::Error);
+        assert_eq!(fmi2Reset(c.0), OK);
+        c.init();
+        assert_eq!(fmi2GetReal(c.0, ptr::null(), 0, ptr::null_mut()), OK);
+        assert_eq!(fmi2FreeFMUstate(c.0, ptr::null_mut()), OK);
+    }
+}
+
+#[test]
+fn calls_out_of_sequence_are_errors_and_reset_recovers() {
+    let u = Unpacked::new("sequence");
+    let c = u.instantiate();
+    assert_eq!(c.state(), LifeState::Instantiated);
+    assert_eq!(c.step(0.0, 1e-3), ERROR);
+    assert_eq!(c.state(), LifeState::Error);
+    // SAFETY: a live instance.
+    unsafe {
+        assert_eq!(fmi2EnterInitializationMode(c.0), ERROR);
+        assert_eq!(fmi2Reset(c.0), OK);
+    }
+    assert_eq!(c.state(), LifeState::Instantiated);
+    c.init();
+    assert_eq!(c.state(), LifeState::StepComplete);
+    assert_eq!(c.step(0.0, 1e-3), OK);
+    // A fixed parameter cannot change after initialisation; an input can.
+    let sim = u.simulation();
+    let mass = sim.table().index_of("ball.mass").unwrap() as u32;
+    // SAFETY: one-element arrays.
+    unsafe {
+        assert_eq!(fmi2SetReal(c.0, &mass, 1, &1.0), ERROR);
+    }
+}
+
+#[test]
+fn communication_points_must_match_and_steps_must_be_positive() {
+    let u = Unpacked::new("points");
+    for (t, h) in [
+        (0.0, 0.0),
+        (0.0, -1e-3),
+        (0.1, 1e-3),
+        (f64::NAN, 1e-3),
+        (0.0, f64::INFINITY),
+    ] {
+        let c = u.instantiate();
+        c.init();
+        assert_eq!(c.step(t, h), ERROR, "t = {t}, h = {h}");
+    }
+    let c = u.instantiate();
+    c.init();
+    assert_eq!(c.step(0.0, 0.1), OK);
+    // A host's accumulated rounding (well inside 1e-9 relative) is accepted.
+    assert_eq!(c.step(0.1 + 1e-17, 0.1), OK);
+}
+
+#[test]
+fn stop_time_limits_the_steps() {
+    let u = Unpacked::new("stop");
+    let c = u.instantiate();
+    // SAFETY: a live instance.
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(c.0, 0, 0.0, 0.0, 1, 0.01), OK);
+        assert_eq!(fmi2EnterInitializationMode(c.0), OK);
+        assert_eq!(fmi2ExitInitializationMode(c.0), OK);
+    }
+    assert_eq!(c.step(0.0, 0.01), OK);
+    assert_eq!(c.step(0.01, 0.01), ERROR);
+}
+
+#[test]
+fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
+    let u = Unpacked::new("states");
+    let sim = u.simulation();
+    let outs = real_outputs(&sim);
+    let a = u.instantiate();
+    a.init();
+    let h = 1e-3;
+    for k in 0..120 {
+        assert_eq!(a.step(k as f64 * h, h), OK);
+    }
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    // SAFETY: live instance, state slot, buffers of the sizes passed.
+    unsafe {
+        assert_eq!(fmi2GetFMUstate(a.0, &mut state), OK);
+        assert!(!state.is_null());
+        let mut size = 0usize;
+        assert_eq!(fmi2SerializedFMUstateSize(a.0, state, &mut size), OK);
+        let mut bytes = vec![0 as fmi2Byte; size];
+        assert_eq!(fmi2SerializeFMUstate(a.0, state, bytes.as_mut_ptr(), size - 1), ERROR);
+        assert_eq!(fmi2Reset(a.0), OK);
+        a.init();
+        for k in 0..120 {
+            assert_eq!(a.step(k as f64 * h, h), OK);
+        }
+        assert_eq!(fmi2SerializeFMUstate(a.0, state, bytes.as_mut_ptr(), size), OK);
+
+        let mut expected = Vec::new();
+        for k in 120..180 {
+            assert_eq!(a.step(k as f64 * h, h), OK);
+            expected.push(a.reals(&outs));
+        }
+        // Back in time on the same instance, via the state object.
+        assert_eq!(fmi2SetFMUstate(a.0, state), OK);
+        assert_eq!(fmi2FreeFMUstate(a.0, &mut state), OK);
+        assert!(state.is_null());
+        for (i, k) in (120..180).enumerate() {
+            assert_eq!(a.step(k as f64 * h, h), OK);
+            assert_eq!(a.reals(&outs), expected[i]);
+        }
+        // Into a fresh instance of the same model, via the bytes.
+        let b = u.instantiate();
+        let mut restored: fmi2FMUstate = ptr::null_mut();
+        assert_eq!(fmi2DeSerializeFMUstate(b.0, bytes.as_ptr(), size, &mut restored), OK);
+        assert_eq!(fmi2SetFMUstate(b.0, restored), OK);
+        assert_eq!(fmi2FreeFMUstate(b.0, &mut restored), OK);
+        assert_eq!(b.state(), LifeState::StepComplete);
+        let mut last = 0.0;
+        assert_eq!(fmi2GetRealStatus(b.0, 2, &mut last), OK);
+        assert_eq!(
+            last,
+            119.0 * h + h,
+            "the end of the last step, computed as the host did"
+        );
+        for (i, k) in (120..180).enumerate() {
+            assert_eq!(b.step(k as f64 * h, h), OK);
+            assert_eq!(b.reals(&outs), expected[i]);
+        }
+        // Damaged bytes are refused.
+        bytes[0] ^= 0x55;
+        let mut bad: fmi2FMUstate = ptr::null_mut();
+        assert_eq!(fmi2DeSerializeFMUstate(b.0, bytes.as_ptr(), size, &mut bad), ERROR);
+        assert!(bad.is_null());
+    }
+}
+
+#[test]
+fn a_state_of_another_model_is_refused() {
+    let u = Unpacked::new("other a");
+    let mut v = Unpacked::new("other b");
+    v.text.push_str("\n# a different scene text is a different model\n");
+    std::fs::write(v.root.join("resources/scene.toml"), &v.text).unwrap();
+    let a = u.instantiate();
+    let b = v.instantiate();
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    // SAFETY: live instances and a state slot.
+    unsafe {
+        assert_eq!(fmi2GetFMUstate(a.0, &mut state), OK);
+        assert_eq!(fmi2SetFMUstate(b.0, state), ERROR);
+        assert_eq!(fmi2FreeFMUstate(a.0, &mut state), OK);
+    }
+}
+
+#[test]
+fn types_platform_and_version() {
+    // SAFETY: static NUL-terminated strings.
+    unsafe {
+        assert_eq!(std::ffi::CStr::from_ptr(fmi2GetTypesPlatform()).to_str(), Ok("default"));
+        assert_eq!(std::ffi::CStr::from_ptr(fmi2GetVersion()).to_str(), Ok("2.0"));
+    }
+}
+
+#[test]
+fn enumerations_are_set_as_integers_and_checked_at_initialisation() {
+    let u = Unpacked::new("enums");
+    let sim = u.simulation();
+    let method = sim.table().index_of("solver.method").unwrap() as u32;
+    let c = u.instantiate();
+    // SAFETY: one-element arrays on a live instance.
+    unsafe {
+        let mut x: fmi2Real = 0.0;
+        assert_eq!(fmi2SetupExperiment(c.0, 0, 0.0, 0.0, 0, 0.0), OK);
+        assert_eq!(fmi2EnterInitializationMode(c.0), OK);
+        assert_eq!(
+            fmi2GetReal(c.0, &method, 1, &mut x),
+            ERROR,
+            "an enumeration is not a Real"
+        );
+        assert_eq!(fmi2Reset(c.0), OK);
+        assert_eq!(fmi2SetupExperiment(c.0, 0, 0.0, 0.0, 0, 0.0), OK);
+        assert_eq!(fmi2EnterInitializationMode(c.0), OK);
+        let mut m: fmi2Integer = 0;
+        assert_eq!(fmi2GetInteger(c.0, &method, 1, &mut m), OK);
+        assert_eq!(m, 1);
+        assert_eq!(fmi2SetInteger(c.0, &method, 1, &7), OK);
+        assert_eq!(fmi2ExitInitializationMode(c.0), ERROR, "method 7 does not exist");
+    }
+}

@@ -1,0 +1,510 @@
+"""The exported FMUs seen from a real FMI host (fmpy): validation, default experiments,
+FMU states, instance independence, memory, resource locations, error handling and agreement
+with the native `contact-fmu simulate`.
+"""
+
+import csv
+import ctypes
+import gc
+import math
+import subprocess
+import urllib.parse
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2LastSuccessfulTime, fmi2Terminated
+from fmpy.validation import validate_fmu
+
+from conftest import BINARY, ROOT, SCENES, copy_tree_with_space, scene_path
+
+FMI2_ERROR = 3
+DECLARED_CATEGORIES = {
+    "logEvents",
+    "logStatusWarning",
+    "logStatusDiscard",
+    "logStatusError",
+    "logStatusFatal",
+    "logAll",
+}
+
+
+def default_experiment(md):
+    de = md.defaultExperiment
+    return float(de.stopTime), float(de.stepSize)
+
+
+# --------------------------------------------------------------------------------------
+# Validation and default experiments
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_fmu_passes_fmpy_validation(fmus, name):
+    assert validate_fmu(str(fmus[name])) == []
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_default_experiment_runs(fmus, name):
+    md = fmpy.read_model_description(str(fmus[name]))
+    stop, _ = default_experiment(md)
+    result = fmpy.simulate_fmu(str(fmus[name]))  # fmpy's choices: at most 1000 communication steps
+    assert result["time"][0] == 0.0
+    assert result["time"][-1] == pytest.approx(stop, rel=1e-12)
+    assert len(result) > 100 and np.all(np.diff(result["time"]) > 0)
+    for column in result.dtype.names:
+        assert np.all(np.isfinite(result[column].astype(float))), column
+    # Physics sanity: total + dissipated energy stays at its initial value.
+    balance = result["energy.total"] + result["energy.dissipated"]
+    scale = max(abs(balance[0]), np.max(np.abs(result["energy.kinetic"])))
+    assert np.max(np.abs(balance - balance[0])) < 1e-4 * scale
+
+
+# --------------------------------------------------------------------------------------
+# FMU states
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_serialized_state_continues_bit_identically_in_another_instance(unzipped, make_instance, name):
+    a = make_instance(unzipped[name], "a")
+    stop, step = default_experiment(a.md)
+    n = round(stop / step)
+    a.init(stop_time=stop)
+    for _ in range(n // 3):
+        a.step(step)
+    state = a.slave.getFMUstate()
+    data = a.slave.serializeFMUstate(state)
+    a.slave.freeFMUstate(state)
+    t_saved = a.time
+    expected = []
+    for _ in range(n // 3):
+        a.step(step)
+        expected.append(a.outputs())
+
+    b = make_instance(unzipped[name], "b")
+    restored = b.slave.deSerializeFMUstate(data)
+    b.slave.setFMUstate(restored)
+    b.slave.freeFMUstate(restored)
+    b.time = t_saved
+    assert b.slave.getRealStatus(fmi2LastSuccessfulTime) == t_saved
+    got = []
+    for _ in range(n // 3):
+        b.step(step)
+        got.append(b.outputs())
+    assert got == expected  # bit for bit
+
+
+@pytest.mark.parametrize("target", ["terminated", "fresh"])
+def test_state_restores_into_a_terminated_or_fresh_instance(unzipped, make_instance, target):
+    name = SCENES[0]
+    a = make_instance(unzipped[name], "a")
+    stop, step = default_experiment(a.md)
+    a.init(stop_time=stop)
+    for _ in range(50):
+        a.step(step)
+    state = a.slave.getFMUstate()
+    t_saved = a.time
+    expected = []
+    for _ in range(20):
+        a.step(step)
+        expected.append(a.outputs())
+
+    if target == "terminated":
+        b = a
+        b.slave.terminate()
+    else:
+        b = make_instance(unzipped[name], "b")  # instantiated only, never initialised
+    b.slave.setFMUstate(state)
+    a.slave.freeFMUstate(state)  # the restored instance must not depend on the state object
+    b.time = t_saved
+    got = []
+    for _ in range(20):
+        b.step(step)
+        got.append(b.outputs())
+    assert got == expected
+
+
+def test_corrupted_serialized_state_is_refused(unzipped, make_instance, log):
+    a = make_instance(unzipped[SCENES[0]], "a", callbacks=log.callbacks)
+    a.init()
+    state = a.slave.getFMUstate()
+    data = bytearray(a.slave.serializeFMUstate(state))
+    a.slave.freeFMUstate(state)
+    with pytest.raises(FMICallException):
+        a.slave.deSerializeFMUstate(bytes(data[:-8]))
+    assert "length" in log.text() or "bytes" in log.text()
+
+
+# --------------------------------------------------------------------------------------
+# Instances
+# --------------------------------------------------------------------------------------
+
+
+def test_two_instances_in_one_process_are_independent(unzipped, make_instance):
+    name = "bouncing_ball" if "bouncing_ball" in SCENES else SCENES[0]
+    solo = make_instance(unzipped[name], "solo")
+    _, step = default_experiment(solo.md)
+    solo.init()
+    reference = []
+    for _ in range(200):
+        solo.step(step)
+        reference.append(solo.outputs())
+    solo.free()
+
+    a = make_instance(unzipped[name], "a")
+    b = make_instance(unzipped[name], "b")
+    mass = next(v for v in a.vars if v.endswith(".mass"))
+    a.init()
+    b.init(start_values={mass: 2.0 * float(a.vars[mass].start)})
+    got_a, got_b = [], []
+    for _ in range(200):
+        a.step(step)
+        b.step(step)
+        got_a.append(a.outputs())
+        got_b.append(b.outputs())
+    assert got_a == reference  # b's calls, interleaved, left a untouched
+    assert got_b != reference  # and b really has its own parameters
+
+
+def rss_kib():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    raise RuntimeError("no VmRSS")
+
+
+def test_thousand_instantiate_free_cycles_do_not_grow_memory(unzipped):
+    name = SCENES[0]
+    md = fmpy.read_model_description(str(unzipped[name]))
+    _, step = default_experiment(md)
+
+    def cycle():
+        # fmpy's own pattern: load the library, instantiate, run a little, free, unload.
+        slave = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=str(unzipped[name]),
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName="cycle",
+        )
+        slave.instantiate()
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=step)
+        state = slave.getFMUstate()
+        slave.freeFMUstate(state)
+        slave.terminate()
+        slave.freeInstance()
+
+    for _ in range(100):
+        cycle()
+    gc.collect()
+    before = rss_kib()
+    for _ in range(1000):
+        cycle()
+    gc.collect()
+    growth = rss_kib() - before
+    assert growth < 5 * 1024, f"resident memory grew by {growth} KiB over 1000 cycles"
+
+
+# --------------------------------------------------------------------------------------
+# Resource locations
+# --------------------------------------------------------------------------------------
+
+
+def test_resource_path_with_a_space(unzipped, make_instance, tmp_path):
+    name = SCENES[0]
+    spaced = copy_tree_with_space(unzipped[name], tmp_path)
+    plain = make_instance(unzipped[name], "plain")
+    inst = make_instance(spaced, "spaced")
+    _, step = default_experiment(inst.md)
+    plain.init()
+    inst.init()
+    for _ in range(10):
+        plain.step(step)
+        inst.step(step)
+    assert inst.outputs() == plain.outputs()
+
+
+@pytest.mark.parametrize("form", ["file:/", "file:///", "file:////", "file://localhost/", "unencoded"])
+def test_every_resource_uri_form_is_accepted(unzipped, tmp_path, log, form):
+    name = SCENES[0]
+    spaced = copy_tree_with_space(unzipped[name], tmp_path)
+    resources = str(spaced / "resources")
+    quoted = urllib.parse.quote(resources.lstrip("/"))
+    uri = {
+        "file:/": "file:/" + quoted,
+        "file:///": "file:///" + quoted,
+        "file:////": "file:////" + quoted,
+        "file://localhost/": "file://localhost/" + quoted,
+        "unencoded": "file:///" + resources.lstrip("/"),
+    }[form]
+    md = fmpy.read_model_description(str(spaced))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(spaced), modelIdentifier=md.coSimulation.modelIdentifier)
+    try:
+        component = slave.fmi2Instantiate(b"uri", 1, md.guid.encode(), uri.encode(), ctypes.byref(log.callbacks), 0, 0)
+        assert component, log.text()
+        slave.fmi2FreeInstance(component)
+    finally:
+        slave.freeLibrary()
+
+
+# --------------------------------------------------------------------------------------
+# Logging and errors
+# --------------------------------------------------------------------------------------
+
+
+def test_wrong_guid_returns_null_and_logs(unzipped, make_instance, log):
+    inst = make_instance(
+        unzipped[SCENES[0]], "wrong", guid="{00000000-%s%n%d-0000-0000-000000000000}", instantiate=False
+    )
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        inst.slave.instantiate(callbacks=log.callbacks)
+    assert not inst.slave.component
+    text = log.text()
+    assert "GUID" in text
+    # The host's GUID is quoted verbatim: '%' in a message is never taken as a format.
+    assert "%s%n%d" in text
+
+
+def test_empty_instance_name_returns_null_and_logs(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "", instantiate=False)
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        inst.slave.instantiate(callbacks=log.callbacks)
+    assert "instance name" in log.text()
+
+
+def test_logger_gets_a_plain_format_a_declared_category_and_the_environment(unzipped, make_instance):
+    """A raw (non-proxied) logger sees exactly what the library passes."""
+    seen = []
+
+    def raw_logger(env, instance_name, status, category, message):
+        seen.append((env, instance_name, status, category, message))
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(raw_logger)
+    callbacks.componentEnvironment = ctypes.c_void_p(0x5EED)
+    inst = make_instance(unzipped[SCENES[0]], "raw", callbacks=callbacks)
+    inst.slave.setDebugLogging(True, [])
+    with pytest.raises(FMICallException):
+        inst.step(0.001)  # before initialisation: illegal
+    assert seen
+    for env, instance_name, status, category, message in seen:
+        assert env == 0x5EED
+        assert instance_name == b"raw"
+        assert message == b"%s"
+        assert category is not None and category.decode() in DECLARED_CATEGORIES
+    assert any(s == FMI2_ERROR and c == b"logStatusError" for _, _, s, c, _ in seen)
+
+
+def test_unknown_log_category_is_an_error(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "cat", callbacks=log.callbacks)
+    inst.slave.setDebugLogging(True, ["logEvents", "logAll"])
+    with pytest.raises(FMICallException):
+        inst.slave.setDebugLogging(True, ["noSuchCategory"])
+    assert "noSuchCategory" in log.text()
+
+
+def bouncing_ball_with_stiffness():
+    text = scene_path("bouncing_ball").read_text()
+    assert 'law = "hertz_ln"' in text
+    return text.replace('law = "hertz_ln"', 'law = "hertz_ln"\nstiffness = 1.0e10', 1)
+
+
+OUT_OF_RANGE = [
+    ("ball.mass", -1.0),
+    ("ball.mass", 0.0),
+    ("steel.poisson_ratio", 0.5),
+    ("steel.youngs_modulus", -2e11),
+    ("ball_floor.restitution", 1.5),
+    ("ball_floor.stiffness", -1.0),
+    ("solver.rtol", 0.0),
+    ("solver.rtol", -1e-6),
+    ("solver.method", 99),
+]
+
+
+@pytest.mark.parametrize("variable,value", OUT_OF_RANGE)
+def test_out_of_range_parameter_is_refused_at_exit_initialization(export_scene, make_instance, log, variable, value):
+    _, unzipdir = export_scene(bouncing_ball_with_stiffness(), "stiff_ball")
+    inst = make_instance(unzipdir, "range", callbacks=log.callbacks)
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.set(variable, value)
+    with pytest.raises(FMICallException) as raised:
+        inst.slave.exitInitializationMode()
+    assert raised.value.status == FMI2_ERROR
+    assert variable in log.text()
+    # The instance is in the error state, and fmi2Reset makes it usable again.
+    with pytest.raises(FMICallException):
+        inst.step(1e-3)
+    inst.slave.reset()
+    inst.init()
+    inst.step(1e-3)
+
+
+def test_do_step_before_initialization_is_an_error_not_a_crash(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "early", callbacks=log.callbacks)
+    with pytest.raises(FMICallException) as raised:
+        inst.step(1e-3)
+    assert raised.value.status == FMI2_ERROR
+    assert "illegal call sequence" in log.text()
+
+
+def test_setting_a_fixed_parameter_after_initialization_is_an_error(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "late", callbacks=log.callbacks)
+    inst.init()
+    mass = next(v for v in inst.vars if v.endswith(".mass"))
+    with pytest.raises(FMICallException) as raised:
+        inst.set(mass, 1.0)
+    assert raised.value.status == FMI2_ERROR
+    assert mass in log.text()
+
+
+def test_type_and_reference_errors(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "types", callbacks=log.callbacks)
+    inst.init()
+    boolean = next(v.valueReference for v in inst.md.modelVariables if v.type == "Boolean")
+    with pytest.raises(FMICallException):
+        inst.slave.getReal([boolean])
+    assert "Boolean" in log.text()
+    inst.slave.reset()
+    inst.init()
+    with pytest.raises(FMICallException):
+        inst.slave.getReal([100000])
+    assert "unknown value reference" in log.text()
+
+
+def test_bad_communication_points_are_refused(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "steps", callbacks=log.callbacks)
+    inst.init()
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.0)
+    inst.slave.reset()
+    inst.init()
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(currentCommunicationPoint=0.5, communicationStepSize=1e-3)
+    assert "current time" in log.text()
+
+
+def test_status_queries(unzipped, make_instance):
+    inst = make_instance(unzipped[SCENES[0]], "status")
+    _, step = default_experiment(inst.md)
+    inst.init()
+    for _ in range(3):
+        inst.step(step)
+    assert inst.slave.getRealStatus(fmi2LastSuccessfulTime) == pytest.approx(3 * step, rel=1e-12)
+    assert not inst.slave.getBooleanStatus(fmi2Terminated)
+    inst.slave.terminate()
+    assert inst.slave.getBooleanStatus(fmi2Terminated)
+
+
+def test_unsupported_functions_return_error(unzipped, make_instance, log):
+    inst = make_instance(unzipped[SCENES[0]], "unsupported", callbacks=log.callbacks)
+    inst.init()
+    output = next(v.valueReference for v in inst.md.modelVariables if v.causality == "output" and v.type == "Real")
+    param = next(v.valueReference for v in inst.md.modelVariables if v.causality == "parameter" and v.type == "Real")
+    with pytest.raises(FMICallException):
+        inst.slave.getDirectionalDerivative([output], [param], [1.0])
+    assert "not supported" in log.text()
+    with pytest.raises(FMICallException) as raised:
+        inst.slave.fmi2CancelStep(inst.slave.component)
+    assert raised.value.status == FMI2_ERROR
+
+
+# --------------------------------------------------------------------------------------
+# Agreement with the native simulator
+# --------------------------------------------------------------------------------------
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    values = {}
+    for k, name in enumerate(header):
+        column = []
+        for row in data:
+            text = row[k]
+            column.append(1.0 if text == "true" else 0.0 if text == "false" else float(text))
+        values[name] = np.array(column)
+    return values
+
+
+@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("changed", [False, True])
+def test_fmu_results_equal_native_simulate(fmus, tmp_path, name, changed):
+    md = fmpy.read_model_description(str(fmus[name]))
+    mass = next(v.name for v in md.modelVariables if v.name.endswith(".mass"))
+    start_values, settings = {}, []
+    if changed:
+        new_mass = 1.5 * float(next(v.start for v in md.modelVariables if v.name == mass))
+        start_values[mass] = new_mass
+        settings = ["--set", f"{mass}={new_mass!r}"]
+    out = tmp_path / "native.csv"
+    subprocess.run(
+        [str(BINARY), "simulate", str(scene_path(name)), "--csv", str(out), "--quiet", *settings],
+        cwd=ROOT,
+        check=True,
+    )
+    native = read_csv(out)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    assert list(native) == ["time", *outputs]
+    _, step = default_experiment(md)
+    result = fmpy.simulate_fmu(str(fmus[name]), output=outputs, start_values=start_values, output_interval=step)
+    assert len(result) == len(native["time"])
+    np.testing.assert_allclose(result["time"], native["time"], rtol=0, atol=1e-12 * float(native["time"][-1]))
+    for column in outputs:
+        fmu_values = result[column].astype(float)
+        same_nan = np.isnan(fmu_values) & np.isnan(native[column])
+        assert np.array_equal(np.isnan(fmu_values), np.isnan(native[column])), f"{column}: NaN in one of them only"
+        scale = max(1.0, float(np.max(np.abs(native[column][~same_nan]), initial=0.0)))
+        worst = float(np.max(np.abs(fmu_values - native[column])[~same_nan], initial=0.0))
+        assert worst <= 1e-12 * scale, f"{column}: FMU and native differ by {worst}"
+    if changed:
+        # The parameter really reached the model: the heavier body moves differently.
+        baseline = fmpy.simulate_fmu(str(fmus[name]), output=outputs, output_interval=step)
+        assert any(not np.array_equal(baseline[c], result[c]) for c in outputs)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_initial_unknowns_are_available_in_initialization_mode(unzipped, make_instance, name):
+    inst = make_instance(unzipped[name], "initial")
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    unknowns = [u.variable for u in inst.md.initialUnknowns]
+    reals = [v.valueReference for v in unknowns if v.type == "Real"]
+    during = inst.slave.getReal(reals)
+    inst.slave.exitInitializationMode()
+    after = inst.slave.getReal(reals)
+    assert [float(x).hex() for x in during] == [float(x).hex() for x in after]
+    calculated = [v for v in unknowns if v.causality == "calculatedParameter"]
+    for v in calculated:
+        value = inst.slave.getReal([v.valueReference])[0]
+        assert math.isfinite(value) and value > 0, f"{v.name} = {value}"
+
+
+def test_failed_step_is_an_error_with_the_last_successful_time(unzipped, make_instance, log):
+    name = "bouncing_ball"
+    inst = make_instance(unzipped[name], "fail", callbacks=log.callbacks)
+    _, step = default_experiment(inst.md)
+    inst.init(start_values={"ball_floor.max_penetration": 1e-9})
+    saved = None
+    with pytest.raises(FMICallException) as raised:
+        for k in range(1000):
+            if k == 100:
+                saved = inst.slave.getFMUstate()
+            inst.step(step)
+    assert raised.value.status == FMI2_ERROR
+    assert "max_penetration" in log.text()
+    last = inst.slave.getRealStatus(fmi2LastSuccessfulTime)
+    assert inst.time <= last < inst.time + step  # inside the step that failed
+    # The outputs at the failure stay readable, and an earlier state can be restored.
+    assert math.isfinite(inst.slave.getReal([inst.vr("ball.r[3]")])[0])
+    inst.slave.setFMUstate(saved)
+    inst.slave.freeFMUstate(saved)
+    inst.time = 100 * step
+    inst.step(step)
