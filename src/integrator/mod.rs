@@ -91,6 +91,7 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
 }
 
 /// A first step size from the initial slope (Hairer-Wanner II.4).
+#[allow(clippy::too_many_arguments)]
 pub fn initial_step(
     sys: &mut dyn OdeSystem,
     t: f64,

@@ -6,6 +6,9 @@
 //!   iterations with the matrix `I − hγJ`, `J` a forward-difference Jacobian kept across
 //!   steps and refreshed only when Newton fails or converges slowly; the LU factors are kept
 //!   while `h` and `J` do not change (a step-size change below 20 % is not made, to keep them).
+//!   After a restart the iteration begins with `J = 0` (functional iteration), so that a
+//!   non-stiff phase costs no Jacobian at all. Stage values are predicted by extrapolating the
+//!   previous step's continuous extension.
 //! - The error estimate `h Σ (bᵢ − b̂ᵢ) kᵢ` is filtered by `(I − hγJ)⁻¹` (as in RADAU5) so
 //!   that stiff components, which the L-stable method damps, do not force tiny steps.
 //! - Step sizes follow Gustafsson's predictive controller, as in RADAU5.
@@ -78,15 +81,14 @@ pub struct Sdirk {
     dense: [Vec<f64>; 3],
     /// Stage derivatives.
     k: [Vec<f64>; S],
-    /// Row-major Jacobian ∂f/∂y at `jac_t`.
+    /// Row-major Jacobian ∂f/∂y (zero after a restart until Newton first needs one).
     jac: Vec<f64>,
     /// LU factors of `I − h_lu·γ·J` with row permutation.
     lu: Vec<f64>,
     perm: Vec<usize>,
     /// Step size the factors were computed for (0: none).
     lu_h: f64,
-    /// A Jacobian exists / it was evaluated at the current state / it should be refreshed.
-    have_jac: bool,
+    /// The Jacobian was evaluated at the current state / it should be refreshed.
     jac_fresh: bool,
     jac_stale: bool,
     /// Newton convergence-rate memory (η of Hairer & Wanner).
@@ -127,7 +129,6 @@ impl Sdirk {
             lu: vec![0.0; n * n],
             perm: vec![0; n],
             lu_h: 0.0,
-            have_jac: false,
             jac_fresh: false,
             jac_stale: false,
             eta: 1.0,
@@ -162,7 +163,6 @@ impl Sdirk {
         }
         self.stats.rhs_evals += n as u64 + 1;
         self.stats.jac_evals += 1;
-        self.have_jac = true;
         self.jac_fresh = true;
         self.jac_stale = false;
         self.lu_h = 0.0;
@@ -195,19 +195,30 @@ impl Sdirk {
     fn solve_stage(&mut self, sys: &mut dyn OdeSystem, i: usize, h: f64) -> Option<f64> {
         let n = self.n;
         let hg = h * GAMMA;
-        // base = y + h Σⱼ<ᵢ aᵢⱼ kⱼ; predictor Y⁰ = base + hγ k_{i−1} (f(y) for the first stage)
+        // base = y + h Σⱼ<ᵢ aᵢⱼ kⱼ
         self.base.copy_from_slice(&self.y);
-        for j in 0..i {
-            let a = h * A[i][j];
+        for (aij, kj) in A[i].iter().zip(&self.k).take(i) {
+            let a = h * aij;
             if a != 0.0 {
-                for (b, kj) in self.base.iter_mut().zip(&self.k[j]) {
-                    *b += a * kj;
+                for (b, kjm) in self.base.iter_mut().zip(kj) {
+                    *b += a * kjm;
                 }
             }
         }
-        let prev = if i == 0 { &self.f } else { &self.k[i - 1] };
-        for m in 0..n {
-            self.stage[m] = self.base[m] + hg * prev[m];
+        let h_prev = self.t - self.t_prev;
+        if self.h_acc > 0.0 && h_prev > 0.0 {
+            // predictor: the previous step's continuous extension, extrapolated to t + cᵢh
+            let th = 1.0 + C[i] * h / h_prev;
+            let [d0, d1, d2] = &self.dense;
+            for m in 0..n {
+                self.stage[m] = self.y_prev[m] + th * (d0[m] + th * (d1[m] + th * d2[m]));
+            }
+        } else {
+            // predictor: Y⁰ = base + hγ k_{i−1} (f(y) for the first stage)
+            let prev = if i == 0 { &self.f } else { &self.k[i - 1] };
+            for ((st, b), p) in self.stage.iter_mut().zip(&self.base).zip(prev) {
+                *st = b + hg * p;
+            }
         }
         let ts = self.t + C[i] * h;
         let mut norm_old = 0.0;
@@ -283,10 +294,7 @@ impl Sdirk {
     fn accept(&mut self, h: f64, t_new: f64) {
         for (m, d) in self.dense.iter_mut().enumerate() {
             for (x, out) in d.iter_mut().enumerate() {
-                let mut s = 0.0;
-                for i in 0..S {
-                    s += DENSE[i][m] * self.k[i][x];
-                }
+                let s: f64 = DENSE.iter().zip(&self.k).map(|(row, k)| row[m] * k[x]).sum();
                 *out = h * s;
             }
         }
@@ -320,8 +328,10 @@ impl Integrator for Sdirk {
             super::initial_step(sys, t, y, k0, self.rtol, self.atol, 4, &mut self.work, k1, self.hmax)
         };
         // everything from before a restart is discarded, so that a restart from the same
-        // state always continues identically
-        self.have_jac = false;
+        // state always continues identically; the iteration starts with J = 0 (functional
+        // iteration, enough while the problem is not stiff) and a Jacobian is evaluated only
+        // when that fails to converge or converges slowly
+        self.jac.iter_mut().for_each(|x| *x = 0.0);
         self.jac_fresh = false;
         self.jac_stale = false;
         self.lu_h = 0.0;
@@ -331,7 +341,7 @@ impl Integrator for Sdirk {
     }
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
-        if !self.have_jac || self.jac_stale {
+        if self.jac_stale {
             self.jacobian(sys);
         }
         let mut rejected_before = false;
