@@ -824,7 +824,14 @@ impl Engine {
                         d.state[m.nq + tj.qvel]
                     }
                 }
-                Err(_) => f64::NAN,
+                Err(li) => {
+                    let (q, qd) = dynamics::loop_joint_coordinate(m, d, li);
+                    if matches!(target, VarRef::JointQ(_)) {
+                        q
+                    } else {
+                        qd
+                    }
+                }
             },
             VarRef::ContactDelta(i) => d.contact_out[i].delta,
             VarRef::ContactDeltaDot(i) => {

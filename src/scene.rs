@@ -831,11 +831,15 @@ impl Scene {
                 return Err(err("stiffness", format!("must be > 0 (got {k})")));
             }
         }
-        for (f, v) in [
-            ("damping", c.damping),
-            ("max_penetration", c.max_penetration),
-            ("min_impact_velocity", c.min_impact_velocity),
-        ] {
+        if let Some(v) = c.max_penetration {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(err(
+                    "max_penetration",
+                    format!("must be > 0 (got {v}): no penetration could be admitted"),
+                ));
+            }
+        }
+        for (f, v) in [("damping", c.damping), ("min_impact_velocity", c.min_impact_velocity)] {
             if let Some(v) = v {
                 if !(v >= 0.0 && v.is_finite()) {
                     return Err(err(f, format!("must be >= 0 (got {v})")));
