@@ -268,3 +268,30 @@ fn slider_crank_continuous_converges_to_piecewise_as_stiffness_grows() {
     }
     assert!(dx[scales.len() - 1] < 1e-3, "stiff contact: {dx:?}");
 }
+
+/// The `traction` input accelerates the whole vehicle: the centre of mass gains F t / M along X
+/// (the normal wheel-rail forces and gravity have no X component, the suspension is internal).
+#[test]
+fn rail_vehicle_traction_accelerates_the_centre_of_mass() {
+    let mut sim = load("rail_vehicle");
+    let bodies: Vec<(String, f64)> = sim.scene().body.iter().map(|b| (b.name.clone(), b.mass)).collect();
+    let total_mass: f64 = bodies.iter().map(|(_, m)| m).sum();
+    let v0 = 80.0 / 3.6;
+    let force = 2.0e4;
+    sim.initialize(0.0).expect("initialises");
+    sim.set_by_name("traction", force).expect("input");
+    for k in 1..=10 {
+        let t = 0.1 * k as f64;
+        sim.step_to(t).expect("steps");
+        let vx = bodies
+            .iter()
+            .map(|(n, m)| m * get(&mut sim, &format!("{n}.v[1]")))
+            .sum::<f64>()
+            / total_mass;
+        let expected = v0 + force * t / total_mass;
+        assert!(
+            ((vx - expected) / expected).abs() < 1e-9,
+            "t = {t}: centre-of-mass speed {vx} m/s, expected {expected}"
+        );
+    }
+}
