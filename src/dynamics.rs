@@ -100,29 +100,29 @@ pub fn kinematics(m: &Model, d: &mut Data, state: &[f64]) {
                 let rot = *quat.to_rotation_matrix().matrix();
                 let pj = p.pos + p.rot * j.anchor;
                 pos = pj + rot * j.offset;
-                for k in 0..3 {
+                for (k, &wk) in w.iter().enumerate() {
                     let h = rot.column(k).into_owned();
                     let s = Spatial::new(h, pj.cross(&h));
                     d.dof_s[j.qvel + k] = s;
-                    vel = vel.add(&s.scale(w[k]));
+                    vel = vel.add(&s.scale(wk));
                 }
-                for k in 0..3 {
+                for (k, &wk) in w.iter().enumerate() {
                     let sdot = vel.cross_motion(&d.dof_s[j.qvel + k]);
                     d.dof_sdot[j.qvel + k] = sdot;
-                    acc = acc.add(&sdot.scale(w[k]));
+                    acc = acc.add(&sdot.scale(wk));
                 }
             }
             JointType::Free => {
                 quat = p.quat * quat_at(&q[3..7]);
                 let rot = *quat.to_rotation_matrix().matrix();
                 pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
-                for k in 0..3 {
+                for (k, &wk) in w[..3].iter().enumerate() {
                     let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
                     let sdot = p.vel.cross_motion(&s);
                     d.dof_s[j.qvel + k] = s;
                     d.dof_sdot[j.qvel + k] = sdot;
-                    vel = vel.add(&s.scale(w[k]));
-                    acc = acc.add(&sdot.scale(w[k]));
+                    vel = vel.add(&s.scale(wk));
+                    acc = acc.add(&sdot.scale(wk));
                 }
                 for k in 0..3 {
                     let h = rot.column(k).into_owned();
