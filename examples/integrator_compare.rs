@@ -7,6 +7,8 @@
 //!   output, Lankarani-Nikravesh damping), advanced in 1 ms communication steps as an FMU is;
 //! - `settle_ode`, `settle_engine`: the same ball dropped from 1 mm with e = 0.5, so that it
 //!   soon rests on the plane: a stiff resting contact for most of the 0.5 s;
+//! - `stiff_spring`: a critically damped spring of ω = 1e4 rad/s on a slowly moving support
+//!   (1 s): genuinely stiff, as a strongly damped resting contact is;
 //! - `double_pendulum`: a smooth multibody problem (two rods on revolute joints, the project's
 //!   joint-space dynamics as right-hand side).
 //!
@@ -81,6 +83,25 @@ impl OdeSystem for HertzBall {
         };
         dy[0] = v;
         dy[1] = -9.81 + force / BALL_MASS;
+    }
+}
+
+/// A unit mass on a stiff, critically damped spring (a resting contact with strong damping)
+/// whose support moves slowly, `s(t) = 1 mm · sin(2π·5 Hz·t)`, under gravity:
+/// `x'' = −ω²(x − s) − 2ω(x' − s') − g`, ω = 1e4 rad/s, from x = 0, x' = −1 m/s. After a
+/// 1 ms transient the mass follows the support: a smooth solution with a stiff mode.
+struct StiffSpring {
+    evals: u64,
+}
+const SPRING_OMEGA: f64 = 1e4;
+const SPRING_T_END: f64 = 1.0;
+impl OdeSystem for StiffSpring {
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.evals += 1;
+        let w = 2.0 * std::f64::consts::PI * 5.0;
+        let (s, sd) = (1e-3 * (w * t).sin(), 1e-3 * w * (w * t).cos());
+        dy[0] = y[1];
+        dy[1] = -SPRING_OMEGA * SPRING_OMEGA * (y[0] - s) - 2.0 * SPRING_OMEGA * (y[1] - sd) - 9.81;
     }
 }
 
@@ -216,6 +237,13 @@ fn ode_run(problem: &str, method: &str, tol: f64) -> Result<Outcome, String> {
             o.rhs_evals = sys.evals;
             Ok(o)
         }
+        "stiff_spring" => {
+            let mut sys = StiffSpring { evals: 0 };
+            let mut m = make_ours(method, 2, tol);
+            let mut o = run_ours(m.as_mut(), &mut sys, &[0.0, -1.0], SPRING_T_END)?;
+            o.rhs_evals = sys.evals;
+            Ok(o)
+        }
         "double_pendulum" => {
             let (mut sys, y0) = pendulum();
             let mut m = make_ours(method, y0.len(), tol);
@@ -291,6 +319,14 @@ mod diffsol_run {
                 };
                 solve(sys, vec![drop, 0.0], t_end, method, tol, |s| s.evals)
             }
+            "stiff_spring" => solve(
+                StiffSpring { evals: 0 },
+                vec![0.0, -1.0],
+                SPRING_T_END,
+                method,
+                tol,
+                |s| s.evals,
+            ),
             "double_pendulum" => {
                 let (sys, y0) = pendulum();
                 solve(sys, y0, PENDULUM_T_END, method, tol, |s| s.evals)
@@ -440,6 +476,7 @@ fn main() {
                 "hertz_engine",
                 "settle_ode",
                 "settle_engine",
+                "stiff_spring",
                 "double_pendulum",
             ]
             .map(String::from)
@@ -453,6 +490,8 @@ fn main() {
         eprintln!("{problem}: reference dopri5(1e-13) vs sdirk(1e-12) differ by {floor:.2e}");
         let rk4_steps: &[f64] = match problem {
             "double_pendulum" => &[2e-2, 1e-2, 5e-3, 2.5e-3, 1.25e-3],
+            // stable only below h = 2.785/ω·(…) ≈ 1.4e-4
+            "stiff_spring" => &[1e-4, 5e-5, 2.5e-5],
             _ => &[1e-4, 5e-5, 2.5e-5, 1.25e-5, 6.25e-6],
         };
         let mut methods: Vec<(&str, Vec<f64>)> = vec![
