@@ -424,7 +424,7 @@ impl Engine {
 
     /// Integrates to `t_end`, locating and handling contact events.
     pub fn advance(&mut self, t_end: f64) -> Result<(), EngineError> {
-        if !(t_end >= self.data.time) {
+        if t_end.is_nan() || t_end < self.data.time {
             return Err(EngineError {
                 time: self.data.time,
                 message: format!("cannot integrate backwards to {t_end}"),
@@ -739,9 +739,9 @@ impl Engine {
             d.contact_memory[i].active = false;
             evaluate(m, d, &state, None);
         }
-        for i in 0..nc {
+        for (i, &before) in was.iter().enumerate() {
             let now = self.data.contact_memory[i].active;
-            if self.model.contacts[i].law == Law::Impulse && now != was[i] {
+            if self.model.contacts[i].law == Law::Impulse && now != before {
                 let g = contact::gap(&self.model, &self.data, i);
                 let f = contact::resting_force(&self.model, &self.data, i);
                 let kind = if now {

@@ -793,8 +793,8 @@ impl Scene {
                     return Err(err("length", format!("must be > 0 (got {l})")));
                 }
                 if let Some([a, b]) = c.theta_range {
-                    if !(a < b) {
-                        return Err(err("theta_range", "needs min < max".into()));
+                    if !(a.is_finite() && b.is_finite()) || a >= b {
+                        return Err(err("theta_range", "needs finite min < max".into()));
                     }
                     if c.ref_axis.is_none() {
                         return Err(err("ref_axis", "required with theta_range".into()));

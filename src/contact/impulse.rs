@@ -218,7 +218,7 @@ fn effective_mass(
     proj.apply(m, d, &mut x);
     let mobility = linalg::dot(&row, &x);
     // A side that cannot move along the normal (no dofs, or locked by the loops).
-    if !(free_mobility > 0.0) || mobility <= 1e-10 * free_mobility {
+    if free_mobility.is_nan() || free_mobility <= 0.0 || mobility <= 1e-10 * free_mobility {
         return Ok(f64::INFINITY);
     }
     let mut momentum = 0.0;
