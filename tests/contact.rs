@@ -428,23 +428,26 @@ fn impulse_two_free_spheres_follow_14_15() {
     let (m1, r1, v1, m2, r2, v2, e) = (1.0, 0.05, 2.0, 3.0, 0.08, -0.5, 0.6);
     let c1 = Vector3::new(-r1 - 0.005, 0.0, 0.0);
     let c2 = Vector3::new(r2 + 0.005, 0.0, 0.0);
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    t += &ball("a", m1, r1, c1, Vector3::new(v1, 0.0, 0.0));
-    t += &ball("b", m2, r2, c2, Vector3::new(v2, 0.0, 0.0));
-    t += &sphere_contact("c", "impulse", e, "a", c1, r1, "b", c2, r2);
-    let mut s = sim(&t);
-    s.step_to(0.01).unwrap();
-    let (u1, u2) = (get(&mut s, "a.v[1]"), get(&mut s, "b.v[1]"));
-    let w1 = ((m1 - e * m2) * v1 + (1.0 + e) * m2 * v2) / (m1 + m2);
-    let w2 = ((m2 - e * m1) * v2 + (1.0 + e) * m1 * v1) / (m1 + m2);
-    let lost = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 - 0.5 * m1 * w1 * w1 - 0.5 * m2 * w2 * w2;
-    println!("two spheres, e = {e}: v1+ {u1:.15} (14: {w1}), v2+ {u2:.15} (15: {w2})");
-    assert!((u1 - w1).abs() < 1e-12 * w1.abs());
-    assert!((u2 - w2).abs() < 1e-12 * w2.abs());
-    assert_eq!(get(&mut s, "c.impacts"), 1.0);
-    assert!((get(&mut s, "energy.dissipated") - lost).abs() < 1e-12 * lost);
-    let ev = first(&events(&s), ContactEventKind::Impact);
-    assert!((ev.time - 0.01 / (v1 - v2)).abs() < 1e-12);
+    for method in ["exact", "effective_mass"] {
+        let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
+        t += &ball("a", m1, r1, c1, Vector3::new(v1, 0.0, 0.0));
+        t += &ball("b", m2, r2, c2, Vector3::new(v2, 0.0, 0.0));
+        t += &sphere_contact("c", "impulse", e, "a", c1, r1, "b", c2, r2);
+        t += &format!("impulse_method = \"{method}\"\n");
+        let mut s = sim(&t);
+        s.step_to(0.01).unwrap();
+        let (u1, u2) = (get(&mut s, "a.v[1]"), get(&mut s, "b.v[1]"));
+        let w1 = ((m1 - e * m2) * v1 + (1.0 + e) * m2 * v2) / (m1 + m2);
+        let w2 = ((m2 - e * m1) * v2 + (1.0 + e) * m1 * v1) / (m1 + m2);
+        let lost = 0.5 * m1 * v1 * v1 + 0.5 * m2 * v2 * v2 - 0.5 * m1 * w1 * w1 - 0.5 * m2 * w2 * w2;
+        println!("two spheres, {method}, e = {e}: v1+ {u1:.15} (14: {w1}), v2+ {u2:.15} (15: {w2})");
+        assert!((u1 - w1).abs() < 1e-12 * w1.abs());
+        assert!((u2 - w2).abs() < 1e-12 * w2.abs());
+        assert_eq!(get(&mut s, "c.impacts"), 1.0);
+        assert!((get(&mut s, "energy.dissipated") - lost).abs() < 1e-12 * lost);
+        let ev = first(&events(&s), ContactEventKind::Impact);
+        assert!((ev.time - 0.01 / (v1 - v2)).abs() < 1e-12);
+    }
 }
 
 /// A rod (mass 2 kg, length 1 m) on a revolute joint about y at the origin, hanging along −z,
@@ -1394,4 +1397,29 @@ fn snapshot_restores_contact_memory_bit_for_bit() {
             "restored run differs"
         );
     }
+}
+
+#[test]
+fn resting_ball_slides_off_the_edge_and_falls() {
+    // Resting on a 0.2 m square (impulse law) and sliding at 0.5 m/s without friction: the
+    // contact lets go when the centre leaves the patch (x = 0.1 m at t = 0.2 s), then the
+    // ball falls freely.
+    let (g, vx): (f64, f64) = (9.81, 0.5);
+    let text = ball_on_floor("impulse", "restitution = 0.5", 0.0, g, 0.0)
+        .replace("size = [1.0, 1.0]", "size = [0.2, 0.2]")
+        .replace("velocity = [0.0, 0.0, -0.0]", &format!("velocity = [{vx:?}, 0.0, 0.0]"));
+    let mut s = sim(&text);
+    assert_eq!(get(&mut s, "floor.active"), 1.0, "rests from the start");
+    s.step_to(0.3).unwrap();
+    let release = first(&events(&s), ContactEventKind::Release);
+    let z = get(&mut s, "ball.r[3]");
+    let fall = 0.5 * g * (0.3 - 0.1 / vx).powi(2);
+    println!(
+        "slides off the edge: released at t = {:.12} s (0.2), fell {:.9e} m ({fall:.9e})",
+        release.time,
+        R - z
+    );
+    assert!((release.time - 0.1 / vx).abs() < 1e-12);
+    assert!(rel(R - z, fall) < 1e-9);
+    assert_eq!(get(&mut s, "floor.impacts"), 0.0);
 }
