@@ -403,6 +403,9 @@ fn damped_impacts_balance_energy() {
 // ---------------------------------------------------------------------------------------------
 // Impulse law
 
+/// A sphere_sphere `[[contact]]` between the sphere (`ca`, `ra`) of body `a` and the sphere
+/// (`cb`, `rb`) of body `b`.
+#[allow(clippy::too_many_arguments)]
 fn sphere_contact(
     name: &str,
     law: &str,
