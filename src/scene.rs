@@ -102,21 +102,25 @@ pub enum Method {
     /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location (default).
     #[default]
     Dopri5 = 1,
-    /// Adaptive implicit (L-stable SDIRK) for stiff contact.
+    /// Adaptive implicit SDIRK4 (L-stable, order 4) for stiff problems.
     Sdirk = 2,
     /// Classical fixed-step Runge-Kutta 4 (step = `max_step`), a baseline.
     Rk4 = 3,
+    /// Adaptive implicit Radau IIA of order 5 (stage order 3) for stiff problems with a smooth
+    /// slow solution.
+    Radau5 = 4,
 }
 
 impl Method {
     /// All methods, in enumeration order.
-    pub const ALL: [Method; 3] = [Method::Dopri5, Method::Sdirk, Method::Rk4];
+    pub const ALL: [Method; 4] = [Method::Dopri5, Method::Sdirk, Method::Rk4, Method::Radau5];
     /// Scene-file name.
     pub fn name(self) -> &'static str {
         match self {
             Method::Dopri5 => "dopri5",
             Method::Sdirk => "sdirk",
             Method::Rk4 => "rk4",
+            Method::Radau5 => "radau5",
         }
     }
     /// From the FMU enumeration value.

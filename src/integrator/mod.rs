@@ -6,6 +6,7 @@
 
 pub mod dopri5;
 pub mod lu;
+pub mod radau;
 pub mod rk4;
 pub mod sdirk;
 
@@ -87,6 +88,7 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
         Method::Dopri5 => Box::new(dopri5::Dopri5::new(n, s.rtol, s.atol, s.max_step)),
         Method::Rk4 => Box::new(rk4::Rk4::new(n, s.max_step)),
         Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, s.max_step)),
+        Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, s.max_step)),
     }
 }
 
