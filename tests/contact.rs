@@ -1426,3 +1426,71 @@ fn resting_ball_slides_off_the_edge_and_falls() {
     assert!(rel(R - z, fall) < 1e-9);
     assert_eq!(get(&mut s, "floor.impacts"), 0.0);
 }
+
+#[test]
+fn impulse_on_a_closed_loop_keeps_it_closed() {
+    // Parallelogram four-bar (cranks 0.3 m, pivots 0.4 m apart, axes y; one revolute closes
+    // the loop), no gravity, turning at 1 rad/s: its coupler translates on a circle and ω is
+    // constant. A sphere on the coupler strikes a wall: the impulse, applied through G (loops
+    // closed), must give both cranks −e ω and leave the coupler without rotation.
+    let (l, a, w0, a0, e, r) = (0.3, 0.4, 1.0, -0.05_f64, 0.6, 0.02);
+    let u = Vector3::new(-a0.sin(), 0.0, -a0.cos());
+    let (pa, pb) = (Vector3::zeros(), Vector3::new(a, 0.0, 0.0));
+    let omega = Vector3::new(0.0, w0, 0.0);
+    let body = |name: &str, m: f64, inertia: [f64; 3], c: Vector3<f64>, v: Vector3<f64>, w: Vector3<f64>| {
+        format!(
+            "[[body]]\nname = \"{name}\"\nmass = {m:?}\ninertia = [{:?}, {:?}, {:?}]\nposition = {}\nvelocity = {}\n\
+             angular_velocity = {}\n\n",
+            inertia[0],
+            inertia[1],
+            inertia[2],
+            v3(c),
+            v3(v),
+            v3(w)
+        )
+    };
+    let joint = |name: &str, parent: &str, child: &str, anchor: Vector3<f64>| {
+        format!(
+            "[[joint]]\nname = \"{name}\"\ntype = \"revolute\"\nparent = \"{parent}\"\nchild = \"{child}\"\nanchor = {}\n\
+             axis = [0.0, 1.0, 0.0]\n\n",
+            v3(anchor)
+        )
+    };
+    let c1 = pa + u * (l / 2.0);
+    let c2 = pb + u * (l / 2.0);
+    let cc = (pa + pb) / 2.0 + u * l;
+    let vc = omega.cross(&(u * l));
+    let sphere = pa + u * l - Vector3::new(0.05, 0.0, 0.0);
+    let mut t = header(0.0, 1e-11, 1e-14, 1e-3);
+    t += &body("crank1", 1.0, [0.01, 0.01, 0.002], c1, omega.cross(&(c1 - pa)), omega);
+    t += &body("crank2", 1.5, [0.02, 0.02, 0.002], c2, omega.cross(&(c2 - pb)), omega);
+    t += &body("coupler", 2.0, [0.001, 0.03, 0.03], cc, vc, Vector3::zeros());
+    t += &joint("j1", "ground", "crank1", pa);
+    t += &joint("j2", "ground", "crank2", pb);
+    t += &joint("j3", "crank1", "coupler", pa + u * l);
+    t += &joint("j4", "crank2", "coupler", pb + u * l);
+    t += &format!(
+        "[[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
+         sphere_body = \"coupler\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\norigin = [{:?}, 0.0, {:?}]\n\
+         normal = [1.0, 0.0, 0.0]\nu_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
+        v3(sphere),
+        -0.05 - r,
+        -l
+    );
+    let mut s = sim(&t);
+    assert!((get(&mut s, "j1.qd") - w0).abs() < 1e-12 && (get(&mut s, "j2.qd") - w0).abs() < 1e-12);
+    s.step_to(0.1).unwrap();
+    let ev = first(&events(&s), ContactEventKind::Impact);
+    let (w1, w2) = (get(&mut s, "j1.qd"), get(&mut s, "j2.qd"));
+    let wc = get(&mut s, "coupler.w[2]");
+    println!(
+        "four-bar impact at t = {:.9} s: crank rates after {w1:.12}, {w2:.12} (−e ω = {:.3}), coupler ω_y {wc:.2e}, \
+         loop residual {:.2e}",
+        ev.time,
+        -e * w0,
+        s.engine_mut().unwrap().constraint_residual()
+    );
+    assert!((ev.time + a0 / w0).abs() < 1e-9, "impact when the cranks are vertical");
+    assert!((w1 + e * w0).abs() < 1e-9 && (w2 + e * w0).abs() < 1e-9);
+    assert!(wc.abs() < 1e-9);
+}
