@@ -475,12 +475,22 @@ fn factor_schur(m: &Model, d: &mut Data) {
     d.schur_rank = linalg::pivoted_cholesky_in_place(&mut d.schur, nc, &mut d.schur_perm, REDUNDANT_PIVOT);
 }
 
-/// Loop-constraint residual above which [`project_loops`] corrects the state: `|Φ|` in m
-/// (point rows) or rad (orientation rows), `|Φ_q q̇|` in m/s or rad/s.
+/// Loop-constraint residual `|Φ|` above which [`project_state`] corrects the state, in m
+/// (point rows) or rad (orientation rows).
 pub const PROJECTION_TOL: f64 = 1e-10;
+
+/// The velocity residual `|Φ_q q̇|` that also triggers a projection, per unit of the position
+/// tolerance [1/s]: 100 × 1e-10 = 1e-8 m/s or rad/s. Baumgarte stabilisation holds
+/// `|Φ_q q̇| ≈ α |Φ|` (α = 20/s), so a tighter trigger would project after nearly every step
+/// without making the positions any better.
+pub const RATE_TOL_PER_SECOND: f64 = 100.0;
 
 /// Newton iterations of the position projection.
 const PROJECTION_ITERATIONS: usize = 4;
+
+/// Position correction (largest coordinate change) beyond which the velocity projection
+/// refactorises at the corrected positions.
+const REFACTOR_AFTER: f64 = 1e-6;
 
 /// Number of loop-constraint rows: the first rows of Φ (rows of resting contacts follow).
 fn loop_row_count(m: &Model) -> usize {
@@ -489,19 +499,6 @@ fn loop_row_count(m: &Model) -> usize {
 
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |a, b| a.max(b.abs()))
-}
-
-/// Kinematics, factorised mass matrix, constraint rows and factorised Schur complement at
-/// `state`. False when the mass matrix is not positive definite.
-fn factor_at(m: &Model, d: &mut Data, state: &[f64]) -> bool {
-    kinematics(m, d, state);
-    mass_and_bias(m, d);
-    if !factor_mass(m, d) {
-        return false;
-    }
-    constraints(m, d, &state[m.nq..m.nq + m.nv]);
-    factor_schur(m, d);
-    true
 }
 
 /// The smallest correction in the mass metric that removes `rhs` (the first `nl` rows of
@@ -583,7 +580,9 @@ pub fn project_state(m: &Model, d: &mut Data, tol: f64) -> bool {
     rescaled | project_loops(m, d, tol)
 }
 
-/// The loop-constraint part of [`project_state`].
+/// The loop-constraint part of [`project_state`]. One factorisation of `M̄` and of the Schur
+/// complement at the drifted positions serves every correction (simplified Newton: the
+/// Jacobian is off by O(|Δq|), which only slows the already tiny corrections).
 fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
     let nl = loop_row_count(m);
     if nl == 0 {
@@ -593,33 +592,44 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
     let mut state = std::mem::take(&mut d.state);
     kinematics(m, d, &state);
     constraints(m, d, &state[nq..nq + nv]);
-    if max_abs(&d.phi[..nl]) <= tol && max_abs(&d.phi_dot[..nl]) <= tol {
+    if max_abs(&d.phi[..nl]) <= tol && max_abs(&d.phi_dot[..nl]) <= RATE_TOL_PER_SECOND * tol {
         d.state = state;
         return false;
     }
-    let mut changed = false;
-    for it in 0..=PROJECTION_ITERATIONS {
-        if !factor_at(m, d, &state) {
+    mass_and_bias(m, d);
+    if !factor_mass(m, d) {
+        d.state = state;
+        return false;
+    }
+    factor_schur(m, d);
+    let mut moved = 0.0_f64;
+    for _ in 0..PROJECTION_ITERATIONS {
+        if max_abs(&d.phi[..nl]) <= 1e-3 * tol {
             break;
         }
-        if it < PROJECTION_ITERATIONS && max_abs(&d.phi[..nl]) > 1e-3 * tol {
-            d.lambda[..nl].copy_from_slice(&d.phi[..nl]);
-            mass_metric_correction(m, d, nl);
-            d.work2.iter_mut().for_each(|x| *x = -*x);
-            displace_positions(m, &mut state[..nq], &d.work2);
-            changed = true;
-            continue;
-        }
-        d.lambda[..nl].copy_from_slice(&d.phi_dot[..nl]);
+        d.lambda[..nl].copy_from_slice(&d.phi[..nl]);
         mass_metric_correction(m, d, nl);
-        for (q, dq) in state[nq..nq + nv].iter_mut().zip(&d.work2) {
-            *q -= dq;
+        d.work2.iter_mut().for_each(|x| *x = -*x);
+        moved += max_abs(&d.work2);
+        displace_positions(m, &mut state[..nq], &d.work2);
+        kinematics(m, d, &state);
+        constraints(m, d, &state[nq..nq + nv]);
+    }
+    // velocities: Φ_q q̇ = 0 with the Jacobian at the corrected positions (and a fresh
+    // factorisation after a large position correction, e.g. from inconsistent initial data)
+    if moved > REFACTOR_AFTER {
+        mass_and_bias(m, d);
+        if factor_mass(m, d) {
+            factor_schur(m, d);
         }
-        changed = true;
-        break;
+    }
+    d.lambda[..nl].copy_from_slice(&d.phi_dot[..nl]);
+    mass_metric_correction(m, d, nl);
+    for (q, dq) in state[nq..nq + nv].iter_mut().zip(&d.work2) {
+        *q -= dq;
     }
     d.state = state;
-    changed
+    true
 }
 
 /// Kinetic energy ½ Σ Vᵀ I V [J].

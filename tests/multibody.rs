@@ -1318,7 +1318,7 @@ fn right_hand_side_and_projection_do_not_allocate() {
         engine::evaluate(&m, &mut d, &state, Some(&mut dy));
         let before = alloc_count::count();
         for k in 0..10 {
-            state[m.nq - 1] += 1e-3 * k as f64;
+            state[m.nq - 1] += 1e-7 * k as f64;
             engine::evaluate(&m, &mut d, &state, Some(&mut dy));
         }
         d.state.copy_from_slice(&state);
@@ -1328,6 +1328,14 @@ fn right_hand_side_and_projection_do_not_allocate() {
         assert_eq!(n, 0, "{} allocations on the right-hand-side path ({})", n, m.name);
         if m.nc > 0 {
             assert!(moved, "the perturbed state of {} was not projected", m.name);
+            // the projected state satisfies Φ = 0 and Φ_q q̇ = 0
+            let st = d.state.clone();
+            dynamics::kinematics(&m, &mut d, &st);
+            dynamics::constraints(&m, &mut d, &st[m.nq..m.nq + m.nv]);
+            let worst = |v: &[f64]| v.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
+            let (p, v) = (worst(&d.phi), worst(&d.phi_dot));
+            eprintln!("{}: after projection |Φ| = {p:.1e}, |Φ_q q̇| = {v:.1e}", m.name);
+            assert!(p < 1e-13 && v < 1e-12, "{}: |Φ| = {p:.3e}, |Φ_q q̇| = {v:.3e}", m.name);
         }
     }
 }
