@@ -741,3 +741,31 @@ pub fn initial_velocities(m: &mut Model, d: &mut Data, scene: &Scene) {
     d.state[m.nq..m.nq + m.nv].copy_from_slice(&qvel);
     kinematics(m, d, &d.state.clone());
 }
+
+/// Coordinate and rate of a loop-closing 1-DOF joint, measured from the body poses:
+/// revolute: the rotation of b relative to a about the axis [rad]; prismatic: the
+/// displacement of b's joint point along a's axis [m]. Zero at the initial configuration.
+pub fn loop_joint_coordinate(m: &Model, d: &Data, li: usize) -> (f64, f64) {
+    let lc = &m.loops[li];
+    let fa = frame(d, lc.body_a);
+    let fb = frame(d, Some(lc.body_b));
+    let ta = fa.rot * lc.triad_a;
+    let tb = fb.rot * lc.triad_b;
+    let axis = ta.column(0).into_owned();
+    match lc.kind {
+        JointType::Revolute => {
+            let (ua, ub) = (ta.column(1).into_owned(), tb.column(1).into_owned());
+            let angle = ua.cross(&ub).dot(&axis).atan2(ua.dot(&ub));
+            (angle, (fb.vel.ang - fa.vel.ang).dot(&axis))
+        }
+        JointType::Prismatic => {
+            let pa = fa.pos + fa.rot * lc.anchor_a;
+            let pb = fb.pos + fb.rot * lc.anchor_b;
+            let dvec = pb - pa;
+            let rate = (fb.vel.point_velocity(&pb) - fa.vel.point_velocity(&pa)).dot(&axis)
+                + dvec.dot(&fa.vel.ang.cross(&axis));
+            (dvec.dot(&axis), rate)
+        }
+        _ => (f64::NAN, f64::NAN),
+    }
+}
