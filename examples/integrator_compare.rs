@@ -12,7 +12,7 @@
 //! - `double_pendulum`: a smooth multibody problem (two rods on revolute joints, the project's
 //!   joint-space dynamics as right-hand side).
 //!
-//! Methods: our `dopri5`, `sdirk` (SDIRK4) and `rk4` (fixed steps), and, when built with
+//! Methods: our `dopri5`, `sdirk` (SDIRK4), `radau5` (Radau IIA 5) and `rk4` (fixed steps), and, when built with
 //! `--features diffsol`, diffsol's `tsit45`, `esdirk34`, `tr_bdf2` and `bdf` on the ODE problems.
 //!
 //! ```text
@@ -23,7 +23,7 @@
 //! are counted with a counting global allocator.
 
 use contact_fmu::engine::{self, Engine};
-use contact_fmu::integrator::{dopri5::Dopri5, rk4::Rk4, sdirk::Sdirk, Integrator, OdeSystem};
+use contact_fmu::integrator::{dopri5::Dopri5, radau::Radau5, rk4::Rk4, sdirk::Sdirk, Integrator, OdeSystem};
 use contact_fmu::model::{self, Data, Model};
 use contact_fmu::scene::{Method, Scene};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -214,6 +214,7 @@ fn make_ours(method: &str, n: usize, tol: f64) -> Box<dyn Integrator> {
     match method {
         "dopri5" => Box::new(Dopri5::new(n, tol, tol, f64::INFINITY)),
         "sdirk" => Box::new(Sdirk::new(n, tol, tol, f64::INFINITY)),
+        "radau5" => Box::new(Radau5::new(n, tol, tol, f64::INFINITY)),
         "rk4" => Box::new(Rk4::new(n, tol)), // `tol` is the step here
         _ => unreachable!(),
     }
@@ -261,6 +262,7 @@ fn engine_run(problem: &str, method: &str, tol: f64) -> Result<Outcome, String> 
     let (m, rtol, atol, max_step) = match method {
         "dopri5" => (Method::Dopri5, tol, tol, 1.0),
         "sdirk" => (Method::Sdirk, tol, tol, 1.0),
+        "radau5" => (Method::Radau5, tol, tol, 1.0),
         "rk4" => (Method::Rk4, 1e-8, 1e-10, tol),
         _ => return Err("not available through the engine".into()),
     };
@@ -497,6 +499,7 @@ fn main() {
         let mut methods: Vec<(&str, Vec<f64>)> = vec![
             ("dopri5", tols.to_vec()),
             ("sdirk", tols.to_vec()),
+            ("radau5", tols.to_vec()),
             ("rk4", rk4_steps.to_vec()),
         ];
         if !problem.ends_with("_engine") && cfg!(feature = "diffsol") {
