@@ -120,7 +120,8 @@ pub struct ContactEvent {
     pub delta: f64,
     /// Penetration rate δ̇ [m/s] (for an impact: before it).
     pub delta_dot: f64,
-    /// Normal force [N] (continuous laws; resting contacts: the constraint force).
+    /// Normal force [N] (continuous laws; resting contacts: the constraint force); for an
+    /// impact, the normal impulse [N s].
     pub force: f64,
 }
 
@@ -702,11 +703,17 @@ impl Engine {
                     format!("impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"),
                 ));
             }
-            let lost = impulse::resolve(m, d, &set, &e).map_err(|msg| err(time, msg))?;
+            let res = impulse::resolve(m, d, &set, &e).map_err(|msg| err(time, msg))?;
             let di = m.dissipated_index();
-            d.state[di] += lost;
+            d.state[di] += res.energy_lost;
             for (k, &i) in set.iter().enumerate() {
-                self.log(i, ContactEventKind::Impact, approach[k].0, approach[k].1, 0.0);
+                self.log(
+                    i,
+                    ContactEventKind::Impact,
+                    approach[k].0,
+                    approach[k].1,
+                    res.impulses[k],
+                );
             }
         }
         // Resting set.

@@ -450,6 +450,7 @@ fn impulse_two_free_spheres_follow_14_15() {
         assert!((get(&mut s, "energy.dissipated") - lost).abs() < 1e-12 * lost);
         let ev = first(&events(&s), ContactEventKind::Impact);
         assert!((ev.time - 0.01 / (v1 - v2)).abs() < 1e-12);
+        assert!((ev.force - m1 * (v1 - w1)).abs() < 1e-12 * m1 * v1, "impulse {}", ev.force);
     }
 }
 

@@ -77,17 +77,28 @@ impl Projection {
     }
 }
 
+/// What one round of impacts did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resolution {
+    /// Kinetic energy lost [J] (negative if the effective-mass approximation created energy).
+    pub energy_lost: f64,
+    /// Normal impulse of each contact, in the order given [N s].
+    pub impulses: Vec<f64>,
+}
+
 /// Resolves one round of simultaneous impacts of `contacts` with restitution coefficients
 /// `restitution` (one each) at the current state. The data must have been evaluated at this
 /// configuration (mass matrix factorised; loop Jacobian and `M̄⁻¹Φ_qᵀ` computed). Updates the
 /// velocities in `d.state` and the kinematics, counts the impacts that took an impulse and
-/// returns the kinetic energy lost [J] (negative if the effective-mass approximation created
-/// energy).
-pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64]) -> Result<f64, String> {
+/// returns the energy lost and the impulses.
+pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64]) -> Result<Resolution, String> {
     let nv = m.nv;
     let k = contacts.len();
     if k == 0 {
-        return Ok(0.0);
+        return Ok(Resolution {
+            energy_lost: 0.0,
+            impulses: Vec::new(),
+        });
     }
     let proj = Projection::new(m, d);
     // Rows J (k × nv) and their images G Jᵀ.
@@ -193,7 +204,10 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
             }
         }
     }
-    Ok(ke_before - dynamics::kinetic_energy(m, d))
+    Ok(Resolution {
+        energy_lost: ke_before - dynamics::kinetic_energy(m, d),
+        impulses,
+    })
 }
 
 /// Effective mass (17) of one side of a contact: body `body` pushed at `point` along `dir`.
