@@ -158,9 +158,9 @@ impl Radau5 {
         }
         let n = self.n;
         let m = 3 * n;
-        for bi in 0..3 {
-            for bj in 0..3 {
-                let a = h * A[bi][bj];
+        for (bi, a_row) in A.iter().enumerate() {
+            for (bj, aij) in a_row.iter().enumerate() {
+                let a = h * aij;
                 for i in 0..n {
                     let row = (bi * n + i) * m + bj * n;
                     for j in 0..n {
@@ -203,8 +203,8 @@ impl Radau5 {
         // starting values: the previous collocation polynomial, extrapolated
         let h_prev = self.t - self.t_prev;
         if self.h_acc > 0.0 && h_prev > 0.0 {
-            for s in 0..3 {
-                let th = 1.0 + C[s] * h / h_prev;
+            for (s, cs) in C.iter().enumerate() {
+                let th = 1.0 + cs * h / h_prev;
                 let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
                 for m in 0..n {
                     let u =
@@ -219,17 +219,17 @@ impl Radau5 {
         let mut theta_max: f64 = 0.0;
         let mut eta = self.eta.max(f64::EPSILON).powf(0.8);
         for iter in 0..self.max_newton {
-            for s in 0..3 {
+            for (s, cs) in C.iter().enumerate() {
                 for m in 0..n {
                     self.stage[m] = self.y[m] + self.z[s * n + m];
                 }
-                sys.rhs(self.t + C[s] * h, &self.stage, &mut self.fz[s]);
+                sys.rhs(self.t + cs * h, &self.stage, &mut self.fz[s]);
             }
             self.stats.rhs_evals += 3;
             // residual −Z + h (A⊗I) F
-            for s in 0..3 {
+            for (s, a_row) in A.iter().enumerate() {
                 for m in 0..n {
-                    let hf = h * (A[s][0] * self.fz[0][m] + A[s][1] * self.fz[1][m] + A[s][2] * self.fz[2][m]);
+                    let hf = h * (a_row[0] * self.fz[0][m] + a_row[1] * self.fz[1][m] + a_row[2] * self.fz[2][m]);
                     self.dz[s * n + m] = hf - self.z[s * n + m];
                 }
             }
