@@ -119,7 +119,7 @@ pub fn run(ns: &[usize], time: f64, repeats: usize, csv_path: &Path) -> Result<(
             ));
         }
         let (rhs, ev) = rhs_and_event_cost(&m, &mut d, repeats);
-        let reps = if n >= 3000 { repeats.min(3).max(1) } else { repeats };
+        let reps = if n >= 3000 { repeats.clamp(1, 3) } else { repeats };
         let spec = RunSpec {
             text,
             origin,

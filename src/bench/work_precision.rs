@@ -78,34 +78,37 @@ fn position_outputs(scene: &Scene) -> Vec<String> {
         .collect()
 }
 
-/// Largest position error over all communication points, relative to the largest range of
-/// motion of any coordinate in the reference. NaN when the run stopped early.
+/// Largest position error over all communication points, each coordinate relative to its
+/// own range of motion in the reference (floored at 1e-3 of the largest range, so that a
+/// coordinate that hardly moves does not divide by zero). NaN when the run stopped early.
 pub fn trajectory_error(run: &Trajectory, reference: &Trajectory) -> f64 {
     if run.rows.len() != reference.rows.len() {
         return f64::NAN;
     }
     let ncol = reference.names.len();
-    let mut range = 0.0_f64;
-    for c in 1..ncol {
-        let (lo, hi) = reference
-            .rows
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                (lo.min(r[c]), hi.max(r[c]))
-            });
-        range = range.max(hi - lo);
-    }
+    let ranges: Vec<f64> = (0..ncol)
+        .map(|c| {
+            let (lo, hi) = reference
+                .rows
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                    (lo.min(r[c]), hi.max(r[c]))
+                });
+            hi - lo
+        })
+        .collect();
+    let largest = ranges[1..].iter().copied().fold(0.0_f64, f64::max).max(1e-300);
     let mut err = 0.0_f64;
     for (a, b) in run.rows.iter().zip(&reference.rows) {
         for c in 1..ncol {
-            let e = (a[c] - b[c]).abs();
+            let e = (a[c] - b[c]).abs() / ranges[c].max(1e-3 * largest);
             if e.is_nan() {
                 return f64::NAN;
             }
             err = err.max(e);
         }
     }
-    err / range.max(1e-300)
+    err
 }
 
 fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {

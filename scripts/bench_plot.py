@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Work-precision plots: one PNG per scene (docs/img/wp_<scene>.png) from
+docs/work_precision.csv (written by `contact-fmu bench work-precision`), and the scaling
+plot (docs/img/scaling.png) from docs/scaling.csv when present.
+
+    .venv/bin/python scripts/bench_plot.py
+"""
+import csv
+import math
+import os
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DOCS = os.path.join(ROOT, "docs")
+IMG = os.path.join(DOCS, "img")
+
+
+def work_precision():
+    path = os.path.join(DOCS, "work_precision.csv")
+    data = defaultdict(lambda: defaultdict(list))
+    kind = {}
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            err, sec = float(r["error"]), float(r["seconds"])
+            if r["status"] != "ok" or not (math.isfinite(err) and err > 0 and sec > 0):
+                continue
+            data[r["scene"]][r["method"]].append((sec, err, float(r["tolerance"])))
+            kind[r["scene"]] = r["error_kind"]
+    for scene, methods in data.items():
+        fig, ax = plt.subplots(figsize=(6.4, 4.6))
+        for method, pts in sorted(methods.items()):
+            pts.sort(key=lambda p: p[2], reverse=True)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=method)
+            for s, e, t in pts[:: max(1, len(pts) // 4)]:
+                ax.annotate(f"{t:.0e}", (s, e), fontsize=7, textcoords="offset points", xytext=(3, 3))
+        ax.set_xlabel("run time [s] (median of 5)")
+        ax.set_ylabel("error" + (" (closed form)" if "closed" in kind[scene] else " (vs reference)"))
+        ax.set_title(f"{scene}: work-precision")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        out = os.path.join(IMG, f"wp_{scene}.png")
+        fig.savefig(out, dpi=110)
+        plt.close(fig)
+        print("wrote", out)
+
+
+def scaling():
+    path = os.path.join(DOCS, "scaling.csv")
+    if not os.path.exists(path):
+        return
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    n = [int(r["n"]) for r in rows]
+    t = [float(r["seconds_per_simulated_second"]) for r in rows]
+    rhs = [float(r["rhs_seconds"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    ax.loglog(n, t, "o-", label="run time per simulated second [s]")
+    ax.loglog(n, [x * 1e3 for x in rhs], "s-", label="one RHS evaluation [ms]")
+    ax.loglog(n, [t[0] * (x / n[0]) ** 2 for x in n], ":", color="gray", label="∝ N²")
+    ax.loglog(n, [rhs[0] * 1e3 * (x / n[0]) for x in n], "--", color="gray", label="∝ N")
+    ax.set_xlabel("free spheres N")
+    ax.set_title("spheres in a box")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    out = os.path.join(IMG, "scaling.png")
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    print("wrote", out)
+
+
+if __name__ == "__main__":
+    os.makedirs(IMG, exist_ok=True)
+    work_precision()
+    scaling()
