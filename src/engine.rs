@@ -617,11 +617,10 @@ impl Engine {
             let mem = self.data.contact_memory[i];
             let (before, now) = (self.g[i], self.g_new[i]);
             let crossed = self.relevant_crossing(i, before, now, gap.delta);
-            if crossed
-                && now <= 0.0
-                && !(c.law == Law::Impulse && mem.active)
-                && gap.delta >= c.max_penetration * (1.0 - 1e-9)
-            {
+            // Reaching δ_max in contact is an error. (A continuous contact that is not active
+            // there is a sphere passing behind a plate: not a contact at all.)
+            let in_contact = if c.law == Law::Impulse { !mem.active } else { mem.active };
+            if crossed && now <= 0.0 && in_contact && gap.delta >= c.max_penetration * (1.0 - 1e-9) {
                 return Err(EngineError {
                     time: self.data.time,
                     message: format!(
@@ -637,7 +636,10 @@ impl Engine {
                 continue;
             }
             if crossed {
-                if now > 0.0 && !mem.active {
+                // A touch comes through δ = 0 (or over the patch edge with a small overlap);
+                // entering the zone deeper than δ_max/2 is the sphere coming through the back
+                // of the shape: ignored.
+                if now > 0.0 && !mem.active && gap.delta < 0.5 * c.max_penetration {
                     let v = gap.delta_dot.max(c.min_impact_velocity);
                     let m = &mut self.data.contact_memory[i];
                     m.active = true;
