@@ -173,7 +173,17 @@ enum Probe {
 impl Engine {
     /// Compiles a validated scene.
     pub fn compile(scene: &Scene, origin: &str) -> Result<Engine, SceneError> {
-        let (model, data) = model::compile(scene, origin)?;
+        let (mut model, data) = model::compile(scene, origin)?;
+        for c in &model.contacts {
+            if c.law == Law::KelvinVoigt && c.damping > 0.0 {
+                let w = format!(
+                    "contact {:?}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; \
+                     the force is cut at zero there (docs/contact.md)",
+                    c.name
+                );
+                model.warnings.push(w);
+            }
+        }
         let n = model.nstate();
         let integrator = integrator::create(&model.solver, n);
         let nc = model.contacts.len();
@@ -386,9 +396,24 @@ impl Engine {
     /// then restarts the integrator from the corrected state (deterministic, so restored FMU
     /// states still continue bit for bit).
     fn project_after_step(&mut self) {
-        if dynamics::project_state(&self.model, &mut self.data, dynamics::PROJECTION_TOL) {
-            self.restart_with(self.integrator.next_step());
+        if !dynamics::project_state(&self.model, &mut self.data, dynamics::PROJECTION_TOL) {
+            return;
         }
+        if !self.model.contacts.is_empty() {
+            // The correction moves bodies by about the tolerance. If that alone changed the
+            // sign of an event function, keep the step's own end state (still held by the
+            // integrator, in `y_work`) so that the event is located on the dense output as
+            // usual; a later step projects.
+            self.y_event.copy_from_slice(&self.data.state);
+            let ye = std::mem::take(&mut self.y_event);
+            self.compute_events(&ye, true);
+            self.y_event = ye;
+            if self.g.iter().zip(&self.g_new).any(|(a, b)| (*a <= 0.0) != (*b <= 0.0)) {
+                self.data.state.copy_from_slice(&self.y_work);
+                return;
+            }
+        }
+        self.restart_with(self.integrator.next_step());
     }
 
     fn restart_with(&mut self, h: f64) {
