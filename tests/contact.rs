@@ -1514,3 +1514,39 @@ fn a_sphere_passing_behind_a_plate_is_not_a_contact() {
     assert!(events(&s).iter().all(|e| e.kind != ContactEventKind::Touch));
     assert!(get(&mut s, "ball.r[3]") > 0.05);
 }
+
+#[test]
+fn impulse_complementarity_solver() {
+    // Coupled contacts where one needs no impulse: w = W P + q ≥ 0, P ≥ 0, Pᵀ w = 0.
+    let w = [2.0, 1.9, 1.9, 2.0];
+    let q = [-1.0, -0.1];
+    let p = contact::impulse::solve_lcp(&w, &q, 2).unwrap();
+    assert!((p[0] - 0.5).abs() < 1e-15 && p[1] == 0.0, "{p:?}");
+    // and a random positive definite 6 × 6 case: check the conditions
+    let mut seed: u64 = 7;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    for _ in 0..200 {
+        let n = 6;
+        let a: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
+        let mut w = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                w[i * n + j] =
+                    (0..n).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>() + if i == j { 0.1 } else { 0.0 };
+            }
+        }
+        let q: Vec<f64> = (0..n).map(|_| rnd()).collect();
+        let p = contact::impulse::solve_lcp(&w, &q, n).unwrap();
+        for i in 0..n {
+            let wi = q[i] + (0..n).map(|j| w[i * n + j] * p[j]).sum::<f64>();
+            assert!(
+                p[i] >= 0.0 && wi >= -1e-12 && (p[i] * wi).abs() < 1e-12,
+                "row {i}: p {} w {wi}",
+                p[i]
+            );
+        }
+    }
+}
