@@ -1327,9 +1327,20 @@ fn right_hand_side_and_projection_do_not_allocate() {
         loop_zoo("prismatic"),
         slider_crank("dopri5", 1e-8, 2.0, 3.0, false),
         spherical_pendulum("dopri5", 1e-8),
+        // a slider-crank whose slider presses on a stop through an active Hertz contact
+        slider_crank("dopri5", 1e-8, 2.0, 3.0, true)
+            + "[[material]]\nname = \"steel\"\nyoungs_modulus = 2.1e11\npoisson_ratio = 0.3\n\n\
+               [[contact]]\nname = \"stop\"\ntype = \"sphere_plane\"\nlaw = \"hertz_ln\"\nrestitution = 0.8\n\
+               sphere_body = \"slider\"\ncenter = [0.2, 0.0, 0.03]\nradius = 0.01\nsphere_material = \"steel\"\n\
+               body = \"ground\"\nmaterial = \"steel\"\norigin = [0.2095, 0.0, 0.03]\nnormal = [-1.0, 0.0, 0.0]\n\
+               u_axis = [0.0, 1.0, 0.0]\nsize = [0.1, 0.1]\n",
     ] {
         let scene = Scene::from_str(&text, "x.toml").unwrap();
         let (m, mut d) = model::compile(&scene, "x.toml").unwrap();
+        for mem in d.contact_memory.iter_mut() {
+            mem.active = true;
+            mem.impact_velocity = 0.1;
+        }
         let mut state = d.state.clone();
         let mut dy = vec![0.0; m.nstate()];
         engine::evaluate(&m, &mut d, &state, Some(&mut dy));
@@ -1342,6 +1353,9 @@ fn right_hand_side_and_projection_do_not_allocate() {
         let moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL);
         let n = alloc_count::count() - before;
         assert!(dy.iter().all(|x| x.is_finite()));
+        for (i, out) in d.contact_out.iter().enumerate() {
+            assert!(out.force > 0.0, "contact {i} of {} carries no force", m.name);
+        }
         assert_eq!(n, 0, "{} allocations on the right-hand-side path ({})", n, m.name);
         if m.nc > 0 {
             assert!(moved, "the perturbed state of {} was not projected", m.name);
