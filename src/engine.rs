@@ -976,9 +976,10 @@ impl Engine {
 }
 
 /// Touching for the impulse law: resting, or within a hair of δ = 0 (simultaneous impacts)
-/// or overlapping, on the patch and short of δ_max.
+/// or overlapping a little, on the patch (an overlap beyond δ_max/2 is a sphere behind a
+/// plate, not a contact).
 fn touching(c: &contact::ContactElement, g: &contact::Gap, resting: bool) -> bool {
-    (resting || g.delta >= -1e-10 * c.radius) && g.margin > 0.0 && g.delta < c.max_penetration
+    (resting || g.delta >= -1e-10 * c.radius) && g.margin > 0.0 && g.delta < 0.5 * c.max_penetration
 }
 
 /// Normal speeds below this count as zero for the impulse law (neither approach nor
