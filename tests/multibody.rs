@@ -1441,3 +1441,77 @@ fn mixed_chain_conserves_energy_with_and_without_loops() {
         assert!(resid < 1e-9, "{closing}: residual {resid:.3e}");
     }
 }
+
+/// A parallelogram four-bar passes its change points (all links collinear, where the loop
+/// Jacobian loses rank) twice per turn; it must stay on the parallelogram branch, where the
+/// rocker angle equals the crank angle.
+#[test]
+fn parallelogram_passes_its_change_points_on_its_branch() {
+    let (a, d) = (0.3, 0.6);
+    let th0 = 1.0_f64;
+    let rate = 2.0 * PI;
+    let b = xz(a * th0.cos(), a * th0.sin());
+    let bd = xz(-a * th0.sin(), a * th0.cos()) * rate;
+    let c = b + xz(d, 0.0);
+    let mut t = header("parallelogram", [0.0, 0.0, 0.0], "dopri5", 1e-8, 1e-10, 0.05);
+    let spin = Vector3::new(0.0, -rate, 0.0);
+    t += &body("crank", 1.0, rod_inertia(1.0, a), b / 2.0, planar(th0), bd / 2.0, spin);
+    t += &body(
+        "coupler",
+        1.0,
+        rod_inertia(1.0, d),
+        (b + c) / 2.0,
+        ident(),
+        bd,
+        at_rest(),
+    );
+    t += &body(
+        "rocker",
+        1.0,
+        rod_inertia(1.0, a),
+        (c + xz(d, 0.0)) / 2.0,
+        planar(th0),
+        bd / 2.0,
+        spin,
+    );
+    t += &joint(
+        "crank_pivot",
+        "revolute",
+        "ground",
+        "crank",
+        Vector3::zeros(),
+        Some(-Vector3::y()),
+    );
+    t += &joint("crank_pin", "revolute", "crank", "coupler", b, Some(Vector3::y()));
+    t += &joint(
+        "rocker_pivot",
+        "revolute",
+        "ground",
+        "rocker",
+        xz(d, 0.0),
+        Some(-Vector3::y()),
+    );
+    t += &joint("coupler_pin", "revolute", "coupler", "rocker", c, Some(Vector3::y()));
+    let mut s = start(&t);
+    let (mut dq, mut resid, mut rmin, mut rmax) = (0.0_f64, 0.0_f64, 9, 0);
+    let mut fail = None;
+    for k in 1..=500 {
+        if let Err(e) = s.step_to(0.01 * k as f64) {
+            fail = Some(e.to_string());
+            break;
+        }
+        resid = resid.max(s.engine_mut().unwrap().constraint_residual());
+        let r = s.engine().unwrap().data().schur_rank;
+        (rmin, rmax) = (rmin.min(r), rmax.max(r));
+        dq = dq.max((get(&mut s, "rocker_pivot.q") - get(&mut s, "crank_pivot.q")).abs());
+    }
+    let turns = get(&mut s, "crank_pivot.q") / (2.0 * PI);
+    eprintln!("parallelogram 5 s: {turns:.2} turns ({} change points), |q_rocker − q_crank| = {dq:.3e}, max |Φ| = {resid:.2e}, rank {rmin}..{rmax}", (2.0 * turns).floor());
+    assert!(fail.is_none(), "{fail:?}");
+    assert!(
+        (turns - 5.0).abs() < 1e-6,
+        "no gravity, no friction: 5 turns expected, got {turns}"
+    );
+    assert!(dq < 1e-8, "left the parallelogram branch: {dq:.3e}");
+    assert!(resid < 1e-9, "residual {resid:.3e}");
+}
