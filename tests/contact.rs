@@ -1555,3 +1555,43 @@ fn impulse_complementarity_solver() {
         }
     }
 }
+
+#[test]
+fn resting_ball_leaves_an_accelerating_platform() {
+    // A ball resting (impulse law) on a plate on a vertical spring. Together they oscillate,
+    // x = −A cos ωt about the static equilibrium, ω² = K/(M + m); the plate's force on the ball
+    // m (g + ẍ) turns tensile at cos ωt = −g/(A ω²): the contact lets go there.
+    let (g, k, mp, a) = (9.81, 1000.0, 1.0, 0.02_f64);
+    let w = (k / (mp + M)).sqrt();
+    let l0 = 1.0 + (mp + M) * g / k; // compressed by the weight at z = 0
+    let mut t = header(g, 1e-11, 1e-14, 1e-3);
+    t += &ball("plate", mp, 0.1, Vector3::new(0.0, 0.0, -a), Vector3::zeros());
+    t += &ball("ball", M, R, Vector3::new(0.0, 0.0, -a + R), Vector3::zeros());
+    t += &format!(
+        "[[joint]]\nname = \"slide\"\ntype = \"prismatic\"\nparent = \"ground\"\nchild = \"plate\"\n\
+         anchor = [0.0, 0.0, {:?}]\naxis = [0.0, 0.0, 1.0]\n\n\
+         [[spring_damper]]\nname = \"spring\"\nbody_a = \"ground\"\npoint_a = [0.0, 0.0, -1.0]\nbody_b = \"plate\"\n\
+         point_b = [0.0, 0.0, {:?}]\nstiffness = {k:?}\nfree_length = {l0:?}\n\n\
+         [[contact]]\nname = \"floor\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = 0.5\n\
+         sphere_body = \"ball\"\ncenter = [0.0, 0.0, {:?}]\nradius = {R:?}\nbody = \"plate\"\n\
+         origin = [0.0, 0.0, {:?}]\nnormal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [1.0, 1.0]\n",
+        -a,
+        -a,
+        -a + R,
+        -a
+    );
+    let mut s = sim(&t);
+    assert_eq!(get(&mut s, "floor.active"), 1.0);
+    assert!(rel(get(&mut s, "floor.force"), M * (g + a * w * w)) < 1e-9);
+    s.step_to(0.1).unwrap();
+    let release = first(&events(&s), ContactEventKind::Release);
+    let t_rel = (-g / (a * w * w)).acos() / w;
+    println!(
+        "platform: ball released at t = {:.12} s (cos ωt = −g/(Aω²): {t_rel:.12} s)",
+        release.time
+    );
+    assert!((release.time - t_rel).abs() < 1e-9 * t_rel);
+    // the plate kept the common motion up to there
+    let plate_z = -a * (w * release.time).cos();
+    assert!(plate_z > 0.0);
+}
