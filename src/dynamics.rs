@@ -445,7 +445,14 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];
         d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
     }
-    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, &mut d.lambda, &mut d.work[..nc]);
+    linalg::pivoted_cholesky_solve(
+        &d.schur,
+        nc,
+        &d.schur_perm,
+        d.schur_rank,
+        &mut d.lambda,
+        &mut d.work[..nc],
+    );
     for r in 0..nc {
         let l = d.lambda[r];
         if l != 0.0 {
@@ -507,7 +514,14 @@ fn max_abs(v: &[f64]) -> f64 {
 fn mass_metric_correction(m: &Model, d: &mut Data, nl: usize) {
     let (nv, nc) = (m.nv, m.nc);
     d.lambda[nl..nc].iter_mut().for_each(|x| *x = 0.0);
-    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, &mut d.lambda, &mut d.work[..nc]);
+    linalg::pivoted_cholesky_solve(
+        &d.schur,
+        nc,
+        &d.schur_perm,
+        d.schur_rank,
+        &mut d.lambda,
+        &mut d.work[..nc],
+    );
     d.work2.iter_mut().for_each(|x| *x = 0.0);
     for r in 0..nc {
         let l = d.lambda[r];
