@@ -65,7 +65,7 @@ def main():
             print(name, "export failed:", r.stderr.strip())
             continue
         md = read_model_description(fmu_path)
-        stop, h = md.defaultExperiment.stopTime, md.defaultExperiment.stepSize
+        stop, h = float(md.defaultExperiment.stopTime), float(md.defaultExperiment.stepSize)
         n = int(round(stop / h))
         out = subprocess.run([EXE, "bench", "run", scene, "--repeats", str(REPEATS)], capture_output=True, text=True)
         kv = dict(x.split("=", 1) for x in out.stdout.split() if "=" in x)
