@@ -266,7 +266,9 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
             d.composite[p].add_assign(&ic);
         }
     }
-    // Mass matrix, block by tree.
+    // Mass matrix, block by tree. Entries between dofs of sibling branches are never written
+    // below, and the previous factorisation left fill-in there: start from zero.
+    d.mass_blocks.iter_mut().for_each(|x| *x = 0.0);
     for j in m.joints.iter() {
         let tree = j.tree;
         let (t0, n) = m.trees[tree];

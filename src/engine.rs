@@ -125,6 +125,10 @@ pub struct ContactEvent {
     pub force: f64,
 }
 
+/// Consecutive integrator steps cut short by an event after which the advance fails (an
+/// event storm: a fixed-step method overshooting a stiff contact, or a Zeno sequence).
+const MAX_INTERRUPTED_STEPS: usize = 2000;
+
 /// Relative tolerance of event location in time.
 const EVENT_TIME_TOL: f64 = 1e-13;
 
@@ -468,6 +472,7 @@ impl Engine {
         // A remainder of a few ulps (a step or an event that ended a rounding error short of
         // t_end) is not a step any method can take.
         let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
+        let mut interrupted = 0usize;
         while t_end - self.data.time > t_close {
             {
                 let mut rhs = Rhs {
@@ -559,12 +564,25 @@ impl Engine {
                 }
             }
             if !any {
+                interrupted = 0;
                 self.data.state.copy_from_slice(&self.y_work);
                 self.data.time = t1;
                 std::mem::swap(&mut self.g, &mut self.g_new);
                 std::mem::swap(&mut self.aux, &mut self.aux_new);
                 self.project_after_step();
                 continue;
+            }
+            interrupted += 1;
+            if interrupted > MAX_INTERRUPTED_STEPS {
+                self.started = false;
+                return Err(EngineError {
+                    time: self.data.time,
+                    message: format!(
+                        "{MAX_INTERRUPTED_STEPS} steps in a row were cut short by contact events (touch and \
+                         separation chatter): the step is too large for the contact stiffness; use an adaptive \
+                         method or a smaller solver.max_step"
+                    ),
+                });
             }
             self.integrator.interpolate(t_first, &mut self.y_event);
             self.data.state.copy_from_slice(&self.y_event);

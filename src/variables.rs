@@ -224,6 +224,7 @@ pub const UNITS: &[(&str, [i32; 3])] = &[
     ("J", [1, 2, -2]),
     ("Pa", [1, -1, -2]),
     ("s", [0, 0, 1]),
+    ("N.s/m", [1, 0, -1]),
 ];
 
 /// All variables of a scene, in value-reference order.
@@ -324,7 +325,7 @@ impl VariableTable {
             v.push(param(
                 format!("{}.damping", c.name),
                 c.damping.unwrap_or(0.0),
-                None,
+                Some("N.s/m"),
                 nonneg,
                 VarRef::Damping(i),
                 "Kelvin-Voigt damping [N s/m]",
