@@ -133,7 +133,7 @@ const MAX_INTERRUPTED_STEPS: usize = 2000;
 const EVENT_TIME_TOL: f64 = 1e-13;
 
 /// Oldest entries are dropped beyond this many logged contact events.
-const EVENT_LOG_CAPACITY: usize = 100_000;
+const EVENT_LOG_CAPACITY: usize = 4096;
 
 /// Model, data, integrator and event bookkeeping.
 pub struct Engine {
@@ -149,6 +149,8 @@ pub struct Engine {
     aux_new: Vec<(f64, f64)>,
     y_work: Vec<f64>,
     y_event: Vec<f64>,
+    /// Scratch copy of the state (the evaluation reads the state while writing `data`).
+    scratch: Vec<f64>,
     /// True when the integrator holds the current state.
     started: bool,
     /// True when the outputs match the current state.
@@ -201,12 +203,13 @@ impl Engine {
             aux_new: vec![(0.0, 0.0); nc],
             y_work: vec![0.0; n],
             y_event: vec![0.0; n],
+            scratch: vec![0.0; n],
             started: false,
             outputs_valid: false,
             base_stats: Stats::default(),
             next_h: 0.0,
             clamp_events: true,
-            events: Vec::new(),
+            events: Vec::with_capacity(if nc > 0 { EVENT_LOG_CAPACITY } else { 0 }),
         };
         e.init_contacts()
             .map_err(|err| SceneError::new(origin, "contact", "-", format!("at the initial state: {}", err.message)))?;
@@ -214,7 +217,7 @@ impl Engine {
     }
 
     /// The located contact events since compilation (or the last
-    /// [`Engine::clear_contact_events`]), oldest first; at most the last 100 000.
+    /// [`Engine::clear_contact_events`]), oldest first; at most the last 4096.
     pub fn contact_events(&self) -> &[ContactEvent] {
         &self.events
     }
@@ -421,7 +424,8 @@ impl Engine {
     }
 
     fn restart_with(&mut self, h: f64) {
-        let state = self.data.state.clone();
+        let mut state = std::mem::take(&mut self.scratch);
+        state.copy_from_slice(&self.data.state);
         let t = self.data.time;
         let mut rhs = Rhs {
             model: &self.model,
@@ -429,6 +433,7 @@ impl Engine {
         };
         self.integrator.reset(&mut rhs, t, &state, h);
         self.compute_events(&state, false);
+        self.scratch = state;
         self.started = true;
     }
 
@@ -638,9 +643,8 @@ impl Engine {
 
     /// True when a resting contact's normal force does not push or it left its patch.
     fn resting_violated(&mut self) -> bool {
-        let state = self.data.state.clone();
+        self.evaluate_current();
         let (m, d) = (&self.model, &mut self.data);
-        evaluate(m, d, &state, None);
         (0..m.contacts.len()).any(|i| {
             m.contacts[i].law == Law::Impulse
                 && d.contact_memory[i].active
@@ -650,8 +654,7 @@ impl Engine {
 
     /// Applies the mode changes at an event state (`self.g` before, `self.g_new` now).
     fn handle_events(&mut self) -> Result<(), EngineError> {
-        let state = self.data.state.clone();
-        evaluate(&self.model, &mut self.data, &state, None);
+        self.evaluate_current();
         let nc = self.model.contacts.len();
         let mut impulse_work = false;
         for i in 0..nc {
@@ -823,10 +826,17 @@ impl Engine {
 
     fn refresh_outputs(&mut self) {
         if !self.outputs_valid {
-            let state = self.data.state.clone();
-            evaluate(&self.model, &mut self.data, &state, None);
+            self.evaluate_current();
             self.outputs_valid = true;
         }
+    }
+
+    /// Evaluates everything at the current state (through a scratch copy: no allocation).
+    fn evaluate_current(&mut self) {
+        let mut state = std::mem::take(&mut self.scratch);
+        state.copy_from_slice(&self.data.state);
+        evaluate(&self.model, &mut self.data, &state, None);
+        self.scratch = state;
     }
 
     /// Energies (kinetic, potential, contact, dissipated) at the current state [J].

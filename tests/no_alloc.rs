@@ -167,14 +167,12 @@ fn integrator_steps_do_not_allocate() {
 // docs/benchmarks.md for the counts measured and where they come from.
 
 #[test]
-#[ignore = "target missed: each advance restarts the integrator from a cloned state, and event handling allocates (docs/benchmarks.md)"]
 fn bouncing_ball_advance_does_not_allocate() {
     check("bouncing_ball", Method::Dopri5, 10, 300);
     check("bouncing_ball", Method::Rk4, 10, 300);
 }
 
 #[test]
-#[ignore = "target missed: each advance restarts the integrator from a cloned state (docs/benchmarks.md)"]
 fn rail_vehicle_and_slider_crank_advance_do_not_allocate() {
     check("rail_vehicle", Method::Dopri5, 5, 20);
     check("slider_crank", Method::Dopri5, 10, 200);
