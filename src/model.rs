@@ -378,9 +378,9 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
     }
     // Depth-first order from the ground; each root child starts a tree.
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); nb + 1]; // index nb = ground
-    for b in 0..nb {
-        let p = match parent_joint[b] {
-            Some(ji) => body_idx(&scene.joint[ji].parent).unwrap_or(nb),
+    for (b, pj) in parent_joint.iter().enumerate() {
+        let p = match pj {
+            Some(ji) => body_idx(&scene.joint[*ji].parent).unwrap_or(nb),
             None => nb,
         };
         children[p].push(b);

@@ -579,7 +579,7 @@ impl Scene {
                 return Err(err(item, "mass", format!("must be > 0 (got {})", b.mass)));
             }
             let [a, bb, c] = b.inertia;
-            if !(a > 0.0 && bb > 0.0 && c > 0.0) || !(a.is_finite() && bb.is_finite() && c.is_finite()) {
+            if !(a > 0.0 && bb > 0.0 && c > 0.0 && a.is_finite() && bb.is_finite() && c.is_finite()) {
                 return Err(err(
                     item,
                     "inertia",
