@@ -334,8 +334,9 @@ pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path
         }
     }
     csv.write(csv_path)?;
-    println!("\n| scene | error ≤ | fastest | dopri5 [s] | sdirk [s] | rk4 [s] |");
-    println!("| --- | --- | --- | --- | --- | --- |");
+    let names: Vec<String> = Method::ALL.iter().map(|m| format!("{} [s]", m.name())).collect();
+    println!("\n| scene | error ≤ | fastest | {} |", names.join(" | "));
+    println!("| --- | --- | --- |{}", " --- |".repeat(names.len()));
     for s in summary {
         println!("{s}");
     }
