@@ -262,9 +262,7 @@ fn hertz_ln_with_vanishing_impact_velocity() {
 #[test]
 fn resting_bar_with_redundant_loop() {
     let text = scenes::resting_bar("hertz_ln", 0.8, 3.0, 0.1);
-    for m in [Method::Dopri5] {
-        let out = record(&spec(text.clone(), m, &[], 3.0, 0.1), &["pivot.q"]).unwrap();
-        finished(&out, m.name());
-        assert!(out.constraint_residual < 1e-9, "|Φ| = {}", out.constraint_residual);
-    }
+    let out = record(&spec(text, Method::Dopri5, &[], 3.0, 0.1), &["pivot.q"]).unwrap();
+    finished(&out, "dopri5");
+    assert!(out.constraint_residual < 1e-9, "|Φ| = {}", out.constraint_residual);
 }
