@@ -266,9 +266,8 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
             d.composite[p].add_assign(&ic);
         }
     }
-    // Mass matrix, block by tree. Entries between dofs of sibling branches are never written
-    // below, and the previous factorisation left fill-in there: start from zero.
-    d.mass_blocks.iter_mut().for_each(|x| *x = 0.0);
+    // Mass matrix, block by tree. Only entries on ancestor paths are written (and read by the
+    // tree-sparse factorisation); entries between sibling branches stay zero.
     for j in m.joints.iter() {
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
@@ -292,10 +291,12 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
 
 /// Factorises every mass-matrix block in place (Cholesky). Returns false when a block is not
 /// positive definite.
+/// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
+/// O(n d²) for a tree of depth d.
 pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
-    for (t, &(_, n)) in m.trees.iter().enumerate() {
+    for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
-        if !linalg::cholesky_in_place(&mut d.mass_blocks[off..off + n * n], n) {
+        if !linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n]) {
             return false;
         }
     }
@@ -306,7 +307,7 @@ pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
     for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
-        linalg::cholesky_solve(&mass_blocks[off..off + n * n], n, &mut x[t0..t0 + n]);
+        linalg::ltdl_solve(&mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n], &mut x[t0..t0 + n]);
     }
 }
 

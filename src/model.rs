@@ -204,6 +204,9 @@ pub struct Model {
     pub tree_block: Vec<usize>,
     /// For each velocity index, the tree joint it belongs to.
     pub dof_joint: Vec<usize>,
+    /// For each velocity index, the previous one on its path to the ground, local to its
+    /// tree's block ([`crate::linalg::NO_PARENT`] at a tree's root): the sparsity of M̄.
+    pub dof_parent: Vec<usize>,
     /// Initial velocity coordinates.
     pub qvel0: Vec<f64>,
     /// Solver settings.
@@ -509,6 +512,24 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
             dof_joint[j.qvel + k] = ji;
         }
     }
+    let mut dof_parent = vec![crate::linalg::NO_PARENT; nv];
+    for j in &joints {
+        let t0 = trees[j.tree].0;
+        // the last dof of the nearest ancestor joint that has any
+        let mut up = crate::linalg::NO_PARENT;
+        let mut cur = j.parent;
+        while let Some(p) = cur {
+            let pj = &joints[bodies[p].joint];
+            if pj.nv() > 0 {
+                up = pj.qvel + pj.nv() - 1 - t0;
+                break;
+            }
+            cur = pj.parent;
+        }
+        for k in 0..j.nv() {
+            dof_parent[j.qvel + k] = if k == 0 { up } else { j.qvel + k - 1 - t0 };
+        }
+    }
     let mut tree_block = Vec::with_capacity(ntrees);
     let mut off = 0;
     for &(_, n) in &trees {
@@ -639,6 +660,7 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
         trees,
         tree_block,
         dof_joint,
+        dof_parent,
         qvel0: vec![0.0; nv],
         solver: scene.solver.clone(),
         baumgarte: 20.0,

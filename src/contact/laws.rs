@@ -43,7 +43,8 @@ pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f6
     let (elastic, energy) = match c.law {
         Law::KelvinVoigt => (k * delta, 0.5 * k * delta * delta),
         _ => {
-            let p = delta.powf(n);
+            // δ·√δ for the Hertz exponent: exact and several times cheaper than powf
+            let p = if n == 1.5 { delta * delta.sqrt() } else { delta.powf(n) };
             (k * p, k * p * delta / (n + 1.0))
         }
     };
