@@ -437,19 +437,17 @@ pub fn parse_settings(set: &[String]) -> Result<Vec<(String, f64)>, String> {
             let (n, v) = s
                 .split_once('=')
                 .ok_or_else(|| format!("--set {s:?}: expected NAME=VALUE"))?;
-            let x = match v.trim() {
-                "dopri5" => 1.0,
-                "sdirk" => 2.0,
-                "rk4" => 3.0,
-                "kelvin_voigt" => 1.0,
-                "hertz" => 2.0,
-                "hertz_ln" => 3.0,
-                "hunt_crossley" => 4.0,
-                "flores" => 5.0,
-                "impulse" => 6.0,
-                t => t
+            let t = v.trim();
+            let by_name = crate::scene::Method::ALL
+                .iter()
+                .find(|m| m.name() == t)
+                .map(|m| *m as i64)
+                .or_else(|| crate::scene::Law::ALL.iter().find(|l| l.name() == t).map(|l| *l as i64));
+            let x = match by_name {
+                Some(i) => i as f64,
+                None => t
                     .parse::<f64>()
-                    .map_err(|_| format!("--set {s:?}: {t:?} is not a number"))?,
+                    .map_err(|_| format!("--set {s:?}: {t:?} is neither a number nor a method or law name"))?,
             };
             Ok((n.trim().to_string(), x))
         })
