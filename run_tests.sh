@@ -7,6 +7,10 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
+echo "== cargo fmt --check, cargo clippy -D warnings"
+cargo fmt --check
+cargo clippy --release --all-targets --quiet -- -D warnings
+
 echo "== cargo build --release"
 cargo build --release
 

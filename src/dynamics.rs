@@ -307,7 +307,12 @@ pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
     for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
-        linalg::ltdl_solve(&mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n], &mut x[t0..t0 + n]);
+        linalg::ltdl_solve(
+            &mass_blocks[off..off + n * n],
+            n,
+            &m.dof_parent[t0..t0 + n],
+            &mut x[t0..t0 + n],
+        );
     }
 }
 

@@ -226,7 +226,11 @@ mod tests {
         for k in 0..n {
             for i in 0..n {
                 if anc(k, i) || anc(i, k) {
-                    a[k * n + i] = if k == i { 4.0 + k as f64 } else { 0.3 + 0.1 * (k + i) as f64 };
+                    a[k * n + i] = if k == i {
+                        4.0 + k as f64
+                    } else {
+                        0.3 + 0.1 * (k + i) as f64
+                    };
                 }
             }
         }

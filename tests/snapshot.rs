@@ -29,7 +29,12 @@ fn check_scene(path: &Path) {
     let bytes = a.snapshot().to_bytes();
     let mut b = Simulation::from_file(path).unwrap();
     b.restore(&Snapshot::from_bytes(&bytes).unwrap()).unwrap();
-    assert_eq!(outputs(&mut a), outputs(&mut b), "{}: outputs differ right after restore", path.display());
+    assert_eq!(
+        outputs(&mut a),
+        outputs(&mut b),
+        "{}: outputs differ right after restore",
+        path.display()
+    );
     for k in split + 1..=n {
         let t = k as f64 * h;
         a.step_to(t).unwrap();
