@@ -420,10 +420,14 @@ impl Engine {
                 return;
             }
         }
-        self.restart_with(self.integrator.next_step());
+        self.restart_with(self.integrator.next_step(), false);
     }
 
-    fn restart_with(&mut self, h: f64) {
+    /// Restarts the integrator from the current state with first step `h`: `warm` (nothing
+    /// changed the right-hand side: a plain communication point) keeps an implicit method's
+    /// Jacobian and controller memory, which [`Engine::save_state`] saves; otherwise (after an
+    /// event, an impulse, a projection) everything is dropped.
+    fn restart_with(&mut self, h: f64, warm: bool) {
         let mut state = std::mem::take(&mut self.scratch);
         state.copy_from_slice(&self.data.state);
         let t = self.data.time;
@@ -431,7 +435,11 @@ impl Engine {
             model: &self.model,
             data: &mut self.data,
         };
-        self.integrator.reset(&mut rhs, t, &state, h);
+        if warm {
+            self.integrator.restart(&mut rhs, t, &state, h);
+        } else {
+            self.integrator.reset(&mut rhs, t, &state, h);
+        }
         self.compute_events(&state, false);
         self.scratch = state;
         self.started = true;
@@ -467,12 +475,14 @@ impl Engine {
         }
         self.outputs_valid = false;
         // An input changed at this communication point may have made a resting contact pull.
-        if any_resting(&self.model, &self.data) && self.resting_violated() {
+        let settled = any_resting(&self.model, &self.data) && self.resting_violated();
+        if settled {
             self.settle_impulse_contacts()?;
         }
         // Every advance restarts the method from the current state (one extra evaluation),
-        // so that a restored FMU state continues bit for bit like the original.
-        self.restart_with(self.pending_step());
+        // so that a restored FMU state continues bit for bit like the original; a plain
+        // restart keeps an implicit method's Jacobian (saved with the state).
+        self.restart_with(self.pending_step(), !settled);
         let nc = self.model.contacts.len();
         // A remainder of a few ulps (a step or an event that ended a rounding error short of
         // t_end) is not a step any method can take.
@@ -598,7 +608,7 @@ impl Engine {
             self.y_event = ye;
             let result = self.handle_events();
             let h = self.integrator.next_step();
-            self.restart_with(h);
+            self.restart_with(h, false);
             result?;
         }
         self.data.time = t_end;
@@ -921,7 +931,9 @@ impl Engine {
     }
 
     /// The dynamic state as plain numbers: time, state vector, inputs, contact memory,
-    /// next step size, counters.
+    /// next step size, counters, then the integrator's warm-restart memory (its length, then
+    /// [`Integrator::warm_state`]: nothing for explicit methods; controller memory and the
+    /// Jacobian, up to [`integrator::WARM_JACOBIAN_MAX`] numbers, for implicit ones).
     pub fn save_state(&self) -> Vec<f64> {
         let d = &self.data;
         let mut v = Vec::with_capacity(8 + d.state.len() + d.inputs.len() + 3 * d.contact_memory.len());
@@ -949,16 +961,36 @@ impl Engine {
             s.rhs_evals as f64,
             s.jac_evals as f64,
         ]);
+        let at = v.len();
+        v.push(0.0);
+        self.integrator.warm_state(&mut v);
+        v[at] = (v.len() - at - 1) as f64;
         v
     }
 
-    /// Restores a state written by [`Engine::save_state`] for the same model.
+    /// Restores a state written by [`Engine::save_state`] for the same model (a state without
+    /// the integrator memory, as written before it was added, restarts the method cold).
     pub fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
-        let d = &mut self.data;
+        let d = &self.data;
         let need = 2 + d.state.len() + d.inputs.len() + 3 * d.contact_memory.len() + 9;
-        if v.len() != need {
-            return Err(format!("state has {} numbers, this model needs {need}", v.len()));
-        }
+        let warm: &[f64] = match v.len().cmp(&need) {
+            std::cmp::Ordering::Less => {
+                return Err(format!("state has {} numbers, this model needs {need}", v.len()));
+            }
+            std::cmp::Ordering::Equal => &[],
+            std::cmp::Ordering::Greater => {
+                let len = v[need];
+                if len.fract() != 0.0 || !(0.0..v.len() as f64).contains(&len) || need + 1 + len as usize != v.len() {
+                    return Err(format!(
+                        "state has {} numbers, this model needs {need} plus the integrator memory ({len} numbers)",
+                        v.len()
+                    ));
+                }
+                &v[need + 1..]
+            }
+        };
+        self.integrator.set_warm_state(warm)?;
+        let d = &mut self.data;
         let mut it = v.iter().copied();
         let mut next = || it.next().unwrap_or(0.0);
         d.time = next();

@@ -138,6 +138,9 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
         for tol in [1e-4, 1e-6] {
             candidates.push((Method::Sdirk, tol, 1e-2));
         }
+        for tol in [1e-4, 1e-6] {
+            candidates.push((Method::Radau5, tol, 1e-2));
+        }
         let mut best: Option<(f64, String)> = None;
         for (method, tol, hmax) in candidates {
             let spec = with(method, tol, hmax);

@@ -66,6 +66,120 @@ pub trait Integrator {
     fn stats(&self) -> Stats;
     /// Sets the counters (restoring a saved state).
     fn set_stats(&mut self, s: Stats);
+    /// Restarts at `(t, y)` where the right-hand side did not change (a communication point
+    /// without an event). Like [`Integrator::reset`], but an implicit method keeps its memory
+    /// (Jacobian, Newton and step-size controller history). What it keeps is exactly what
+    /// [`Integrator::warm_state`] writes, so a state saved with it and restored by
+    /// [`Integrator::set_warm_state`] continues bit for bit. Explicit methods just reset.
+    fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.reset(sys, t, y, h);
+    }
+    /// Appends the memory that [`Integrator::restart`] carries over (nothing for explicit
+    /// methods; see [`WARM_JACOBIAN_MAX`] for the implicit ones).
+    fn warm_state(&self, _out: &mut Vec<f64>) {}
+    /// Restores memory written by [`Integrator::warm_state`] of the same method and system
+    /// size; an empty slice means none (as after [`Integrator::reset`]).
+    fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
+        if v.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the integrator keeps no memory across restarts, the state holds {} numbers",
+                v.len()
+            ))
+        }
+    }
+}
+
+/// Largest Jacobian (in numbers, `n²`) an implicit method keeps across a warm restart and
+/// writes into saved states; above it the Jacobian is recomputed after each restart, so that
+/// the FMU states of big scenes stay small.
+pub const WARM_JACOBIAN_MAX: usize = 40_000;
+
+/// Size of the controller memory of the implicit methods in their warm state: accepted step,
+/// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag.
+const WARM_HEADER: usize = 5;
+
+/// Memory an implicit method carries across a warm restart (see [`Integrator::restart`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct WarmMemory {
+    /// Step size and error norm of the last accepted step (0: none).
+    pub h_acc: f64,
+    pub err_acc: f64,
+    /// Newton convergence-rate memory.
+    pub eta: f64,
+    /// The Jacobian is to be refreshed before the next step.
+    pub jac_stale: bool,
+    /// The Jacobian holds an evaluation (false: J = 0, functional iteration).
+    pub jac_valid: bool,
+}
+
+impl WarmMemory {
+    /// Whether a system of size `n` keeps its Jacobian across warm restarts.
+    pub fn keeps_jacobian(n: usize) -> bool {
+        n.saturating_mul(n) <= WARM_JACOBIAN_MAX
+    }
+
+    /// Writes the memory and, when present and small enough, the row-major Jacobian `jac`.
+    pub fn write(&self, jac: &[f64], n: usize, out: &mut Vec<f64>) {
+        let with_jac = self.jac_valid && Self::keeps_jacobian(n);
+        out.extend_from_slice(&[
+            self.h_acc,
+            self.err_acc,
+            self.eta,
+            self.jac_stale as u8 as f64,
+            with_jac as u8 as f64,
+        ]);
+        if with_jac {
+            out.extend_from_slice(jac);
+        }
+    }
+
+    /// Parses what [`WarmMemory::write`] wrote (empty: the memory after a reset) and copies
+    /// the Jacobian into `jac` (zeros when absent).
+    pub fn read(v: &[f64], jac: &mut [f64], n: usize) -> Result<WarmMemory, String> {
+        if v.is_empty() {
+            jac.iter_mut().for_each(|x| *x = 0.0);
+            return Ok(WarmMemory::cold());
+        }
+        let bad = || {
+            format!(
+                "integrator memory has {} numbers, not a state of this method and model",
+                v.len()
+            )
+        };
+        if v.len() < WARM_HEADER {
+            return Err(bad());
+        }
+        let with_jac = v[4] != 0.0;
+        let len = WARM_HEADER + if with_jac { n * n } else { 0 };
+        if v.len() != len || !v.iter().all(|x| !x.is_nan()) {
+            return Err(bad());
+        }
+        if with_jac {
+            jac.copy_from_slice(&v[WARM_HEADER..]);
+        } else {
+            jac.iter_mut().for_each(|x| *x = 0.0);
+        }
+        Ok(WarmMemory {
+            h_acc: v[0],
+            err_acc: v[1],
+            eta: v[2],
+            jac_stale: v[3] != 0.0,
+            jac_valid: with_jac,
+        })
+    }
+
+    /// The memory after a reset: none.
+    pub fn cold() -> WarmMemory {
+        WarmMemory {
+            h_acc: 0.0,
+            err_acc: 0.0,
+            eta: 1.0,
+            jac_stale: false,
+            jac_valid: false,
+        }
+    }
 }
 
 /// Weighted RMS norm of an error estimate (Hairer's): `sqrt(mean((err/(atol+rtol·max|y|))²))`.
@@ -312,11 +426,130 @@ mod tests {
             }
             m.reset(&mut sys, 0.5, &[0.0, 1.0], m.next_step());
             m.step(&mut sys, 1.0).unwrap();
+            let (t1, y1) = (m.t(), [m.y()[0], m.y()[1]]);
+            m.restart(&mut sys, t1, &y1, m.next_step());
+            m.step(&mut sys, 1.0).unwrap();
             assert_eq!(
                 alloc_counter::count() - before,
                 0,
                 "{method:?} allocated while stepping"
             );
         }
+    }
+
+    /// Steps `m` to `t_end`.
+    fn run_to(m: &mut dyn Integrator, sys: &mut dyn OdeSystem, t_end: f64) {
+        while m.t() < t_end {
+            m.step(sys, t_end).unwrap();
+        }
+    }
+
+    /// A warm restart keeps the implicit methods' Jacobian (a cold one must evaluate a new
+    /// one on a stiff problem), and it depends only on `(t, y, h)` and the warm state: another
+    /// integrator with other history, given that warm state, continues bit for bit.
+    #[test]
+    fn warm_restart_keeps_the_jacobian_and_is_reproduced_from_the_warm_state() {
+        let settings = |method| SolverSection {
+            method,
+            rtol: 1e-6,
+            atol: 1e-8,
+            max_step: 1e-2,
+        };
+        for method in [Method::Sdirk, Method::Radau5] {
+            let s = settings(method);
+            let mut sys = SpringDamper { omega: 1e4, g: 9.81 };
+            let mut a = create(&s, 2);
+            a.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
+            run_to(a.as_mut(), &mut sys, 0.01);
+            let mut w = Vec::new();
+            a.warm_state(&mut w);
+            assert_eq!(w.len(), WARM_HEADER + 4, "{method:?}: memory and a 2×2 Jacobian");
+            let (t, y, h) = (a.t(), a.y().to_vec(), a.next_step());
+            let mut b = create(&s, 2);
+            b.reset(&mut sys, 0.0, &[0.3, 2.0], 0.0);
+            run_to(b.as_mut(), &mut sys, 0.2);
+            b.set_warm_state(&w).unwrap();
+            let mut cold = create(&s, 2);
+            cold.reset(&mut sys, t, &y, h);
+            let jac0 = a.stats().jac_evals;
+            a.restart(&mut sys, t, &y, h);
+            b.restart(&mut sys, t, &y, h);
+            while a.t() < 0.05 {
+                a.step(&mut sys, 0.05).unwrap();
+                b.step(&mut sys, 0.05).unwrap();
+                assert_eq!(a.t().to_bits(), b.t().to_bits(), "{method:?}");
+                assert_eq!(a.y(), b.y(), "{method:?} at t = {}", a.t());
+            }
+            run_to(cold.as_mut(), &mut sys, 0.05);
+            assert_eq!(a.stats().jac_evals, jac0, "{method:?}: the warm restart re-evaluated J");
+            assert!(
+                cold.stats().jac_evals >= 1,
+                "{method:?}: a cold start needs a Jacobian here"
+            );
+            let exact = sys.exact(0.05, -1.0);
+            assert!(
+                test_problems::max_diff(a.y(), &exact) < 1e-6,
+                "{method:?}: {:?} vs {exact:?}",
+                a.y()
+            );
+        }
+    }
+
+    /// Explicit methods keep nothing; malformed memory is refused; a Jacobian above
+    /// [`WARM_JACOBIAN_MAX`] numbers is neither saved nor kept.
+    #[test]
+    fn warm_state_sizes_and_checks() {
+        let s = |method| SolverSection {
+            method,
+            rtol: 1e-6,
+            atol: 1e-8,
+            max_step: 1e-2,
+        };
+        for method in [Method::Dopri5, Method::Rk4] {
+            let mut m = create(&s(method), 2);
+            let mut w = vec![7.0];
+            m.warm_state(&mut w);
+            assert_eq!(w, [7.0], "{method:?}");
+            assert!(m.set_warm_state(&[]).is_ok());
+            assert!(m.set_warm_state(&[1.0]).is_err());
+        }
+        for method in [Method::Sdirk, Method::Radau5] {
+            let mut m = create(&s(method), 2);
+            let mut w = Vec::new();
+            m.warm_state(&mut w);
+            assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
+            assert!(m.set_warm_state(&[]).is_ok());
+            assert!(
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 1.0]).is_err(),
+                "{method:?}: short Jacobian"
+            );
+            assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
+            assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0]).is_ok(), "{method:?}");
+        }
+        // n = 201: n² > WARM_JACOBIAN_MAX
+        struct Decay;
+        impl OdeSystem for Decay {
+            fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+                for (d, v) in dy.iter_mut().zip(y) {
+                    *d = -1e4 * (v - 1.0);
+                }
+            }
+        }
+        let n = 201;
+        assert!(n * n > WARM_JACOBIAN_MAX);
+        let mut m = create(&s(Method::Sdirk), n);
+        m.reset(&mut Decay, 0.0, &vec![0.0; n], 0.0);
+        run_to(m.as_mut(), &mut Decay, 0.01);
+        assert!(m.stats().jac_evals >= 1);
+        let mut w = Vec::new();
+        m.warm_state(&mut w);
+        assert_eq!(w.len(), WARM_HEADER, "a big Jacobian is not saved");
+        let (t, y, h, j0) = (m.t(), m.y().to_vec(), m.next_step(), m.stats().jac_evals);
+        m.restart(&mut Decay, t, &y, h);
+        run_to(m.as_mut(), &mut Decay, 0.02);
+        assert!(
+            m.stats().jac_evals > j0,
+            "a big Jacobian is recomputed after a warm restart"
+        );
     }
 }

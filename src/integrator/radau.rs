@@ -13,7 +13,7 @@
 //! - Nothing is allocated after construction.
 
 use super::lu;
-use super::{error_norm, Integrator, IntegratorError, OdeSystem, Stats};
+use super::{error_norm, Integrator, IntegratorError, OdeSystem, Stats, WarmMemory};
 
 const SQ6: f64 = 2.449_489_742_783_178;
 /// Nodes.
@@ -79,6 +79,8 @@ pub struct Radau5 {
     lu_h: f64,
     jac_fresh: bool,
     jac_stale: bool,
+    /// `jac` holds an evaluation (false: J = 0 after a reset).
+    jac_valid: bool,
     eta: f64,
     h_acc: f64,
     err_acc: f64,
@@ -118,6 +120,7 @@ impl Radau5 {
             lu_h: 0.0,
             jac_fresh: false,
             jac_stale: false,
+            jac_valid: false,
             eta: 1.0,
             h_acc: 0.0,
             err_acc: 0.0,
@@ -148,6 +151,7 @@ impl Radau5 {
         self.stats.jac_evals += 1;
         self.jac_fresh = true;
         self.jac_stale = false;
+        self.jac_valid = true;
         self.lu_h = 0.0;
     }
 
@@ -335,8 +339,9 @@ impl Radau5 {
     }
 }
 
-impl Integrator for Radau5 {
-    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+impl Radau5 {
+    /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
+    fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.t = t;
         self.t_prev = t;
         self.y.copy_from_slice(y);
@@ -354,14 +359,61 @@ impl Integrator for Radau5 {
             self.stats.rhs_evals += 1;
             super::initial_step(sys, t, y, k0, self.rtol, self.atol, 5, &mut self.work, k1, self.hmax)
         };
-        // as in SDIRK4: nothing survives a restart; J = 0 until Newton needs a Jacobian
-        self.jac.iter_mut().for_each(|x| *x = 0.0);
         self.jac_fresh = false;
-        self.jac_stale = false;
+    }
+
+    /// Sets the memory that warm restarts carry (the Jacobian is in `self.jac` already).
+    fn set_memory(&mut self, m: WarmMemory) {
+        self.h_acc = m.h_acc;
+        self.err_acc = m.err_acc;
+        self.eta = m.eta;
+        self.jac_stale = m.jac_stale;
+        self.jac_valid = m.jac_valid;
+        self.jac_fresh = false;
         self.lu_h = 0.0;
-        self.eta = 1.0;
-        self.h_acc = 0.0;
-        self.err_acc = 0.0;
+    }
+
+    /// Forgets the Jacobian: J = 0 until Newton needs one.
+    fn drop_jacobian(&mut self) {
+        self.jac.iter_mut().for_each(|x| *x = 0.0);
+        self.jac_valid = false;
+        self.lu_h = 0.0;
+    }
+}
+
+impl Integrator for Radau5 {
+    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // as in SDIRK4: nothing survives a restart after a discontinuity; J = 0 until Newton
+        // needs a Jacobian
+        self.drop_jacobian();
+        self.set_memory(WarmMemory::cold());
+    }
+
+    fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // keep J, the LU factors (a function of J and h), Newton and controller memory; all
+        // of it is in `warm_state`, except a Jacobian too big to save, which is dropped here
+        if !WarmMemory::keeps_jacobian(self.n) {
+            self.drop_jacobian();
+        }
+    }
+
+    fn warm_state(&self, out: &mut Vec<f64>) {
+        let m = WarmMemory {
+            h_acc: self.h_acc,
+            err_acc: self.err_acc,
+            eta: self.eta,
+            jac_stale: self.jac_stale,
+            jac_valid: self.jac_valid,
+        };
+        m.write(&self.jac, self.n, out);
+    }
+
+    fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let m = WarmMemory::read(v, &mut self.jac, self.n)?;
+        self.set_memory(m);
+        Ok(())
     }
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {

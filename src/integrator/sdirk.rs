@@ -17,7 +17,7 @@
 //! - Nothing is allocated after construction.
 
 use super::lu;
-use super::{error_norm, Integrator, IntegratorError, OdeSystem, Stats};
+use super::{error_norm, Integrator, IntegratorError, OdeSystem, Stats, WarmMemory};
 
 /// Number of stages.
 const S: usize = 5;
@@ -91,6 +91,8 @@ pub struct Sdirk {
     /// The Jacobian was evaluated at the current state / it should be refreshed.
     jac_fresh: bool,
     jac_stale: bool,
+    /// `jac` holds an evaluation (false: J = 0 after a reset).
+    jac_valid: bool,
     /// Newton convergence-rate memory (η of Hairer & Wanner).
     eta: f64,
     /// Step and error of the last accepted step (predictive controller); 0: none yet.
@@ -131,6 +133,7 @@ impl Sdirk {
             lu_h: 0.0,
             jac_fresh: false,
             jac_stale: false,
+            jac_valid: false,
             eta: 1.0,
             h_acc: 0.0,
             err_acc: 0.0,
@@ -165,6 +168,7 @@ impl Sdirk {
         self.stats.jac_evals += 1;
         self.jac_fresh = true;
         self.jac_stale = false;
+        self.jac_valid = true;
         self.lu_h = 0.0;
     }
 
@@ -308,8 +312,9 @@ impl Sdirk {
     }
 }
 
-impl Integrator for Sdirk {
-    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+impl Sdirk {
+    /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
+    fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.t = t;
         self.t_prev = t;
         self.y.copy_from_slice(y);
@@ -327,17 +332,63 @@ impl Integrator for Sdirk {
             self.stats.rhs_evals += 1;
             super::initial_step(sys, t, y, k0, self.rtol, self.atol, 4, &mut self.work, k1, self.hmax)
         };
-        // everything from before a restart is discarded, so that a restart from the same
-        // state always continues identically; the iteration starts with J = 0 (functional
-        // iteration, enough while the problem is not stiff) and a Jacobian is evaluated only
-        // when that fails to converge or converges slowly
-        self.jac.iter_mut().for_each(|x| *x = 0.0);
         self.jac_fresh = false;
-        self.jac_stale = false;
+    }
+
+    /// Sets the memory that warm restarts carry (the Jacobian is in `self.jac` already).
+    fn set_memory(&mut self, m: WarmMemory) {
+        self.h_acc = m.h_acc;
+        self.err_acc = m.err_acc;
+        self.eta = m.eta;
+        self.jac_stale = m.jac_stale;
+        self.jac_valid = m.jac_valid;
+        self.jac_fresh = false;
         self.lu_h = 0.0;
-        self.eta = 1.0;
-        self.h_acc = 0.0;
-        self.err_acc = 0.0;
+    }
+
+    /// Forgets the Jacobian: J = 0 (functional iteration) until Newton needs one.
+    fn drop_jacobian(&mut self) {
+        self.jac.iter_mut().for_each(|x| *x = 0.0);
+        self.jac_valid = false;
+        self.lu_h = 0.0;
+    }
+}
+
+impl Integrator for Sdirk {
+    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // everything from before a restart after a discontinuity is discarded; the iteration
+        // starts with J = 0 (functional iteration, enough while the problem is not stiff) and
+        // a Jacobian is evaluated only when that fails to converge or converges slowly
+        self.drop_jacobian();
+        self.set_memory(WarmMemory::cold());
+    }
+
+    fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // keep J (and the LU factors, which are a function of J and h and are recomputed
+        // identically after a restore), Newton and controller memory: all of it is in
+        // `warm_state`, except a Jacobian too big to save, which is dropped here
+        if !WarmMemory::keeps_jacobian(self.n) {
+            self.drop_jacobian();
+        }
+    }
+
+    fn warm_state(&self, out: &mut Vec<f64>) {
+        let m = WarmMemory {
+            h_acc: self.h_acc,
+            err_acc: self.err_acc,
+            eta: self.eta,
+            jac_stale: self.jac_stale,
+            jac_valid: self.jac_valid,
+        };
+        m.write(&self.jac, self.n, out);
+    }
+
+    fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let m = WarmMemory::read(v, &mut self.jac, self.n)?;
+        self.set_memory(m);
+        Ok(())
     }
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
