@@ -163,6 +163,42 @@ pub struct Engine {
     clamp_events: bool,
     /// Diagnostic log of contact events.
     events: Vec<ContactEvent>,
+    /// Buffers of the impulse law's event handling.
+    impacts: ImpactBuffers,
+}
+
+/// Preallocated buffers of the impulse law's event handling, sized at compilation by the
+/// number of impulse-law contacts: resolving impacts and settling resting contacts allocate
+/// nothing.
+#[derive(Default)]
+struct ImpactBuffers {
+    /// Work arrays of [`impulse::resolve_with`].
+    work: impulse::ImpulseWork,
+    /// Contacts of the current round of impacts, their restitution and (δ, δ̇) before it.
+    set: Vec<usize>,
+    restitution: Vec<f64>,
+    approach: Vec<(f64, f64)>,
+    /// Per contact: active before the resting set was rebuilt.
+    was: Vec<bool>,
+    /// Resting candidates.
+    candidates: Vec<usize>,
+    /// Copy of the state (the evaluation reads it while writing the data).
+    state: Vec<f64>,
+}
+
+impl ImpactBuffers {
+    fn new(m: &Model) -> ImpactBuffers {
+        let k = m.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        ImpactBuffers {
+            work: impulse::ImpulseWork::new(m, k),
+            set: Vec::with_capacity(k),
+            restitution: Vec::with_capacity(k),
+            approach: Vec::with_capacity(k),
+            was: Vec::with_capacity(m.contacts.len()),
+            candidates: Vec::with_capacity(k),
+            state: vec![0.0; m.nstate()],
+        }
+    }
 }
 
 /// One scalar function the event locator can follow.
@@ -193,6 +229,7 @@ impl Engine {
         let n = model.nstate();
         let integrator = integrator::create(&model.solver, n);
         let nc = model.contacts.len();
+        let impacts = ImpactBuffers::new(&model);
         let mut e = Engine {
             model,
             data,
@@ -210,6 +247,7 @@ impl Engine {
             next_h: 0.0,
             clamp_events: true,
             events: Vec::with_capacity(if nc > 0 { EVENT_LOG_CAPACITY } else { 0 }),
+            impacts,
         };
         e.init_contacts()
             .map_err(|err| SceneError::new(origin, "contact", "-", format!("at the initial state: {}", err.message)))?;
@@ -729,6 +767,14 @@ impl Engine {
     /// approach nor separate rest if their constraint force pushes (an active set: the most
     /// tensile one is dropped until all push).
     fn settle_impulse_contacts(&mut self) -> Result<(), EngineError> {
+        let mut bufs = std::mem::take(&mut self.impacts);
+        let result = self.settle_with(&mut bufs);
+        self.impacts = bufs;
+        result
+    }
+
+    /// [`Engine::settle_impulse_contacts`] on the preallocated buffers (taken out of `self`).
+    fn settle_with(&mut self, bufs: &mut ImpactBuffers) -> Result<(), EngineError> {
         let nc = self.model.contacts.len();
         let err = |time: f64, message: String| EngineError { time, message };
         let time = self.data.time;
@@ -736,63 +782,68 @@ impl Engine {
         let mut rounds = 0;
         loop {
             let (m, d) = (&self.model, &mut self.data);
-            let mut set = Vec::new();
-            let mut e = Vec::new();
-            let mut approach = Vec::new();
+            bufs.set.clear();
+            bufs.restitution.clear();
+            bufs.approach.clear();
             for (i, c) in m.contacts.iter().enumerate() {
                 if c.law != Law::Impulse {
                     continue;
                 }
                 let g = contact::gap(m, d, i);
                 if touching(c, &g, d.contact_memory[i].active) && g.delta_dot > velocity_tolerance(c) {
-                    set.push(i);
-                    e.push(impulse::restitution_for(c, g.delta_dot));
-                    approach.push((g.delta, g.delta_dot));
+                    bufs.set.push(i);
+                    bufs.restitution.push(impulse::restitution_for(c, g.delta_dot));
+                    bufs.approach.push((g.delta, g.delta_dot));
                 }
             }
-            if set.is_empty() {
+            if bufs.set.is_empty() {
                 break;
             }
             rounds += 1;
             if rounds > max_rounds {
-                let names: Vec<&str> = set.iter().map(|&i| m.contacts[i].name.as_str()).collect();
+                let names: Vec<&str> = bufs.set.iter().map(|&i| m.contacts[i].name.as_str()).collect();
                 return Err(err(
                     time,
                     format!("impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"),
                 ));
             }
-            let res = impulse::resolve(m, d, &set, &e).map_err(|msg| err(time, msg))?;
+            let energy_lost = impulse::resolve_with(m, d, &mut bufs.work, &bufs.set, &bufs.restitution)
+                .map_err(|msg| err(time, msg))?;
             let di = m.dissipated_index();
-            d.state[di] += res.energy_lost;
-            for (k, &i) in set.iter().enumerate() {
+            d.state[di] += energy_lost;
+            for (k, &i) in bufs.set.iter().enumerate() {
+                let impulse = bufs.work.impulses()[k];
                 self.log(
                     i,
                     ContactEventKind::Impact,
-                    approach[k].0,
-                    approach[k].1,
-                    res.impulses[k],
+                    bufs.approach[k].0,
+                    bufs.approach[k].1,
+                    impulse,
                 );
             }
         }
         // Resting set.
         let (m, d) = (&self.model, &mut self.data);
-        let was: Vec<bool> = d.contact_memory.iter().map(|x| x.active).collect();
-        let mut candidates = Vec::new();
+        bufs.was.clear();
+        bufs.was.extend(d.contact_memory.iter().map(|x| x.active));
+        bufs.candidates.clear();
         for (i, c) in m.contacts.iter().enumerate() {
             if c.law != Law::Impulse {
                 continue;
             }
             let g = contact::gap(m, d, i);
-            let rest = touching(c, &g, was[i]) && g.margin > 0.0 && g.delta_dot.abs() <= velocity_tolerance(c);
+            let rest = touching(c, &g, bufs.was[i]) && g.margin > 0.0 && g.delta_dot.abs() <= velocity_tolerance(c);
             d.contact_memory[i].active = rest;
             if rest {
-                candidates.push(i);
+                bufs.candidates.push(i);
             }
         }
-        let state = d.state.clone();
-        evaluate(m, d, &state, None);
-        while !candidates.is_empty() {
-            let (k, p) = candidates
+        let state = &mut bufs.state;
+        state.copy_from_slice(&d.state);
+        evaluate(m, d, state, None);
+        while !bufs.candidates.is_empty() {
+            let (k, p) = bufs
+                .candidates
                 .iter()
                 .enumerate()
                 .map(|(k, &i)| (k, contact::resting_force(m, d, i)))
@@ -800,11 +851,11 @@ impl Engine {
             if p > 0.0 {
                 break;
             }
-            let i = candidates.remove(k);
+            let i = bufs.candidates.remove(k);
             d.contact_memory[i].active = false;
-            evaluate(m, d, &state, None);
+            evaluate(m, d, state, None);
         }
-        for (i, &before) in was.iter().enumerate() {
+        for (i, &before) in bufs.was.iter().enumerate() {
             let now = self.data.contact_memory[i].active;
             if self.model.contacts[i].law == Law::Impulse && now != before {
                 let g = contact::gap(&self.model, &self.data, i);

@@ -2,7 +2,8 @@
 //! this thread while `Engine::advance` runs, after a warm-up (the first advances may size
 //! buffers lazily). Asserts a count, not a time.
 
-use contact_fmu::scene::Method;
+use contact_fmu::engine::ContactEventKind;
+use contact_fmu::scene::{Law, Method};
 use contact_fmu::simulation::Simulation;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -176,4 +177,170 @@ fn bouncing_ball_advance_does_not_allocate() {
 fn rail_vehicle_and_slider_crank_advance_do_not_allocate() {
     check("rail_vehicle", Method::Dopri5, 5, 20);
     check("slider_crank", Method::Dopri5, 10, 200);
+}
+
+/// What an impulse-law run did while its allocations were counted.
+struct ImpulseRun {
+    allocations: u64,
+    advances: usize,
+    steps: u64,
+    /// Impacts resolved in the counted window (the contact's counter).
+    impacts: u64,
+    /// Impact and Rest entries of the event log in the counted window.
+    logged_impacts: usize,
+    logged_rests: usize,
+    /// Event log length after the window (at most its capacity, 4096).
+    log_len: usize,
+    /// The contact rests at the end.
+    resting: bool,
+    /// Energies at the end: kinetic, potential, contact, dissipated [J]; and the total at
+    /// the start of the window.
+    energies: [f64; 4],
+    total_before: f64,
+}
+
+/// Runs `scene` with contact `contact` switched to the impulse law (a parameter set before
+/// `initialize`, like an FMU host would), warms up over `warmup` communication intervals and
+/// counts the allocations of the next `advances` ones.
+fn impulse_run(scene: &str, contact: &str, method: Method, warmup: usize, advances: usize) -> ImpulseRun {
+    let path = format!("{}/fmu/{scene}/scene.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut sim = Simulation::from_file(std::path::Path::new(&path)).expect("scene loads");
+    sim.set_by_name("solver.method", method as i64 as f64).expect("method");
+    sim.set_by_name(&format!("{contact}.law"), Law::Impulse as i64 as f64)
+        .expect("law");
+    sim.initialize(0.0).expect("initialises");
+    let h = sim.scene().model.interval;
+    let mut t = 0.0;
+    for _ in 0..warmup {
+        t += h;
+        sim.step_to(t).expect("warm-up advances");
+    }
+    let engine = sim.engine_mut().expect("engine");
+    let ci = engine
+        .model()
+        .contacts
+        .iter()
+        .position(|c| c.name == contact)
+        .expect("contact");
+    assert_eq!(
+        engine.model().contacts[ci].law,
+        Law::Impulse,
+        "the law parameter took effect"
+    );
+    let t_warm = engine.time();
+    let s0 = engine.counters().steps;
+    let impacts0 = engine.data().contact_memory[ci].impacts;
+    let e = engine.energies();
+    let total_before = e[0] + e[1] + e[2] + e[3];
+    let allocations = count(|| {
+        for _ in 0..advances {
+            t += h;
+            engine.advance(t).expect("advances");
+        }
+    });
+    let window = |k: ContactEventKind| {
+        engine
+            .contact_events()
+            .iter()
+            .filter(|ev| ev.time > t_warm && ev.contact == ci && ev.kind == k)
+            .count()
+    };
+    ImpulseRun {
+        allocations,
+        advances,
+        steps: engine.counters().steps - s0,
+        impacts: engine.data().contact_memory[ci].impacts - impacts0,
+        logged_impacts: window(ContactEventKind::Impact),
+        logged_rests: window(ContactEventKind::Rest),
+        log_len: engine.contact_events().len(),
+        resting: engine.data().contact_memory[ci].active,
+        energies: engine.energies(),
+        total_before,
+    }
+}
+
+#[test]
+fn impulse_law_impacts_and_resting_do_not_allocate() {
+    // The ball dropped from 0.1 m with the impulse law: the first impact at t ≈ 0.14 s lies in
+    // the counted window, then a geometric sequence of bounces (e = 0.8), plastic impacts
+    // below min_impact_velocity, resting contact (constraint row on) until the end. Every
+    // method steps at max_step (1 ms) in free flight, so the step counts coincide; each
+    // locates the impacts on its own dense output.
+    for method in [Method::Dopri5, Method::Rk4, Method::Sdirk, Method::Radau5] {
+        let r = impulse_run("bouncing_ball", "ball_floor", method, 10, 1500);
+        println!(
+            "bouncing_ball impulse {}: {} allocations in {} advances, {} steps, {} impacts, {} rests, log {}",
+            method.name(),
+            r.allocations,
+            r.advances,
+            r.steps,
+            r.impacts,
+            r.logged_rests,
+            r.log_len
+        );
+        assert!(r.impacts >= 10, "{}: only {} impacts", method.name(), r.impacts);
+        assert_eq!(r.logged_impacts as u64, r.impacts, "every impact is logged once");
+        assert!(
+            r.resting && r.logged_rests >= 1,
+            "{}: the ball comes to rest",
+            method.name()
+        );
+        // At rest the ball has no kinetic energy; the energy it had went to the impacts.
+        let [ke, pe, ce, dissipated] = r.energies;
+        assert!(
+            ke < 1e-12 * r.total_before,
+            "{}: kinetic energy {ke:.3e} J at rest",
+            method.name()
+        );
+        let total = ke + pe + ce + dissipated;
+        assert!(
+            (total - r.total_before).abs() <= 1e-9 * r.total_before,
+            "{}: energy balance {total:.12e} J vs {:.12e} J",
+            method.name(),
+            r.total_before
+        );
+        assert!(r.log_len <= 4096);
+        assert_eq!(r.allocations, 0, "bouncing_ball impulse {}: allocations", method.name());
+    }
+    // The slider-crank struck by the block, the impact resolved through the closed loop
+    // (projection onto the loop rows, exact LCP).
+    let r = impulse_run("slider_crank", "impact", Method::Dopri5, 10, 4000);
+    println!(
+        "slider_crank impulse dopri5: {} allocations in {} advances, {} steps, {} impacts, {} rests, log {}",
+        r.allocations, r.advances, r.steps, r.impacts, r.logged_rests, r.log_len
+    );
+    assert!(r.impacts >= 1, "the block strikes the slider");
+    assert_eq!(r.logged_impacts as u64, r.impacts, "every impact is logged once");
+    assert_eq!(r.allocations, 0, "slider_crank impulse: allocations");
+}
+
+#[test]
+fn event_log_wraps_without_allocating() {
+    // The log keeps the last 4096 contact events in its preallocated buffer: when full, the
+    // older half is dropped in place. rk4 at the scene's 1 ms step on the Hertz ball logs
+    // thousands of events (touch/separation chatter at each bounce), enough to wrap it.
+    let mut sim = start("bouncing_ball", Method::Rk4);
+    let h = sim.scene().model.interval;
+    let engine = sim.engine_mut().expect("engine");
+    let mut t = 0.0;
+    for _ in 0..10 {
+        t += h;
+        engine.advance(t).expect("warm-up advances");
+    }
+    let (mut allocations, mut wraps, mut longest) = (0, 0, 0);
+    for _ in 0..1000 {
+        let before = engine.contact_events().len();
+        t += h;
+        allocations += count(|| engine.advance(t).expect("advances"));
+        let after = engine.contact_events().len();
+        wraps += usize::from(after < before);
+        longest = longest.max(after);
+    }
+    println!(
+        "bouncing_ball rk4: {allocations} allocations in 1000 advances, {} events, log wrapped {wraps} times",
+        engine.counters().events
+    );
+    assert!(wraps >= 1, "the log never filled ({longest} entries)");
+    assert!(longest <= 4096, "the log grew to {longest} entries");
+    assert_eq!(allocations, 0);
 }

@@ -32,47 +32,174 @@ use crate::model::{Data, Model};
 use crate::scene::ImpulseMethod;
 use crate::spatial::Spatial;
 
-/// The loop-only projection `G`: the factor of `Φ_l M̄⁻¹ Φ_lᵀ` over the `nl` loop rows.
+/// The loop-only projection `G`: the factor of `Φ_l M̄⁻¹ Φ_lᵀ` over the `nl` loop rows, with
+/// its own solve buffers (sized once).
+#[derive(Debug, Clone, Default)]
 struct Projection {
     nl: usize,
     schur: Vec<f64>,
     perm: Vec<usize>,
     rank: usize,
+    b: Vec<f64>,
+    work: Vec<f64>,
 }
 
 impl Projection {
-    /// Needs `d.phi_q` and `d.minv_phit` of the loop rows at this configuration (the last
-    /// evaluation computed them).
-    fn new(m: &Model, d: &Data) -> Projection {
+    fn with_rows(nl: usize) -> Projection {
+        Projection {
+            nl,
+            schur: vec![0.0; nl * nl],
+            perm: vec![0; nl],
+            rank: 0,
+            b: vec![0.0; nl],
+            work: vec![0.0; nl],
+        }
+    }
+
+    /// Factorises at this configuration. Needs `d.phi_q` and `d.minv_phit` of the loop rows
+    /// (the last evaluation computed them).
+    fn factor(&mut self, m: &Model, d: &Data) {
         let nv = m.nv;
         let nl = super::loop_rows(m);
-        let mut schur = vec![0.0; nl * nl];
+        if self.nl != nl {
+            *self = Projection::with_rows(nl);
+        }
         for r in 0..nl {
             for c in 0..nl {
-                schur[r * nl + c] = linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], &d.minv_phit[c * nv..(c + 1) * nv]);
+                self.schur[r * nl + c] =
+                    linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], &d.minv_phit[c * nv..(c + 1) * nv]);
             }
         }
-        let mut perm = vec![0; nl];
-        let rank = linalg::pivoted_cholesky_in_place(&mut schur, nl, &mut perm, dynamics::REDUNDANT_PIVOT);
-        Projection { nl, schur, perm, rank }
+        self.perm.iter_mut().for_each(|p| *p = 0);
+        self.rank = linalg::pivoted_cholesky_in_place(&mut self.schur, nl, &mut self.perm, dynamics::REDUNDANT_PIVOT);
     }
 
     /// `x ← G x`.
-    fn apply(&self, m: &Model, d: &Data, x: &mut [f64]) {
+    fn apply(&mut self, m: &Model, d: &Data, x: &mut [f64]) {
         dynamics::solve_mass(m, &d.mass_blocks, x);
         let (nv, nl) = (m.nv, self.nl);
         if nl == 0 {
             return;
         }
-        let mut b: Vec<f64> = (0..nl)
-            .map(|r| linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], x))
-            .collect();
-        let mut work = vec![0.0; nl];
-        linalg::pivoted_cholesky_solve(&self.schur, nl, &self.perm, self.rank, &mut b, &mut work);
-        for (r, l) in b.iter().enumerate() {
+        for (r, b) in self.b.iter_mut().enumerate() {
+            *b = linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], x);
+        }
+        self.work.iter_mut().for_each(|w| *w = 0.0);
+        linalg::pivoted_cholesky_solve(&self.schur, nl, &self.perm, self.rank, &mut self.b, &mut self.work);
+        for (r, l) in self.b.iter().enumerate() {
             for (xi, g) in x.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
                 *xi -= l * g;
             }
+        }
+    }
+}
+
+/// Work arrays of [`solve_lcp_with`] for problems of up to `n` contacts.
+#[derive(Debug, Clone, Default)]
+pub struct LcpWork {
+    n: usize,
+    active: Vec<bool>,
+    idx: Vec<usize>,
+    p: Vec<f64>,
+    a: Vec<f64>,
+    rhs: Vec<f64>,
+    perm: Vec<usize>,
+    work: Vec<f64>,
+    wv: Vec<f64>,
+}
+
+impl LcpWork {
+    /// Buffers for problems of up to `n` unknowns.
+    pub fn new(n: usize) -> LcpWork {
+        LcpWork {
+            n,
+            active: vec![false; n],
+            idx: Vec::with_capacity(n),
+            p: vec![0.0; n],
+            a: vec![0.0; n * n],
+            rhs: vec![0.0; n],
+            perm: vec![0; n],
+            work: vec![0.0; n],
+            wv: vec![0.0; n],
+        }
+    }
+
+    /// Grows the buffers (allocates) only if `n` exceeds the size they were made for.
+    fn reserve(&mut self, n: usize) {
+        if n > self.n {
+            *self = LcpWork::new(n);
+        }
+    }
+}
+
+/// Preallocated work arrays of the impulse law: everything [`resolve_with`] needs for rounds
+/// of up to `k` simultaneous impacts of a model with `nv` velocities (and its loop rows), so
+/// that resolving an impact allocates nothing. Sized when the engine is compiled.
+#[derive(Debug, Clone, Default)]
+pub struct ImpulseWork {
+    k: usize,
+    nv: usize,
+    proj: Projection,
+    /// Separation-rate rows `J` (k × nv).
+    jrows: Vec<f64>,
+    /// Their images `G Jᵀ` (k × nv).
+    gj: Vec<f64>,
+    qvel: Vec<f64>,
+    rate: Vec<f64>,
+    impulses: Vec<f64>,
+    /// Rows solved exactly (the rest use the effective mass).
+    exact: Vec<usize>,
+    w: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    lcp: LcpWork,
+    /// Effective-mass buffers (nv each).
+    row: Vec<f64>,
+    free: Vec<f64>,
+    x: Vec<f64>,
+    /// Copy of the state for the kinematics after the jump.
+    state: Vec<f64>,
+    /// Contacts of the last round.
+    last: usize,
+}
+
+impl ImpulseWork {
+    /// Buffers for up to `k` simultaneous impacts in model `m` (`k` = its number of
+    /// impulse-law contacts).
+    pub fn new(m: &Model, k: usize) -> ImpulseWork {
+        let nv = m.nv;
+        ImpulseWork {
+            k,
+            nv,
+            proj: Projection::with_rows(super::loop_rows(m)),
+            jrows: vec![0.0; k * nv],
+            gj: vec![0.0; k * nv],
+            qvel: vec![0.0; nv],
+            rate: vec![0.0; k],
+            impulses: vec![0.0; k],
+            exact: Vec::with_capacity(k),
+            w: vec![0.0; k * k],
+            q: vec![0.0; k],
+            p: vec![0.0; k],
+            lcp: LcpWork::new(k),
+            row: vec![0.0; nv],
+            free: vec![0.0; nv],
+            x: vec![0.0; nv],
+            state: vec![0.0; m.nstate()],
+            last: 0,
+        }
+    }
+
+    /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
+    /// [N s].
+    pub fn impulses(&self) -> &[f64] {
+        &self.impulses[..self.last]
+    }
+
+    /// Makes the buffers fit `k` contacts of model `m` (allocates only if they do not).
+    fn reserve(&mut self, m: &Model, k: usize) {
+        if k > self.k || self.nv != m.nv || self.state.len() != m.nstate() {
+            *self = ImpulseWork::new(m, k.max(self.k));
         }
     }
 }
@@ -90,20 +217,57 @@ pub struct Resolution {
 /// `restitution` (one each) at the current state. The data must have been evaluated at this
 /// configuration (mass matrix factorised; loop Jacobian and `M̄⁻¹Φ_qᵀ` computed). Updates the
 /// velocities in `d.state` and the kinematics, counts the impacts that took an impulse and
-/// returns the energy lost and the impulses.
+/// returns the energy lost and the impulses. Allocates its work arrays; the engine uses
+/// [`resolve_with`] on preallocated ones.
 pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64]) -> Result<Resolution, String> {
+    let mut work = ImpulseWork::new(m, contacts.len());
+    let energy_lost = resolve_with(m, d, &mut work, contacts, restitution)?;
+    Ok(Resolution {
+        energy_lost,
+        impulses: work.impulses().to_vec(),
+    })
+}
+
+/// [`resolve`] on preallocated work arrays: returns the kinetic energy lost [J]; the impulses
+/// are left in [`ImpulseWork::impulses`]. Allocates nothing when `work` was made for at least
+/// `contacts.len()` contacts of this model (except to report an error).
+pub fn resolve_with(
+    m: &Model,
+    d: &mut Data,
+    work: &mut ImpulseWork,
+    contacts: &[usize],
+    restitution: &[f64],
+) -> Result<f64, String> {
     let nv = m.nv;
     let k = contacts.len();
+    work.last = 0;
     if k == 0 {
-        return Ok(Resolution {
-            energy_lost: 0.0,
-            impulses: Vec::new(),
-        });
+        return Ok(0.0);
     }
-    let proj = Projection::new(m, d);
+    work.reserve(m, k);
+    let ImpulseWork {
+        proj,
+        jrows,
+        gj,
+        qvel,
+        rate,
+        impulses,
+        exact,
+        w,
+        q,
+        p,
+        lcp,
+        row,
+        free,
+        x,
+        state,
+        ..
+    } = work;
+    proj.factor(m, d);
     // Rows J (k × nv) and their images G Jᵀ.
-    let mut jrows = vec![0.0; k * nv];
-    let mut gj = vec![0.0; k * nv];
+    let jrows = &mut jrows[..k * nv];
+    let gj = &mut gj[..k * nv];
+    jrows.iter_mut().for_each(|v| *v = 0.0);
     for (r, &ci) in contacts.iter().enumerate() {
         let c = &m.contacts[ci];
         let g = super::gap(m, d, ci);
@@ -114,21 +278,28 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
         proj.apply(m, d, col);
     }
     let ke_before = dynamics::kinetic_energy(m, d);
-    let qvel: Vec<f64> = d.state[m.nq..m.nq + nv].to_vec();
+    qvel.copy_from_slice(&d.state[m.nq..m.nq + nv]);
     // Pre-impact separation rates (negative: approaching).
-    let rate: Vec<f64> = (0..k)
-        .map(|r| linalg::dot(&jrows[r * nv..(r + 1) * nv], &qvel))
-        .collect();
-    let mut impulses = vec![0.0; k];
-    let mut exact: Vec<usize> = Vec::new();
+    let rate = &mut rate[..k];
+    for (r, v) in rate.iter_mut().enumerate() {
+        *v = linalg::dot(&jrows[r * nv..(r + 1) * nv], qvel);
+    }
+    let impulses = &mut impulses[..k];
+    impulses.iter_mut().for_each(|v| *v = 0.0);
+    exact.clear();
     for (r, &ci) in contacts.iter().enumerate() {
         match m.contacts[ci].impulse_method {
             ImpulseMethod::Exact => exact.push(r),
             ImpulseMethod::EffectiveMass => {
                 let c = &m.contacts[ci];
                 let g = super::gap(m, d, ci);
-                let ms = effective_mass(m, d, &proj, c.sphere_body, &g.point, &g.normal)?;
-                let mo = effective_mass(m, d, &proj, c.body, &g.point, &(-g.normal))?;
+                let mut bufs = MassBuffers {
+                    row: &mut row[..],
+                    free: &mut free[..],
+                    x: &mut x[..],
+                };
+                let ms = effective_mass(m, d, proj, &mut bufs, c.sphere_body, &g.point, &g.normal)?;
+                let mo = effective_mass(m, d, proj, &mut bufs, c.body, &g.point, &(-g.normal))?;
                 let reduced = match (ms.is_finite(), mo.is_finite()) {
                     (true, true) => ms * mo / (ms + mo),
                     (true, false) => ms,
@@ -155,8 +326,7 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
     }
     if !exact.is_empty() {
         let n = exact.len();
-        let mut w = vec![0.0; n * n];
-        let mut q = vec![0.0; n];
+        let (w, q, p) = (&mut w[..n * n], &mut q[..n], &mut p[..n]);
         for (a, &ra) in exact.iter().enumerate() {
             for (b, &rb) in exact.iter().enumerate() {
                 w[a * n + b] = linalg::dot(&jrows[ra * nv..(ra + 1) * nv], &gj[rb * nv..(rb + 1) * nv]);
@@ -168,10 +338,12 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
             }
             q[a] = pre + restitution[ra] * rate[ra];
         }
-        let p = solve_lcp(&w, &q, n).ok_or_else(|| {
+        if !solve_lcp_with(w, q, n, lcp, p) {
             let names: Vec<&str> = exact.iter().map(|&r| m.contacts[contacts[r]].name.as_str()).collect();
-            format!("simultaneous impact of contacts {names:?}: the impulse problem has no solution")
-        })?;
+            return Err(format!(
+                "simultaneous impact of contacts {names:?}: the impulse problem has no solution"
+            ));
+        }
         for (a, &ra) in exact.iter().enumerate() {
             impulses[ra] = p[a];
         }
@@ -187,8 +359,8 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
             }
         }
     }
-    let state = d.state.clone();
-    dynamics::kinematics(m, d, &state);
+    state.copy_from_slice(&d.state);
+    dynamics::kinematics(m, d, state);
     // The effective-mass impulse may leave a contact still approaching: report it rather than
     // let the surfaces pass through each other.
     for (r, &ci) in contacts.iter().enumerate() {
@@ -204,10 +376,15 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
             }
         }
     }
-    Ok(Resolution {
-        energy_lost: ke_before - dynamics::kinetic_energy(m, d),
-        impulses,
-    })
+    work.last = k;
+    Ok(ke_before - dynamics::kinetic_energy(m, d))
+}
+
+/// The nv-long buffers of [`effective_mass`].
+struct MassBuffers<'a> {
+    row: &'a mut [f64],
+    free: &'a mut [f64],
+    x: &'a mut [f64],
 }
 
 /// Effective mass (17) of one side of a contact: body `body` pushed at `point` along `dir`.
@@ -215,22 +392,23 @@ pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64])
 fn effective_mass(
     m: &Model,
     d: &Data,
-    proj: &Projection,
+    proj: &mut Projection,
+    bufs: &mut MassBuffers,
     body: Option<usize>,
     point: &nalgebra::Vector3<f64>,
     dir: &nalgebra::Vector3<f64>,
 ) -> Result<f64, String> {
     let Some(b) = body else { return Ok(f64::INFINITY) };
-    let nv = m.nv;
     let coef = Spatial::point_direction(point, dir);
-    let mut row = vec![0.0; nv];
-    dynamics::add_jacobian_row(m, d, Some(b), &coef, 1.0, &mut row);
-    let mut free = row.clone();
-    dynamics::solve_mass(m, &d.mass_blocks, &mut free);
-    let free_mobility = linalg::dot(&row, &free);
-    let mut x = row.clone();
-    proj.apply(m, d, &mut x);
-    let mobility = linalg::dot(&row, &x);
+    let MassBuffers { row, free, x } = bufs;
+    row.iter_mut().for_each(|v| *v = 0.0);
+    dynamics::add_jacobian_row(m, d, Some(b), &coef, 1.0, row);
+    free.copy_from_slice(row);
+    dynamics::solve_mass(m, &d.mass_blocks, free);
+    let free_mobility = linalg::dot(row, free);
+    x.copy_from_slice(row);
+    proj.apply(m, d, x);
+    let mobility = linalg::dot(row, x);
     // A side that cannot move along the normal (no dofs, or locked by the loops).
     if free_mobility.is_nan() || free_mobility <= 0.0 || mobility <= 1e-10 * free_mobility {
         return Ok(f64::INFINITY);
@@ -246,36 +424,57 @@ fn effective_mass(
 
 /// Solves the LCP `w = W p + q ≥ 0, p ≥ 0, pᵀw = 0` for a symmetric positive semi-definite
 /// `W` (row-major n × n) by Murty's least-index principal pivoting. None if it does not
-/// converge.
+/// converge. Allocates; see [`solve_lcp_with`].
 pub fn solve_lcp(w: &[f64], q: &[f64], n: usize) -> Option<Vec<f64>> {
-    let scale_q = q.iter().fold(0.0_f64, |a, b| a.max(b.abs())).max(1e-300);
-    let mut active = vec![true; n];
+    let mut work = LcpWork::new(n);
+    let mut p = vec![0.0; n];
+    solve_lcp_with(w, q, n, &mut work, &mut p).then_some(p)
+}
+
+/// [`solve_lcp`] into `p` (at least `n` long) on preallocated work arrays (no allocation when
+/// `work` was made for at least `n` unknowns). False if it does not converge.
+pub fn solve_lcp_with(w: &[f64], q: &[f64], n: usize, work: &mut LcpWork, p_out: &mut [f64]) -> bool {
+    work.reserve(n);
+    let LcpWork {
+        active,
+        idx,
+        p,
+        a,
+        rhs,
+        perm,
+        work,
+        wv,
+        ..
+    } = work;
+    let (active, p, wv) = (&mut active[..n], &mut p[..n], &mut wv[..n]);
+    let scale_q = q[..n].iter().fold(0.0_f64, |a, b| a.max(b.abs())).max(1e-300);
+    active.iter_mut().for_each(|x| *x = true);
     let max_iter = 50 * n + 50;
     for _ in 0..max_iter {
-        let idx: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+        idx.clear();
+        idx.extend((0..n).filter(|&i| active[i]));
         let na = idx.len();
-        let mut p = vec![0.0; n];
+        p.iter_mut().for_each(|x| *x = 0.0);
         if na > 0 {
-            let mut a = vec![0.0; na * na];
-            let mut rhs = vec![0.0; na];
+            let (a, rhs, perm, work) = (&mut a[..na * na], &mut rhs[..na], &mut perm[..na], &mut work[..na]);
             for (x, &i) in idx.iter().enumerate() {
                 for (y, &j) in idx.iter().enumerate() {
                     a[x * na + y] = w[i * n + j];
                 }
                 rhs[x] = -q[i];
             }
-            let mut perm = vec![0; na];
-            let mut work = vec![0.0; na];
-            let rank = linalg::pivoted_cholesky_in_place(&mut a, na, &mut perm, 1e-12);
-            linalg::pivoted_cholesky_solve(&a, na, &perm, rank, &mut rhs, &mut work);
+            perm.iter_mut().for_each(|x| *x = 0);
+            work.iter_mut().for_each(|x| *x = 0.0);
+            let rank = linalg::pivoted_cholesky_in_place(a, na, perm, 1e-12);
+            linalg::pivoted_cholesky_solve(a, na, perm, rank, rhs, work);
             for (x, &i) in idx.iter().enumerate() {
                 p[i] = rhs[x];
             }
         }
         let scale_p = p.iter().fold(0.0_f64, |a, b| a.max(b.abs())).max(1e-300);
-        let wv: Vec<f64> = (0..n)
-            .map(|i| q[i] + (0..n).map(|j| w[i * n + j] * p[j]).sum::<f64>())
-            .collect();
+        for (i, v) in wv.iter_mut().enumerate() {
+            *v = q[i] + (0..n).map(|j| w[i * n + j] * p[j]).sum::<f64>();
+        }
         let violated = (0..n).find(|&i| {
             if active[i] {
                 p[i] < -1e-12 * scale_p
@@ -285,15 +484,15 @@ pub fn solve_lcp(w: &[f64], q: &[f64], n: usize) -> Option<Vec<f64>> {
         });
         match violated {
             None => {
-                for x in p.iter_mut() {
-                    *x = x.max(0.0);
+                for (o, x) in p_out.iter_mut().zip(p.iter()) {
+                    *o = x.max(0.0);
                 }
-                return Some(p);
+                return true;
             }
             Some(i) => active[i] = !active[i],
         }
     }
-    None
+    false
 }
 
 /// Restitution to use for contact `c` hit at approach speed `approach` [m/s]: its
