@@ -2,7 +2,10 @@
 //!
 //! An [`Integrator`] takes one accepted step at a time, never past a given limit, and offers
 //! dense output over its last step; the engine uses that to locate events (contact touch and
-//! separation) and restarts the method after each discontinuity with [`Integrator::reset`].
+//! separation) and restarts the method after each discontinuity with [`Integrator::reset`];
+//! at a communication point without one it restarts with [`Integrator::restart`], which lets an
+//! implicit method keep its Jacobian (that memory is part of saved states:
+//! [`Integrator::warm_state`]).
 
 pub mod dopri5;
 pub mod lu;

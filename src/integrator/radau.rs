@@ -5,7 +5,8 @@
 //! - The stage increments `Zᵢ = Yᵢ − y₀` are solved together by simplified Newton on the real
 //!   3n × 3n matrix `I − h A⊗J` (an in-place LU on a preallocated buffer; no complex
 //!   transformation — the systems here are small), `J` by forward differences.
-//! - Jacobian and LU reuse, `J = 0` after a restart, and the step-size controller are those of
+//! - Jacobian and LU reuse, `J = 0` after a reset, `J` and controller memory kept across a
+//!   plain restart (and saved through `warm_state`), and the step-size controller are those of
 //!   [`super::sdirk`].
 //! - Error estimate of order 3 filtered by `(I − hγ₀J)⁻¹` (IV.8.19), refined with one more
 //!   evaluation after a rejected or first step, as RADAU5 does.

@@ -6,9 +6,11 @@
 //!   iterations with the matrix `I − hγJ`, `J` a forward-difference Jacobian kept across
 //!   steps and refreshed only when Newton fails or converges slowly; the LU factors are kept
 //!   while `h` and `J` do not change (a step-size change below 20 % is not made, to keep them).
-//!   After a restart the iteration begins with `J = 0` (functional iteration), so that a
-//!   non-stiff phase costs no Jacobian at all. Stage values are predicted by extrapolating the
-//!   previous step's continuous extension.
+//!   After a reset (a restart after a discontinuity) the iteration begins with `J = 0`
+//!   (functional iteration), so that a non-stiff phase costs no Jacobian at all; a plain
+//!   [`Integrator::restart`] keeps `J` and the controller memory, which
+//!   [`Integrator::warm_state`] exports for saved states. Stage values are predicted by
+//!   extrapolating the previous step's continuous extension.
 //! - The error estimate `h Σ (bᵢ − b̂ᵢ) kᵢ` is filtered by `(I − hγJ)⁻¹` (as in RADAU5) so
 //!   that stiff components, which the L-stable method damps, do not force tiny steps.
 //! - Step sizes follow Gustafsson's predictive controller, as in RADAU5.
