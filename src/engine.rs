@@ -461,6 +461,13 @@ impl Engine {
         self.restart_with(self.integrator.next_step(), false);
     }
 
+    /// After a failed step: the next advance restarts the integrator, without memory.
+    fn stop_after_failure(&mut self) {
+        self.started = false;
+        // an empty memory is always accepted
+        let _ = self.integrator.set_warm_state(&[]);
+    }
+
     /// Restarts the integrator from the current state with first step `h`: `warm` (nothing
     /// changed the right-hand side: a plain communication point) keeps an implicit method's
     /// Jacobian and controller memory, which [`Engine::save_state`] saves; otherwise (after an
@@ -533,7 +540,7 @@ impl Engine {
                     data: &mut self.data,
                 };
                 if let Err(e) = self.integrator.step(&mut rhs, t_end) {
-                    self.started = false;
+                    self.stop_after_failure();
                     return Err(EngineError {
                         time: self.data.time,
                         message: e.to_string(),
@@ -543,7 +550,7 @@ impl Engine {
             let t1 = self.integrator.t();
             self.y_work.copy_from_slice(self.integrator.y());
             if !self.y_work.iter().all(|v| v.is_finite()) {
-                self.started = false;
+                self.stop_after_failure();
                 return Err(EngineError {
                     time: self.data.time,
                     message: "the state became non-finite".into(),
@@ -627,7 +634,7 @@ impl Engine {
             }
             interrupted += 1;
             if interrupted > MAX_INTERRUPTED_STEPS {
-                self.started = false;
+                self.stop_after_failure();
                 return Err(EngineError {
                     time: self.data.time,
                     message: format!(

@@ -110,3 +110,42 @@ fn implicit_methods_carry_their_jacobian_in_the_state_and_continue_bit_identical
         assert!(carried >= 1, "{method:?}: no scene's state carried a Jacobian");
     }
 }
+
+/// A state without the integrator memory (as saved before it existed) still restores and
+/// restarts cold, deterministically; a damaged length of that memory is refused.
+#[test]
+fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/rail_vehicle/scene.toml"));
+    let mut a = open(path, Some(Method::Sdirk));
+    a.initialize(0.0).unwrap();
+    for k in 1..=10 {
+        a.step_to(k as f64 * 0.01).unwrap();
+    }
+    let n = a.engine().unwrap().model().nstate();
+    let snap = a.snapshot();
+    let len = snap.state.len();
+    let memory = 5 + n * n;
+    assert_eq!(
+        snap.state[len - memory - 1],
+        memory as f64,
+        "length prefix, then 5 numbers and J"
+    );
+    let mut old = snap.clone();
+    old.state.truncate(len - memory - 1);
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let mut b = open(path, None);
+        b.restore(&old).unwrap();
+        for k in 11..=30 {
+            b.step_to(k as f64 * 0.01).unwrap();
+        }
+        runs.push(outputs(&mut b));
+    }
+    assert_eq!(runs[0], runs[1]);
+    let mut bad = snap.clone();
+    bad.state[len - memory - 1] += 1.0;
+    assert!(open(path, None).restore(&bad).is_err());
+    let mut bad = snap;
+    bad.state.pop();
+    assert!(open(path, None).restore(&bad).is_err());
+}
