@@ -58,95 +58,128 @@ fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
 pub fn kinematics(m: &Model, d: &mut Data, state: &[f64]) {
     let (qpos, rest) = state.split_at(m.nq);
     let qvel = &rest[..m.nv];
-    for j in &m.joints {
-        let p = frame(d, j.parent);
-        let c = j.child;
-        let q = &qpos[j.qpos..j.qpos + j.nq()];
-        let w = &qvel[j.qvel..j.qvel + j.nv()];
-        let (pos, quat);
-        let mut vel = p.vel;
-        let mut acc = p.acc;
-        match j.kind {
-            JointType::Revolute => {
-                let h = p.rot * j.axis;
-                let pj = p.pos + p.rot * j.anchor;
-                let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
-                quat = p.quat * rel * j.rot0;
-                pos = pj + p.rot * (rel * j.offset);
+    for ji in 0..m.joints.len() {
+        joint_kinematics(m, d, ji, qpos, qvel);
+    }
+}
+
+/// Kinematics of body `body` (None = ground: nothing to do) and of its ancestors only, root
+/// first: after it, the body's pose, velocity, bias acceleration, inertia and the motion
+/// subspaces of the joints on its path are those [`kinematics`] gives (bit for bit); every
+/// other body's entries are left as they were (stale). The path is collected in the
+/// preallocated `Data::path_joints` (no allocation).
+pub fn kinematics_path(m: &Model, d: &mut Data, state: &[f64], body: Option<usize>) {
+    let Some(mut b) = body else { return };
+    let (qpos, rest) = state.split_at(m.nq);
+    let qvel = &rest[..m.nv];
+    let mut path = std::mem::take(&mut d.path_joints);
+    path.clear();
+    path.reserve(m.joints.len()); // a no-op once the buffer has its capacity
+    loop {
+        let ji = m.bodies[b].joint;
+        path.push(ji);
+        match m.joints[ji].parent {
+            Some(p) => b = p,
+            None => break,
+        }
+    }
+    for &ji in path.iter().rev() {
+        joint_kinematics(m, d, ji, qpos, qvel);
+    }
+    d.path_joints = path;
+}
+
+/// Kinematics of tree joint `ji` and its child body, from its parent's (already evaluated)
+/// frame: one iteration of [`kinematics`].
+pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize, qpos: &[f64], qvel: &[f64]) {
+    let j = &m.joints[ji];
+    let p = frame(d, j.parent);
+    let c = j.child;
+    let q = &qpos[j.qpos..j.qpos + j.nq()];
+    let w = &qvel[j.qvel..j.qvel + j.nv()];
+    let (pos, quat);
+    let mut vel = p.vel;
+    let mut acc = p.acc;
+    match j.kind {
+        JointType::Revolute => {
+            let h = p.rot * j.axis;
+            let pj = p.pos + p.rot * j.anchor;
+            let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
+            quat = p.quat * rel * j.rot0;
+            pos = pj + p.rot * (rel * j.offset);
+            let s = Spatial::new(h, pj.cross(&h));
+            vel = vel.add(&s.scale(w[0]));
+            let sdot = p.vel.cross_motion(&s);
+            acc = acc.add(&sdot.scale(w[0]));
+            d.dof_s[j.qvel] = s;
+            d.dof_sdot[j.qvel] = sdot;
+        }
+        JointType::Prismatic => {
+            let t = p.rot * j.axis;
+            quat = p.quat * j.rot0;
+            pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
+            let s = Spatial::new(Vector3::zeros(), t);
+            vel = vel.add(&s.scale(w[0]));
+            let sdot = p.vel.cross_motion(&s);
+            acc = acc.add(&sdot.scale(w[0]));
+            d.dof_s[j.qvel] = s;
+            d.dof_sdot[j.qvel] = sdot;
+        }
+        JointType::Fixed => {
+            quat = p.quat * j.rot0;
+            pos = p.pos + p.rot * j.offset;
+        }
+        JointType::Spherical => {
+            quat = p.quat * quat_at(q);
+            let rot = *quat.to_rotation_matrix().matrix();
+            let pj = p.pos + p.rot * j.anchor;
+            pos = pj + rot * j.offset;
+            for (k, &wk) in w.iter().enumerate() {
+                let h = rot.column(k).into_owned();
                 let s = Spatial::new(h, pj.cross(&h));
-                vel = vel.add(&s.scale(w[0]));
-                let sdot = p.vel.cross_motion(&s);
-                acc = acc.add(&sdot.scale(w[0]));
-                d.dof_s[j.qvel] = s;
-                d.dof_sdot[j.qvel] = sdot;
+                d.dof_s[j.qvel + k] = s;
+                vel = vel.add(&s.scale(wk));
             }
-            JointType::Prismatic => {
-                let t = p.rot * j.axis;
-                quat = p.quat * j.rot0;
-                pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
-                let s = Spatial::new(Vector3::zeros(), t);
-                vel = vel.add(&s.scale(w[0]));
-                let sdot = p.vel.cross_motion(&s);
-                acc = acc.add(&sdot.scale(w[0]));
-                d.dof_s[j.qvel] = s;
-                d.dof_sdot[j.qvel] = sdot;
-            }
-            JointType::Fixed => {
-                quat = p.quat * j.rot0;
-                pos = p.pos + p.rot * j.offset;
-            }
-            JointType::Spherical => {
-                quat = p.quat * quat_at(q);
-                let rot = *quat.to_rotation_matrix().matrix();
-                let pj = p.pos + p.rot * j.anchor;
-                pos = pj + rot * j.offset;
-                for (k, &wk) in w.iter().enumerate() {
-                    let h = rot.column(k).into_owned();
-                    let s = Spatial::new(h, pj.cross(&h));
-                    d.dof_s[j.qvel + k] = s;
-                    vel = vel.add(&s.scale(wk));
-                }
-                for (k, &wk) in w.iter().enumerate() {
-                    let sdot = vel.cross_motion(&d.dof_s[j.qvel + k]);
-                    d.dof_sdot[j.qvel + k] = sdot;
-                    acc = acc.add(&sdot.scale(wk));
-                }
-            }
-            JointType::Free => {
-                quat = p.quat * quat_at(&q[3..7]);
-                let rot = *quat.to_rotation_matrix().matrix();
-                pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
-                for (k, &wk) in w[..3].iter().enumerate() {
-                    let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
-                    let sdot = p.vel.cross_motion(&s);
-                    d.dof_s[j.qvel + k] = s;
-                    d.dof_sdot[j.qvel + k] = sdot;
-                    vel = vel.add(&s.scale(wk));
-                    acc = acc.add(&sdot.scale(wk));
-                }
-                for k in 0..3 {
-                    let h = rot.column(k).into_owned();
-                    let s = Spatial::new(h, pos.cross(&h));
-                    d.dof_s[j.qvel + 3 + k] = s;
-                    vel = vel.add(&s.scale(w[3 + k]));
-                }
-                for k in 0..3 {
-                    let sdot = vel.cross_motion(&d.dof_s[j.qvel + 3 + k]);
-                    d.dof_sdot[j.qvel + 3 + k] = sdot;
-                    acc = acc.add(&sdot.scale(w[3 + k]));
-                }
+            for (k, &wk) in w.iter().enumerate() {
+                let sdot = vel.cross_motion(&d.dof_s[j.qvel + k]);
+                d.dof_sdot[j.qvel + k] = sdot;
+                acc = acc.add(&sdot.scale(wk));
             }
         }
-        let rot = *quat.to_rotation_matrix().matrix();
-        d.body_pos[c] = pos;
-        d.body_rot[c] = rot;
-        d.body_quat[c] = quat;
-        d.body_vel[c] = vel;
-        d.body_acc_bias[c] = acc;
-        let b = &m.bodies[c];
-        let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
-        d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
+        JointType::Free => {
+            quat = p.quat * quat_at(&q[3..7]);
+            let rot = *quat.to_rotation_matrix().matrix();
+            pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
+            for (k, &wk) in w[..3].iter().enumerate() {
+                let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
+                let sdot = p.vel.cross_motion(&s);
+                d.dof_s[j.qvel + k] = s;
+                d.dof_sdot[j.qvel + k] = sdot;
+                vel = vel.add(&s.scale(wk));
+                acc = acc.add(&sdot.scale(wk));
+            }
+            for k in 0..3 {
+                let h = rot.column(k).into_owned();
+                let s = Spatial::new(h, pos.cross(&h));
+                d.dof_s[j.qvel + 3 + k] = s;
+                vel = vel.add(&s.scale(w[3 + k]));
+            }
+            for k in 0..3 {
+                let sdot = vel.cross_motion(&d.dof_s[j.qvel + 3 + k]);
+                d.dof_sdot[j.qvel + 3 + k] = sdot;
+                acc = acc.add(&sdot.scale(w[3 + k]));
+            }
+        }
     }
+    let rot = *quat.to_rotation_matrix().matrix();
+    d.body_pos[c] = pos;
+    d.body_rot[c] = rot;
+    d.body_quat[c] = quat;
+    d.body_vel[c] = vel;
+    d.body_acc_bias[c] = acc;
+    let b = &m.bodies[c];
+    let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
+    d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
 }
 
 /// Time derivative of the position coordinates (quaternion rates for spherical and free

@@ -422,7 +422,12 @@ impl Engine {
         if needs_dynamics {
             evaluate(m, d, &self.y_event, None);
         } else {
-            dynamics::kinematics(m, d, &self.y_event);
+            let nc = m.contacts.len();
+            let i = match probe {
+                Probe::Event(k) => k % nc,
+                Probe::Delta(i) | Probe::Rate(i) => i,
+            };
+            contact_kinematics(m, d, &self.y_event, i);
         }
         Self::probe_value(m, d, probe, self.clamp_events)
     }
@@ -587,7 +592,7 @@ impl Engine {
                 let d0_exact = {
                     self.integrator.interpolate(t0, &mut self.y_event);
                     let (m, d) = (&self.model, &mut self.data);
-                    dynamics::kinematics(m, d, &self.y_event);
+                    contact_kinematics(m, d, &self.y_event, i);
                     contact::gap(m, d, i).delta
                 };
                 if d0_exact > 0.0 {
@@ -611,7 +616,7 @@ impl Engine {
                     if t <= t_first {
                         self.integrator.interpolate(t, &mut self.y_event);
                         let (m, d) = (&self.model, &mut self.data);
-                        dynamics::kinematics(m, d, &self.y_event);
+                        contact_kinematics(m, d, &self.y_event, i);
                         let g = contact::gap(m, d, i);
                         let mem = d.contact_memory[i];
                         let f =
@@ -1096,6 +1101,16 @@ impl Engine {
 /// Touching for the impulse law: resting, or within a hair of δ = 0 (simultaneous impacts)
 /// or overlapping a little, on the patch (an overlap beyond δ_max/2 is a sphere behind a
 /// plate, not a contact).
+/// Kinematics of the two bodies of contact `i` (and their ancestors) only: enough for its
+/// gap, broad phase and event functions. Every other body's entries in `d` are left stale,
+/// so whatever follows a probe and looks at other bodies recomputes the full kinematics
+/// (`compute_events`, `evaluate`, `project_state` all do).
+fn contact_kinematics(m: &Model, d: &mut Data, state: &[f64], i: usize) {
+    let c = &m.contacts[i];
+    dynamics::kinematics_path(m, d, state, c.sphere_body);
+    dynamics::kinematics_path(m, d, state, c.body);
+}
+
 fn touching(c: &contact::ContactElement, g: &contact::Gap, resting: bool) -> bool {
     (resting || g.delta >= -1e-10 * c.radius) && g.margin > 0.0 && g.delta < 0.5 * c.max_penetration
 }

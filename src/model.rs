@@ -300,6 +300,9 @@ pub struct Data {
     pub dissipation: f64,
     /// Per-contact outputs of the last evaluation.
     pub contact_out: Vec<contact::ContactOutput>,
+    /// Work: tree joints on one body's path to the ground (capacity: all joints), for
+    /// [`crate::dynamics::kinematics_path`].
+    pub path_joints: Vec<usize>,
     /// Counters.
     pub counters: Counters,
 }
@@ -722,6 +725,7 @@ impl Data {
             work2: vec![0.0; nv],
             dissipation: 0.0,
             contact_out: vec![contact::ContactOutput::default(); model.contacts.len()],
+            path_joints: Vec::with_capacity(model.joints.len()),
             counters: Counters::default(),
         }
     }
