@@ -1,0 +1,108 @@
+//! `dynamics::kinematics_path` (used by event location) against the full `dynamics::kinematics`:
+//! along a body's path to the ground it must give the same poses, velocities, bias
+//! accelerations, inertias and motion subspaces bit for bit, and touch no other body.
+
+use contact_fmu::dynamics;
+use contact_fmu::model::{self, Data, Model};
+use contact_fmu::scene::Scene;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use std::path::Path;
+
+/// The rail vehicle (car → bogies (prismatic) → wheels (revolute): paths of depth 3) at a
+/// state away from the start: every coordinate shifted, every velocity nonzero.
+fn rail_vehicle() -> (Model, Data, Vec<f64>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
+    let scene = Scene::from_file(&path).unwrap();
+    let (m, d) = model::compile(&scene, "rail_vehicle").unwrap();
+    let mut state = d.state.clone();
+    for (k, x) in state[..m.nq].iter_mut().enumerate() {
+        *x += 0.01 * ((k % 7) as f64 - 3.0);
+    }
+    for (k, x) in state[m.nq..m.nq + m.nv].iter_mut().enumerate() {
+        *x = 0.3 * ((k * 5 % 11) as f64 - 5.0) + 0.05;
+    }
+    (m, d, state)
+}
+
+/// Overwrites every body and motion-subspace entry with NaN.
+fn poison(d: &mut Data) {
+    let nan3 = Vector3::repeat(f64::NAN);
+    for b in 0..d.body_pos.len() {
+        d.body_pos[b] = nan3;
+        d.body_rot[b] = Matrix3::repeat(f64::NAN);
+        d.body_quat[b] = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0));
+        d.body_vel[b].ang = nan3;
+        d.body_vel[b].lin = nan3;
+        d.body_acc_bias[b].ang = nan3;
+        d.body_acc_bias[b].lin = nan3;
+        d.body_inertia[b].mass = f64::NAN;
+    }
+    for s in d.dof_s.iter_mut().chain(d.dof_sdot.iter_mut()) {
+        s.ang = nan3;
+        s.lin = nan3;
+    }
+}
+
+/// All numbers describing body `b` (and its joint's motion subspace) as bit patterns.
+fn body_bits(m: &Model, d: &Data, b: usize) -> Vec<u64> {
+    let j = &m.joints[m.bodies[b].joint];
+    let q = d.body_quat[b].quaternion();
+    let mut v: Vec<f64> = Vec::new();
+    v.extend(d.body_pos[b].iter());
+    v.extend(d.body_rot[b].iter());
+    v.extend([q.w, q.i, q.j, q.k]);
+    for s in [&d.body_vel[b], &d.body_acc_bias[b]] {
+        v.extend(s.ang.iter().chain(s.lin.iter()));
+    }
+    let i = &d.body_inertia[b];
+    v.push(i.mass);
+    v.extend(i.h.iter().chain(i.i_o.iter()));
+    for k in j.qvel..j.qvel + j.nv() {
+        for s in [&d.dof_s[k], &d.dof_sdot[k]] {
+            v.extend(s.ang.iter().chain(s.lin.iter()));
+        }
+    }
+    v.into_iter().map(f64::to_bits).collect()
+}
+
+#[test]
+fn path_kinematics_equals_full_kinematics_and_touches_only_the_path() {
+    let (m, d0, state) = rail_vehicle();
+    let mut full = d0.clone();
+    dynamics::kinematics(&m, &mut full, &state);
+    let mut deepest = 0;
+    for b in 0..m.bodies.len() {
+        let mut ancestors = vec![b];
+        while let Some(p) = m.joints[m.bodies[*ancestors.last().unwrap()].joint].parent {
+            ancestors.push(p);
+        }
+        deepest = deepest.max(ancestors.len());
+        let mut d = d0.clone();
+        poison(&mut d);
+        dynamics::kinematics_path(&m, &mut d, &state, Some(b));
+        for other in 0..m.bodies.len() {
+            if ancestors.contains(&other) {
+                assert_eq!(
+                    body_bits(&m, &d, other),
+                    body_bits(&m, &full, other),
+                    "body {} on the path of {}",
+                    m.bodies[other].name,
+                    m.bodies[b].name
+                );
+            } else {
+                assert!(
+                    d.body_pos[other][0].is_nan(),
+                    "body {} is off the path",
+                    m.bodies[other].name
+                );
+                assert!(d.body_inertia[other].mass.is_nan());
+            }
+        }
+    }
+    assert_eq!(deepest, 3, "the test needs paths deeper than one joint");
+    // Ground: nothing to evaluate.
+    let mut d = d0.clone();
+    poison(&mut d);
+    dynamics::kinematics_path(&m, &mut d, &state, None);
+    assert!(d.body_pos.iter().all(|p| p[0].is_nan()));
+}
