@@ -1288,38 +1288,8 @@ fn loop_constraint_rows_match_finite_differences() {
 // ---------------------------------------------------------------------------------------------
 // no allocation on the right-hand-side path
 
-mod alloc_count {
-    use std::alloc::{GlobalAlloc, Layout, System};
-    use std::cell::Cell;
-
-    thread_local! {
-        static COUNT: Cell<u64> = const { Cell::new(0) };
-    }
-
-    pub struct Counting;
-
-    unsafe impl GlobalAlloc for Counting {
-        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-            System.alloc(layout)
-        }
-        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            System.dealloc(ptr, layout)
-        }
-        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-            System.realloc(ptr, layout, new_size)
-        }
-    }
-
-    #[global_allocator]
-    static GLOBAL: Counting = Counting;
-
-    /// Allocations made by this thread so far.
-    pub fn count() -> u64 {
-        COUNT.try_with(|c| c.get()).unwrap_or(0)
-    }
-}
+#[path = "common/alloc_counter.rs"]
+mod alloc_counter;
 
 #[test]
 fn right_hand_side_and_projection_do_not_allocate() {
@@ -1344,14 +1314,15 @@ fn right_hand_side_and_projection_do_not_allocate() {
         let mut state = d.state.clone();
         let mut dy = vec![0.0; m.nstate()];
         engine::evaluate(&m, &mut d, &state, Some(&mut dy));
-        let before = alloc_count::count();
-        for k in 0..10 {
-            state[m.nq - 1] += 1e-7 * k as f64;
-            engine::evaluate(&m, &mut d, &state, Some(&mut dy));
-        }
-        d.state.copy_from_slice(&state);
-        let moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL);
-        let n = alloc_count::count() - before;
+        let mut moved = false;
+        let n = alloc_counter::count(|| {
+            for k in 0..10 {
+                state[m.nq - 1] += 1e-7 * k as f64;
+                engine::evaluate(&m, &mut d, &state, Some(&mut dy));
+            }
+            d.state.copy_from_slice(&state);
+            moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL);
+        });
         assert!(dy.iter().all(|x| x.is_finite()));
         for (i, out) in d.contact_out.iter().enumerate() {
             assert!(out.force > 0.0, "contact {i} of {} carries no force", m.name);
