@@ -6,228 +6,21 @@
 //! with diagonal pivoting so that redundant (dependent) rows are dropped.
 //!
 //! All spatial quantities are in world-frame Plücker coordinates at the world origin
-//! (see [`crate::spatial`]); no frame transforms are needed between bodies.
+//! (see [`crate::spatial`]); no frame transforms are needed between bodies. The kinematics
+//! these functions read come from [`crate::kinematics`]. Constraint rows other than the
+//! loops' (the resting contacts') are added by a function the caller passes
+//! ([`ConstraintRows`]), so that this layer knows nothing of contact.
 
+use crate::kinematics::{add_jacobian_row, frame, kinematics};
 use crate::linalg;
 use crate::model::{Data, Input, Model};
-use crate::scene::{JointType, Scene};
-use crate::spatial::{point_acceleration, Inertia, Spatial};
-use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
+use crate::scene::JointType;
+use crate::spatial::{point_acceleration, Spatial};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-/// Pose and motion of a body, or of the ground.
-#[derive(Debug, Clone, Copy)]
-pub struct Frame {
-    /// Centre of mass (origin for ground).
-    pub pos: Vector3<f64>,
-    /// Rotation body → world.
-    pub rot: Matrix3<f64>,
-    /// Orientation.
-    pub quat: UnitQuaternion<f64>,
-    /// Spatial velocity.
-    pub vel: Spatial,
-    /// Spatial bias acceleration.
-    pub acc: Spatial,
-}
-
-/// The frame of body `b` (None = ground).
-pub fn frame(d: &Data, b: Option<usize>) -> Frame {
-    match b {
-        Some(i) => Frame {
-            pos: d.body_pos[i],
-            rot: d.body_rot[i],
-            quat: d.body_quat[i],
-            vel: d.body_vel[i],
-            acc: d.body_acc_bias[i],
-        },
-        None => Frame {
-            pos: Vector3::zeros(),
-            rot: Matrix3::identity(),
-            quat: UnitQuaternion::identity(),
-            vel: Spatial::zero(),
-            acc: Spatial::zero(),
-        },
-    }
-}
-
-fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
-}
-
-/// Position and velocity kinematics from the state: body poses, spatial velocities, bias
-/// accelerations (q̈ = 0), motion subspaces and their rates, spatial inertias.
-pub fn kinematics(m: &Model, d: &mut Data, state: &[f64]) {
-    let (qpos, rest) = state.split_at(m.nq);
-    let qvel = &rest[..m.nv];
-    for ji in 0..m.joints.len() {
-        joint_kinematics(m, d, ji, qpos, qvel);
-    }
-}
-
-/// Kinematics of body `body` (None = ground: nothing to do) and of its ancestors only, root
-/// first: after it, the body's pose, velocity, bias acceleration, inertia and the motion
-/// subspaces of the joints on its path are those [`kinematics`] gives (bit for bit); every
-/// other body's entries are left as they were (stale). The path is collected in the
-/// preallocated `Data::path_joints` (no allocation).
-pub fn kinematics_path(m: &Model, d: &mut Data, state: &[f64], body: Option<usize>) {
-    let Some(mut b) = body else { return };
-    let (qpos, rest) = state.split_at(m.nq);
-    let qvel = &rest[..m.nv];
-    let mut path = std::mem::take(&mut d.path_joints);
-    path.clear();
-    path.reserve(m.joints.len()); // a no-op once the buffer has its capacity
-    loop {
-        let ji = m.bodies[b].joint;
-        path.push(ji);
-        match m.joints[ji].parent {
-            Some(p) => b = p,
-            None => break,
-        }
-    }
-    for &ji in path.iter().rev() {
-        joint_kinematics(m, d, ji, qpos, qvel);
-    }
-    d.path_joints = path;
-}
-
-/// Kinematics of tree joint `ji` and its child body, from its parent's (already evaluated)
-/// frame: one iteration of [`kinematics`].
-pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize, qpos: &[f64], qvel: &[f64]) {
-    let j = &m.joints[ji];
-    let p = frame(d, j.parent);
-    let c = j.child;
-    let q = &qpos[j.qpos..j.qpos + j.nq()];
-    let w = &qvel[j.qvel..j.qvel + j.nv()];
-    let (pos, quat);
-    let mut vel = p.vel;
-    let mut acc = p.acc;
-    match j.kind {
-        JointType::Revolute => {
-            let h = p.rot * j.axis;
-            let pj = p.pos + p.rot * j.anchor;
-            let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
-            quat = p.quat * rel * j.rot0;
-            pos = pj + p.rot * (rel * j.offset);
-            let s = Spatial::new(h, pj.cross(&h));
-            vel = vel.add(&s.scale(w[0]));
-            let sdot = p.vel.cross_motion(&s);
-            acc = acc.add(&sdot.scale(w[0]));
-            d.dof_s[j.qvel] = s;
-            d.dof_sdot[j.qvel] = sdot;
-        }
-        JointType::Prismatic => {
-            let t = p.rot * j.axis;
-            quat = p.quat * j.rot0;
-            pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
-            let s = Spatial::new(Vector3::zeros(), t);
-            vel = vel.add(&s.scale(w[0]));
-            let sdot = p.vel.cross_motion(&s);
-            acc = acc.add(&sdot.scale(w[0]));
-            d.dof_s[j.qvel] = s;
-            d.dof_sdot[j.qvel] = sdot;
-        }
-        JointType::Fixed => {
-            quat = p.quat * j.rot0;
-            pos = p.pos + p.rot * j.offset;
-        }
-        JointType::Spherical => {
-            quat = p.quat * quat_at(q);
-            let rot = *quat.to_rotation_matrix().matrix();
-            let pj = p.pos + p.rot * j.anchor;
-            pos = pj + rot * j.offset;
-            for (k, &wk) in w.iter().enumerate() {
-                let h = rot.column(k).into_owned();
-                let s = Spatial::new(h, pj.cross(&h));
-                d.dof_s[j.qvel + k] = s;
-                vel = vel.add(&s.scale(wk));
-            }
-            for (k, &wk) in w.iter().enumerate() {
-                let sdot = vel.cross_motion(&d.dof_s[j.qvel + k]);
-                d.dof_sdot[j.qvel + k] = sdot;
-                acc = acc.add(&sdot.scale(wk));
-            }
-        }
-        JointType::Free => {
-            quat = p.quat * quat_at(&q[3..7]);
-            let rot = *quat.to_rotation_matrix().matrix();
-            pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
-            for (k, &wk) in w[..3].iter().enumerate() {
-                let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
-                let sdot = p.vel.cross_motion(&s);
-                d.dof_s[j.qvel + k] = s;
-                d.dof_sdot[j.qvel + k] = sdot;
-                vel = vel.add(&s.scale(wk));
-                acc = acc.add(&sdot.scale(wk));
-            }
-            for k in 0..3 {
-                let h = rot.column(k).into_owned();
-                let s = Spatial::new(h, pos.cross(&h));
-                d.dof_s[j.qvel + 3 + k] = s;
-                vel = vel.add(&s.scale(w[3 + k]));
-            }
-            for k in 0..3 {
-                let sdot = vel.cross_motion(&d.dof_s[j.qvel + 3 + k]);
-                d.dof_sdot[j.qvel + 3 + k] = sdot;
-                acc = acc.add(&sdot.scale(w[3 + k]));
-            }
-        }
-    }
-    let rot = *quat.to_rotation_matrix().matrix();
-    d.body_pos[c] = pos;
-    d.body_rot[c] = rot;
-    d.body_quat[c] = quat;
-    d.body_vel[c] = vel;
-    d.body_acc_bias[c] = acc;
-    let b = &m.bodies[c];
-    let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
-    d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
-}
-
-/// Time derivative of the position coordinates (quaternion rates for spherical and free
-/// joints: `Q̇ = ½ Q ⊗ (0, w)`, which keeps |Q| constant in exact arithmetic).
-pub fn position_derivative(m: &Model, state: &[f64], qpos_dot: &mut [f64]) {
-    let qvel = &state[m.nq..m.nq + m.nv];
-    for j in &m.joints {
-        let (a, v) = (j.qpos, j.qvel);
-        match j.kind {
-            JointType::Revolute | JointType::Prismatic => qpos_dot[a] = qvel[v],
-            JointType::Fixed => {}
-            JointType::Spherical => quat_rate(&state[a..a + 4], &qvel[v..v + 3], &mut qpos_dot[a..a + 4]),
-            JointType::Free => {
-                qpos_dot[a..a + 3].copy_from_slice(&qvel[v..v + 3]);
-                quat_rate(&state[a + 3..a + 7], &qvel[v + 3..v + 6], &mut qpos_dot[a + 3..a + 7]);
-            }
-        }
-    }
-}
-
-fn quat_rate(q: &[f64], w: &[f64], out: &mut [f64]) {
-    let (qw, qx, qy, qz) = (q[0], q[1], q[2], q[3]);
-    out[0] = 0.5 * (-qx * w[0] - qy * w[1] - qz * w[2]);
-    out[1] = 0.5 * (qw * w[0] + qy * w[2] - qz * w[1]);
-    out[2] = 0.5 * (qw * w[1] + qz * w[0] - qx * w[2]);
-    out[3] = 0.5 * (qw * w[2] + qx * w[1] - qy * w[0]);
-}
-
-/// Calls `f(k)` for every degree of freedom on the path from `body` to the ground.
-#[inline]
-pub fn for_each_path_dof(m: &Model, body: usize, mut f: impl FnMut(usize)) {
-    let mut cur = Some(body);
-    while let Some(b) = cur {
-        let j = &m.joints[m.bodies[b].joint];
-        for k in j.qvel..j.qvel + j.nv() {
-            f(k);
-        }
-        cur = j.parent;
-    }
-}
-
-/// Adds `sign · coef · S_k` to `row[k]` for the dofs on the path of `body`: the row of the
-/// Jacobian of the scalar rate `coef · V_body`.
-pub fn add_jacobian_row(m: &Model, d: &Data, body: Option<usize>, coef: &Spatial, sign: f64, row: &mut [f64]) {
-    if let Some(b) = body {
-        for_each_path_dof(m, b, |k| row[k] += sign * coef.dot(&d.dof_s[k]));
-    }
-}
+/// Fills the constraint rows after the loops' (rows `m.loop_rows()..m.nc` of `d.phi_q`,
+/// `d.phi`, `d.gamma`, already zeroed) at the evaluated kinematics.
+pub type ConstraintRows = fn(&Model, &mut Data);
 
 /// Applied forces: gravity, spring-dampers, inputs (contacts are added by the contact
 /// module). Returns the dissipated power of the dampers [W].
@@ -351,6 +144,7 @@ pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
 
 /// One constraint row: rate coefficients on bodies a and b, the value Φ and the bias
 /// `Φ̈|q̈=0`.
+#[derive(Debug, Clone, Copy, Default)]
 struct Row {
     coef_a: Spatial,
     coef_b: Spatial,
@@ -440,34 +234,42 @@ fn loop_rows(m: &Model, d: &Data, li: usize, mut emit: impl FnMut(usize, Row)) {
     }
 }
 
-/// Evaluates Φ, Φ_q (row-major), Φ_q q̇ and the stabilised γ (Baumgarte) for every loop.
-pub fn constraints(m: &Model, d: &mut Data, qvel: &[f64]) {
+/// Evaluates Φ, Φ_q (row-major), Φ_q q̇ and the stabilised γ (Baumgarte) at the evaluated
+/// kinematics: the loops' rows here, the rest by `extra_rows`.
+pub fn constraints(m: &Model, d: &mut Data, extra_rows: ConstraintRows) {
     let nv = m.nv;
+    let nl = m.loop_rows();
     d.phi_q.iter_mut().for_each(|x| *x = 0.0);
-    let mut phi_q = std::mem::take(&mut d.phi_q);
-    let mut phi = std::mem::take(&mut d.phi);
-    let mut gamma = std::mem::take(&mut d.gamma);
+    d.phi[nl..].iter_mut().for_each(|x| *x = 0.0);
+    d.gamma[nl..].iter_mut().for_each(|x| *x = 0.0);
     for li in 0..m.loops.len() {
         let lc = &m.loops[li];
+        let mut rows = [(0usize, Row::default()); 6];
+        let mut n = 0;
         loop_rows(m, d, li, |r, row| {
-            let jr = &mut phi_q[r * nv..(r + 1) * nv];
-            add_jacobian_row(m, d, lc.body_a, &row.coef_a, 1.0, jr);
-            add_jacobian_row(m, d, Some(lc.body_b), &row.coef_b, 1.0, jr);
-            phi[r] = row.value;
-            gamma[r] = -row.bias;
+            rows[n] = (r, row);
+            n += 1;
         });
+        for &(r, row) in &rows[..n] {
+            let jr = &mut d.phi_q[r * nv..(r + 1) * nv];
+            add_jacobian_row(m, &d.dof_s, lc.body_a, &row.coef_a, 1.0, jr);
+            add_jacobian_row(m, &d.dof_s, Some(lc.body_b), &row.coef_b, 1.0, jr);
+            d.phi[r] = row.value;
+            d.gamma[r] = -row.bias;
+        }
     }
-    crate::contact::resting_rows(m, d, &mut phi_q, &mut phi, &mut gamma);
+    extra_rows(m, d);
     let alpha = m.baumgarte;
+    let qvel = &d.eval_state[m.nq..m.nq + nv];
     for r in 0..m.nc {
-        let rate: f64 = phi_q[r * nv..(r + 1) * nv].iter().zip(qvel).map(|(a, b)| a * b).sum();
+        let rate: f64 = d.phi_q[r * nv..(r + 1) * nv].iter().zip(qvel).map(|(a, b)| a * b).sum();
         d.phi_dot[r] = rate;
-        gamma[r] -= 2.0 * alpha * rate + alpha * alpha * phi[r];
+        d.gamma[r] -= 2.0 * alpha * rate + alpha * alpha * d.phi[r];
     }
-    d.phi_q = phi_q;
-    d.phi = phi;
-    d.gamma = gamma;
 }
+
+/// [`ConstraintRows`] for a system whose only constraints are its loops.
+pub fn no_extra_rows(_m: &Model, _d: &mut Data) {}
 
 /// Relative threshold below which a pivot of the constraint Schur complement marks a
 /// redundant constraint row.
@@ -507,7 +309,7 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
 /// Forms `M̄⁻¹ Φ_qᵀ` and the Schur complement `Φ_q M̄⁻¹ Φ_qᵀ` from the factorised mass blocks
 /// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
 /// leading `d.schur_rank` pivots.
-fn factor_schur(m: &Model, d: &mut Data) {
+pub fn factor_schur(m: &Model, d: &mut Data) {
     let (nv, nc) = (m.nv, m.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
@@ -539,11 +341,6 @@ const PROJECTION_ITERATIONS: usize = 4;
 /// Position correction (largest coordinate change) beyond which the velocity projection
 /// refactorises at the corrected positions.
 const REFACTOR_AFTER: f64 = 1e-6;
-
-/// Number of loop-constraint rows: the first rows of Φ (rows of resting contacts follow).
-fn loop_row_count(m: &Model) -> usize {
-    m.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
-}
 
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |a, b| a.max(b.abs()))
@@ -626,34 +423,33 @@ fn normalise_quaternions(m: &Model, qpos: &mut [f64], tol: f64) -> bool {
 /// Projects `d.state` back onto the loop constraints when their residual exceeds `tol`:
 /// Newton iterations on `Φ(q) = 0`, then `Φ_q q̇ = 0`, each the smallest change in the mass
 /// metric (the redundant rows dropped by the pivoted factorisation). Baumgarte stabilisation
-/// keeps the drift small between projections; this removes it. Rows of resting contacts are
-/// held unchanged. Also rescales drifted joint quaternions ([`QUATERNION_NORM_TOL`]).
-/// Returns true when the state changed (the caller must restart its integrator). Allocates
-/// nothing.
-pub fn project_state(m: &Model, d: &mut Data, tol: f64) -> bool {
+/// keeps the drift small between projections; this removes it. Rows added by `extra_rows`
+/// (resting contacts) are held unchanged. Also rescales drifted joint quaternions
+/// ([`QUATERNION_NORM_TOL`]). Returns true when the state changed (the caller must restart
+/// its integrator). Allocates nothing.
+pub fn project_state(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) -> bool {
     let rescaled = normalise_quaternions(m, &mut d.state[..m.nq], QUATERNION_NORM_TOL);
-    rescaled | project_loops(m, d, tol)
+    rescaled | project_loops(m, d, tol, extra_rows)
 }
 
 /// The loop-constraint part of [`project_state`]. One factorisation of `M̄` and of the Schur
 /// complement at the drifted positions serves every correction (simplified Newton: the
-/// Jacobian is off by O(|Δq|), which only slows the already tiny corrections).
-fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
-    let nl = loop_row_count(m);
+/// Jacobian is off by O(|Δq|), which only slows the already tiny corrections). Works on
+/// `d.eval_state` and copies the result to `d.state`.
+fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) -> bool {
+    let nl = m.loop_rows();
     if nl == 0 {
         return false;
     }
     let (nq, nv) = (m.nq, m.nv);
-    let mut state = std::mem::take(&mut d.state);
-    kinematics(m, d, &state);
-    constraints(m, d, &state[nq..nq + nv]);
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics(m, d);
+    constraints(m, d, extra_rows);
     if max_abs(&d.phi[..nl]) <= tol && max_abs(&d.phi_dot[..nl]) <= RATE_TOL_PER_SECOND * tol {
-        d.state = state;
         return false;
     }
     mass_and_bias(m, d);
     if !factor_mass(m, d) {
-        d.state = state;
         return false;
     }
     factor_schur(m, d);
@@ -666,9 +462,9 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
         mass_metric_correction(m, d, nl);
         d.work2.iter_mut().for_each(|x| *x = -*x);
         moved += max_abs(&d.work2);
-        displace_positions(m, &mut state[..nq], &d.work2);
-        kinematics(m, d, &state);
-        constraints(m, d, &state[nq..nq + nv]);
+        displace_positions(m, &mut d.eval_state[..nq], &d.work2);
+        kinematics(m, d);
+        constraints(m, d, extra_rows);
     }
     // velocities: Φ_q q̇ = 0 with the Jacobian at the corrected positions (and a fresh
     // factorisation after a large position correction, e.g. from inconsistent initial data)
@@ -680,10 +476,10 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64) -> bool {
     }
     d.lambda[..nl].copy_from_slice(&d.phi_dot[..nl]);
     mass_metric_correction(m, d, nl);
-    for (q, dq) in state[nq..nq + nv].iter_mut().zip(&d.work2) {
+    for (q, dq) in d.eval_state[nq..nq + nv].iter_mut().zip(&d.work2) {
         *q -= dq;
     }
-    d.state = state;
+    d.state.copy_from_slice(&d.eval_state);
     true
 }
 
@@ -709,92 +505,6 @@ pub fn potential_energy(m: &Model, d: &Data) -> f64 {
         e += 0.5 * s.stiffness * (len - s.free_length).powi(2);
     }
     e
-}
-
-/// Centre-of-mass velocity of body `b`.
-pub fn com_velocity(d: &Data, b: usize) -> Vector3<f64> {
-    d.body_vel[b].point_velocity(&d.body_pos[b])
-}
-
-/// Initial joint rates from the scene's body velocities by least squares, per tree
-/// (paper (35)-(37)), then projected onto the loop constraints (28). Inconsistent data gives
-/// warnings in `m.warnings`.
-pub fn initial_velocities(m: &mut Model, d: &mut Data, scene: &Scene) {
-    let zero_v = vec![0.0; m.nstate()];
-    let mut state = d.state.clone();
-    state[m.nq..].copy_from_slice(&zero_v[m.nq..]);
-    kinematics(m, d, &state);
-    let mut qvel = vec![0.0; m.nv];
-    for (t, &(t0, n)) in m.trees.iter().enumerate() {
-        if n == 0 {
-            continue;
-        }
-        let bodies: Vec<usize> = m.joints.iter().filter(|j| j.tree == t).map(|j| j.child).collect();
-        let mut bmat = DMatrix::<f64>::zeros(6 * bodies.len(), n);
-        let mut y = DVector::<f64>::zeros(6 * bodies.len());
-        for (i, &b) in bodies.iter().enumerate() {
-            let spec = &scene.body[b];
-            for k in 0..3 {
-                y[6 * i + k] = spec.velocity[k];
-                y[6 * i + 3 + k] = spec.angular_velocity[k];
-            }
-            let c = d.body_pos[b];
-            for_each_path_dof(m, b, |k| {
-                let s = d.dof_s[k];
-                let v = s.point_velocity(&c);
-                for r in 0..3 {
-                    bmat[(6 * i + r, k - t0)] = v[r];
-                    bmat[(6 * i + 3 + r, k - t0)] = s.ang[r];
-                }
-            });
-        }
-        if y.norm() == 0.0 {
-            continue;
-        }
-        let svd = bmat.clone().svd(true, true);
-        let sol = svd.solve(&y, 1e-12).unwrap_or_else(|_| DVector::zeros(n));
-        let resid = (&bmat * &sol - &y).norm();
-        if resid > 1e-6 * (1.0 + y.norm()) {
-            let names: Vec<&str> = bodies.iter().map(|&b| m.bodies[b].name.as_str()).collect();
-            m.warnings.push(format!(
-                "initial velocities of bodies {} are inconsistent with their joints (least-squares residual {resid:.3e} in [v; ω]); using the least-squares projection",
-                names.join(", ")
-            ));
-        }
-        qvel[t0..t0 + n].copy_from_slice(sol.as_slice());
-    }
-    if m.nc > 0 {
-        state[m.nq..m.nq + m.nv].copy_from_slice(&qvel);
-        kinematics(m, d, &state);
-        constraints(m, d, &qvel);
-        let j = DMatrix::from_row_slice(m.nc, m.nv, &d.phi_q);
-        let v = DVector::from_column_slice(&qvel);
-        let viol = &j * &v;
-        if viol.norm() > 0.0 {
-            let jjt = &j * j.transpose();
-            let corr = jjt
-                .svd(true, true)
-                .solve(&viol, 1e-10)
-                .unwrap_or_else(|_| DVector::zeros(m.nc));
-            let fixed = v - j.transpose() * corr;
-            if viol.norm() > 1e-9 * (1.0 + fixed.norm()) {
-                m.warnings.push(format!(
-                    "initial velocities violated the loop constraints by {:.3e}; projected",
-                    viol.norm()
-                ));
-            }
-            qvel.copy_from_slice(fixed.as_slice());
-        }
-        let phi_norm = d.phi.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if phi_norm > 1e-9 {
-            m.warnings.push(format!(
-                "the initial configuration violates the loop constraints by {phi_norm:.3e}"
-            ));
-        }
-    }
-    m.qvel0.clone_from(&qvel);
-    d.state[m.nq..m.nq + m.nv].copy_from_slice(&qvel);
-    kinematics(m, d, &d.state.clone());
 }
 
 /// Coordinate and rate of a loop-closing 1-DOF joint, measured from the body poses:

@@ -1,22 +1,30 @@
 //! contact-fmu: rigid multibody dynamics in joint coordinates with contact and impact,
 //! shipped as FMI 2.0 Co-Simulation FMUs.
 //!
-//! The pipeline: a [`scene`] file is compiled by [`model`] into a read-only `Model` and a
-//! mutable `Data`; [`dynamics`] evaluates the equations of motion, [`contact`] detects
-//! contacts and computes their forces and impulses, an [`integrator`] advances the state and
-//! the [`engine`] locates contact events between communication points. [`simulation`] is the
-//! facade that both the FMI layer and the command line drive, through the variable table of
-//! [`variables`].
+//! The layers, bottom up (docs/architecture.md has the whole map):
+//! - [`scene`] (the TOML scene), [`spatial`], [`linalg`]: no physics state;
+//! - [`integrator`]: the time-stepping methods behind one trait;
+//! - [`model`]: the compiled, read-only `Model`, the mutable `Data` and the state spec;
+//! - [`kinematics`], [`dynamics`], [`contact`], [`forward`] (the right-hand side pipeline);
+//! - [`compile`] (scene → model and data), [`engine`] (the driver: steps, events, modes);
+//! - [`outputs`], [`checkpoint`], [`variables`], [`simulation`]: the facade that the FMI
+//!   layer, the command line, the benchmarks and the tests all drive;
+//! - [`fmi`], [`export`], [`run`], [`bench`]: the hosts.
 
 pub mod bench;
+pub mod checkpoint;
+pub mod compile;
 pub mod contact;
 pub mod dynamics;
 pub mod engine;
 pub mod export;
 pub mod fmi;
+pub mod forward;
 pub mod integrator;
+pub mod kinematics;
 pub mod linalg;
 pub mod model;
+pub mod outputs;
 pub mod run;
 pub mod scene;
 pub mod simulation;

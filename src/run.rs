@@ -1,8 +1,8 @@
 //! Native runs for the command line: `simulate` and the main job (export and run every
 //! bundled scene, print one summary table).
 
-use crate::simulation::{SimError, Simulation};
-use crate::variables::{Causality, VarRef, VarType};
+use crate::simulation::{RunError, SimError, Simulation};
+use crate::variables::{Causality, VarType};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -87,30 +87,26 @@ pub fn run_simulation(
     if !(stop_time > 0.0 && stop_time.is_finite()) {
         return Err(format!("stop time must be > 0 (got {stop_time})"));
     }
-    if !(interval > 0.0 && interval.is_finite()) {
-        return Err(format!("interval must be > 0 (got {interval})"));
-    }
     sim.initialize(0.0).map_err(|e| e.to_string())?;
-    let e0 = energy_of(sim)?;
-    let mut scale = e0[0].abs().max(e0[1]);
+    let e0 = sim.energies().map_err(|e| e.to_string())?;
+    let mut scale = e0.total().abs().max(e0.kinetic);
     each(sim)?;
     let start = Instant::now();
-    let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
-    for k in 1..=n {
-        let t = if k == n { stop_time } else { k as f64 * interval };
-        sim.step_to(t).map_err(|e| match e {
-            SimError::Step { time, message } => format!("simulation failed at t = {time}: {message}"),
-            other => other.to_string(),
-        })?;
+    sim.run(stop_time, interval, |sim| {
         each(sim)?;
-        let e = energy_of(sim)?;
-        scale = scale.max(e[1]);
-        progress(t);
-    }
+        let e = sim.energies().map_err(|e| e.to_string())?;
+        scale = scale.max(e.kinetic);
+        progress(sim.time());
+        Ok(())
+    })
+    .map_err(|e| match e {
+        RunError::Step(SimError::Step { time, message }) => format!("simulation failed at t = {time}: {message}"),
+        other => other.to_string(),
+    })?;
     let seconds = start.elapsed().as_secs_f64();
-    let e1 = energy_of(sim)?;
-    let c = sim.engine().map(|e| e.counters()).unwrap_or_default();
-    let err = ((e1[0] + e1[2]) - (e0[0] + e0[2])).abs() / scale.max(f64::MIN_POSITIVE);
+    let e1 = sim.energies().map_err(|e| e.to_string())?;
+    let c = sim.counters();
+    let err = ((e1.total() + e1.dissipated) - (e0.total() + e0.dissipated)).abs() / scale.max(f64::MIN_POSITIVE);
     Ok(RunSummary {
         name: sim.scene().model.name.clone(),
         simulated: stop_time,
@@ -119,13 +115,6 @@ pub fn run_simulation(
         seconds,
         energy_error: err,
     })
-}
-
-/// [total, kinetic, dissipated]
-fn energy_of(sim: &mut Simulation) -> Result<[f64; 3], String> {
-    let e = sim.engine_mut().ok_or("not initialised")?;
-    let [k, p, c, d] = e.energies();
-    Ok([k + p + c, k, d])
 }
 
 /// `contact-fmu simulate`.
@@ -195,8 +184,7 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
 }
 
 fn warnings_of(sim: &mut Simulation) -> Vec<String> {
-    let _ = sim.get(sim.variables().len().saturating_sub(1));
-    sim.engine().map(|e| e.model().warnings.clone()).unwrap_or_default()
+    sim.warnings().unwrap_or_default()
 }
 
 /// Shortest round-trip representation of a value (so the CSV is exact).
@@ -260,9 +248,4 @@ pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
     }
     print_table(&rows);
     Ok(())
-}
-
-/// Value of output `target` (helper for tests).
-pub fn output(sim: &mut Simulation, target: VarRef) -> f64 {
-    sim.engine_mut().map(|e| e.output(target)).unwrap_or(f64::NAN)
 }

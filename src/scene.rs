@@ -479,6 +479,22 @@ pub struct InputSpec {
 /// The reserved name of the fixed world.
 pub const GROUND: &str = "ground";
 
+/// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
+pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
+
+impl ContactSpec {
+    /// `max_penetration`, by default the sphere radius (a deeper overlap is not a contact the
+    /// model can describe).
+    pub fn max_penetration_or_default(&self) -> f64 {
+        self.max_penetration.unwrap_or(self.radius)
+    }
+
+    /// `min_impact_velocity`, by default [`DEFAULT_MIN_IMPACT_VELOCITY`].
+    pub fn min_impact_velocity_or_default(&self) -> f64 {
+        self.min_impact_velocity.unwrap_or(DEFAULT_MIN_IMPACT_VELOCITY)
+    }
+}
+
 impl Scene {
     /// Parses a scene from TOML text; `origin` names the file in messages. Also validates.
     pub fn from_str(text: &str, origin: &str) -> Result<Scene, SceneError> {

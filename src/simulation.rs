@@ -3,7 +3,11 @@
 //! `simulate` command drive the engine only through this type, so they see the same
 //! variables and the same numbers.
 
-use crate::engine::{self, Engine, EngineError};
+use crate::checkpoint::Snapshot;
+use crate::compile::compile;
+use crate::engine::{self, EngineError};
+use crate::model::{state, ContactEvent, Counters, Data, Model};
+use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
 use crate::variables::{Causality, VarRef, VarType, Variable, VariableTable};
 use std::path::Path;
@@ -37,75 +41,17 @@ pub struct Simulation {
     table: VariableTable,
     /// Current value of every parameter and input, by value reference (outputs: unused).
     values: Vec<f64>,
-    engine: Option<Engine>,
-    /// True when `engine` was compiled with the current parameter values.
-    engine_fresh: bool,
+    /// The model compiled with the current parameter values, and its data.
+    compiled: Option<Compiled>,
+    /// True when `compiled` was compiled with the current parameter values.
+    compiled_fresh: bool,
     initialized: bool,
 }
 
-/// A saved state: parameter and input values plus the engine's dynamic state. Restoring it
-/// continues bit for bit.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Snapshot {
-    /// Parameter and input values.
-    pub values: Vec<f64>,
-    /// Whether the simulation had been initialised.
-    pub initialized: bool,
-    /// The engine's dynamic state (empty when not initialised).
-    pub state: Vec<f64>,
-}
-
-const SNAPSHOT_MAGIC: u32 = 0x4346_4d55; // "CFMU"
-const SNAPSHOT_VERSION: u32 = 1;
-
-impl Snapshot {
-    /// Plain bytes: magic, version, lengths, values (little-endian f64). No pointers.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(24 + 8 * (self.values.len() + self.state.len()));
-        b.extend_from_slice(&SNAPSHOT_MAGIC.to_le_bytes());
-        b.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
-        b.extend_from_slice(&(self.initialized as u32).to_le_bytes());
-        b.extend_from_slice(&(self.values.len() as u32).to_le_bytes());
-        b.extend_from_slice(&(self.state.len() as u32).to_le_bytes());
-        for x in self.values.iter().chain(self.state.iter()) {
-            b.extend_from_slice(&x.to_le_bytes());
-        }
-        b
-    }
-
-    /// Parses bytes written by [`Snapshot::to_bytes`], checking magic, version and length.
-    pub fn from_bytes(b: &[u8]) -> Result<Snapshot, String> {
-        let word = |i: usize| -> Result<u32, String> {
-            b.get(4 * i..4 * i + 4)
-                .map(|s| u32::from_le_bytes(s.try_into().unwrap_or([0; 4])))
-                .ok_or_else(|| "serialized state is truncated".to_string())
-        };
-        if word(0)? != SNAPSHOT_MAGIC {
-            return Err("serialized state has a wrong magic number (not a contact-fmu state)".into());
-        }
-        if word(1)? != SNAPSHOT_VERSION {
-            return Err(format!(
-                "serialized state version {} is not supported (expected {SNAPSHOT_VERSION})",
-                word(1)?
-            ));
-        }
-        let initialized = word(2)? != 0;
-        let nv = word(3)? as usize;
-        let ns = word(4)? as usize;
-        if b.len() != 20 + 8 * (nv + ns) {
-            return Err(format!(
-                "serialized state has {} bytes, expected {}",
-                b.len(),
-                20 + 8 * (nv + ns)
-            ));
-        }
-        let f = |k: usize| f64::from_le_bytes(b[20 + 8 * k..28 + 8 * k].try_into().unwrap_or([0; 8]));
-        Ok(Snapshot {
-            values: (0..nv).map(f).collect(),
-            initialized,
-            state: (nv..nv + ns).map(f).collect(),
-        })
-    }
+/// A compiled model and its data.
+struct Compiled {
+    model: Model,
+    data: Data,
 }
 
 impl Simulation {
@@ -118,8 +64,8 @@ impl Simulation {
             origin: origin.to_string(),
             table,
             values,
-            engine: None,
-            engine_fresh: false,
+            compiled: None,
+            compiled_fresh: false,
             initialized: false,
         }
     }
@@ -150,14 +96,18 @@ impl Simulation {
         &self.table
     }
 
-    /// True after a successful [`Simulation::initialize`].
+    /// True after a successful [`Simulation::initialize`] (or a restore of an initialised
+    /// state).
     pub fn is_initialized(&self) -> bool {
         self.initialized
     }
 
     /// Current simulation time [s] (0 before initialisation).
     pub fn time(&self) -> f64 {
-        self.engine.as_ref().map(|e| e.time()).unwrap_or(0.0)
+        match (&self.compiled, self.initialized) {
+            (Some(c), true) => c.data.time,
+            _ => 0.0,
+        }
     }
 
     /// Sets a parameter (before initialisation only) or an input (at any time). The range of a
@@ -179,7 +129,7 @@ impl Simulation {
                 }
                 if self.values[vr] != value {
                     self.values[vr] = value;
-                    self.engine_fresh = false;
+                    self.compiled_fresh = false;
                 }
                 Ok(())
             }
@@ -191,8 +141,8 @@ impl Simulation {
                     )));
                 }
                 self.values[vr] = value;
-                if let (Some(e), VarRef::Input(i)) = (self.engine.as_mut(), var.target) {
-                    e.set_input(i, value);
+                if let (Some(c), VarRef::Input(i)) = (self.compiled.as_mut(), var.target) {
+                    set_input(&mut c.data, i, value);
                 }
                 Ok(())
             }
@@ -224,9 +174,8 @@ impl Simulation {
             Causality::Parameter | Causality::Input => Ok(self.values[vr]),
             _ => {
                 let target = var.target;
-                self.ensure_engine()?;
-                let e = self.engine.as_mut().ok_or(SimError::NotInitialized)?;
-                Ok(e.output(target))
+                let c = self.ensure_compiled()?;
+                Ok(outputs::output(&c.model, &mut c.data, target).unwrap_or(f64::NAN))
             }
         }
     }
@@ -295,15 +244,33 @@ impl Simulation {
         Ok(())
     }
 
-    fn ensure_engine(&mut self) -> Result<(), SimError> {
-        if self.engine.is_none() || !self.engine_fresh {
+    /// The model compiled with the current parameter values (compiled now if it is not).
+    fn ensure_compiled(&mut self) -> Result<&mut Compiled, SimError> {
+        if self.compiled.is_none() || !self.compiled_fresh {
             self.check_parameters()?;
             let scene = self.effective_scene();
             scene.validate(&self.origin)?;
-            self.engine = Some(Engine::compile(&scene, &self.origin)?);
-            self.engine_fresh = true;
+            let (model, mut data) = compile(&scene, &self.origin)?;
+            engine::start(&model, &mut data).map_err(|err| {
+                SceneError::new(
+                    &self.origin,
+                    "contact",
+                    "-",
+                    format!("at the initial state: {}", err.message),
+                )
+            })?;
+            self.compiled = Some(Compiled { model, data });
+            self.compiled_fresh = true;
         }
-        Ok(())
+        self.compiled.as_mut().ok_or(SimError::NotInitialized)
+    }
+
+    /// The initialised model and data.
+    fn running(&mut self) -> Result<&mut Compiled, SimError> {
+        if !self.initialized {
+            return Err(SimError::NotInitialized);
+        }
+        self.compiled.as_mut().ok_or(SimError::NotInitialized)
     }
 
     /// Ends initialisation: checks every parameter, compiles the model and sets the state to
@@ -314,10 +281,9 @@ impl Simulation {
                 "start time must be finite (got {start_time})"
             )));
         }
-        self.engine_fresh = false;
-        self.ensure_engine()?;
-        let e = self.engine.as_mut().ok_or(SimError::NotInitialized)?;
-        e.set_time(start_time);
+        self.compiled_fresh = false;
+        let c = self.ensure_compiled()?;
+        engine::set_start_time(&mut c.data, start_time);
         self.initialized = true;
         Ok(())
     }
@@ -325,29 +291,53 @@ impl Simulation {
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
     /// the error carries its time.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), SimError> {
-        if !self.initialized {
-            return Err(SimError::NotInitialized);
-        }
-        let e = self.engine.as_mut().ok_or(SimError::NotInitialized)?;
-        e.advance(t_end)
+        let c = self.running()?;
+        engine::advance(&c.model, &mut c.data, t_end)
             .map_err(|EngineError { time, message }| SimError::Step { time, message })
     }
 
-    /// Saves everything needed to continue from here.
-    pub fn snapshot(&self) -> Snapshot {
+    /// Runs from the current state over communication points `interval` apart to
+    /// `stop_time` (the last one exactly there), calling `each` after every point.
+    pub fn run(
+        &mut self,
+        stop_time: f64,
+        interval: f64,
+        mut each: impl FnMut(&mut Simulation) -> Result<(), String>,
+    ) -> Result<(), RunError> {
+        if !(interval > 0.0 && interval.is_finite()) {
+            return Err(RunError::Setup(format!("interval must be > 0 (got {interval})")));
+        }
+        if !(stop_time.is_finite() && stop_time > self.time()) {
+            return Err(RunError::Setup(format!(
+                "stop time must be finite and after the current time {} (got {stop_time})",
+                self.time()
+            )));
+        }
+        for t in communication_points(self.time(), stop_time, interval) {
+            self.step_to(t).map_err(RunError::Step)?;
+            each(self).map_err(RunError::Setup)?;
+        }
+        Ok(())
+    }
+
+    /// Saves everything needed to continue from here (`host`: numbers of the host layer,
+    /// returned unchanged by [`Simulation::restore`]).
+    pub fn snapshot(&self, host: Vec<f64>) -> Snapshot {
+        let mut st = Vec::new();
+        if let (true, Some(c)) = (self.initialized, &self.compiled) {
+            state::get(&c.model, &c.data, state::FULL, &mut st);
+        }
         Snapshot {
+            host,
             values: self.values.clone(),
             initialized: self.initialized,
-            state: if self.initialized {
-                self.engine.as_ref().map(|e| e.save_state()).unwrap_or_default()
-            } else {
-                Vec::new()
-            },
+            state: st,
         }
     }
 
     /// Restores a snapshot taken from a simulation of the same scene (into a fresh,
-    /// terminated or running one alike).
+    /// terminated or running one alike). A snapshot that does not fit is refused and the
+    /// simulation is left as it was.
     pub fn restore(&mut self, s: &Snapshot) -> Result<(), SimError> {
         if s.values.len() != self.values.len() {
             return Err(SimError::Variable(format!(
@@ -356,36 +346,127 @@ impl Simulation {
                 self.values.len()
             )));
         }
-        if self.values != s.values {
-            self.values.clone_from(&s.values);
-            self.engine_fresh = false;
-        }
-        if s.initialized {
-            self.ensure_engine()?;
-            let e = self.engine.as_mut().ok_or(SimError::NotInitialized)?;
-            e.load_state(&s.state).map_err(SimError::Variable)?;
-            for (vr, var) in self.table.vars.iter().enumerate() {
-                if let VarRef::Input(i) = var.target {
-                    e.set_input(i, self.values[vr]);
-                }
+        if !s.initialized {
+            if !s.state.is_empty() {
+                return Err(SimError::Variable(
+                    "state of an uninitialised model holds a state".into(),
+                ));
             }
-        } else {
-            self.engine_fresh = false;
+            self.values.clone_from(&s.values);
+            self.compiled_fresh = false;
+            self.initialized = false;
+            return Ok(());
         }
-        self.initialized = s.initialized;
+        // Compile for the snapshot's parameter values; keep the current ones if that fails.
+        let kept_values = std::mem::replace(&mut self.values, s.values.clone());
+        let kept_fresh = self.compiled_fresh;
+        if kept_values != self.values {
+            self.compiled_fresh = false;
+        }
+        let restored = self.ensure_compiled().and_then(|c| {
+            state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
+            engine::resync(&c.model, &mut c.data);
+            Ok(())
+        });
+        if let Err(e) = restored {
+            if self.values != kept_values {
+                self.values = kept_values;
+                self.compiled_fresh = false;
+            } else {
+                self.compiled_fresh = kept_fresh;
+            }
+            return Err(e);
+        }
+        self.initialized = true;
         Ok(())
     }
 
-    /// Direct access to the engine (after initialisation), for tests and benchmarks.
-    pub fn engine(&self) -> Option<&Engine> {
-        self.engine.as_ref()
+    /// The value of an output or calculated parameter at the current state (`None` for
+    /// parameters and inputs: read those with [`Simulation::get`]).
+    pub fn output(&mut self, target: VarRef) -> Result<Option<f64>, SimError> {
+        let c = self.ensure_compiled()?;
+        Ok(outputs::output(&c.model, &mut c.data, target))
     }
 
-    /// Mutable access to the engine, for tests and benchmarks.
-    pub fn engine_mut(&mut self) -> Option<&mut Engine> {
-        self.engine.as_mut()
+    /// The compiled model (compiled from the current parameter values if needed).
+    pub fn model(&mut self) -> Result<&Model, SimError> {
+        Ok(&self.ensure_compiled()?.model)
+    }
+
+    /// The data (state, buffers, counters), after compilation.
+    pub fn data(&self) -> Option<&Data> {
+        self.compiled.as_ref().map(|c| &c.data)
+    }
+
+    /// Warnings of the model compilation (inconsistent initial velocities, ...).
+    pub fn warnings(&mut self) -> Result<Vec<String>, SimError> {
+        Ok(self.ensure_compiled()?.model.warnings.clone())
+    }
+
+    /// Work counters since initialisation (zero before).
+    pub fn counters(&self) -> Counters {
+        self.data().map(|d| d.counters).unwrap_or_default()
+    }
+
+    /// The energies at the current state.
+    pub fn energies(&mut self) -> Result<Energies, SimError> {
+        let c = self.ensure_compiled()?;
+        Ok(outputs::energies(&c.model, &mut c.data))
+    }
+
+    /// Largest constraint residual |Φ| at the current state.
+    pub fn constraint_residual(&mut self) -> Result<f64, SimError> {
+        let c = self.ensure_compiled()?;
+        Ok(outputs::constraint_residual(&c.model, &mut c.data))
+    }
+
+    /// The located contact events since initialisation (or the last
+    /// [`Simulation::clear_contact_events`]), oldest first; at most the last 4096.
+    pub fn contact_events(&self) -> &[ContactEvent] {
+        self.data().map(|d| d.event_log.as_slice()).unwrap_or(&[])
+    }
+
+    /// Empties the contact event log.
+    pub fn clear_contact_events(&mut self) {
+        if let Some(c) = self.compiled.as_mut() {
+            c.data.event_log.clear();
+        }
+    }
+
+    /// Turns the location of force cuts (the damped laws' force reaching zero before δ does)
+    /// on (default) or off. Off, the integrator steps over that kink with only its error
+    /// control to notice it.
+    pub fn set_clamp_events(&mut self, on: bool) -> Result<(), SimError> {
+        let c = self.ensure_compiled()?;
+        c.data.clamp_events = on;
+        c.data.solver.started = false;
+        Ok(())
     }
 }
 
-/// Re-exported for callers that only need the engine counters.
-pub use engine::Counters;
+/// The communication points after `t0` up to `stop_time`, `interval` apart; the last one is
+/// exactly `stop_time`.
+pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iterator<Item = f64> {
+    let n = ((stop_time - t0) / interval - 1e-9).ceil().max(1.0) as u64;
+    (1..=n).map(move |k| if k == n { stop_time } else { t0 + k as f64 * interval })
+}
+
+/// Sets input `i`; the integrator restarts at the next advance (inputs are piecewise constant
+/// between communication points).
+fn set_input(d: &mut Data, i: usize, value: f64) {
+    if d.inputs[i] != value {
+        d.inputs[i] = value;
+        d.outputs_valid = false;
+    }
+}
+
+/// A failed [`Simulation::run`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunError {
+    /// The integration failed.
+    #[error("{0}")]
+    Step(SimError),
+    /// A setting, or the caller's `each`, failed.
+    #[error("{0}")]
+    Setup(String),
+}

@@ -5,7 +5,7 @@
 //! the origin and resultant force. Because every body uses the same frame, transporting a
 //! vector from one body to another needs no transform; only the inertias depend on the pose.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 /// A motion (velocity or acceleration) or force vector: `ang` then `lin`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -138,4 +138,41 @@ impl Inertia {
         self.h += o.h;
         self.i_o += o.i_o;
     }
+}
+
+/// Pose and motion of a body, or of the ground.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    /// Centre of mass (origin for ground).
+    pub pos: Vector3<f64>,
+    /// Rotation body → world.
+    pub rot: Matrix3<f64>,
+    /// Orientation.
+    pub quat: UnitQuaternion<f64>,
+    /// Spatial velocity.
+    pub vel: Spatial,
+    /// Spatial bias acceleration.
+    pub acc: Spatial,
+}
+
+impl Frame {
+    /// The fixed world frame (the ground).
+    pub fn ground() -> Frame {
+        Frame {
+            pos: Vector3::zeros(),
+            rot: Matrix3::identity(),
+            quat: UnitQuaternion::identity(),
+            vel: Spatial::zero(),
+            acc: Spatial::zero(),
+        }
+    }
+}
+
+/// An orthonormal triad whose first column is `axis`.
+pub fn triad(axis: &Vector3<f64>) -> Matrix3<f64> {
+    let a = axis.normalize();
+    let t = if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let u1 = a.cross(&t).normalize();
+    let u2 = a.cross(&u1);
+    Matrix3::from_columns(&[a, u1, u2])
 }

@@ -4,7 +4,7 @@
 //!
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
-use crate::scene::{ContactSpec, JointType, Law, Method, Scene, GROUND};
+use crate::scene::{JointType, Law, Method, Scene};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -332,7 +332,7 @@ impl VariableTable {
             ));
             v.push(param(
                 format!("{}.max_penetration", c.name),
-                default_max_penetration(c),
+                c.max_penetration_or_default(),
                 Some("m"),
                 pos,
                 VarRef::MaxPenetration(i),
@@ -340,7 +340,7 @@ impl VariableTable {
             ));
             v.push(param(
                 format!("{}.min_impact_velocity", c.name),
-                c.min_impact_velocity.unwrap_or(DEFAULT_MIN_IMPACT_VELOCITY),
+                c.min_impact_velocity_or_default(),
                 Some("m/s"),
                 nonneg,
                 VarRef::MinImpactVelocity(i),
@@ -567,18 +567,4 @@ impl VariableTable {
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.vars.iter().position(|v| v.name == name)
     }
-}
-
-/// Default floor on the remembered impact velocity [m/s].
-pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
-
-/// Default largest admissible penetration: the sphere radius (a deeper overlap is not a
-/// contact the model can describe).
-pub fn default_max_penetration(c: &ContactSpec) -> f64 {
-    c.max_penetration.unwrap_or(c.radius)
-}
-
-/// True when a contact's other shape is the ground (documentation helper).
-pub fn on_ground(c: &ContactSpec) -> bool {
-    c.body == GROUND || c.sphere_body == GROUND
 }

@@ -22,7 +22,7 @@ pub mod stress;
 pub mod targets;
 pub mod work_precision;
 
-use crate::engine::Counters;
+use crate::model::Counters;
 use crate::simulation::{SimError, Simulation};
 use crate::variables::{Causality, VarRef};
 use clap::Subcommand;
@@ -294,7 +294,7 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
         }
         wall.push(t0.elapsed().as_secs_f64());
         cpu.push(thread_cpu_seconds() - c0);
-        counters = sim.engine().map(|e| e.counters()).unwrap_or_default();
+        counters = sim.counters();
     }
     Ok((median(&wall), median(&cpu), counters, failure))
 }
@@ -330,15 +330,17 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         scale = scale.max(e[0]);
         let balance = (e[0] + e[1] + e[2] + e[3]) - (e0[0] + e0[1] + e0[2] + e0[3]);
         out.energy_error = out.energy_error.max(balance.abs() / scale.max(f64::MIN_POSITIVE));
-        if let Some(engine) = sim.engine_mut() {
-            out.constraint_residual = out.constraint_residual.max(engine.constraint_residual());
-            let nc = engine.model().contacts.len();
-            for i in 0..nc {
-                let d = engine.output(VarRef::ContactDelta(i));
-                let dm = engine.model().contacts[i].max_penetration;
-                out.max_penetration = out.max_penetration.max(d);
-                out.penetration_ratio = out.penetration_ratio.max(d / dm);
-            }
+        if let Ok(r) = sim.constraint_residual() {
+            out.constraint_residual = out.constraint_residual.max(r);
+        }
+        let max_penetration: Vec<f64> = sim
+            .model()
+            .map(|m| m.contacts.iter().map(|c| c.max_penetration).collect())
+            .unwrap_or_default();
+        for (i, dm) in max_penetration.into_iter().enumerate() {
+            let d = sim.output(VarRef::ContactDelta(i)).ok().flatten().unwrap_or(f64::NAN);
+            out.max_penetration = out.max_penetration.max(d);
+            out.penetration_ratio = out.penetration_ratio.max(d / dm);
         }
     };
     sample(&mut sim, &mut out, &mut traj);
@@ -357,14 +359,17 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         sample(&mut sim, &mut out, &mut traj);
     }
     out.seconds = t0.elapsed().as_secs_f64();
-    out.counters = sim.engine().map(|e| e.counters()).unwrap_or_default();
+    out.counters = sim.counters();
     out.traj = traj;
     Ok(out)
 }
 
 /// [kinetic, potential, contact, dissipated] energies [J].
 pub fn energies(sim: &mut Simulation) -> [f64; 4] {
-    sim.engine_mut().map(|e| e.energies()).unwrap_or([f64::NAN; 4])
+    match sim.energies() {
+        Ok(e) => [e.kinetic, e.potential, e.contact, e.dissipated],
+        Err(_) => [f64::NAN; 4],
+    }
 }
 
 /// Creates a CSV file (and its folder).

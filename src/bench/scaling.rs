@@ -5,10 +5,12 @@
 //! and no loop-constraint rows.
 
 use super::{f, median, scenes, time_runs, Csv, RunSpec};
+use crate::compile::compile;
 use crate::contact;
-use crate::dynamics;
-use crate::engine;
-use crate::model::{self, Data, Model};
+use crate::forward::Rhs;
+use crate::integrator::OdeSystem;
+use crate::kinematics::kinematics;
+use crate::model::{Data, Model};
 use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -37,16 +39,17 @@ pub fn rhs_and_event_cost(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64)
         mem.impact_velocity = 1.0;
     }
     let t0 = Instant::now();
-    engine::evaluate(m, d, &state, Some(&mut dy));
+    Rhs { model: m, data: d }.rhs(0.0, &state, &mut dy);
     let once = t0.elapsed().as_secs_f64().max(1e-9);
     let iters = ((0.05 / once) as usize).clamp(1, 200_000);
     let rhs = time_per_call(repeats, iters, || {
-        engine::evaluate(m, d, &state, Some(&mut dy));
+        Rhs { model: m, data: d }.rhs(0.0, &state, &mut dy);
         std::hint::black_box(&dy);
     });
     let mut g = vec![0.0; m.contacts.len()];
+    d.eval_state.copy_from_slice(&state);
     let ev = time_per_call(repeats, iters, || {
-        dynamics::kinematics(m, d, &state);
+        kinematics(m, d);
         for (i, o) in g.iter_mut().enumerate() {
             *o = contact::event_function(&m.contacts[i], &contact::gap(m, d, i));
         }
@@ -107,7 +110,7 @@ pub fn run(ns: &[usize], time: f64, repeats: usize, csv_path: &Path) -> Result<(
         let origin = format!("sphere_box_{n}");
         let t0 = Instant::now();
         let scene = Scene::from_str(&text, &origin).map_err(|e| e.to_string())?;
-        let (m, mut d) = model::compile(&scene, &origin).map_err(|e| e.to_string())?;
+        let (m, mut d) = compile(&scene, &origin).map_err(|e| e.to_string())?;
         let compile = t0.elapsed().as_secs_f64();
         let blocks = m.trees.len();
         let largest = m.trees.iter().map(|t| t.1).max().unwrap_or(0);

@@ -10,7 +10,7 @@ use std::path::Path;
 const BALL_MASS: f64 = 0.0329;
 /// Hertz stiffness of a 10 mm steel ball on a steel plane (E = 210 GPa, ν = 0.3) [N/m^1.5].
 pub fn steel_ball_plane_stiffness() -> f64 {
-    crate::contact::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
+    crate::contact::laws::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
 }
 
 /// Largest penetration of an undamped Hertz impact `(5 m v² / (4 K))^(2/5)` [m].

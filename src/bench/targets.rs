@@ -4,7 +4,7 @@
 //! `tests/no_alloc.rs`, which needs its own global allocator.)
 
 use super::{bundled_scenes, f, record, scaling::rhs_and_event_cost, time_runs, Csv, RunSpec};
-use crate::model;
+use crate::compile::compile;
 use crate::scene::{Method, Scene};
 use std::path::Path;
 
@@ -26,7 +26,7 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
     for (name, path) in bundled_scenes(dir)? {
         let origin = path.display().to_string();
         let Ok(scene) = Scene::from_file(&path) else { continue };
-        let Ok((m, mut d)) = model::compile(&scene, &origin) else {
+        let Ok((m, mut d)) = compile(&scene, &origin) else {
             continue;
         };
         let (rhs, ev) = rhs_and_event_cost(&m, &mut d, repeats);

@@ -136,7 +136,7 @@ struct Point {
     seconds: f64,
     cpu: f64,
     repeats: usize,
-    counters: crate::engine::Counters,
+    counters: crate::model::Counters,
     status: String,
 }
 

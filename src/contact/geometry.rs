@@ -1,51 +1,9 @@
 //! Contact detection for the three elements of the paper: sphere-sphere (1)-(3),
 //! sphere-finite plane (4)-(12) and sphere-cylindrical surface (13).
 
-use super::ContactElement;
-use crate::dynamics::Frame;
+use super::element::{ContactElement, Shape};
+use crate::spatial::Frame;
 use nalgebra::Vector3;
-
-/// The shape a sphere can touch, in its body's frame.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Shape {
-    /// Another sphere.
-    Sphere {
-        /// Centre.
-        center: Vector3<f64>,
-        /// Radius [m].
-        radius: f64,
-    },
-    /// A finite rectangle: centre, outward normal, in-plane axes u and v, half side lengths.
-    Plane {
-        /// Centre of the rectangle.
-        origin: Vector3<f64>,
-        /// Unit outward normal (the side the sphere may touch).
-        normal: Vector3<f64>,
-        /// First in-plane axis.
-        u: Vector3<f64>,
-        /// Second in-plane axis (normal × u).
-        v: Vector3<f64>,
-        /// Half side lengths along u and v [m].
-        half: [f64; 2],
-    },
-    /// A cylindrical surface patch.
-    Cylinder {
-        /// Point on the axis at the middle of the patch's length.
-        point: Vector3<f64>,
-        /// Unit axis.
-        axis: Vector3<f64>,
-        /// Unit direction perpendicular to the axis where θ = 0.
-        reference: Vector3<f64>,
-        /// Cylinder radius ρ [m].
-        radius: f64,
-        /// Half length along the axis [m].
-        half_length: f64,
-        /// Angular range [min, max] [rad] (None: the whole circumference).
-        theta_range: Option<[f64; 2]>,
-        /// Sphere inside (concave) rather than outside (convex).
-        inside: bool,
-    },
-}
 
 /// Result of detection.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,4 +1,4 @@
-//! Piecewise analysis: impacts as velocity jumps (PHYSICS.md §3.1).
+//! Piecewise analysis: impacts as velocity jumps (docs/physics.md §3.1).
 //!
 //! **Exact method** (default). For the impacting contacts with separation-rate rows `J` (so
 //! that `J q̇` is the rate at which the surfaces separate), the velocity jump is
@@ -25,42 +25,21 @@
 //! (free bodies, or a pendulum struck at its centre of percussion); it may even create energy.
 //! Simultaneous contacts are treated pair by pair.
 
-use super::ContactElement;
-use crate::dynamics::{self, for_each_path_dof};
+use super::element::ContactElement;
+use super::work::{ImpulseWork, LcpWork, Projection};
+use crate::dynamics;
+use crate::kinematics::{self, for_each_path_dof};
 use crate::linalg;
 use crate::model::{Data, Model};
 use crate::scene::ImpulseMethod;
 use crate::spatial::Spatial;
 
-/// The loop-only projection `G`: the factor of `Φ_l M̄⁻¹ Φ_lᵀ` over the `nl` loop rows, with
-/// its own solve buffers (sized once).
-#[derive(Debug, Clone, Default)]
-struct Projection {
-    nl: usize,
-    schur: Vec<f64>,
-    perm: Vec<usize>,
-    rank: usize,
-    b: Vec<f64>,
-    work: Vec<f64>,
-}
-
 impl Projection {
-    fn with_rows(nl: usize) -> Projection {
-        Projection {
-            nl,
-            schur: vec![0.0; nl * nl],
-            perm: vec![0; nl],
-            rank: 0,
-            b: vec![0.0; nl],
-            work: vec![0.0; nl],
-        }
-    }
-
     /// Factorises at this configuration. Needs `d.phi_q` and `d.minv_phit` of the loop rows
     /// (the last evaluation computed them).
-    fn factor(&mut self, m: &Model, d: &Data) {
+    pub(crate) fn factor(&mut self, m: &Model, d: &Data) {
         let nv = m.nv;
-        let nl = super::loop_rows(m);
+        let nl = m.loop_rows();
         if self.nl != nl {
             *self = Projection::with_rows(nl);
         }
@@ -75,7 +54,7 @@ impl Projection {
     }
 
     /// `x ← G x`.
-    fn apply(&mut self, m: &Model, d: &Data, x: &mut [f64]) {
+    pub(crate) fn apply(&mut self, m: &Model, d: &Data, x: &mut [f64]) {
         dynamics::solve_mass(m, &d.mass_blocks, x);
         let (nv, nl) = (m.nv, self.nl);
         if nl == 0 {
@@ -94,143 +73,13 @@ impl Projection {
     }
 }
 
-/// Work arrays of [`solve_lcp_with`] for problems of up to `n` contacts.
-#[derive(Debug, Clone, Default)]
-pub struct LcpWork {
-    n: usize,
-    active: Vec<bool>,
-    idx: Vec<usize>,
-    p: Vec<f64>,
-    a: Vec<f64>,
-    rhs: Vec<f64>,
-    perm: Vec<usize>,
-    work: Vec<f64>,
-    wv: Vec<f64>,
-}
-
-impl LcpWork {
-    /// Buffers for problems of up to `n` unknowns.
-    pub fn new(n: usize) -> LcpWork {
-        LcpWork {
-            n,
-            active: vec![false; n],
-            idx: Vec::with_capacity(n),
-            p: vec![0.0; n],
-            a: vec![0.0; n * n],
-            rhs: vec![0.0; n],
-            perm: vec![0; n],
-            work: vec![0.0; n],
-            wv: vec![0.0; n],
-        }
-    }
-
-    /// Grows the buffers (allocates) only if `n` exceeds the size they were made for.
-    fn reserve(&mut self, n: usize) {
-        if n > self.n {
-            *self = LcpWork::new(n);
-        }
-    }
-}
-
-/// Preallocated work arrays of the impulse law: everything [`resolve_with`] needs for rounds
-/// of up to `k` simultaneous impacts of a model with `nv` velocities (and its loop rows), so
-/// that resolving an impact allocates nothing. Sized when the engine is compiled.
-#[derive(Debug, Clone, Default)]
-pub struct ImpulseWork {
-    k: usize,
-    nv: usize,
-    proj: Projection,
-    /// Separation-rate rows `J` (k × nv).
-    jrows: Vec<f64>,
-    /// Their images `G Jᵀ` (k × nv).
-    gj: Vec<f64>,
-    qvel: Vec<f64>,
-    rate: Vec<f64>,
-    impulses: Vec<f64>,
-    /// Rows solved exactly (the rest use the effective mass).
-    exact: Vec<usize>,
-    w: Vec<f64>,
-    q: Vec<f64>,
-    p: Vec<f64>,
-    lcp: LcpWork,
-    /// Effective-mass buffers (nv each).
-    row: Vec<f64>,
-    free: Vec<f64>,
-    x: Vec<f64>,
-    /// Copy of the state for the kinematics after the jump.
-    state: Vec<f64>,
-    /// Contacts of the last round.
-    last: usize,
-}
-
-impl ImpulseWork {
-    /// Buffers for up to `k` simultaneous impacts in model `m` (`k` = its number of
-    /// impulse-law contacts).
-    pub fn new(m: &Model, k: usize) -> ImpulseWork {
-        let nv = m.nv;
-        ImpulseWork {
-            k,
-            nv,
-            proj: Projection::with_rows(super::loop_rows(m)),
-            jrows: vec![0.0; k * nv],
-            gj: vec![0.0; k * nv],
-            qvel: vec![0.0; nv],
-            rate: vec![0.0; k],
-            impulses: vec![0.0; k],
-            exact: Vec::with_capacity(k),
-            w: vec![0.0; k * k],
-            q: vec![0.0; k],
-            p: vec![0.0; k],
-            lcp: LcpWork::new(k),
-            row: vec![0.0; nv],
-            free: vec![0.0; nv],
-            x: vec![0.0; nv],
-            state: vec![0.0; m.nstate()],
-            last: 0,
-        }
-    }
-
-    /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
-    /// [N s].
-    pub fn impulses(&self) -> &[f64] {
-        &self.impulses[..self.last]
-    }
-
-    /// Makes the buffers fit `k` contacts of model `m` (allocates only if they do not).
-    fn reserve(&mut self, m: &Model, k: usize) {
-        if k > self.k || self.nv != m.nv || self.state.len() != m.nstate() {
-            *self = ImpulseWork::new(m, k.max(self.k));
-        }
-    }
-}
-
-/// What one round of impacts did.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Resolution {
-    /// Kinetic energy lost [J] (negative if the effective-mass approximation created energy).
-    pub energy_lost: f64,
-    /// Normal impulse of each contact, in the order given [N s].
-    pub impulses: Vec<f64>,
-}
-
 /// Resolves one round of simultaneous impacts of `contacts` with restitution coefficients
 /// `restitution` (one each) at the current state. The data must have been evaluated at this
 /// configuration (mass matrix factorised; loop Jacobian and `M̄⁻¹Φ_qᵀ` computed). Updates the
-/// velocities in `d.state` and the kinematics, counts the impacts that took an impulse and
-/// returns the energy lost and the impulses. Allocates its work arrays; the engine uses
-/// [`resolve_with`] on preallocated ones.
-pub fn resolve(m: &Model, d: &mut Data, contacts: &[usize], restitution: &[f64]) -> Result<Resolution, String> {
-    let mut work = ImpulseWork::new(m, contacts.len());
-    let energy_lost = resolve_with(m, d, &mut work, contacts, restitution)?;
-    Ok(Resolution {
-        energy_lost,
-        impulses: work.impulses().to_vec(),
-    })
-}
-
-/// [`resolve`] on preallocated work arrays: returns the kinetic energy lost [J]; the impulses
-/// are left in [`ImpulseWork::impulses`]. Allocates nothing when `work` was made for at least
-/// `contacts.len()` contacts of this model (except to report an error).
+/// velocities in `d.state` and the kinematics (at `d.eval_state`, set to the new state),
+/// counts the impacts that took an impulse and returns the kinetic energy lost [J]; the
+/// impulses are left in [`ImpulseWork::impulses`]. Allocates nothing when `work` was made for
+/// at least `contacts.len()` contacts of this model (except to report an error).
 pub fn resolve_with(
     m: &Model,
     d: &mut Data,
@@ -244,7 +93,7 @@ pub fn resolve_with(
     if k == 0 {
         return Ok(0.0);
     }
-    work.reserve(m, k);
+    work.reserve(m.nv, m.loop_rows(), k);
     let ImpulseWork {
         proj,
         jrows,
@@ -260,7 +109,6 @@ pub fn resolve_with(
         row,
         free,
         x,
-        state,
         ..
     } = work;
     proj.factor(m, d);
@@ -272,7 +120,7 @@ pub fn resolve_with(
         let c = &m.contacts[ci];
         let g = super::gap(m, d, ci);
         let row = &mut jrows[r * nv..(r + 1) * nv];
-        super::add_separation_row(m, d, c, &g, row);
+        super::add_separation_row(m, &d.dof_s, c, &g, row);
         let col = &mut gj[r * nv..(r + 1) * nv];
         col.copy_from_slice(row);
         proj.apply(m, d, col);
@@ -359,8 +207,8 @@ pub fn resolve_with(
             }
         }
     }
-    state.copy_from_slice(&d.state);
-    dynamics::kinematics(m, d, state);
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics::kinematics(m, d);
     // The effective-mass impulse may leave a contact still approaching: report it rather than
     // let the surfaces pass through each other.
     for (r, &ci) in contacts.iter().enumerate() {
@@ -402,7 +250,7 @@ fn effective_mass(
     let coef = Spatial::point_direction(point, dir);
     let MassBuffers { row, free, x } = bufs;
     row.iter_mut().for_each(|v| *v = 0.0);
-    dynamics::add_jacobian_row(m, d, Some(b), &coef, 1.0, row);
+    kinematics::add_jacobian_row(m, &d.dof_s, Some(b), &coef, 1.0, row);
     free.copy_from_slice(row);
     dynamics::solve_mass(m, &d.mass_blocks, free);
     let free_mobility = linalg::dot(row, free);

@@ -8,7 +8,7 @@
 //! `(F − F_elastic) δ̇` as dissipated power. The unclamped value is returned as well, so the
 //! engine can locate the instant the cut starts.
 
-use super::ContactElement;
+use super::element::ContactElement;
 use crate::scene::Law;
 
 /// Force at one instant.
@@ -22,6 +22,13 @@ pub struct Force {
     pub elastic: f64,
     /// Elastic energy stored [J].
     pub energy: f64,
+}
+
+/// Hertz stiffness (22), corrected: `K = 4/(3π(h_i+h_j)) · sqrt(R_i R_j/(R_i+R_j))`,
+/// `h = (1−ν²)/(πE)`. `r_eff` is the effective radius `R_i R_j/(R_i+R_j)`.
+pub fn hertz_stiffness(e1: f64, nu1: f64, e2: f64, nu2: f64, r_eff: f64) -> f64 {
+    let h = |e: f64, nu: f64| (1.0 - nu * nu) / (std::f64::consts::PI * e);
+    4.0 / (3.0 * std::f64::consts::PI * (h(e1, nu1) + h(e2, nu2))) * r_eff.sqrt()
 }
 
 /// Damping factor `d` of the hysteresis laws, `F = K δ^n (1 + d δ̇/δ̇⁻)`:
@@ -51,9 +58,7 @@ pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f6
     let unclamped = match c.law {
         Law::KelvinVoigt => elastic + c.damping * delta_dot,
         Law::Hertz | Law::Impulse => elastic,
-        Law::HertzLn | Law::HuntCrossley | Law::Flores => {
-            elastic * (1.0 + hysteresis_factor(c.law, c.restitution) * delta_dot / impact_velocity)
-        }
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => elastic * (1.0 + c.hysteresis * delta_dot / impact_velocity),
     };
     Force {
         total: unclamped.max(0.0),
@@ -68,7 +73,7 @@ pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f6
 pub fn can_clamp(c: &ContactElement) -> bool {
     match c.law {
         Law::KelvinVoigt => c.damping > 0.0,
-        Law::HertzLn | Law::HuntCrossley | Law::Flores => hysteresis_factor(c.law, c.restitution) > 0.0,
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => c.hysteresis > 0.0,
         Law::Hertz | Law::Impulse => false,
     }
 }
@@ -80,9 +85,7 @@ pub fn can_clamp(c: &ContactElement) -> bool {
 pub fn clamp_function(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f64) -> f64 {
     match c.law {
         Law::KelvinVoigt => c.stiffness * delta + c.damping * delta_dot,
-        Law::HertzLn | Law::HuntCrossley | Law::Flores => {
-            1.0 + hysteresis_factor(c.law, c.restitution) * delta_dot / impact_velocity
-        }
+        Law::HertzLn | Law::HuntCrossley | Law::Flores => 1.0 + c.hysteresis * delta_dot / impact_velocity,
         Law::Hertz | Law::Impulse => 1.0,
     }
 }

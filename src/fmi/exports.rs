@@ -587,9 +587,9 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     state: *mut fmi2FMUstate,
 ) -> fmi2Status {
-    call(c, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |_| {
+    call(c, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |inst| {
         let bytes = slice(serialized as *const u8, size, "serializedState")?;
-        let saved = SavedState::from_bytes(bytes).map_err(Failure::error)?;
+        let saved = SavedState::from_bytes(bytes, inst.model_hash()).map_err(Failure::error)?;
         store_state(state, saved)
     })
 }

@@ -172,8 +172,6 @@ pub struct Instance {
     model_hash: u64,
     start_time: f64,
     stop_time: Option<f64>,
-    time: f64,
-    last_successful_time: f64,
     /// Set after a panic inside a call: the simulation may be half-updated, so restoring a
     /// state rebuilds it first.
     pub(crate) poisoned: bool,
@@ -220,8 +218,6 @@ impl Instance {
             origin,
             start_time: 0.0,
             stop_time: None,
-            time: 0.0,
-            last_successful_time: 0.0,
             poisoned: false,
         };
         inst.log_event(&format!(
@@ -244,7 +240,16 @@ impl Instance {
 
     /// Current communication point (s).
     pub fn time(&self) -> f64 {
-        self.time
+        if self.sim.is_initialized() {
+            self.sim.time()
+        } else {
+            self.start_time
+        }
+    }
+
+    /// Hash of the scene text (saved states carry it).
+    pub fn model_hash(&self) -> u64 {
+        self.model_hash
     }
 
     /// Logs a message. Messages with a status of Warning or worse are delivered unless their
@@ -333,8 +338,6 @@ impl Instance {
         }
         self.start_time = start_time;
         self.stop_time = stop_time;
-        self.time = start_time;
-        self.last_successful_time = start_time;
         Ok(())
     }
 
@@ -347,8 +350,6 @@ impl Instance {
     /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model.
     pub fn exit_initialization_mode(&mut self) -> FmiResult {
         self.sim.initialize(self.start_time)?;
-        self.time = self.start_time;
-        self.last_successful_time = self.start_time;
         self.state = LifeState::StepComplete;
         self.log_event(&format!(
             "fmi2ExitInitializationMode: initialised at t = {}",
@@ -370,8 +371,6 @@ impl Instance {
         self.state = LifeState::Instantiated;
         self.start_time = 0.0;
         self.stop_time = None;
-        self.time = 0.0;
-        self.last_successful_time = 0.0;
         self.poisoned = false;
         self.log_event("fmi2Reset: back to the instantiated state with start values");
         Ok(())
@@ -462,18 +461,17 @@ impl Instance {
         if !(h.is_finite() && h > 0.0) {
             return Err(Failure::error(format!("communicationStepSize = {h} must be > 0")));
         }
-        let scale = self.time.abs().max(h);
-        if !current.is_finite() || (current - self.time).abs() > 1e-9 * scale {
+        let now = self.time();
+        let scale = now.abs().max(h);
+        if !current.is_finite() || (current - now).abs() > 1e-9 * scale {
             return Err(Failure::error(format!(
-                "currentCommunicationPoint = {current} is not the FMU's current time {}",
-                self.time
+                "currentCommunicationPoint = {current} is not the FMU's current time {now}"
             )));
         }
         let t_end = current + h;
-        if t_end <= self.time {
+        if t_end <= now {
             return Err(Failure::error(format!(
-                "the step from {current} by {h} does not advance past the current time {}",
-                self.time
+                "the step from {current} by {h} does not advance past the current time {now}"
             )));
         }
         if let Some(stop) = self.stop_time {
@@ -484,18 +482,10 @@ impl Instance {
             }
         }
         match self.sim.step_to(t_end) {
-            Ok(()) => {
-                self.time = t_end;
-                self.last_successful_time = t_end;
-                Ok(())
-            }
-            Err(SimError::Step { time, message }) => {
-                self.time = time;
-                self.last_successful_time = time;
-                Err(Failure::error(format!(
-                    "the step from t = {current} to {t_end} failed at t = {time}: {message}"
-                )))
-            }
+            Ok(()) => Ok(()),
+            Err(SimError::Step { time, message }) => Err(Failure::error(format!(
+                "the step from t = {current} to {t_end} failed at t = {time}: {message}"
+            ))),
             Err(e) => Err(e.into()),
         }
     }
@@ -503,7 +493,8 @@ impl Instance {
     /// `fmi2GetRealStatus`
     pub fn real_status(&self, kind: c_int) -> FmiResult<f64> {
         if kind == status_kind::LAST_SUCCESSFUL_TIME {
-            Ok(self.last_successful_time)
+            // the simulation's time: after a failed step, the last good one
+            Ok(self.time())
         } else {
             Err(Failure::error(format!(
                 "status kind {kind} has no Real value (only fmi2LastSuccessfulTime = 2)"
@@ -527,11 +518,9 @@ impl Instance {
         SavedState::new(
             self.model_hash,
             self.state,
-            self.time,
             self.start_time,
             self.stop_time,
-            self.last_successful_time,
-            self.sim.snapshot(),
+            self.sim.snapshot(Vec::new()),
         )
     }
 
@@ -550,13 +539,11 @@ impl Instance {
         }
         self.sim.restore(&saved.snapshot)?;
         self.state = saved.lifecycle;
-        self.time = saved.time;
         self.start_time = saved.start_time;
         self.stop_time = saved.stop_time;
-        self.last_successful_time = saved.last_successful_time;
         self.log_event(&format!(
             "fmi2SetFMUstate: restored a state at t = {} ({})",
-            self.time,
+            self.time(),
             self.state.name()
         ));
         Ok(())

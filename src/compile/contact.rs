@@ -1,0 +1,145 @@
+//! One contact element from its scene entry: the shape in its body's frame, the stiffness
+//! (given, or Hertz's from the materials), the law constants.
+
+use crate::contact::element::{ContactElement, Shape};
+use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
+use crate::scene::{ContactSpec, ContactType, Law, Scene, SceneError, Side};
+use crate::spatial::triad;
+use nalgebra::Vector3;
+
+/// Compiles one contact. `body_of` maps names to body indices (None = ground), `local_point`
+/// and `local_dir` express world points and directions in a body's initial frame.
+pub(super) fn compile_contact(
+    scene: &Scene,
+    c: &ContactSpec,
+    origin: &str,
+    body_of: &dyn Fn(&str) -> Option<usize>,
+    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+) -> Result<ContactElement, SceneError> {
+    let item = format!("contact {:?}", c.name);
+    let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
+    let sphere_body = body_of(&c.sphere_body);
+    let body = body_of(&c.body);
+    let (shape, r_eff, bound_radius) = match c.kind {
+        ContactType::SphereSphere => {
+            let r2 = c.other_radius.unwrap_or(1.0);
+            (
+                Shape::Sphere {
+                    center: local_point(body, v(c.other_center.unwrap_or_default())),
+                    radius: r2,
+                },
+                c.radius * r2 / (c.radius + r2),
+                r2,
+            )
+        }
+        ContactType::SpherePlane => {
+            let n = v(c.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
+            let u = v(c.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
+            let w = n.cross(&u);
+            let [lu, lv] = c.size.unwrap_or([1.0, 1.0]);
+            (
+                Shape::Plane {
+                    origin: local_point(body, v(c.origin.unwrap_or_default())),
+                    normal: local_dir(body, n),
+                    u: local_dir(body, u),
+                    v: local_dir(body, w),
+                    half: [lu / 2.0, lv / 2.0],
+                },
+                c.radius,
+                0.5 * (lu * lu + lv * lv).sqrt(),
+            )
+        }
+        ContactType::SphereCylinder => {
+            let k = v(c.axis.unwrap_or([0.0, 0.0, 1.0])).normalize();
+            let rho = c.cylinder_radius.unwrap_or(1.0);
+            let len = c.length.unwrap_or(1.0);
+            let reference = match c.ref_axis {
+                Some(r) => v(r).normalize(),
+                None => triad(&k).column(1).into_owned(),
+            };
+            let inside = c.side == Side::Inside;
+            // Effective radius of the elliptical contact: geometric mean of the principal
+            // relative radii (axial: R; circumferential: 1/(1/R ± 1/ρ)).
+            let circ = if inside {
+                1.0 / (1.0 / c.radius - 1.0 / rho)
+            } else {
+                1.0 / (1.0 / c.radius + 1.0 / rho)
+            };
+            (
+                Shape::Cylinder {
+                    point: local_point(body, v(c.axis_point.unwrap_or_default())),
+                    axis: local_dir(body, k),
+                    reference: local_dir(body, reference),
+                    radius: rho,
+                    half_length: len / 2.0,
+                    theta_range: c.theta_range,
+                    inside,
+                },
+                (c.radius * circ).sqrt(),
+                (rho * rho + len * len / 4.0).sqrt(),
+            )
+        }
+    };
+    let material = |name: &Option<String>| name.as_ref().and_then(|n| scene.material.iter().find(|m| &m.name == n));
+    let (stiffness, derived) = match c.stiffness {
+        Some(k) => (k, false),
+        None => match (material(&c.sphere_material), material(&c.material)) {
+            (Some(a), Some(b)) => (
+                hertz_stiffness(
+                    a.youngs_modulus,
+                    a.poisson_ratio,
+                    b.youngs_modulus,
+                    b.poisson_ratio,
+                    r_eff,
+                ),
+                true,
+            ),
+            _ if c.law == Law::Impulse => (0.0, true),
+            _ => {
+                return Err(SceneError::new(
+                    origin,
+                    item,
+                    "stiffness",
+                    "give stiffness, or both sphere_material and material",
+                ))
+            }
+        },
+    };
+    Ok(ContactElement {
+        name: c.name.clone(),
+        kind: c.kind,
+        law: c.law,
+        restitution: c.restitution,
+        sphere_body,
+        center: local_point(sphere_body, v(c.center)),
+        radius: c.radius,
+        body,
+        shape,
+        stiffness,
+        stiffness_derived: derived,
+        exponent: c.exponent.unwrap_or(1.5),
+        damping: c.damping.unwrap_or(0.0),
+        max_penetration: c.max_penetration_or_default(),
+        min_impact_velocity: c.min_impact_velocity_or_default(),
+        bound_radius,
+        impulse_method: c.impulse_method,
+        constraint_row: None,
+        hysteresis: hysteresis_factor(c.law, c.restitution),
+    })
+}
+
+/// Reserves one constraint row per impulse-law contact after the `nc` loop rows (for its
+/// resting mode) and returns the new total.
+pub(super) fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
+    let mut n = nc;
+    for c in contacts.iter_mut() {
+        c.constraint_row = if c.law == Law::Impulse {
+            n += 1;
+            Some(n - 1)
+        } else {
+            None
+        };
+    }
+    n
+}

@@ -1,0 +1,387 @@
+//! Model compilation: a validated scene becomes a read-only [`Model`] (topology, joint
+//! frames, constants, contact elements with their law constants) and a [`Data`] sized once
+//! and set to the initial configuration.
+//!
+//! The joints form a spanning tree rooted at the ground: the first joint that names a body as
+//! its child is that body's tree joint; a later joint with the same child closes a loop and
+//! becomes a [`LoopConstraint`]. A body that is no joint's child gets a free joint to the
+//! ground. Degrees of freedom are numbered tree by tree (depth first), so the joint-space mass
+//! matrix is block diagonal with one dense block per independent tree.
+//!
+//! - `contact`: one contact element from its scene entry (shape, stiffness, law constants).
+//! - `velocities`: the initial joint rates from the scene's body velocities.
+
+mod contact;
+mod velocities;
+
+use crate::kinematics::kinematics;
+use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
+use crate::scene::{InputType, JointSpec, JointType, Law, Scene, SceneError, GROUND};
+use crate::spatial::triad;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+fn to_v(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+fn quat_of(a: [f64; 4]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(a[0], a[1], a[2], a[3]))
+}
+
+/// Compiles a validated scene into a model and its data at the initial configuration
+/// (positions, and velocities projected onto the joint coordinates).
+pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError> {
+    let nb = scene.body.len();
+    let body_idx = |name: &str| -> Option<usize> { scene.body.iter().position(|b| b.name == name) };
+    let pos0: Vec<Vector3<f64>> = scene.body.iter().map(|b| to_v(b.position)).collect();
+    let rot0: Vec<UnitQuaternion<f64>> = scene.body.iter().map(|b| quat_of(b.orientation)).collect();
+
+    // Spanning tree: first joint naming a child wins; later ones close loops.
+    let mut parent_joint: Vec<Option<usize>> = vec![None; nb];
+    let mut loop_joints = Vec::new();
+    for (ji, j) in scene.joint.iter().enumerate() {
+        let c = body_idx(&j.child)
+            .ok_or_else(|| SceneError::new(origin, format!("joint {:?}", j.name), "child", "unknown body"))?;
+        if parent_joint[c].is_none() {
+            parent_joint[c] = Some(ji);
+        } else {
+            loop_joints.push(ji);
+        }
+    }
+    // Every body must reach the ground.
+    for b in 0..nb {
+        let mut cur = b;
+        let mut seen = 0;
+        while let Some(ji) = parent_joint[cur] {
+            let p = &scene.joint[ji].parent;
+            if p == GROUND {
+                break;
+            }
+            cur = body_idx(p).unwrap_or(cur);
+            seen += 1;
+            if seen > nb {
+                return Err(SceneError::new(
+                    origin,
+                    format!("body {:?}", scene.body[b].name),
+                    "joint",
+                    format!(
+                        "joint cycle through joint {:?}: this body has no path to ground",
+                        scene.joint[ji].name
+                    ),
+                ));
+            }
+        }
+    }
+    // Depth-first order from the ground; each root child starts a tree.
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); nb + 1]; // index nb = ground
+    for (b, pj) in parent_joint.iter().enumerate() {
+        let p = match pj {
+            Some(ji) => body_idx(&scene.joint[*ji].parent).unwrap_or(nb),
+            None => nb,
+        };
+        children[p].push(b);
+    }
+    let mut order = Vec::with_capacity(nb);
+    let mut tree_of = vec![0usize; nb];
+    for (t, &root) in children[nb].iter().enumerate() {
+        let mut stack = vec![root];
+        while let Some(b) = stack.pop() {
+            order.push(b);
+            tree_of[b] = t;
+            for &c in children[b].iter().rev() {
+                stack.push(c);
+            }
+        }
+    }
+    let ntrees = children[nb].len();
+
+    let pose = |b: Option<usize>| -> (Vector3<f64>, UnitQuaternion<f64>) {
+        match b {
+            Some(i) => (pos0[i], rot0[i]),
+            None => (Vector3::zeros(), UnitQuaternion::identity()),
+        }
+    };
+
+    let mut joints = Vec::with_capacity(nb);
+    let mut bodies: Vec<Body> = scene
+        .body
+        .iter()
+        .map(|b| Body {
+            name: b.name.clone(),
+            mass: b.mass,
+            inertia: to_v(b.inertia),
+            joint: 0,
+        })
+        .collect();
+    let mut scene_joint: Vec<Result<usize, usize>> = vec![Err(usize::MAX); scene.joint.len()];
+    let (mut nq, mut nv) = (0, 0);
+    let mut trees = vec![(0usize, 0usize); ntrees];
+    let mut tree_started = vec![false; ntrees];
+    for &b in &order {
+        let (kind, parent, spec, scene_index): (JointType, Option<usize>, Option<&JointSpec>, Option<usize>) =
+            match parent_joint[b] {
+                Some(ji) => {
+                    let j = &scene.joint[ji];
+                    (j.kind, body_idx(&j.parent), Some(j), Some(ji))
+                }
+                None => (JointType::Free, None, None, None),
+            };
+        let (rp, qp) = pose(parent);
+        let rpm = qp.to_rotation_matrix();
+        let anchor_w = spec.and_then(|s| s.anchor).map(to_v).unwrap_or(pos0[b]);
+        let axis_w = spec.and_then(|s| s.axis).map(to_v).unwrap_or(Vector3::z()).normalize();
+        let rel_rot = qp.inverse() * rot0[b];
+        let mut q0 = [0.0; 7];
+        let (axis, anchor, offset, r0) = match kind {
+            JointType::Revolute => (
+                rpm.inverse() * axis_w,
+                rpm.inverse() * (anchor_w - rp),
+                rpm.inverse() * (pos0[b] - anchor_w),
+                rel_rot,
+            ),
+            JointType::Prismatic | JointType::Fixed => (
+                rpm.inverse() * axis_w,
+                rpm.inverse() * (anchor_w - rp),
+                rpm.inverse() * (pos0[b] - rp),
+                rel_rot,
+            ),
+            JointType::Spherical => {
+                let qr = rel_rot.quaternion();
+                q0[..4].copy_from_slice(&[qr.w, qr.i, qr.j, qr.k]);
+                (
+                    Vector3::z(),
+                    rpm.inverse() * (anchor_w - rp),
+                    rot0[b].inverse() * (pos0[b] - anchor_w),
+                    UnitQuaternion::identity(),
+                )
+            }
+            JointType::Free => {
+                let x = rpm.inverse() * (pos0[b] - rp);
+                let qr = rel_rot.quaternion();
+                q0 = [x.x, x.y, x.z, qr.w, qr.i, qr.j, qr.k];
+                (
+                    Vector3::z(),
+                    Vector3::zeros(),
+                    Vector3::zeros(),
+                    UnitQuaternion::identity(),
+                )
+            }
+        };
+        let t = tree_of[b];
+        if !tree_started[t] {
+            trees[t].0 = nv;
+            tree_started[t] = true;
+        }
+        let name = spec
+            .map(|s| s.name.clone())
+            .unwrap_or_else(|| format!("{}.free", scene.body[b].name));
+        let ji = joints.len();
+        if let Some(si) = scene_index {
+            scene_joint[si] = Ok(ji);
+        }
+        bodies[b].joint = ji;
+        joints.push(TreeJoint {
+            name,
+            kind,
+            scene_index,
+            parent,
+            child: b,
+            qpos: nq,
+            qvel: nv,
+            axis: axis.normalize(),
+            anchor,
+            offset,
+            rot0: r0,
+            q0,
+            tree: t,
+        });
+        nq += nq_of(kind);
+        nv += nv_of(kind);
+        trees[t].1 = nv - trees[t].0;
+    }
+    let mut dof_joint = vec![0; nv];
+    for (ji, j) in joints.iter().enumerate() {
+        for k in 0..j.nv() {
+            dof_joint[j.qvel + k] = ji;
+        }
+    }
+    let mut dof_parent = vec![crate::linalg::NO_PARENT; nv];
+    for j in &joints {
+        let t0 = trees[j.tree].0;
+        // the last dof of the nearest ancestor joint that has any
+        let mut up = crate::linalg::NO_PARENT;
+        let mut cur = j.parent;
+        while let Some(p) = cur {
+            let pj = &joints[bodies[p].joint];
+            if pj.nv() > 0 {
+                up = pj.qvel + pj.nv() - 1 - t0;
+                break;
+            }
+            cur = pj.parent;
+        }
+        for k in 0..j.nv() {
+            dof_parent[j.qvel + k] = if k == 0 { up } else { j.qvel + k - 1 - t0 };
+        }
+    }
+    let mut tree_block = Vec::with_capacity(ntrees);
+    let mut off = 0;
+    for &(_, n) in &trees {
+        tree_block.push(off);
+        off += n * n;
+    }
+
+    // Loop constraints.
+    let mut loops = Vec::new();
+    let mut nc = 0;
+    for (li, &ji) in loop_joints.iter().enumerate() {
+        let j = &scene.joint[ji];
+        let item = format!("joint {:?}", j.name);
+        if j.kind == JointType::Free {
+            return Err(SceneError::new(
+                origin,
+                item,
+                "type",
+                "a free joint cannot close a loop (it constrains nothing)",
+            ));
+        }
+        let a = body_idx(&j.parent);
+        let b = body_idx(&j.child).unwrap_or(0);
+        let anchor_w = j.anchor.map(to_v).unwrap_or(pos0[b]);
+        let axis_w = j.axis.map(to_v).unwrap_or(Vector3::z()).normalize();
+        let (ra, qa) = pose(a);
+        let (rb, qb) = (pos0[b], rot0[b]);
+        let tri = triad(&axis_w);
+        let lc = LoopConstraint {
+            name: j.name.clone(),
+            kind: j.kind,
+            body_a: a,
+            body_b: b,
+            anchor_a: qa.inverse() * (anchor_w - ra),
+            anchor_b: qb.inverse() * (anchor_w - rb),
+            triad_a: qa.to_rotation_matrix().inverse().matrix() * tri,
+            triad_b: qb.to_rotation_matrix().inverse().matrix() * tri,
+            row: nc,
+        };
+        nc += lc.rows();
+        scene_joint[ji] = Err(li);
+        loops.push(lc);
+    }
+
+    let to_body = |name: &str| -> Option<usize> { body_idx(name) };
+    let local_point = |b: Option<usize>, p: Vector3<f64>| -> Vector3<f64> {
+        let (r, q) = pose(b);
+        q.inverse() * (p - r)
+    };
+    let springs = scene
+        .spring_damper
+        .iter()
+        .map(|s| {
+            let (a, b) = (to_body(&s.body_a), to_body(&s.body_b));
+            SpringDamper {
+                name: s.name.clone(),
+                body_a: a,
+                point_a: local_point(a, to_v(s.point_a)),
+                body_b: b,
+                point_b: local_point(b, to_v(s.point_b)),
+                stiffness: s.stiffness,
+                damping: s.damping,
+                free_length: s
+                    .free_length
+                    .unwrap_or_else(|| (to_v(s.point_b) - to_v(s.point_a)).norm()),
+            }
+        })
+        .collect();
+
+    let mut contacts = Vec::with_capacity(scene.contact.len());
+    for c in &scene.contact {
+        contacts.push(contact::compile_contact(
+            scene,
+            c,
+            origin,
+            &|n| to_body(n),
+            &|b, p| local_point(b, p),
+            &|b, v| {
+                let (_, q) = pose(b);
+                q.inverse() * v
+            },
+        )?);
+    }
+    // One constraint row per impulse-law contact after the loop rows (its resting mode).
+    nc = contact::reserve_constraint_rows(&mut contacts, nc);
+    let mut warnings = Vec::new();
+    for c in &contacts {
+        if c.law == Law::KelvinVoigt && c.damping > 0.0 {
+            warnings.push(format!(
+                "contact {:?}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; \
+                 the force is cut at zero there (docs/contact.md)",
+                c.name
+            ));
+        }
+    }
+
+    let inputs = scene
+        .input
+        .iter()
+        .map(|i| match i.kind {
+            InputType::Force => Input::Force {
+                body: i.body.as_deref().and_then(to_body).unwrap_or(0),
+                direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
+            },
+            InputType::Torque => Input::Torque {
+                body: i.body.as_deref().and_then(to_body).unwrap_or(0),
+                direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
+            },
+            InputType::JointForce => {
+                let ji = scene
+                    .joint
+                    .iter()
+                    .position(|j| Some(&j.name) == i.joint.as_ref())
+                    .unwrap_or(0);
+                match scene_joint[ji] {
+                    Ok(t) => Input::JointForce { qvel: joints[t].qvel },
+                    Err(_) => Input::JointForce { qvel: usize::MAX },
+                }
+            }
+        })
+        .collect();
+
+    let mut model = Model {
+        name: scene.model.name.clone(),
+        gravity: to_v(scene.model.gravity),
+        bodies,
+        joints,
+        scene_joint,
+        loops,
+        nc,
+        springs,
+        contacts,
+        inputs,
+        input_start: scene.input.iter().map(|i| i.start).collect(),
+        nq,
+        nv,
+        trees,
+        tree_block,
+        dof_joint,
+        dof_parent,
+        solver: scene.solver.clone(),
+        baumgarte: 20.0,
+        warnings,
+    };
+    for (i, inp) in scene.input.iter().enumerate() {
+        if let (InputType::JointForce, Input::JointForce { qvel: usize::MAX }) = (inp.kind, &model.inputs[i]) {
+            return Err(SceneError::new(
+                origin,
+                format!("input {:?}", inp.name),
+                "joint",
+                "the joint closes a loop; a joint force needs a tree joint",
+            ));
+        }
+    }
+    let mut data = Data::new(&model);
+    let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, scene);
+    model.warnings.extend(warnings);
+    data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
+    data.eval_state.copy_from_slice(&data.state);
+    kinematics(&model, &mut data);
+    Ok((model, data))
+}

@@ -1,0 +1,119 @@
+//! The compiled contact element (a sphere and the [`Shape`] it can touch) and its per-contact
+//! records: what the model holds of a
+//! contact ([`ContactElement`]), what the state remembers of it ([`ContactMemory`]) and what
+//! an evaluation reports ([`ContactOutput`]).
+
+use crate::scene::{ContactType, ImpulseMethod, Law};
+use nalgebra::Vector3;
+
+/// The shape a sphere can touch, in its body's frame.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// Another sphere.
+    Sphere {
+        /// Centre.
+        center: Vector3<f64>,
+        /// Radius [m].
+        radius: f64,
+    },
+    /// A finite rectangle: centre, outward normal, in-plane axes u and v, half side lengths.
+    Plane {
+        /// Centre of the rectangle.
+        origin: Vector3<f64>,
+        /// Unit outward normal (the side the sphere may touch).
+        normal: Vector3<f64>,
+        /// First in-plane axis.
+        u: Vector3<f64>,
+        /// Second in-plane axis (normal × u).
+        v: Vector3<f64>,
+        /// Half side lengths along u and v [m].
+        half: [f64; 2],
+    },
+    /// A cylindrical surface patch.
+    Cylinder {
+        /// Point on the axis at the middle of the patch's length.
+        point: Vector3<f64>,
+        /// Unit axis.
+        axis: Vector3<f64>,
+        /// Unit direction perpendicular to the axis where θ = 0.
+        reference: Vector3<f64>,
+        /// Cylinder radius ρ [m].
+        radius: f64,
+        /// Half length along the axis [m].
+        half_length: f64,
+        /// Angular range [min, max] [rad] (None: the whole circumference).
+        theta_range: Option<[f64; 2]>,
+        /// Sphere inside (concave) rather than outside (convex).
+        inside: bool,
+    },
+}
+
+/// A compiled contact element.
+#[derive(Debug, Clone)]
+pub struct ContactElement {
+    /// Name.
+    pub name: String,
+    /// Element type.
+    pub kind: ContactType,
+    /// Force law.
+    pub law: Law,
+    /// Coefficient of restitution.
+    pub restitution: f64,
+    /// Body carrying the sphere (None = ground).
+    pub sphere_body: Option<usize>,
+    /// Sphere centre in that body's frame.
+    pub center: Vector3<f64>,
+    /// Sphere radius [m].
+    pub radius: f64,
+    /// Body carrying the other shape (None = ground).
+    pub body: Option<usize>,
+    /// The other shape, in its body's frame.
+    pub shape: Shape,
+    /// Stiffness K [N/m^n].
+    pub stiffness: f64,
+    /// True when K was derived from the materials (a calculated parameter).
+    pub stiffness_derived: bool,
+    /// Exponent n.
+    pub exponent: f64,
+    /// Kelvin-Voigt damping c [N s/m].
+    pub damping: f64,
+    /// Largest admissible penetration [m].
+    pub max_penetration: f64,
+    /// Floor on δ̇⁻ [m/s]; for the impulse law, approach speeds below it come to rest.
+    pub min_impact_velocity: f64,
+    /// Radius of a bounding sphere of the other shape around its reference point (broad
+    /// phase); infinite for unbounded shapes.
+    pub bound_radius: f64,
+    /// Impulse law: how the impulse of an impact is computed.
+    pub impulse_method: ImpulseMethod,
+    /// Impulse law: the row of the constraint system reserved for the resting contact (after
+    /// the loop rows; zero while the contact does not rest).
+    pub constraint_row: Option<usize>,
+    /// Damping factor of the hysteresis laws from the restitution
+    /// ([`crate::contact::laws::hysteresis_factor`]), computed once at compilation.
+    pub hysteresis: f64,
+}
+
+/// Per-contact memory carried from touch to separation (part of the state).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactMemory {
+    /// In contact (the force law acts, or a resting impulse contact holds).
+    pub active: bool,
+    /// Penetration rate at the first instant of this contact, floored (δ̇⁻) [m/s].
+    pub impact_velocity: f64,
+    /// Impacts resolved so far (impulse law).
+    pub impacts: u64,
+}
+
+/// Per-contact results of the last evaluation (outputs).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactOutput {
+    /// Penetration (0 when apart) [m].
+    pub delta: f64,
+    /// Penetration rate [m/s].
+    pub delta_dot: f64,
+    /// Normal force [N].
+    pub force: f64,
+    /// Elastic energy stored [J].
+    pub elastic_energy: f64,
+}

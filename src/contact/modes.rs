@@ -1,0 +1,244 @@
+//! Contact modes: which contacts are active, and how that changes at a located event.
+//!
+//! - Each contact has a *mode function* whose sign changes exactly when its mode must change
+//!   (touch and separation of a continuous-law contact, release of a resting impulse-law
+//!   contact, an impulse-law contact reaching the surface) and, for the damped laws, a *clamp
+//!   function* whose sign tells whether the force is cut at zero ([`contact_event_values`]).
+//! - At an event the driver calls [`handle_events`]: continuous contacts touch or separate;
+//!   impulse-law contacts are settled by [`settle_impulse_contacts`] (rounds of impacts, then
+//!   the resting set).
+
+use super::{broad_phase, event_function, gap, impulse, laws, resting_force, ContactElement, Gap};
+use crate::forward::{evaluate, evaluate_current};
+use crate::model::{ContactEventKind, Data, Model};
+use crate::scene::Law;
+
+/// Mode function, clamp function and (δ, δ̇) of contact `i` at the evaluated kinematics
+/// (`clamp`: evaluate the clamp function, else 1).
+pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64, f64)) {
+    let c = &m.contacts[i];
+    let mem = d.contact_memory[i];
+    if c.law == Law::Impulse && mem.active {
+        // Resting: holds while the normal force pushes and the sphere stays on the patch.
+        let g = gap(m, d, i);
+        return (resting_force(m, d, i).min(g.margin), 1.0, (g.delta, g.delta_dot));
+    }
+    if let Some(v) = broad_phase(c, d) {
+        return (v, 1.0, (v, 0.0));
+    }
+    let g = gap(m, d, i);
+    let clamp_value = if clamp && mem.active && c.law != Law::Impulse && laws::can_clamp(c) {
+        laws::clamp_function(c, g.delta.max(0.0), g.delta_dot, mem.impact_velocity)
+    } else {
+        1.0
+    };
+    let mut mode = event_function(c, &g);
+    if c.law == Law::Impulse && g.delta_dot < 0.0 {
+        // An impulse contact that separates is apart whatever its (tiny) overlap: the
+        // state right after an impact (located a hair past δ = 0) must not count as in
+        // contact, or a bounce shorter than one step would go unseen.
+        mode = mode.min(0.0);
+    }
+    (mode, clamp_value, (g.delta, g.delta_dot))
+}
+
+/// True when the crossing of event function `k` (mode functions first, then clamp functions)
+/// from `g0` to `g1` needs handling (an impulse contact leaving its zone after an impact does
+/// not; a cut of the force only matters while the contact is active).
+pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
+    let crossed = (g0 <= 0.0) != (g1 <= 0.0);
+    if !crossed {
+        return false;
+    }
+    let nc = m.contacts.len();
+    if k >= nc {
+        return d.contact_memory[k - nc].active;
+    }
+    let c = &m.contacts[k];
+    if c.law == Law::Impulse && !d.contact_memory[k].active && g1 <= 0.0 {
+        // Leaving after an impact: nothing to do, unless δ went past δ_max.
+        return delta1 >= 0.5 * c.max_penetration;
+    }
+    true
+}
+
+/// True when a resting contact's normal force does not push or it left its patch (evaluates
+/// the current state).
+pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
+    evaluate_current(m, d);
+    (0..m.contacts.len()).any(|i| {
+        m.contacts[i].law == Law::Impulse && d.contact_memory[i].active && contact_event_values(m, d, i, false).0 <= 0.0
+    })
+}
+
+/// Applies the mode changes at an event state (`d.events.g` before, `d.events.g_new` now):
+/// touch and separation of continuous contacts (logged), cuts of their force (logged), and
+/// the impulse-law contacts settled. An error when a contact reached `max_penetration`.
+pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
+    evaluate_current(m, d);
+    let nc = m.contacts.len();
+    let mut impulse_work = false;
+    for i in 0..nc {
+        let c = &m.contacts[i];
+        let gap = gap(m, d, i);
+        let mem = d.contact_memory[i];
+        let (before, now) = (d.events.g[i], d.events.g_new[i]);
+        let crossed = relevant_crossing(m, d, i, before, now, gap.delta);
+        // Reaching δ_max in contact is an error. (A continuous contact that is not active
+        // there is a sphere passing behind a plate: not a contact at all.)
+        let in_contact = if c.law == Law::Impulse { !mem.active } else { mem.active };
+        if crossed && now <= 0.0 && in_contact && gap.delta >= c.max_penetration * (1.0 - 1e-9) {
+            return Err(format!(
+                "contact {:?}: penetration {:.6e} m reached max_penetration {:.6e} m (the contact is too \
+                 soft or the impact too fast for this model, or the step too long: raise max_penetration or \
+                 stiffness, or lower solver.max_step)",
+                c.name, gap.delta, c.max_penetration
+            ));
+        }
+        if c.law == Law::Impulse {
+            impulse_work |= crossed;
+            continue;
+        }
+        if crossed {
+            // A touch comes through δ = 0 (or over the patch edge with a small overlap);
+            // entering the zone deeper than δ_max/2 is the sphere coming through the back
+            // of the shape: ignored.
+            if now > 0.0 && !mem.active && gap.delta < 0.5 * c.max_penetration {
+                let v = gap.delta_dot.max(c.min_impact_velocity);
+                let memory = &mut d.contact_memory[i];
+                memory.active = true;
+                memory.impact_velocity = v;
+                d.log_event(i, ContactEventKind::Touch, gap.delta, gap.delta_dot, 0.0);
+            } else if now <= 0.0 && mem.active {
+                d.contact_memory[i].active = false;
+                d.log_event(i, ContactEventKind::Separation, gap.delta, gap.delta_dot, 0.0);
+            }
+        }
+        let (before, now) = (d.events.g[nc + i], d.events.g_new[nc + i]);
+        if relevant_crossing(m, d, nc + i, before, now, gap.delta) {
+            let kind = if now <= 0.0 {
+                ContactEventKind::Clamp
+            } else {
+                ContactEventKind::Unclamp
+            };
+            let f = d.contact_out[i].force;
+            d.log_event(i, kind, gap.delta, gap.delta_dot, f);
+        }
+    }
+    if impulse_work {
+        settle_impulse_contacts(m, d)?;
+    }
+    Ok(())
+}
+
+/// Resolves the impulse-law contacts at the current (evaluated) state: rounds of
+/// simultaneous impacts of the touching contacts that approach, until none does (an impact
+/// can make a neighbour approach: Newton's cradle); approach slower than
+/// `min_impact_velocity` is plastic (e = 0). Then the touching contacts that neither
+/// approach nor separate rest if their constraint force pushes (an active set: the most
+/// tensile one is dropped until all push). Works on the preallocated `d.impacts`.
+pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
+    let nc = m.contacts.len();
+    let max_rounds = 100 + 20 * nc;
+    let mut rounds = 0;
+    loop {
+        let w = &mut d.impacts;
+        w.set.clear();
+        w.restitution.clear();
+        w.approach.clear();
+        for (i, c) in m.contacts.iter().enumerate() {
+            if c.law != Law::Impulse {
+                continue;
+            }
+            let g = gap(m, d, i);
+            if touching(c, &g, d.contact_memory[i].active) && g.delta_dot > velocity_tolerance(c) {
+                let w = &mut d.impacts;
+                w.set.push(i);
+                w.restitution.push(impulse::restitution_for(c, g.delta_dot));
+                w.approach.push((g.delta, g.delta_dot));
+            }
+        }
+        if d.impacts.set.is_empty() {
+            break;
+        }
+        rounds += 1;
+        if rounds > max_rounds {
+            let names: Vec<&str> = d.impacts.set.iter().map(|&i| m.contacts[i].name.as_str()).collect();
+            return Err(format!(
+                "impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"
+            ));
+        }
+        let mut w = std::mem::take(&mut d.impacts);
+        let resolved = impulse::resolve_with(m, d, &mut w.solve, &w.set, &w.restitution);
+        if let Ok(energy_lost) = resolved {
+            d.state[m.dissipated_index()] += energy_lost;
+            for (k, &i) in w.set.iter().enumerate() {
+                let (delta, delta_dot) = w.approach[k];
+                d.log_event(i, ContactEventKind::Impact, delta, delta_dot, w.solve.impulses()[k]);
+            }
+        }
+        d.impacts = w;
+        resolved?;
+    }
+    // Resting set.
+    d.impacts.was.clear();
+    for k in 0..nc {
+        let active = d.contact_memory[k].active;
+        d.impacts.was.push(active);
+    }
+    d.impacts.candidates.clear();
+    for (i, c) in m.contacts.iter().enumerate() {
+        if c.law != Law::Impulse {
+            continue;
+        }
+        let g = gap(m, d, i);
+        let rest = touching(c, &g, d.impacts.was[i]) && g.margin > 0.0 && g.delta_dot.abs() <= velocity_tolerance(c);
+        d.contact_memory[i].active = rest;
+        if rest {
+            d.impacts.candidates.push(i);
+        }
+    }
+    evaluate_current(m, d);
+    while !d.impacts.candidates.is_empty() {
+        let (k, p) = d
+            .impacts
+            .candidates
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| (k, resting_force(m, d, i)))
+            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        if p > 0.0 {
+            break;
+        }
+        let i = d.impacts.candidates.remove(k);
+        d.contact_memory[i].active = false;
+        evaluate(m, d);
+    }
+    for i in 0..nc {
+        let (before, now) = (d.impacts.was[i], d.contact_memory[i].active);
+        if m.contacts[i].law == Law::Impulse && now != before {
+            let g = gap(m, d, i);
+            let f = resting_force(m, d, i);
+            let kind = if now {
+                ContactEventKind::Rest
+            } else {
+                ContactEventKind::Release
+            };
+            d.log_event(i, kind, g.delta, g.delta_dot, f);
+        }
+    }
+    Ok(())
+}
+
+/// Touching for the impulse law: resting, or within a hair of δ = 0 (simultaneous impacts)
+/// or overlapping a little, on the patch (an overlap beyond δ_max/2 is a sphere behind a
+/// plate, not a contact).
+fn touching(c: &ContactElement, g: &Gap, resting: bool) -> bool {
+    (resting || g.delta >= -1e-10 * c.radius) && g.margin > 0.0 && g.delta < 0.5 * c.max_penetration
+}
+
+/// Normal speeds below this count as zero for the impulse law (neither approach nor
+/// separation) [m/s].
+fn velocity_tolerance(c: &ContactElement) -> f64 {
+    (1e-6 * c.min_impact_velocity).max(1e-12)
+}

@@ -1,0 +1,134 @@
+//! Preallocated work arrays of the impulse law (sized at compilation, so that resolving
+//! impacts allocates nothing). The computations that use them are in [`super::impulse`].
+
+/// The loop-only projection `G`: the factor of `Φ_l M̄⁻¹ Φ_lᵀ` over the `nl` loop rows, with
+/// its own solve buffers (sized once).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Projection {
+    pub(crate) nl: usize,
+    pub(crate) schur: Vec<f64>,
+    pub(crate) perm: Vec<usize>,
+    pub(crate) rank: usize,
+    pub(crate) b: Vec<f64>,
+    pub(crate) work: Vec<f64>,
+}
+
+impl Projection {
+    pub(crate) fn with_rows(nl: usize) -> Projection {
+        Projection {
+            nl,
+            schur: vec![0.0; nl * nl],
+            perm: vec![0; nl],
+            rank: 0,
+            b: vec![0.0; nl],
+            work: vec![0.0; nl],
+        }
+    }
+}
+
+/// Work arrays of [`solve_lcp_with`] for problems of up to `n` contacts.
+#[derive(Debug, Clone, Default)]
+pub struct LcpWork {
+    pub(crate) n: usize,
+    pub(crate) active: Vec<bool>,
+    pub(crate) idx: Vec<usize>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) a: Vec<f64>,
+    pub(crate) rhs: Vec<f64>,
+    pub(crate) perm: Vec<usize>,
+    pub(crate) work: Vec<f64>,
+    pub(crate) wv: Vec<f64>,
+}
+
+impl LcpWork {
+    /// Buffers for problems of up to `n` unknowns.
+    pub fn new(n: usize) -> LcpWork {
+        LcpWork {
+            n,
+            active: vec![false; n],
+            idx: Vec::with_capacity(n),
+            p: vec![0.0; n],
+            a: vec![0.0; n * n],
+            rhs: vec![0.0; n],
+            perm: vec![0; n],
+            work: vec![0.0; n],
+            wv: vec![0.0; n],
+        }
+    }
+
+    /// Grows the buffers (allocates) only if `n` exceeds the size they were made for.
+    pub(crate) fn reserve(&mut self, n: usize) {
+        if n > self.n {
+            *self = LcpWork::new(n);
+        }
+    }
+}
+
+/// Preallocated work arrays of the impulse law: everything [`resolve_with`] needs for rounds
+/// of up to `k` simultaneous impacts of a model with `nv` velocities (and its loop rows), so
+/// that resolving an impact allocates nothing. Sized when the engine is compiled.
+#[derive(Debug, Clone, Default)]
+pub struct ImpulseWork {
+    pub(crate) k: usize,
+    pub(crate) nv: usize,
+    pub(crate) proj: Projection,
+    /// Separation-rate rows `J` (k × nv).
+    pub(crate) jrows: Vec<f64>,
+    /// Their images `G Jᵀ` (k × nv).
+    pub(crate) gj: Vec<f64>,
+    pub(crate) qvel: Vec<f64>,
+    pub(crate) rate: Vec<f64>,
+    pub(crate) impulses: Vec<f64>,
+    /// Rows solved exactly (the rest use the effective mass).
+    pub(crate) exact: Vec<usize>,
+    pub(crate) w: Vec<f64>,
+    pub(crate) q: Vec<f64>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) lcp: LcpWork,
+    /// Effective-mass buffers (nv each).
+    pub(crate) row: Vec<f64>,
+    pub(crate) free: Vec<f64>,
+    pub(crate) x: Vec<f64>,
+    /// Contacts of the last round.
+    pub(crate) last: usize,
+}
+
+impl ImpulseWork {
+    /// Buffers for up to `k` simultaneous impacts in a model with `nv` velocities and `nl`
+    /// loop-constraint rows.
+    pub fn new(nv: usize, nl: usize, k: usize) -> ImpulseWork {
+        ImpulseWork {
+            k,
+            nv,
+            proj: Projection::with_rows(nl),
+            jrows: vec![0.0; k * nv],
+            gj: vec![0.0; k * nv],
+            qvel: vec![0.0; nv],
+            rate: vec![0.0; k],
+            impulses: vec![0.0; k],
+            exact: Vec::with_capacity(k),
+            w: vec![0.0; k * k],
+            q: vec![0.0; k],
+            p: vec![0.0; k],
+            lcp: LcpWork::new(k),
+            row: vec![0.0; nv],
+            free: vec![0.0; nv],
+            x: vec![0.0; nv],
+            last: 0,
+        }
+    }
+
+    /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
+    /// [N s].
+    pub fn impulses(&self) -> &[f64] {
+        &self.impulses[..self.last]
+    }
+
+    /// Makes the buffers fit `k` contacts of a model with `nv` velocities and `nl` loop rows
+    /// (allocates only if they do not).
+    pub(crate) fn reserve(&mut self, nv: usize, nl: usize, k: usize) {
+        if k > self.k || self.nv != nv || self.proj.nl != nl {
+            *self = ImpulseWork::new(nv, nl, k.max(self.k));
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! Event location: after each integrator step, the event functions of every contact (see
+//! [`crate::contact::modes`]) are compared between the step's start and end; a relevant sign
+//! change is located by root finding on the integrator's dense output. Also checked:
+//! tunnelling (δ crossed zero although the mode function did not turn positive at the end
+//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0).
+
+use crate::contact::{self, modes};
+use crate::forward::{any_resting, evaluate};
+use crate::kinematics::{kinematics, kinematics_path};
+use crate::model::{ContactEventKind, Data, Model};
+use crate::scene::Law;
+
+/// Relative tolerance of event location in time.
+const EVENT_TIME_TOL: f64 = 1e-13;
+
+/// One scalar function the event locator can follow.
+#[derive(Debug, Clone, Copy)]
+enum Probe {
+    /// Event function `k` of the `g` vector.
+    Event(usize),
+    /// Exact penetration δ of contact `i` (tunnelling check).
+    Delta(usize),
+    /// Penetration rate δ̇ of contact `i` (peaks).
+    Rate(usize),
+}
+
+/// Evaluates the event functions and the per-contact (δ, δ̇) at `d.eval_state` into
+/// `d.events.g`/`aux` (`at_step_end`: into `g_new`/`aux_new`).
+pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
+    if any_resting(m, d) {
+        evaluate(m, d);
+    } else {
+        kinematics(m, d);
+    }
+    let nc = m.contacts.len();
+    for i in 0..nc {
+        let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
+        let (g, aux) = if at_step_end {
+            (&mut d.events.g_new, &mut d.events.aux_new)
+        } else {
+            (&mut d.events.g, &mut d.events.aux)
+        };
+        g[i] = mode;
+        g[nc + i] = clamp_value;
+        aux[i] = a;
+    }
+}
+
+/// Kinematics of the two bodies of contact `i` (and their ancestors) only: enough for its
+/// gap, broad phase and event functions. Every other body's entries in `d` are left stale,
+/// so whatever follows a probe and looks at other bodies recomputes the full kinematics
+/// (`event_values`, `evaluate`, `project_state` all do).
+fn contact_kinematics(m: &Model, d: &mut Data, i: usize) {
+    let c = &m.contacts[i];
+    kinematics_path(m, d, c.sphere_body);
+    kinematics_path(m, d, c.body);
+}
+
+/// Puts the dense output at `t` into `d.eval_state`.
+fn interpolate(d: &mut Data, t: f64) {
+    if let Some(method) = d.solver.method() {
+        method.interpolate(t, &mut d.eval_state);
+    }
+}
+
+/// Evaluates `probe` on the dense output at `t` (leaves the interpolated state in
+/// `d.eval_state` and the data evaluated there).
+fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
+    interpolate(d, t);
+    let nc = m.contacts.len();
+    let needs_dynamics = matches!(probe, Probe::Event(k) if k < nc
+        && m.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
+    if needs_dynamics {
+        evaluate(m, d);
+    } else {
+        let i = match probe {
+            Probe::Event(k) => k % nc,
+            Probe::Delta(i) | Probe::Rate(i) => i,
+        };
+        contact_kinematics(m, d, i);
+    }
+    match probe {
+        Probe::Event(k) if k < nc => modes::contact_event_values(m, d, k, d.clamp_events).0,
+        Probe::Event(k) => modes::contact_event_values(m, d, k - nc, d.clamp_events).1,
+        Probe::Delta(i) => contact::gap(m, d, i).delta,
+        Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
+    }
+}
+
+/// Finds the right end of the bracket of a sign change of `probe` in `[t0, t1]` (values
+/// `g0`, `g1` at the ends) by the Illinois method; stops early once the bracket lies beyond
+/// `t_limit` (a crossing found earlier wins).
+#[allow(clippy::too_many_arguments)]
+fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: f64, t_limit: f64) -> f64 {
+    let (mut a, mut b, mut ga, mut gb) = (t0, t1, g0, g1);
+    let mut side = 0;
+    let tol = EVENT_TIME_TOL * t1.abs().max(1e-3);
+    for _ in 0..200 {
+        if b - a <= tol || a >= t_limit {
+            break;
+        }
+        let mut t = b - gb * (b - a) / (gb - ga);
+        if !(t > a && t < b) {
+            t = 0.5 * (a + b);
+        }
+        let gt = probe_at(m, d, probe, t);
+        if (gt <= 0.0) == (ga <= 0.0) {
+            a = t;
+            ga = gt;
+            if side == -1 {
+                gb *= 0.5;
+            }
+            side = -1;
+        } else {
+            b = t;
+            gb = gt;
+            if side == 1 {
+                ga *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    b
+}
+
+/// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
+/// its end go to `d.events.g_new`, and the earliest relevant event inside it is returned
+/// (None: the step can be accepted whole). Peaks of continuous contacts before that event
+/// are logged.
+pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
+    let nc = m.contacts.len();
+    let Some(method) = d.solver.method() else { return None };
+    if nc == 0 {
+        return None;
+    }
+    let (t0, t1) = (method.t_prev(), method.t());
+    d.eval_state.copy_from_slice(method.y());
+    event_values(m, d, true);
+    // Earliest relevant crossing.
+    let mut t_first = t1;
+    let mut any = false;
+    for k in 0..2 * nc {
+        let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % nc].0);
+        if modes::relevant_crossing(m, d, k, g0, g1, delta1) {
+            let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);
+            any = true;
+            t_first = t_first.min(t);
+        }
+    }
+    // Tunnelling: δ of a contact that is not in contact crossed zero without its event
+    // function turning positive at the end of the step (it passed δ_max or the patch).
+    for i in 0..nc {
+        let (d0, d1) = (d.events.aux[i].0, d.events.aux_new[i].0);
+        if d.contact_memory[i].active || !(d0 <= 0.0 && d1 > 0.0) || d.events.g_new[i] > 0.0 {
+            continue;
+        }
+        interpolate(d, t0);
+        contact_kinematics(m, d, i);
+        let d0_exact = contact::gap(m, d, i).delta;
+        if d0_exact > 0.0 {
+            continue;
+        }
+        let t = locate(m, d, Probe::Delta(i), t0, t1, d0_exact, d1, t_first);
+        if t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0 {
+            any = true;
+            t_first = t;
+        }
+    }
+    // Peaks of continuous contacts inside the accepted part of the step (diagnostic).
+    for i in 0..nc {
+        if m.contacts[i].law == Law::Impulse || !d.contact_memory[i].active {
+            continue;
+        }
+        let (r0, r1) = (d.events.aux[i].1, d.events.aux_new[i].1);
+        if r0 > 0.0 && r1 <= 0.0 {
+            let t = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t1);
+            if t <= t_first {
+                interpolate(d, t);
+                contact_kinematics(m, d, i);
+                let g = contact::gap(m, d, i);
+                let mem = d.contact_memory[i];
+                let f = contact::laws::force(&m.contacts[i], g.delta.max(0.0), g.delta_dot, mem.impact_velocity);
+                d.log_event_at(t, i, ContactEventKind::Peak, g.delta, g.delta_dot, f.total);
+            }
+        }
+    }
+    any.then_some(t_first)
+}

@@ -1,0 +1,255 @@
+//! The driver: advances a [`Model`]'s [`Data`] from one communication point to the next.
+//!
+//! The right-hand side ([`crate::forward`]) is evaluated with the contact *mode* (which
+//! contacts are active) frozen; every change of mode — touch, separation, an impact — is an
+//! event located on the integrator's dense output ([`events`]), handled by
+//! [`crate::contact::modes`], after which the integrator restarts. No force discontinuity is
+//! stepped over. One `advance`:
+//!
+//! 1. settle resting contacts an input change made pull, and restart the method at `d.state`;
+//! 2. per step: take it; if no event lies inside, accept it (and project onto the loop
+//!    constraints when they drifted); else move to the earliest event, change the modes
+//!    there and restart.
+
+pub mod events;
+
+use crate::contact::{self, modes};
+use crate::dynamics;
+use crate::forward::{any_resting, evaluate, Rhs};
+use crate::kinematics::kinematics;
+use crate::model::data::Stepper;
+use crate::model::{Data, Model};
+use crate::scene::Law;
+
+/// A failed advance: the last good time and what went wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("at t = {time}: {message}")]
+pub struct EngineError {
+    /// Last time reached with a valid state [s].
+    pub time: f64,
+    /// What went wrong.
+    pub message: String,
+}
+
+/// Consecutive integrator steps cut short by an event after which the advance fails (an
+/// event storm: a fixed-step method overshooting a stiff contact, or a Zeno sequence).
+const MAX_INTERRUPTED_STEPS: usize = 2000;
+
+fn fail(d: &Data, message: impl Into<String>) -> EngineError {
+    EngineError {
+        time: d.time,
+        message: message.into(),
+    }
+}
+
+/// Prepares freshly compiled data for its first advance: contacts that overlap at the
+/// initial state start active, with δ̇⁻ from the initial rate (floored); impulse-law contacts
+/// that touch are resolved (an impact at the start if they approach, resting if they press);
+/// the event functions are evaluated.
+pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics(m, d);
+    for i in 0..m.contacts.len() {
+        let g = contact::gap(m, d, i);
+        let c = &m.contacts[i];
+        if contact::event_function(c, &g) > 0.0 && c.law != Law::Impulse {
+            d.contact_memory[i].active = true;
+            d.contact_memory[i].impact_velocity = g.delta_dot.max(c.min_impact_velocity);
+        }
+    }
+    if m.contacts.iter().any(|c| c.law == Law::Impulse) {
+        evaluate(m, d);
+        modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
+    }
+    resync(m, d);
+    Ok(())
+}
+
+/// Re-evaluates the event functions at the current state (after the state was set from
+/// outside, e.g. restored).
+pub fn resync(m: &Model, d: &mut Data) {
+    d.eval_state.copy_from_slice(&d.state);
+    events::event_values(m, d, false);
+}
+
+/// Integrates to `t_end`, locating and handling contact events.
+pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+    if t_end.is_nan() || t_end < d.time {
+        return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
+    }
+    d.outputs_valid = false;
+    // An input changed at this communication point may have made a resting contact pull.
+    let settled = any_resting(m, d) && modes::resting_violated(m, d);
+    if settled {
+        modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
+    }
+    // Every advance restarts the method from the current state (one extra evaluation), so
+    // that a restored state continues bit for bit like the original; a plain restart keeps
+    // an implicit method's Jacobian (saved with the state).
+    restart(m, d, d.solver.pending_step(), !settled)?;
+    // A remainder of a few ulps (a step or an event that ended a rounding error short of
+    // t_end) is not a step any method can take.
+    let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
+    let mut interrupted = 0usize;
+    while t_end - d.time > t_close {
+        take_step(m, d, t_end)?;
+        match events::first_event(m, d) {
+            None => {
+                interrupted = 0;
+                accept_step(m, d)?;
+            }
+            Some(t_event) => {
+                interrupted += 1;
+                if interrupted > MAX_INTERRUPTED_STEPS {
+                    stop_after_failure(d);
+                    return Err(fail(
+                        d,
+                        format!(
+                            "{MAX_INTERRUPTED_STEPS} steps in a row were cut short by contact events (touch and \
+                             separation chatter): the step is too large for the contact stiffness; use an \
+                             adaptive method or a smaller solver.max_step"
+                        ),
+                    ));
+                }
+                stop_at_event(m, d, t_event)?;
+            }
+        }
+    }
+    d.time = t_end;
+    sync_counters(d);
+    Ok(())
+}
+
+/// Runs `f` with the integrator taken out of the data (so that the right-hand side can
+/// borrow the data) and puts it back.
+fn with_stepper<R>(m: &Model, d: &mut Data, f: impl FnOnce(&mut Stepper, &mut Rhs) -> R) -> Result<R, EngineError> {
+    let Some(mut stepper) = d.solver.stepper.take() else {
+        return Err(fail(
+            d,
+            "the integrator was lost after an internal error; reset the instance",
+        ));
+    };
+    let result = f(&mut stepper, &mut Rhs { model: m, data: d });
+    d.solver.stepper = Some(stepper);
+    Ok(result)
+}
+
+/// Takes one integrator step toward `t_end` (the data's state is unchanged).
+fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+    if let Err(e) = with_stepper(m, d, |s, rhs| s.method.step(rhs, t_end))? {
+        stop_after_failure(d);
+        return Err(fail(d, e.to_string()));
+    }
+    if !d.solver.method().is_some_and(|i| i.y().iter().all(|v| v.is_finite())) {
+        stop_after_failure(d);
+        return Err(fail(d, "the state became non-finite"));
+    }
+    Ok(())
+}
+
+/// Accepts the whole step: the state moves to its end; the event functions there become the
+/// current ones.
+fn accept_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
+    if let Some(method) = d.solver.method() {
+        d.state.copy_from_slice(method.y());
+        d.time = method.t();
+    }
+    std::mem::swap(&mut d.events.g, &mut d.events.g_new);
+    std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
+    project_after_step(m, d)
+}
+
+/// Moves the state to the event at `t` (on the dense output), applies the mode changes
+/// there and restarts the integrator.
+fn stop_at_event(m: &Model, d: &mut Data, t: f64) -> Result<(), EngineError> {
+    if let Some(method) = d.solver.method() {
+        method.interpolate(t, &mut d.state);
+    }
+    d.time = t;
+    d.counters.events += 1;
+    d.eval_state.copy_from_slice(&d.state);
+    events::event_values(m, d, true);
+    let result = modes::handle_events(m, d);
+    let h = d.solver.method().map_or(0.0, |i| i.next_step());
+    restart(m, d, h, false)?;
+    result.map_err(|e| fail(d, e))
+}
+
+/// Restarts the integrator from the current state with first step `h`: `warm` (nothing
+/// changed the right-hand side: a plain communication point) keeps an implicit method's
+/// Jacobian and controller memory, which the saved state holds; otherwise (after an event,
+/// an impulse, a projection) everything is dropped.
+fn restart(m: &Model, d: &mut Data, h: f64, warm: bool) -> Result<(), EngineError> {
+    let t = d.time;
+    with_stepper(m, d, |s, rhs| {
+        s.start.copy_from_slice(&rhs.data.state);
+        if warm {
+            s.method.restart(rhs, t, &s.start, h);
+        } else {
+            s.method.reset(rhs, t, &s.start, h);
+        }
+    })?;
+    d.eval_state.copy_from_slice(&d.state);
+    events::event_values(m, d, false);
+    d.solver.started = true;
+    Ok(())
+}
+
+/// After an accepted step: projects the state back onto the loop constraints when their
+/// residual exceeds [`dynamics::PROJECTION_TOL`] (and rescales drifted joint quaternions),
+/// then restarts the integrator from the corrected state (deterministic, so restored states
+/// still continue bit for bit).
+fn project_after_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
+    if !dynamics::project_state(m, d, dynamics::PROJECTION_TOL, contact::resting_rows) {
+        return Ok(());
+    }
+    if !m.contacts.is_empty() {
+        // The correction moves bodies by about the tolerance. If that alone changed the
+        // sign of an event function, keep the step's own end state (still held by the
+        // integrator) so that the event is located on the dense output as usual; a later
+        // step projects.
+        d.eval_state.copy_from_slice(&d.state);
+        events::event_values(m, d, true);
+        let flipped = d
+            .events
+            .g
+            .iter()
+            .zip(&d.events.g_new)
+            .any(|(a, b)| (*a <= 0.0) != (*b <= 0.0));
+        if flipped {
+            if let Some(method) = d.solver.method() {
+                d.state.copy_from_slice(method.y());
+            }
+            return Ok(());
+        }
+    }
+    let h = d.solver.method().map_or(0.0, |i| i.next_step());
+    restart(m, d, h, false)
+}
+
+/// After a failed step: the next advance restarts the integrator, without memory.
+fn stop_after_failure(d: &mut Data) {
+    d.solver.started = false;
+    if let Some(s) = d.solver.stepper.as_mut() {
+        // an empty memory is always accepted
+        let _ = s.method.set_warm_state(&[]);
+    }
+}
+
+/// Copies the integrator's counters (since initialisation) into `d.counters`.
+fn sync_counters(d: &mut Data) {
+    let Some(s) = d.solver.method().map(|i| i.stats()) else {
+        return;
+    };
+    let (b, c) = (d.solver.base, &mut d.counters);
+    c.steps = s.steps - b.steps;
+    c.rejected = s.rejected - b.rejected;
+    c.rhs_evals = s.rhs_evals - b.rhs_evals;
+    c.jac_evals = s.jac_evals - b.jac_evals;
+}
+
+/// Sets the time at initialisation: the counters count from here, the integrator restarts.
+pub fn set_start_time(d: &mut Data, t: f64) {
+    d.time = t;
+    d.solver.started = false;
+}

@@ -1,0 +1,90 @@
+//! Forward dynamics: the right-hand side `y' = f(t, y)` of the equations of motion, one
+//! pipeline from the state to the accelerations (in the manner of MuJoCo's `mj_forward`):
+//!
+//! 1. [`kinematics`](crate::kinematics::kinematics): body poses, velocities, motion subspaces;
+//! 2. [`applied_forces`](dynamics::applied_forces): gravity, springs, inputs;
+//! 3. [`contact::apply_forces`]: the continuous contact laws of the active contacts;
+//! 4. [`mass_and_bias`](dynamics::mass_and_bias) and [`factor_mass`](dynamics::factor_mass):
+//!    `M̄` and `τ − C`;
+//! 5. the accelerations: `M̄ q̈ = τ − C`, or with constraint rows (loops, resting contacts)
+//!    the constrained solve for `q̈` and `λ`.
+//!
+//! The contact *mode* (which contacts are active) is frozen during an evaluation; the engine
+//! changes it at located events.
+
+use crate::contact;
+use crate::dynamics;
+use crate::integrator::OdeSystem;
+use crate::kinematics::{kinematics, position_derivative};
+use crate::model::{Data, Model};
+use crate::scene::Law;
+
+/// Evaluates everything at `d.eval_state`: kinematics, forces, accelerations (`d.qacc`), the
+/// dissipated power (`d.dissipation`) and the contact outputs. Returns false when the mass
+/// matrix is not positive definite (the accelerations are then NaN).
+pub fn evaluate(m: &Model, d: &mut Data) -> bool {
+    kinematics(m, d);
+    let mut power = dynamics::applied_forces(m, d);
+    if !m.contacts.is_empty() {
+        power += contact::apply_forces(m, d);
+    }
+    d.dissipation = power;
+    dynamics::mass_and_bias(m, d);
+    let ok = dynamics::factor_mass(m, d);
+    if ok {
+        // The constraint rows: the loops, and the rows of resting impulse contacts (skipped
+        // when there are no loops and nothing rests).
+        let resting = any_resting(m, d);
+        if m.nc > 0 && (resting || m.loop_rows() > 0) {
+            dynamics::constraints(m, d, contact::resting_rows);
+            dynamics::solve_constrained(m, d);
+            if resting {
+                contact::resting_outputs(m, d);
+            }
+        } else {
+            dynamics::solve_mass(m, &d.mass_blocks, &mut d.qacc);
+        }
+    } else {
+        d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
+    }
+    ok
+}
+
+/// [`evaluate`] at the current state `d.state`.
+pub fn evaluate_current(m: &Model, d: &mut Data) -> bool {
+    d.eval_state.copy_from_slice(&d.state);
+    evaluate(m, d)
+}
+
+/// Writes `y' = f(y)` for the state evaluated last (`d.eval_state`): position rates, `q̈`,
+/// dissipated power.
+pub fn state_derivative(m: &Model, d: &Data, dy: &mut [f64]) {
+    let (nq, nv) = (m.nq, m.nv);
+    position_derivative(m, &d.eval_state, &mut dy[..nq]);
+    dy[nq..nq + nv].copy_from_slice(&d.qacc);
+    dy[nq + nv] = d.dissipation;
+}
+
+/// True when some impulse-law contact is resting (its constraint row is on).
+pub fn any_resting(m: &Model, d: &Data) -> bool {
+    m.contacts
+        .iter()
+        .zip(&d.contact_memory)
+        .any(|(c, mem)| mem.active && c.law == Law::Impulse)
+}
+
+/// The right-hand side of a model as an [`OdeSystem`] for the integrators.
+pub struct Rhs<'a> {
+    /// Model.
+    pub model: &'a Model,
+    /// Data (the integrator is not in it while it steps).
+    pub data: &'a mut Data,
+}
+
+impl OdeSystem for Rhs<'_> {
+    fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        self.data.eval_state.copy_from_slice(y);
+        evaluate(self.model, self.data);
+        state_derivative(self.model, self.data, dy);
+    }
+}

@@ -1,0 +1,207 @@
+//! Kinematics in joint coordinates: body poses, spatial velocities and bias accelerations
+//! from the coordinates, by one pass down each tree (the velocity transformation `Y = B q̇`,
+//! docs/physics.md (31)-(34)); the motion subspaces `S_k` (the columns of `B`) and their
+//! rates; Jacobian rows of body-fixed quantities.
+//!
+//! Everything is evaluated at `Data::eval_state`, the state the caller put there; results go
+//! to the kinematics part of [`Data`]. All spatial quantities are in world-frame Plücker
+//! coordinates at the world origin (see [`crate::spatial`]).
+
+use crate::model::{Data, Model};
+use crate::scene::JointType;
+use crate::spatial::{Frame, Inertia, Spatial};
+use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
+
+/// The frame of body `b` (None = ground).
+pub fn frame(d: &Data, b: Option<usize>) -> Frame {
+    match b {
+        Some(i) => Frame {
+            pos: d.body_pos[i],
+            rot: d.body_rot[i],
+            quat: d.body_quat[i],
+            vel: d.body_vel[i],
+            acc: d.body_acc_bias[i],
+        },
+        None => Frame::ground(),
+    }
+}
+
+fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// Position and velocity kinematics from the state: body poses, spatial velocities, bias
+/// accelerations (q̈ = 0), motion subspaces and their rates, spatial inertias.
+pub fn kinematics(m: &Model, d: &mut Data) {
+    for ji in 0..m.joints.len() {
+        joint_kinematics(m, d, ji);
+    }
+}
+
+/// Kinematics of body `body` (None = ground: nothing to do) and of its ancestors only, root
+/// first: after it, the body's pose, velocity, bias acceleration, inertia and the motion
+/// subspaces of the joints on its path are those [`kinematics`] gives (bit for bit); every
+/// other body's entries are left as they were (stale). The path is collected in the
+/// preallocated `Data::path_joints` (no allocation).
+pub fn kinematics_path(m: &Model, d: &mut Data, body: Option<usize>) {
+    let Some(mut b) = body else { return };
+    d.path_joints.clear();
+    d.path_joints.reserve(m.joints.len()); // a no-op once the buffer has its capacity
+    loop {
+        let ji = m.bodies[b].joint;
+        d.path_joints.push(ji);
+        match m.joints[ji].parent {
+            Some(p) => b = p,
+            None => break,
+        }
+    }
+    for k in (0..d.path_joints.len()).rev() {
+        joint_kinematics(m, d, d.path_joints[k]);
+    }
+}
+
+/// Kinematics of tree joint `ji` and its child body, from its parent's (already evaluated)
+/// frame: one iteration of [`kinematics`].
+pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
+    let j = &m.joints[ji];
+    let p = frame(d, j.parent);
+    let c = j.child;
+    let q = &d.eval_state[j.qpos..j.qpos + j.nq()];
+    let w = &d.eval_state[m.nq + j.qvel..m.nq + j.qvel + j.nv()];
+    let (pos, quat);
+    let mut vel = p.vel;
+    let mut acc = p.acc;
+    match j.kind {
+        JointType::Revolute => {
+            let h = p.rot * j.axis;
+            let pj = p.pos + p.rot * j.anchor;
+            let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
+            quat = p.quat * rel * j.rot0;
+            pos = pj + p.rot * (rel * j.offset);
+            let s = Spatial::new(h, pj.cross(&h));
+            vel = vel.add(&s.scale(w[0]));
+            let sdot = p.vel.cross_motion(&s);
+            acc = acc.add(&sdot.scale(w[0]));
+            d.dof_s[j.qvel] = s;
+            d.dof_sdot[j.qvel] = sdot;
+        }
+        JointType::Prismatic => {
+            let t = p.rot * j.axis;
+            quat = p.quat * j.rot0;
+            pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
+            let s = Spatial::new(Vector3::zeros(), t);
+            vel = vel.add(&s.scale(w[0]));
+            let sdot = p.vel.cross_motion(&s);
+            acc = acc.add(&sdot.scale(w[0]));
+            d.dof_s[j.qvel] = s;
+            d.dof_sdot[j.qvel] = sdot;
+        }
+        JointType::Fixed => {
+            quat = p.quat * j.rot0;
+            pos = p.pos + p.rot * j.offset;
+        }
+        JointType::Spherical => {
+            quat = p.quat * quat_at(q);
+            let rot = *quat.to_rotation_matrix().matrix();
+            let pj = p.pos + p.rot * j.anchor;
+            pos = pj + rot * j.offset;
+            for (k, &wk) in w.iter().enumerate() {
+                let h = rot.column(k).into_owned();
+                let s = Spatial::new(h, pj.cross(&h));
+                d.dof_s[j.qvel + k] = s;
+                vel = vel.add(&s.scale(wk));
+            }
+            for (k, &wk) in w.iter().enumerate() {
+                let sdot = vel.cross_motion(&d.dof_s[j.qvel + k]);
+                d.dof_sdot[j.qvel + k] = sdot;
+                acc = acc.add(&sdot.scale(wk));
+            }
+        }
+        JointType::Free => {
+            quat = p.quat * quat_at(&q[3..7]);
+            let rot = *quat.to_rotation_matrix().matrix();
+            pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
+            for (k, &wk) in w[..3].iter().enumerate() {
+                let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
+                let sdot = p.vel.cross_motion(&s);
+                d.dof_s[j.qvel + k] = s;
+                d.dof_sdot[j.qvel + k] = sdot;
+                vel = vel.add(&s.scale(wk));
+                acc = acc.add(&sdot.scale(wk));
+            }
+            for k in 0..3 {
+                let h = rot.column(k).into_owned();
+                let s = Spatial::new(h, pos.cross(&h));
+                d.dof_s[j.qvel + 3 + k] = s;
+                vel = vel.add(&s.scale(w[3 + k]));
+            }
+            for k in 0..3 {
+                let sdot = vel.cross_motion(&d.dof_s[j.qvel + 3 + k]);
+                d.dof_sdot[j.qvel + 3 + k] = sdot;
+                acc = acc.add(&sdot.scale(w[3 + k]));
+            }
+        }
+    }
+    let rot = *quat.to_rotation_matrix().matrix();
+    d.body_pos[c] = pos;
+    d.body_rot[c] = rot;
+    d.body_quat[c] = quat;
+    d.body_vel[c] = vel;
+    d.body_acc_bias[c] = acc;
+    let b = &m.bodies[c];
+    let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
+    d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
+}
+
+/// Time derivative of the position coordinates (quaternion rates for spherical and free
+/// joints: `Q̇ = ½ Q ⊗ (0, w)`, which keeps |Q| constant in exact arithmetic).
+pub fn position_derivative(m: &Model, state: &[f64], qpos_dot: &mut [f64]) {
+    let qvel = &state[m.nq..m.nq + m.nv];
+    for j in &m.joints {
+        let (a, v) = (j.qpos, j.qvel);
+        match j.kind {
+            JointType::Revolute | JointType::Prismatic => qpos_dot[a] = qvel[v],
+            JointType::Fixed => {}
+            JointType::Spherical => quat_rate(&state[a..a + 4], &qvel[v..v + 3], &mut qpos_dot[a..a + 4]),
+            JointType::Free => {
+                qpos_dot[a..a + 3].copy_from_slice(&qvel[v..v + 3]);
+                quat_rate(&state[a + 3..a + 7], &qvel[v + 3..v + 6], &mut qpos_dot[a + 3..a + 7]);
+            }
+        }
+    }
+}
+
+fn quat_rate(q: &[f64], w: &[f64], out: &mut [f64]) {
+    let (qw, qx, qy, qz) = (q[0], q[1], q[2], q[3]);
+    out[0] = 0.5 * (-qx * w[0] - qy * w[1] - qz * w[2]);
+    out[1] = 0.5 * (qw * w[0] + qy * w[2] - qz * w[1]);
+    out[2] = 0.5 * (qw * w[1] + qz * w[0] - qx * w[2]);
+    out[3] = 0.5 * (qw * w[2] + qx * w[1] - qy * w[0]);
+}
+
+/// Calls `f(k)` for every degree of freedom on the path from `body` to the ground.
+#[inline]
+pub fn for_each_path_dof(m: &Model, body: usize, mut f: impl FnMut(usize)) {
+    let mut cur = Some(body);
+    while let Some(b) = cur {
+        let j = &m.joints[m.bodies[b].joint];
+        for k in j.qvel..j.qvel + j.nv() {
+            f(k);
+        }
+        cur = j.parent;
+    }
+}
+
+/// Adds `sign · coef · S_k` to `row[k]` for the dofs on the path of `body`: the row of the
+/// Jacobian of the scalar rate `coef · V_body`; `dof_s` are the motion subspaces
+/// (`Data::dof_s`).
+pub fn add_jacobian_row(m: &Model, dof_s: &[Spatial], body: Option<usize>, coef: &Spatial, sign: f64, row: &mut [f64]) {
+    if let Some(b) = body {
+        for_each_path_dof(m, b, |k| row[k] += sign * coef.dot(&dof_s[k]));
+    }
+}
+
+/// Centre-of-mass velocity of body `b`.
+pub fn com_velocity(d: &Data, b: usize) -> Vector3<f64> {
+    d.body_vel[b].point_velocity(&d.body_pos[b])
+}

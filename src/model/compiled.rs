@@ -1,0 +1,230 @@
+//! The compiled, read-only [`Model`]: topology, joint frames, constants, contact elements.
+//! Made once by [`crate::compile`] from a scene and its parameter values.
+//!
+//! The joints form a spanning tree rooted at the ground: the first joint that names a body as
+//! its child is that body's tree joint; a later joint with the same child closes a loop and
+//! becomes a [`LoopConstraint`]. A body that is no joint's child gets a free joint to the
+//! ground. Degrees of freedom are numbered tree by tree (depth first), so the joint-space mass
+//! matrix is block diagonal with one dense block per independent tree.
+
+use crate::contact::element::ContactElement;
+use crate::scene::JointType;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+/// A rigid body.
+#[derive(Debug, Clone)]
+pub struct Body {
+    /// Name.
+    pub name: String,
+    /// Mass [kg].
+    pub mass: f64,
+    /// Principal moments of inertia [kg m^2].
+    pub inertia: Vector3<f64>,
+    /// Index of its tree joint.
+    pub joint: usize,
+}
+
+/// A joint of the spanning tree (the child's path to ground).
+#[derive(Debug, Clone)]
+pub struct TreeJoint {
+    /// Name (the scene's, or `<body>.free` for an implicit free joint).
+    pub name: String,
+    /// Type.
+    pub kind: JointType,
+    /// Index in the scene's joint list (None for an implicit free joint).
+    pub scene_index: Option<usize>,
+    /// Parent body (None = ground).
+    pub parent: Option<usize>,
+    /// Child body.
+    pub child: usize,
+    /// First position coordinate.
+    pub qpos: usize,
+    /// First velocity coordinate.
+    pub qvel: usize,
+    /// Joint axis in the parent frame (revolute, prismatic).
+    pub axis: Vector3<f64>,
+    /// Joint point relative to the parent's centre of mass, parent frame (world for ground).
+    pub anchor: Vector3<f64>,
+    /// Kind-dependent offset to the child's centre of mass (see `dynamics::kinematics`).
+    pub offset: Vector3<f64>,
+    /// Constant rotation of the child relative to the joint frame.
+    pub rot0: UnitQuaternion<f64>,
+    /// Initial position coordinates.
+    pub q0: [f64; 7],
+    /// Index of the tree (independent block of the mass matrix).
+    pub tree: usize,
+}
+
+impl TreeJoint {
+    /// Number of position coordinates.
+    pub fn nq(&self) -> usize {
+        nq_of(self.kind)
+    }
+    /// Number of velocity coordinates (degrees of freedom).
+    pub fn nv(&self) -> usize {
+        nv_of(self.kind)
+    }
+}
+
+/// Position coordinates of a joint type.
+pub fn nq_of(k: JointType) -> usize {
+    match k {
+        JointType::Revolute | JointType::Prismatic => 1,
+        JointType::Spherical => 4,
+        JointType::Fixed => 0,
+        JointType::Free => 7,
+    }
+}
+
+/// Degrees of freedom of a joint type.
+pub fn nv_of(k: JointType) -> usize {
+    match k {
+        JointType::Revolute | JointType::Prismatic => 1,
+        JointType::Spherical => 3,
+        JointType::Fixed => 0,
+        JointType::Free => 6,
+    }
+}
+
+/// A loop-closing joint, enforced as constraints Φ(q) = 0 with Lagrange multipliers (27)-(30).
+#[derive(Debug, Clone)]
+pub struct LoopConstraint {
+    /// Name.
+    pub name: String,
+    /// Type.
+    pub kind: JointType,
+    /// First body (None = ground).
+    pub body_a: Option<usize>,
+    /// Second body.
+    pub body_b: usize,
+    /// Joint point in each body's frame (world for ground).
+    pub anchor_a: Vector3<f64>,
+    /// Joint point in body b's frame.
+    pub anchor_b: Vector3<f64>,
+    /// An orthonormal triad fixed in a (columns: axis, u1, u2), body frame.
+    pub triad_a: Matrix3<f64>,
+    /// The same triad at the initial configuration, fixed in b.
+    pub triad_b: Matrix3<f64>,
+    /// First row in the constraint vector.
+    pub row: usize,
+}
+
+impl LoopConstraint {
+    /// Number of constraint equations.
+    pub fn rows(&self) -> usize {
+        match self.kind {
+            JointType::Revolute => 5,
+            JointType::Prismatic => 5,
+            JointType::Spherical => 3,
+            JointType::Fixed => 6,
+            JointType::Free => 0,
+        }
+    }
+}
+
+/// A spring-damper between two body points.
+#[derive(Debug, Clone)]
+pub struct SpringDamper {
+    /// Name.
+    pub name: String,
+    /// Body a (None = ground).
+    pub body_a: Option<usize>,
+    /// Attachment in a's frame (world for ground).
+    pub point_a: Vector3<f64>,
+    /// Body b.
+    pub body_b: Option<usize>,
+    /// Attachment in b's frame.
+    pub point_b: Vector3<f64>,
+    /// Stiffness [N/m].
+    pub stiffness: f64,
+    /// Damping [N s/m].
+    pub damping: f64,
+    /// Free length [m].
+    pub free_length: f64,
+}
+
+/// An input channel.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// Force along a world direction at a body's centre of mass.
+    Force {
+        /// Body.
+        body: usize,
+        /// Unit direction.
+        direction: Vector3<f64>,
+    },
+    /// Torque about a world direction.
+    Torque {
+        /// Body.
+        body: usize,
+        /// Unit direction.
+        direction: Vector3<f64>,
+    },
+    /// Generalised force on a 1-DOF tree joint's coordinate, or on a loop joint (ignored).
+    JointForce {
+        /// Velocity index.
+        qvel: usize,
+    },
+}
+
+/// The compiled, read-only model.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Name.
+    pub name: String,
+    /// Gravity [m/s^2].
+    pub gravity: Vector3<f64>,
+    /// Bodies, in scene order.
+    pub bodies: Vec<Body>,
+    /// Tree joints, in processing order (parents before children).
+    pub joints: Vec<TreeJoint>,
+    /// For each scene joint: Ok(tree joint index) or Err(loop index).
+    pub scene_joint: Vec<Result<usize, usize>>,
+    /// Loop-closing constraints.
+    pub loops: Vec<LoopConstraint>,
+    /// Total constraint rows: the loops' rows, then one row per impulse-law contact (its
+    /// resting mode; zero while the contact does not rest).
+    pub nc: usize,
+    /// Spring-dampers.
+    pub springs: Vec<SpringDamper>,
+    /// Contact elements.
+    pub contacts: Vec<ContactElement>,
+    /// Inputs, in scene order.
+    pub inputs: Vec<Input>,
+    /// Input start values.
+    pub input_start: Vec<f64>,
+    /// Number of position coordinates.
+    pub nq: usize,
+    /// Number of degrees of freedom.
+    pub nv: usize,
+    /// For each tree: first velocity index and size (a dense block of the mass matrix).
+    pub trees: Vec<(usize, usize)>,
+    /// Offset of each tree's block in the packed mass-matrix storage.
+    pub tree_block: Vec<usize>,
+    /// For each velocity index, the tree joint it belongs to.
+    pub dof_joint: Vec<usize>,
+    /// For each velocity index, the previous one on its path to the ground, local to its
+    /// tree's block ([`crate::linalg::NO_PARENT`] at a tree's root): the sparsity of M̄.
+    pub dof_parent: Vec<usize>,
+    /// Solver settings.
+    pub solver: crate::scene::SolverSection,
+    /// Baumgarte stabilisation frequency for loop constraints [1/s].
+    pub baumgarte: f64,
+    /// Warnings produced during compilation (inconsistent initial velocities, ...).
+    pub warnings: Vec<String>,
+}
+
+impl Model {
+    /// Size of the state vector: positions, velocities, dissipated energy.
+    pub fn nstate(&self) -> usize {
+        self.nq + self.nv + 1
+    }
+    /// Index of the dissipated-energy state.
+    pub fn dissipated_index(&self) -> usize {
+        self.nq + self.nv
+    }
+    /// Number of loop-constraint rows: the first rows of Φ (rows of resting contacts follow).
+    pub fn loop_rows(&self) -> usize {
+        self.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
+    }
+}

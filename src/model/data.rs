@@ -1,0 +1,340 @@
+//! [`Data`]: everything about a simulation that changes — the state, the integrator with its
+//! memory, and every work buffer — sized once at compilation so that a step allocates
+//! nothing. The part that defines the future (what a saved state holds) is declared in
+//! [`super::state`]; the rest is workspace, recomputed from it.
+
+use super::compiled::Model;
+use crate::contact::element::{ContactMemory, ContactOutput};
+use crate::contact::work::ImpulseWork;
+use crate::integrator::{self, Integrator, Stats};
+use crate::scene::Law;
+use crate::spatial::{Inertia, Spatial};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+/// Work counters since initialisation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps.
+    pub rejected: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// Jacobian evaluations (implicit methods).
+    pub jac_evals: u64,
+    /// Events located (touch, separation).
+    pub events: u64,
+}
+
+/// What happened at a contact event (see [`ContactEvent`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactEventKind {
+    /// A continuous-law contact starts (δ becomes positive inside the patch).
+    Touch,
+    /// A continuous-law contact ends (δ returns to zero or the sphere leaves the patch).
+    Separation,
+    /// An impulse-law impact (a velocity jump); `delta_dot` is the approach rate before it.
+    Impact,
+    /// An impulse-law contact comes to rest (resting constraint on).
+    Rest,
+    /// A resting contact lets go (its normal force would pull, or the sphere left the patch).
+    Release,
+    /// The damping term cuts the force at zero before δ does (the law would pull).
+    Clamp,
+    /// The cut ends (the law's force is positive again).
+    Unclamp,
+    /// Largest penetration of a continuous-law contact (δ̇ = 0), located on the dense output
+    /// without interrupting the integration.
+    Peak,
+}
+
+/// One located contact event, with the contact's state at that instant. A diagnostic log
+/// ([`Data::event_log`]); not part of the saved state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactEvent {
+    /// Time [s].
+    pub time: f64,
+    /// Contact index (scene order).
+    pub contact: usize,
+    /// What happened.
+    pub kind: ContactEventKind,
+    /// Penetration δ [m] (signed).
+    pub delta: f64,
+    /// Penetration rate δ̇ [m/s] (for an impact: before it).
+    pub delta_dot: f64,
+    /// Normal force [N] (continuous laws; resting contacts: the constraint force); for an
+    /// impact, the normal impulse [N s].
+    pub force: f64,
+}
+
+/// Oldest entries are dropped beyond this many logged contact events.
+pub const EVENT_LOG_CAPACITY: usize = 4096;
+
+/// The integrator with the buffer a restart starts from. While it steps it is taken out of
+/// the [`Data`] (so that the right-hand side can borrow the data) and put back after.
+pub struct Stepper {
+    /// The method with its memory.
+    pub method: Box<dyn Integrator + Send>,
+    /// The state a restart starts from (a copy of `Data::state`).
+    pub start: Vec<f64>,
+}
+
+/// The integrator and what the driver keeps about it.
+pub struct Solver {
+    /// The integrator; `None` only while it steps, or if a panic interrupted a step (the next
+    /// advance then reports an error).
+    pub stepper: Option<Stepper>,
+    /// True when the method holds the current state (no restart needed).
+    pub started: bool,
+    /// Step size to try at the next restart when the method has not run since a restore.
+    pub next_h: f64,
+    /// The method's counters at initialisation (the reported counters are since then).
+    pub base: Stats,
+}
+
+impl Solver {
+    /// The method, unless it was lost to an internal error.
+    pub fn method(&self) -> Option<&(dyn Integrator + Send)> {
+        self.stepper.as_ref().map(|s| &*s.method)
+    }
+
+    /// The step size the next restart will try.
+    pub fn pending_step(&self) -> f64 {
+        match (self.method(), self.started) {
+            (Some(m), true) => m.next_step(),
+            _ => self.next_h,
+        }
+    }
+}
+
+/// Event functions at the current state and at the end of the step being checked.
+#[derive(Debug, Clone, Default)]
+pub struct EventWork {
+    /// Event functions at the current state: per contact its mode function (touch /
+    /// separation / release), then per contact its clamp function (the force law's sign).
+    pub g: Vec<f64>,
+    /// The same at the end of the step being checked.
+    pub g_new: Vec<f64>,
+    /// Per contact (δ, δ̇) at the current state (δ is the broad-phase stand-in when skipped).
+    pub aux: Vec<(f64, f64)>,
+    /// The same at the end of the step being checked.
+    pub aux_new: Vec<(f64, f64)>,
+}
+
+/// Preallocated buffers of the impulse law's mode changes, sized at compilation by the
+/// number of impulse-law contacts: resolving impacts and settling resting contacts allocate
+/// nothing.
+#[derive(Debug, Clone, Default)]
+pub struct ImpactWork {
+    /// Work arrays of the impulse solve.
+    pub solve: ImpulseWork,
+    /// Contacts of the current round of impacts.
+    pub set: Vec<usize>,
+    /// Their restitution.
+    pub restitution: Vec<f64>,
+    /// Their (δ, δ̇) before the round.
+    pub approach: Vec<(f64, f64)>,
+    /// Per contact: active before the resting set was rebuilt.
+    pub was: Vec<bool>,
+    /// Resting candidates.
+    pub candidates: Vec<usize>,
+}
+
+/// Mutable simulation data: the state, the integrator, contact memory, work buffers and
+/// counters. Sized at compilation; nothing here is allocated during a step.
+pub struct Data {
+    // --- the state (see `state::StatePart`) ---
+    /// Time [s]: the one clock of the simulation.
+    pub time: f64,
+    /// State: `[qpos (nq), qvel (nv), dissipated energy]`.
+    pub state: Vec<f64>,
+    /// Input values.
+    pub inputs: Vec<f64>,
+    /// Contact memory: active flags, δ̇⁻, impact counts.
+    pub contact_memory: Vec<ContactMemory>,
+    /// Counters.
+    pub counters: Counters,
+    /// The integrator with its memory.
+    pub solver: Solver,
+    // --- options ---
+    /// Locate the instants a damped law's force is cut at zero (and restart there).
+    pub clamp_events: bool,
+    // --- diagnostics ---
+    /// Located contact events, oldest first (at most [`EVENT_LOG_CAPACITY`]).
+    pub event_log: Vec<ContactEvent>,
+    // --- workspace ---
+    /// The state at which the kinematics and dynamics below were evaluated.
+    pub eval_state: Vec<f64>,
+    /// True when the workspace (outputs) was evaluated at `state`.
+    pub outputs_valid: bool,
+    /// Event location.
+    pub events: EventWork,
+    /// Impulse-law mode changes.
+    pub impacts: ImpactWork,
+    // --- kinematics (per body, scene order) ---
+    /// Centre-of-mass positions [m].
+    pub body_pos: Vec<Vector3<f64>>,
+    /// Rotation matrices body → world.
+    pub body_rot: Vec<Matrix3<f64>>,
+    /// Orientation quaternions.
+    pub body_quat: Vec<UnitQuaternion<f64>>,
+    /// Spatial velocities.
+    pub body_vel: Vec<Spatial>,
+    /// Spatial accelerations with q̈ = 0 (velocity-product terms).
+    pub body_acc_bias: Vec<Spatial>,
+    /// Spatial inertia about the origin.
+    pub body_inertia: Vec<Inertia>,
+    /// External forces on each body (gravity, springs, contacts, inputs).
+    pub body_force: Vec<Spatial>,
+    /// Motion subspace column of each degree of freedom.
+    pub dof_s: Vec<Spatial>,
+    /// Its time derivative.
+    pub dof_sdot: Vec<Spatial>,
+    /// Tree joints on one body's path to the ground (capacity: all joints), for
+    /// [`crate::kinematics::kinematics_path`].
+    pub path_joints: Vec<usize>,
+    // --- dynamics ---
+    /// Composite inertias (work).
+    pub composite: Vec<Inertia>,
+    /// Back-propagated forces (work).
+    pub body_wrench: Vec<Spatial>,
+    /// Packed mass-matrix blocks; factorised in place.
+    pub mass_blocks: Vec<f64>,
+    /// Generalised forces minus bias: right-hand side, then q̈.
+    pub qacc: Vec<f64>,
+    /// Generalised applied forces (joint inputs).
+    pub tau: Vec<f64>,
+    /// Constraint values Φ.
+    pub phi: Vec<f64>,
+    /// Constraint rates Φ_q q̇.
+    pub phi_dot: Vec<f64>,
+    /// Constraint Jacobian, row-major nc × nv.
+    pub phi_q: Vec<f64>,
+    /// γ (with stabilisation).
+    pub gamma: Vec<f64>,
+    /// M̄⁻¹ Φ_qᵀ, column-major nv × nc (work).
+    pub minv_phit: Vec<f64>,
+    /// Φ_q M̄⁻¹ Φ_qᵀ (work), nc × nc.
+    pub schur: Vec<f64>,
+    /// Pivot order of the Schur factorisation.
+    pub schur_perm: Vec<usize>,
+    /// Rank of the Schur complement (independent constraint rows).
+    pub schur_rank: usize,
+    /// Lagrange multipliers.
+    pub lambda: Vec<f64>,
+    /// Work vector of size max(nv, nc).
+    pub work: Vec<f64>,
+    /// Work vector of size nv.
+    pub work2: Vec<f64>,
+    /// Dissipated power at the last RHS evaluation [W].
+    pub dissipation: f64,
+    /// Per-contact outputs of the last evaluation.
+    pub contact_out: Vec<ContactOutput>,
+}
+
+impl Data {
+    /// Allocates every buffer for `model`, creates its integrator and sets the initial
+    /// positions (velocities zero; [`crate::compile`] sets them).
+    pub fn new(model: &Model) -> Data {
+        let nb = model.bodies.len();
+        let (nv, nc, n) = (model.nv, model.nc, model.nstate());
+        let ncontacts = model.contacts.len();
+        let mass_len = model.trees.iter().map(|&(_, k)| k * k).sum();
+        let mut state = vec![0.0; n];
+        for j in &model.joints {
+            state[j.qpos..j.qpos + j.nq()].copy_from_slice(&j.q0[..j.nq()]);
+        }
+        let impulse_contacts = model.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        Data {
+            time: 0.0,
+            eval_state: state.clone(),
+            state,
+            inputs: model.input_start.clone(),
+            contact_memory: vec![ContactMemory::default(); ncontacts],
+            counters: Counters::default(),
+            solver: Solver {
+                stepper: Some(Stepper {
+                    method: integrator::create(&model.solver, n),
+                    start: vec![0.0; n],
+                }),
+                started: false,
+                next_h: 0.0,
+                base: Stats::default(),
+            },
+            clamp_events: true,
+            event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
+            outputs_valid: false,
+            events: EventWork {
+                g: vec![0.0; 2 * ncontacts],
+                g_new: vec![0.0; 2 * ncontacts],
+                aux: vec![(0.0, 0.0); ncontacts],
+                aux_new: vec![(0.0, 0.0); ncontacts],
+            },
+            impacts: ImpactWork {
+                solve: ImpulseWork::new(nv, model.loop_rows(), impulse_contacts),
+                set: Vec::with_capacity(impulse_contacts),
+                restitution: Vec::with_capacity(impulse_contacts),
+                approach: Vec::with_capacity(impulse_contacts),
+                was: Vec::with_capacity(ncontacts),
+                candidates: Vec::with_capacity(impulse_contacts),
+            },
+            body_pos: vec![Vector3::zeros(); nb],
+            body_rot: vec![Matrix3::identity(); nb],
+            body_quat: vec![UnitQuaternion::identity(); nb],
+            body_vel: vec![Spatial::zero(); nb],
+            body_acc_bias: vec![Spatial::zero(); nb],
+            body_inertia: vec![Inertia::zero(); nb],
+            body_force: vec![Spatial::zero(); nb],
+            dof_s: vec![Spatial::zero(); nv],
+            dof_sdot: vec![Spatial::zero(); nv],
+            path_joints: Vec::with_capacity(model.joints.len()),
+            composite: vec![Inertia::zero(); nb],
+            body_wrench: vec![Spatial::zero(); nb],
+            mass_blocks: vec![0.0; mass_len],
+            qacc: vec![0.0; nv],
+            tau: vec![0.0; nv],
+            phi: vec![0.0; nc],
+            phi_dot: vec![0.0; nc],
+            phi_q: vec![0.0; nc * nv],
+            gamma: vec![0.0; nc],
+            minv_phit: vec![0.0; nc * nv],
+            schur: vec![0.0; nc * nc],
+            schur_perm: vec![0; nc],
+            schur_rank: 0,
+            lambda: vec![0.0; nc],
+            work: vec![0.0; nv.max(nc)],
+            work2: vec![0.0; nv],
+            dissipation: 0.0,
+            contact_out: vec![ContactOutput::default(); ncontacts],
+        }
+    }
+
+    /// Appends a contact event at the current time to the log (the oldest half is dropped
+    /// when it is full).
+    pub fn log_event(&mut self, contact: usize, kind: ContactEventKind, delta: f64, delta_dot: f64, force: f64) {
+        self.log_event_at(self.time, contact, kind, delta, delta_dot, force);
+    }
+
+    /// [`Data::log_event`] at time `time`.
+    pub fn log_event_at(
+        &mut self,
+        time: f64,
+        contact: usize,
+        kind: ContactEventKind,
+        delta: f64,
+        delta_dot: f64,
+        force: f64,
+    ) {
+        if self.event_log.len() >= EVENT_LOG_CAPACITY {
+            self.event_log.drain(..EVENT_LOG_CAPACITY / 2);
+        }
+        self.event_log.push(ContactEvent {
+            time,
+            contact,
+            kind,
+            delta,
+            delta_dot,
+            force,
+        });
+    }
+}

@@ -1,0 +1,11 @@
+//! The model and its data, in the manner of MuJoCo's `mjModel`/`mjData`: a [`Model`]
+//! compiled once and read-only afterwards (`compiled`), a [`Data`] holding everything that
+//! changes (`data`), and the declaration of the part of the data that a saved state holds
+//! (`state`). Every function of the engine takes `(&Model, &mut Data)`.
+
+pub mod compiled;
+pub mod data;
+pub mod state;
+
+pub use compiled::{nq_of, nv_of, Body, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
+pub use data::{ContactEvent, ContactEventKind, Counters, Data};

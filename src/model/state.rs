@@ -1,0 +1,264 @@
+//! The state: the part of [`Data`] that defines the future, declared once. Everything else in
+//! `Data` is workspace that an evaluation recomputes from it.
+//!
+//! As MuJoCo's `mj_getState`/`mj_setState`, a bit mask of [`StatePart`]s selects what is
+//! read or written, as plain numbers in a fixed order (the order of the bits). FMU states,
+//! their serialised bytes and the command line's checkpoints all go through [`get`] and
+//! [`set`]; [`set`] checks everything before it writes anything, so a refused state leaves
+//! the data as it was.
+
+use super::{Data, Model};
+use crate::integrator::Stats;
+
+/// One part of the state (a bit of a mask).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum StatePart {
+    /// `Data::time`: 1 number.
+    Time = 1,
+    /// `Data::state`: positions, velocities, dissipated energy (`Model::nstate` numbers).
+    Coordinates = 2,
+    /// `Data::inputs`: one number per input.
+    Inputs = 4,
+    /// `Data::contact_memory`: active flag, δ̇⁻, impact count per contact.
+    ContactMemory = 8,
+    /// `Data::counters`: steps, rejected, RHS and Jacobian evaluations, events.
+    Counters = 16,
+    /// The integrator: the step size it tries next, its own counters (4), then the length
+    /// of its warm-restart memory and that memory.
+    Solver = 32,
+}
+
+impl StatePart {
+    /// Every part, in the order of their bits (the order of the numbers).
+    pub const ALL: [StatePart; 6] = [
+        StatePart::Time,
+        StatePart::Coordinates,
+        StatePart::Inputs,
+        StatePart::ContactMemory,
+        StatePart::Counters,
+        StatePart::Solver,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            StatePart::Time => "time",
+            StatePart::Coordinates => "coordinates",
+            StatePart::Inputs => "inputs",
+            StatePart::ContactMemory => "contact memory",
+            StatePart::Counters => "counters",
+            StatePart::Solver => "integrator",
+        }
+    }
+}
+
+/// The mask of the whole state: what continues a simulation bit for bit.
+pub const FULL: u32 = 63;
+
+/// Numbers per contact in [`StatePart::ContactMemory`].
+const MEMORY_LEN: usize = 3;
+/// Numbers in [`StatePart::Counters`].
+const COUNTERS_LEN: usize = 5;
+/// Fixed numbers of [`StatePart::Solver`] before the warm memory: next step, 4 counters,
+/// memory length.
+const SOLVER_HEAD: usize = 6;
+
+/// Appends the parts of `mask` to `out`.
+pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
+    for part in StatePart::ALL {
+        if mask & part as u32 == 0 {
+            continue;
+        }
+        match part {
+            StatePart::Time => out.push(d.time),
+            StatePart::Coordinates => out.extend_from_slice(&d.state),
+            StatePart::Inputs => out.extend_from_slice(&d.inputs),
+            StatePart::ContactMemory => {
+                for mem in &d.contact_memory {
+                    out.extend_from_slice(&[mem.active as u8 as f64, mem.impact_velocity, mem.impacts as f64]);
+                }
+            }
+            StatePart::Counters => {
+                let c = &d.counters;
+                out.extend_from_slice(&[
+                    c.steps as f64,
+                    c.rejected as f64,
+                    c.rhs_evals as f64,
+                    c.jac_evals as f64,
+                    c.events as f64,
+                ]);
+            }
+            StatePart::Solver => {
+                let s = d.solver.method().map(|i| i.stats()).unwrap_or_default();
+                out.extend_from_slice(&[
+                    d.solver.pending_step(),
+                    s.steps as f64,
+                    s.rejected as f64,
+                    s.rhs_evals as f64,
+                    s.jac_evals as f64,
+                ]);
+                let at = out.len();
+                out.push(0.0);
+                if let Some(i) = d.solver.method() {
+                    i.warm_state(out);
+                }
+                out[at] = (out.len() - at - 1) as f64;
+            }
+        }
+    }
+}
+
+/// A count stored as a number: a whole number in range, or an error naming the part.
+fn count(x: f64, what: &str) -> Result<u64, String> {
+    if x.fract() == 0.0 && (0.0..9.0e15).contains(&x) {
+        Ok(x as u64)
+    } else {
+        Err(format!("state: {what} = {x} is not a count"))
+    }
+}
+
+/// Writes the parts of `mask` from `v` (as [`get`] wrote them for this model). Checks the
+/// length of every part, that numbers are finite and counts are counts, before it writes
+/// anything; on an error the data is unchanged. The integrator restarts at the next advance
+/// (with the restored memory).
+pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> {
+    if mask & !FULL != 0 {
+        return Err(format!("state: unknown parts in mask {mask:#x}"));
+    }
+    // Pass 1: locate and check every part.
+    let mut at = 0;
+    let mut spans = [(0usize, 0usize); 6];
+    for (k, part) in StatePart::ALL.iter().enumerate() {
+        if mask & *part as u32 == 0 {
+            continue;
+        }
+        let len = match part {
+            StatePart::Time => 1,
+            StatePart::Coordinates => m.nstate(),
+            StatePart::Inputs => m.inputs.len(),
+            StatePart::ContactMemory => MEMORY_LEN * m.contacts.len(),
+            StatePart::Counters => COUNTERS_LEN,
+            StatePart::Solver => {
+                let head = v
+                    .get(at..at + SOLVER_HEAD)
+                    .ok_or("state: the integrator part is truncated")?;
+                let warm = count(head[SOLVER_HEAD - 1], "integrator memory length")? as usize;
+                SOLVER_HEAD + warm
+            }
+        };
+        let Some(slice) = v.get(at..at + len) else {
+            return Err(format!(
+                "state: the {} part needs {len} numbers, {} are left (truncated, or not a state of this model)",
+                part.name(),
+                v.len().saturating_sub(at)
+            ));
+        };
+        let checked = match part {
+            StatePart::Solver => &slice[..1],
+            StatePart::Counters => &[],
+            _ => slice,
+        };
+        if let Some(x) = checked.iter().find(|x| !x.is_finite()) {
+            return Err(format!(
+                "state: the {} part holds a non-finite number ({x})",
+                part.name()
+            ));
+        }
+        match part {
+            StatePart::ContactMemory => {
+                for c in slice.chunks(MEMORY_LEN) {
+                    if c[0] != 0.0 && c[0] != 1.0 {
+                        return Err(format!("state: contact active flag {} is not 0 or 1", c[0]));
+                    }
+                    count(c[2], "impact count")?;
+                }
+            }
+            StatePart::Counters => {
+                for x in slice {
+                    count(*x, "counter")?;
+                }
+            }
+            StatePart::Solver => {
+                for x in &slice[1..SOLVER_HEAD] {
+                    count(*x, "integrator counter")?;
+                }
+            }
+            _ => {}
+        }
+        spans[k] = (at, at + len);
+        at += len;
+    }
+    if at != v.len() {
+        return Err(format!(
+            "state: {} numbers, the parts of this model take {at} (not a state of this model)",
+            v.len()
+        ));
+    }
+    // The integrator memory may still be refused by the method: restore it first.
+    let mut restored_stats = None;
+    if mask & StatePart::Solver as u32 != 0 {
+        let (a, b) = spans[5];
+        let s = &v[a..b];
+        let stepper = d
+            .solver
+            .stepper
+            .as_mut()
+            .ok_or("state: the integrator was lost after an internal error")?;
+        stepper.method.set_warm_state(&s[SOLVER_HEAD..])?;
+        restored_stats = Some((
+            s[0],
+            Stats {
+                steps: s[1] as u64,
+                rejected: s[2] as u64,
+                rhs_evals: s[3] as u64,
+                jac_evals: s[4] as u64,
+            },
+        ));
+    }
+    // Pass 2: write (nothing below fails).
+    for (k, part) in StatePart::ALL.iter().enumerate() {
+        if mask & *part as u32 == 0 {
+            continue;
+        }
+        let (a, b) = spans[k];
+        let s = &v[a..b];
+        match part {
+            StatePart::Time => d.time = s[0],
+            StatePart::Coordinates => d.state.copy_from_slice(s),
+            StatePart::Inputs => d.inputs.copy_from_slice(s),
+            StatePart::ContactMemory => {
+                for (mem, c) in d.contact_memory.iter_mut().zip(s.chunks(MEMORY_LEN)) {
+                    mem.active = c[0] != 0.0;
+                    mem.impact_velocity = c[1];
+                    mem.impacts = c[2] as u64;
+                }
+            }
+            StatePart::Counters => {
+                let c = &mut d.counters;
+                c.steps = s[0] as u64;
+                c.rejected = s[1] as u64;
+                c.rhs_evals = s[2] as u64;
+                c.jac_evals = s[3] as u64;
+                c.events = s[4] as u64;
+            }
+            StatePart::Solver => {}
+        }
+    }
+    if let Some((h, stats)) = restored_stats {
+        // counters since initialisation = the method's counters − base
+        let c = &d.counters;
+        d.solver.base = Stats {
+            steps: stats.steps.saturating_sub(c.steps),
+            rejected: stats.rejected.saturating_sub(c.rejected),
+            rhs_evals: stats.rhs_evals.saturating_sub(c.rhs_evals),
+            jac_evals: stats.jac_evals.saturating_sub(c.jac_evals),
+        };
+        if let Some(stepper) = d.solver.stepper.as_mut() {
+            stepper.method.set_stats(stats);
+        }
+        d.solver.next_h = h;
+    }
+    d.solver.started = false;
+    d.outputs_valid = false;
+    Ok(())
+}

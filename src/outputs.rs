@@ -1,0 +1,125 @@
+//! Outputs: the values of the FMU's output variables and calculated parameters, read from a
+//! model's data in one place. The data is evaluated once at the current state when an
+//! output is first read after a step ([`refresh`]); later reads cost nothing.
+//!
+//! [`output`] matches every [`VarRef`] without a catch-all arm, so a variable added to the
+//! table and not wired here does not compile.
+
+use crate::contact;
+use crate::dynamics;
+use crate::forward::evaluate_current;
+use crate::kinematics::com_velocity;
+use crate::model::{Data, Model};
+use crate::variables::VarRef;
+
+/// The energies of the energy balance [J]: `total() + dissipated` stays at its initial value.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Energies {
+    /// Kinetic energy.
+    pub kinetic: f64,
+    /// Potential energy of gravity and springs.
+    pub potential: f64,
+    /// Elastic energy stored in the contacts.
+    pub contact: f64,
+    /// Work removed by dampers, contact damping and impacts since initialisation.
+    pub dissipated: f64,
+}
+
+impl Energies {
+    /// Kinetic + potential + contact.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential + self.contact
+    }
+}
+
+/// Evaluates the data at the current state unless that was done since the state changed.
+pub fn refresh(m: &Model, d: &mut Data) {
+    if !d.outputs_valid {
+        evaluate_current(m, d);
+        d.outputs_valid = true;
+    }
+}
+
+/// The energies at the current state.
+pub fn energies(m: &Model, d: &mut Data) -> Energies {
+    refresh(m, d);
+    Energies {
+        kinetic: dynamics::kinetic_energy(m, d),
+        potential: dynamics::potential_energy(m, d),
+        contact: d.contact_out.iter().map(|o| o.elastic_energy).sum(),
+        dissipated: d.state[m.dissipated_index()],
+    }
+}
+
+/// Largest loop-constraint (and resting-contact) residual |Φ| at the current state.
+pub fn constraint_residual(m: &Model, d: &mut Data) -> f64 {
+    refresh(m, d);
+    if m.nc == 0 {
+        return 0.0;
+    }
+    dynamics::constraints(m, d, contact::resting_rows);
+    d.phi.iter().fold(0.0_f64, |a, b| a.max(b.abs()))
+}
+
+/// The value of an output or calculated parameter at the current state; `None` for the
+/// variables whose value the host sets (parameters and inputs: the caller holds those).
+pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
+    refresh(m, d);
+    let value = match target {
+        VarRef::YoungsModulus(_)
+        | VarRef::PoissonRatio(_)
+        | VarRef::Mass(_)
+        | VarRef::ContactLaw(_)
+        | VarRef::Restitution(_)
+        | VarRef::Exponent(_)
+        | VarRef::Damping(_)
+        | VarRef::MaxPenetration(_)
+        | VarRef::MinImpactVelocity(_)
+        | VarRef::SolverMethod
+        | VarRef::SolverRtol
+        | VarRef::SolverAtol
+        | VarRef::SolverMaxStep
+        | VarRef::Input(_) => return None,
+        VarRef::Stiffness(i) => m.contacts[i].stiffness,
+        VarRef::BodyPosition(b, k) => d.body_pos[b][k],
+        VarRef::BodyVelocity(b, k) => com_velocity(d, b)[k],
+        VarRef::BodyAngularVelocity(b, k) => d.body_vel[b].ang[k],
+        VarRef::BodyQuaternion(b, k) => {
+            let q = d.body_quat[b].quaternion();
+            [q.w, q.i, q.j, q.k][k]
+        }
+        VarRef::JointQ(j) | VarRef::JointQd(j) => {
+            let (q, qd) = match m.scene_joint[j] {
+                Ok(t) => {
+                    let tj = &m.joints[t];
+                    (d.state[tj.qpos], d.state[m.nq + tj.qvel])
+                }
+                Err(li) => dynamics::loop_joint_coordinate(m, d, li),
+            };
+            if matches!(target, VarRef::JointQ(_)) {
+                q
+            } else {
+                qd
+            }
+        }
+        VarRef::ContactDelta(i) => d.contact_out[i].delta,
+        VarRef::ContactDeltaDot(i) => {
+            if d.contact_memory[i].active {
+                d.contact_out[i].delta_dot
+            } else {
+                0.0
+            }
+        }
+        VarRef::ContactForce(i) => d.contact_out[i].force,
+        VarRef::ContactActive(i) => d.contact_memory[i].active as u8 as f64,
+        VarRef::ContactImpacts(i) => d.contact_memory[i].impacts as f64,
+        VarRef::EnergyKinetic => energies(m, d).kinetic,
+        VarRef::EnergyPotential => energies(m, d).potential,
+        VarRef::EnergyContact => energies(m, d).contact,
+        VarRef::EnergyTotal => energies(m, d).total(),
+        VarRef::EnergyDissipated => energies(m, d).dissipated,
+        VarRef::SolverSteps => d.counters.steps as f64,
+        VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,
+    };
+    Some(value)
+}
