@@ -22,10 +22,12 @@
 //! Prints a markdown table and writes `docs/integrator_compare.csv`. Heap allocations per step
 //! are counted with a counting global allocator.
 
-use contact_fmu::engine::{self, Engine};
+use contact_fmu::compile::compile;
+use contact_fmu::forward::Rhs;
 use contact_fmu::integrator::{dopri5::Dopri5, radau::Radau5, rk4::Rk4, sdirk::Sdirk, Integrator, OdeSystem};
-use contact_fmu::model::{self, Data, Model};
+use contact_fmu::model::{Data, Model};
 use contact_fmu::scene::{Method, Scene};
+use contact_fmu::simulation::Simulation;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -114,7 +116,11 @@ struct Multibody {
 impl OdeSystem for Multibody {
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         self.evals += 1;
-        engine::evaluate(&self.model, &mut self.data, y, Some(dy));
+        Rhs {
+            model: &self.model,
+            data: &mut self.data,
+        }
+        .rhs(0.0, y, dy);
     }
 }
 
@@ -151,7 +157,7 @@ const PENDULUM_T_END: f64 = 2.0;
 
 fn pendulum() -> (Multibody, Vec<f64>) {
     let scene = Scene::from_str(PENDULUM_SCENE, "double_pendulum").expect("scene");
-    let (model, data) = model::compile(&scene, "double_pendulum").expect("compile");
+    let (model, data) = compile(&scene, "double_pendulum").expect("compile");
     let y0 = data.state.clone();
     (Multibody { model, data, evals: 0 }, y0)
 }
@@ -268,17 +274,18 @@ fn engine_run(problem: &str, method: &str, tol: f64) -> Result<Outcome, String> 
     };
     let scene = ball_scene(m, rtol, atol, max_step, drop, restitution);
     let start = Instant::now();
-    let mut e = Engine::compile(&scene, "bouncing_ball").map_err(|e| e.to_string())?;
+    let mut e = Simulation::new(scene, "bouncing_ball");
+    e.initialize(0.0).map_err(|e| e.to_string())?;
     let a0 = allocations();
     let interval = 1e-3;
     let n = (t_end / interval).round() as usize;
     for k in 1..=n {
-        e.advance(k as f64 * interval).map_err(|e| e.to_string())?;
+        e.step_to(k as f64 * interval).map_err(|e| e.to_string())?;
     }
     let allocs = allocations() - a0;
     let seconds = start.elapsed().as_secs_f64();
     let c = e.counters();
-    let d = e.data();
+    let d = e.data().ok_or("no data")?;
     let y = d.state[..d.state.len() - 1].to_vec();
     Ok(Outcome {
         y,

@@ -8,10 +8,11 @@
 //! docs/contact.md quotes them).
 
 use contact_fmu::contact::{self, geometry, ContactElement, Shape};
-use contact_fmu::dynamics::{self, Frame};
-use contact_fmu::engine::{ContactEvent, ContactEventKind};
+use contact_fmu::kinematics;
+use contact_fmu::model::{ContactEvent, ContactEventKind};
 use contact_fmu::scene::{ContactType, ImpulseMethod, Law, Scene};
 use contact_fmu::simulation::Simulation;
+use contact_fmu::spatial::Frame;
 use contact_fmu::spatial::Spatial;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::f64::consts::PI;
@@ -31,7 +32,7 @@ fn get(s: &mut Simulation, name: &str) -> f64 {
 }
 
 fn events(s: &Simulation) -> Vec<ContactEvent> {
-    s.engine().unwrap().contact_events().to_vec()
+    s.contact_events().to_vec()
 }
 
 fn first(ev: &[ContactEvent], kind: ContactEventKind) -> ContactEvent {
@@ -261,14 +262,14 @@ fn engine_restitution(law: &str, e: f64, clamp_events: bool) -> (f64, u64) {
     )
     .unwrap();
     s.initialize(0.0).unwrap();
-    s.engine_mut().unwrap().set_clamp_events(clamp_events);
+    s.set_clamp_events(clamp_events).unwrap();
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     assert!(
         ev.iter().any(|e| e.kind == ContactEventKind::Separation),
         "{law} e={e}: no separation"
     );
-    (get(&mut s, "ball.v[3]") / v0, s.engine().unwrap().counters().steps)
+    (get(&mut s, "ball.v[3]") / v0, s.counters().steps)
 }
 
 #[test]
@@ -326,10 +327,10 @@ fn kelvin_voigt_cut_at_zero_force() {
         let mut s =
             Simulation::from_scene_str(&ball_on_floor("kelvin_voigt", &extra, v0, 0.0, 1e-4), "t.toml").unwrap();
         s.initialize(0.0).unwrap();
-        s.engine_mut().unwrap().set_clamp_events(clamp);
+        s.set_clamp_events(clamp).unwrap();
         s.step_to(2e-3).unwrap();
         let ev = events(&s);
-        (get(&mut s, "ball.v[3]"), s.engine().unwrap().counters(), ev)
+        (get(&mut s, "ball.v[3]"), s.counters(), ev)
     };
     // scalar: m x'' = -max(0, k x + c x'), fine RK4 step, exit when x returns to 0
     let h = 1e-9;
@@ -684,8 +685,8 @@ fn impulse_ball_comes_to_rest_on_the_floor() {
         t_rest,
         rest.force,
         M * g,
-        s.engine().unwrap().counters().events,
-        s.engine().unwrap().counters().steps
+        s.counters().events,
+        s.counters().steps
     );
     assert_eq!(impacts.len(), k_last + 1);
     for (k, x) in impacts.iter().enumerate() {
@@ -1079,6 +1080,7 @@ fn element(shape: Shape, center: Vector3<f64>, radius: f64) -> ContactElement {
         bound_radius: f64::INFINITY,
         impulse_method: ImpulseMethod::Exact,
         constraint_row: None,
+        hysteresis: 0.0,
     }
 }
 
@@ -1324,7 +1326,7 @@ fn broad_phase_keeps_the_event_sign() {
          axis = [0.0, 1.0, 0.0]\ncylinder_radius = 0.3\nlength = 0.5\nside = \"inside\"\n\n"
     );
     let scene = Scene::from_str(&t, "bp.toml").unwrap();
-    let (m, mut d) = contact_fmu::model::compile(&scene, "bp.toml").unwrap();
+    let (m, mut d) = contact_fmu::compile::compile(&scene, "bp.toml").unwrap();
     let mut seed: u64 = 12345;
     let mut rnd = || {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -1344,7 +1346,8 @@ fn broad_phase_keeps_the_event_sign() {
             ];
             state[j.qpos..j.qpos + 7].copy_from_slice(&[p[0], p[1], p[2], q.w, q.i, q.j, q.k]);
         }
-        dynamics::kinematics(&m, &mut d, &state);
+        d.eval_state.copy_from_slice(&state);
+        kinematics::kinematics(&m, &mut d);
         for i in 0..3 {
             let exact = contact::event_function(&m.contacts[i], &contact::gap(&m, &d, i));
             let fast = contact::gap_event(&m, &d, i);
@@ -1382,8 +1385,8 @@ fn snapshot_restores_contact_memory_bit_for_bit() {
         let mut s = sim(&text);
         s.step_to(t_save).unwrap();
         assert_eq!(get(&mut s, "floor.active"), 1.0, "in contact when saved");
-        let snap = s.snapshot();
-        let bytes = snap.to_bytes();
+        let snap = s.snapshot(Vec::new());
+        let bytes = snap.to_bytes(0);
         let run = |s: &mut Simulation| -> Vec<f64> {
             let mut out = Vec::new();
             for k in 1..=50 {
@@ -1397,7 +1400,7 @@ fn snapshot_restores_contact_memory_bit_for_bit() {
         let a = run(&mut s);
         let mut fresh = Simulation::from_scene_str(&text, "t.toml").unwrap();
         fresh
-            .restore(&contact_fmu::simulation::Snapshot::from_bytes(&bytes).unwrap())
+            .restore(&contact_fmu::checkpoint::Snapshot::from_bytes(&bytes, 0).unwrap())
             .unwrap();
         let b = run(&mut fresh);
         assert!(
@@ -1493,7 +1496,7 @@ fn impulse_on_a_closed_loop_keeps_it_closed() {
          loop residual {:.2e}",
         ev.time,
         -e * w0,
-        s.engine_mut().unwrap().constraint_residual()
+        s.constraint_residual().unwrap()
     );
     assert!((ev.time + a0 / w0).abs() < 1e-9, "impact when the cranks are vertical");
     assert!((w1 + e * w0).abs() < 1e-9 && (w2 + e * w0).abs() < 1e-9);

@@ -1,19 +1,25 @@
-//! `dynamics::kinematics_path` (used by event location) against the full `dynamics::kinematics`:
+//! `kinematics::kinematics_path` (used by event location) against the full `kinematics::kinematics`:
 //! along a body's path to the ground it must give the same poses, velocities, bias
 //! accelerations, inertias and motion subspaces bit for bit, and touch no other body.
 
-use contact_fmu::dynamics;
-use contact_fmu::model::{self, Data, Model};
+use contact_fmu::compile::compile;
+use contact_fmu::kinematics;
+use contact_fmu::model::{Data, Model};
 use contact_fmu::scene::Scene;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use std::path::Path;
 
+/// The rail vehicle's compiled model and data.
+fn compiled() -> (Model, Data) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
+    let scene = Scene::from_file(&path).unwrap();
+    compile(&scene, "rail_vehicle").unwrap()
+}
+
 /// The rail vehicle (car → bogies (prismatic) → wheels (revolute): paths of depth 3) at a
 /// state away from the start: every coordinate shifted, every velocity nonzero.
 fn rail_vehicle() -> (Model, Data, Vec<f64>) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
-    let scene = Scene::from_file(&path).unwrap();
-    let (m, d) = model::compile(&scene, "rail_vehicle").unwrap();
+    let (m, d) = compiled();
     let mut state = d.state.clone();
     for (k, x) in state[..m.nq].iter_mut().enumerate() {
         *x += 0.01 * ((k % 7) as f64 - 3.0);
@@ -67,9 +73,9 @@ fn body_bits(m: &Model, d: &Data, b: usize) -> Vec<u64> {
 
 #[test]
 fn path_kinematics_equals_full_kinematics_and_touches_only_the_path() {
-    let (m, d0, state) = rail_vehicle();
-    let mut full = d0.clone();
-    dynamics::kinematics(&m, &mut full, &state);
+    let (m, mut full, state) = rail_vehicle();
+    full.eval_state.copy_from_slice(&state);
+    kinematics::kinematics(&m, &mut full);
     let mut deepest = 0;
     for b in 0..m.bodies.len() {
         let mut ancestors = vec![b];
@@ -77,9 +83,10 @@ fn path_kinematics_equals_full_kinematics_and_touches_only_the_path() {
             ancestors.push(p);
         }
         deepest = deepest.max(ancestors.len());
-        let mut d = d0.clone();
+        let mut d = compiled().1;
         poison(&mut d);
-        dynamics::kinematics_path(&m, &mut d, &state, Some(b));
+        d.eval_state.copy_from_slice(&state);
+        kinematics::kinematics_path(&m, &mut d, Some(b));
         for other in 0..m.bodies.len() {
             if ancestors.contains(&other) {
                 assert_eq!(
@@ -101,8 +108,9 @@ fn path_kinematics_equals_full_kinematics_and_touches_only_the_path() {
     }
     assert_eq!(deepest, 3, "the test needs paths deeper than one joint");
     // Ground: nothing to evaluate.
-    let mut d = d0.clone();
+    let mut d = compiled().1;
     poison(&mut d);
-    dynamics::kinematics_path(&m, &mut d, &state, None);
+    d.eval_state.copy_from_slice(&state);
+    kinematics::kinematics_path(&m, &mut d, None);
     assert!(d.body_pos.iter().all(|p| p[0].is_nan()));
 }

@@ -5,9 +5,12 @@
 //! Run: `cargo test --release --test multibody -- --nocapture` (the measured numbers are
 //! printed; docs/multibody.md quotes them).
 
+use contact_fmu::compile::compile;
+use contact_fmu::contact;
 use contact_fmu::dynamics;
-use contact_fmu::engine;
-use contact_fmu::model;
+use contact_fmu::forward::Rhs;
+use contact_fmu::integrator::OdeSystem;
+use contact_fmu::kinematics;
 use contact_fmu::scene::Scene;
 use contact_fmu::simulation::Simulation;
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
@@ -127,8 +130,8 @@ fn quat_out(s: &mut Simulation, body: &str) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
 }
 
-fn warnings(s: &Simulation) -> Vec<String> {
-    s.engine().map(|e| e.model().warnings.clone()).unwrap_or_default()
+fn warnings(s: &mut Simulation) -> Vec<String> {
+    s.warnings().unwrap_or_default()
 }
 
 /// World inertia about the centre of mass of a body from its outputs.
@@ -189,7 +192,7 @@ fn double_pendulum(method: &str, rtol: f64, atol: f64) -> String {
 #[test]
 fn double_pendulum_conserves_energy() {
     let mut s = start(&double_pendulum("dopri5", 1e-10, 1e-12));
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
     let e0 = get(&mut s, "energy.total");
     let (mut max_drift, mut ke_max, mut turns) = (0.0_f64, 0.0_f64, 0.0_f64);
     run(&mut s, 10.0, 0.01, |s, _| {
@@ -385,13 +388,13 @@ fn four_bar_in_a_tilted_plane_keeps_its_loop_closed() {
 fn check_four_bar(frame: UnitQuaternion<f64>, rate: f64) {
     let th0 = 1.0;
     let mut s = start(&four_bar_in(frame, "dopri5", 1e-8, th0, rate));
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
-    assert_eq!(s.engine().unwrap().model().nc, 5);
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
+    assert_eq!(s.model().unwrap().nc, 5);
     let e0 = get(&mut s, "energy.total");
     let psi0 = angle_xz(four_bar_c(th0) - xz(FB.3, 0.0));
     let (mut resid, mut de, mut dpsi, mut ke_max) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
     run(&mut s, 10.0, 0.01, |s, _| {
-        resid = resid.max(s.engine_mut().unwrap().constraint_residual());
+        resid = resid.max(s.constraint_residual().unwrap());
         de = de.max((get(s, "energy.total") - e0).abs());
         ke_max = ke_max.max(get(s, "energy.kinetic"));
         // the rocker angle is a closed-form function of the crank angle
@@ -401,7 +404,7 @@ fn check_four_bar(frame: UnitQuaternion<f64>, rate: f64) {
         dpsi = dpsi.max((psi - expect).abs());
     });
     let turns = get(&mut s, "crank_pivot.q") / (2.0 * PI);
-    let rank = s.engine().unwrap().data().schur_rank;
+    let rank = s.data().unwrap().schur_rank;
     eprintln!(
         "four-bar (plane turned {:.2} rad) 10 s rtol 1e-8: max |Φ| = {resid:.3e} m, rocker angle error {dpsi:.3e} rad, |ΔE|/KE_max = {:.3e}, {turns:.1} crank turns, constraint rank {rank} of 5",
         frame.angle(),
@@ -488,15 +491,15 @@ fn slider_crank(method: &str, rtol: f64, th0: f64, rate: f64, close_at_slider: b
 fn check_slider_crank(close_at_slider: bool) {
     let th0 = 2.0;
     let mut s = start(&slider_crank("dopri5", 1e-8, th0, 3.0 * PI, close_at_slider));
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
     let e0 = get(&mut s, "energy.total");
     let (mut resid, mut dx, mut de, mut ke_max) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
     let mut dead_centres = 0;
     let (mut rank_min, mut rank_max) = (usize::MAX, 0);
     let mut last_sector = (th0 / PI).floor();
     run(&mut s, 10.0, 0.005, |s, _| {
-        resid = resid.max(s.engine_mut().unwrap().constraint_residual());
-        let r = s.engine().unwrap().data().schur_rank;
+        resid = resid.max(s.constraint_residual().unwrap());
+        let r = s.data().unwrap().schur_rank;
         (rank_min, rank_max) = (rank_min.min(r), rank_max.max(r));
         de = de.max((get(s, "energy.total") - e0).abs());
         ke_max = ke_max.max(get(s, "energy.kinetic"));
@@ -589,7 +592,7 @@ fn pendulum_small_oscillation_period() {
     t += &body("bob", m, principal, com, q0, w0.cross(&com), w0);
     t += &joint("pivot", "revolute", "ground", "bob", Vector3::zeros(), Some(axis));
     let mut s = start(&t);
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
     let period = 2.0 * PI / omega_n;
     let dt = 1e-3;
     let (mut ts, mut qd) = (Vec::new(), Vec::new());
@@ -683,7 +686,7 @@ fn spherical_pendulum(method: &str, rtol: f64) -> String {
 fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
     let principal = [0.03, 0.05, 0.07];
     let mut s = start(&spherical_pendulum("dopri5", 1e-10));
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
     let lz = |s: &mut Simulation| -> f64 {
         let i_w = world_inertia(s, "top", principal);
         let (r, v, w) = (vec_out(s, "top.r"), vec_out(s, "top.v"), vec_out(s, "top.w"));
@@ -699,9 +702,8 @@ fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
         z_min = z_min.min(z);
         z_max = z_max.max(z);
     });
-    let e = s.engine().unwrap();
-    let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
+    let j = s.model().unwrap().joints[0].qpos;
+    let qn: f64 = s.data().unwrap().state[j..j + 4]
         .iter()
         .map(|x| x * x)
         .sum::<f64>()
@@ -723,9 +725,8 @@ fn long_run_keeps_joint_quaternions_normalised() {
     // at a loose tolerance the norm of Q drifts by about rtol per second unless rescaled
     let mut s = start(&spherical_pendulum("dopri5", 1e-6));
     s.step_to(200.0).unwrap();
-    let e = s.engine().unwrap();
-    let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
+    let j = s.model().unwrap().joints[0].qpos;
+    let qn: f64 = s.data().unwrap().state[j..j + 4]
         .iter()
         .map(|x| x * x)
         .sum::<f64>()
@@ -849,7 +850,7 @@ fn free_joint_on_a_moving_parent_is_ballistic() {
         )
     };
     let (mut a, mut b) = (start(&fix(pendulum(true))), start(&fix(pendulum(false))));
-    assert!(warnings(&a).is_empty(), "{:?}", warnings(&a));
+    assert!(warnings(&mut a).is_empty(), "{:?}", warnings(&mut a));
     let mut arm_alone = Vec::new();
     run(&mut b, 2.0, 0.01, |s, _| arm_alone.push(get(s, "pivot.q")));
     let l0 = {
@@ -986,7 +987,7 @@ fn initial_velocity_consistent_with_joint_gives_joint_rate() {
     let rate = 1.7;
     let (text, ..) = hinged((axis * rate).cross(&arm), axis * rate);
     let mut s = start(&text);
-    assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+    assert!(warnings(&mut s).is_empty(), "{:?}", warnings(&mut s));
     let qd = get(&mut s, "hinge.qd");
     let v = vec_out(&mut s, "door.v");
     assert!((qd - rate).abs() < 1e-12, "joint rate {qd}");
@@ -1001,7 +1002,7 @@ fn initial_velocity_inconsistent_with_joint_warns_and_projects() {
     let rate = 1.7;
     let (text, ..) = hinged(at_rest(), axis * rate);
     let mut s = start(&text);
-    let w = warnings(&s);
+    let w = warnings(&mut s);
     assert_eq!(w.len(), 1, "{w:?}");
     assert!(w[0].contains("inconsistent"), "{w:?}");
     let expect = rate / (axis.cross(&arm).norm_squared() + 1.0);
@@ -1014,7 +1015,7 @@ fn initial_velocity_inconsistent_with_joint_warns_and_projects() {
     // a velocity along the hinge axis cannot be followed at all: warned, rate unchanged
     let (text, ..) = hinged((axis * rate).cross(&arm) + axis * 0.3, axis * rate);
     let mut s = start(&text);
-    assert_eq!(warnings(&s).len(), 1);
+    assert_eq!(warnings(&mut s).len(), 1);
     assert!((get(&mut s, "hinge.qd") - rate).abs() < 1e-12);
 }
 
@@ -1028,11 +1029,10 @@ fn initial_velocity_projected_onto_loop_constraints() {
     let end = text[v..].find("\n\n").unwrap() + v;
     text.replace_range(v..end, "velocity = [0.0, 0.0, 0.0]\nangular_velocity = [0.0, 0.0, 0.0]");
     let mut s = start(&text);
-    let w = warnings(&s);
+    let w = warnings(&mut s);
     assert!(w.iter().any(|w| w.contains("loop constraints")), "{w:?}");
-    let e = s.engine_mut().unwrap();
-    e.constraint_residual();
-    let rate = e.data().phi_dot.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
+    s.constraint_residual().unwrap();
+    let rate = s.data().unwrap().phi_dot.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
     assert!(rate < 1e-12, "constraint rate after projection {rate:.3e}");
     assert!(
         get(&mut s, "rocker_pivot.qd").abs() > 0.1,
@@ -1223,7 +1223,7 @@ fn loop_zoo(closing: &str) -> String {
 
 /// Advances joint positions by the velocity-space increment `dv` (quaternions through the
 /// exponential map in the child frame).
-fn displaced(m: &model::Model, qpos: &[f64], dv: &[f64]) -> Vec<f64> {
+fn displaced(m: &contact_fmu::model::Model, qpos: &[f64], dv: &[f64]) -> Vec<f64> {
     let mut q = qpos.to_vec();
     for j in &m.joints {
         let (a, v) = (j.qpos, j.qvel);
@@ -1244,7 +1244,7 @@ fn displaced(m: &model::Model, qpos: &[f64], dv: &[f64]) -> Vec<f64> {
 fn loop_constraint_rows_match_finite_differences() {
     for closing in ["revolute", "prismatic", "spherical", "fixed"] {
         let scene = Scene::from_str(&loop_zoo(closing), "zoo.toml").unwrap();
-        let (mut m, mut d) = model::compile(&scene, "zoo.toml").unwrap();
+        let (mut m, mut d) = compile(&scene, "zoo.toml").unwrap();
         m.baumgarte = 0.0;
         let (nq, nv, nc) = (m.nq, m.nv, m.nc);
         assert!(nc > 0);
@@ -1256,16 +1256,18 @@ fn loop_constraint_rows_match_finite_differences() {
         let qd: Vec<f64> = (0..nv).map(|k| 1.5 * ((k as f64 + 2.0) * 0.9).cos()).collect();
         let qdd: Vec<f64> = (0..nv).map(|k| 2.0 * ((k as f64 + 0.5) * 2.3).sin()).collect();
         state[nq..nq + nv].copy_from_slice(&qd);
-        dynamics::kinematics(&m, &mut d, &state);
-        dynamics::constraints(&m, &mut d, &qd);
+        d.eval_state.copy_from_slice(&state);
+        kinematics::kinematics(&m, &mut d);
+        dynamics::constraints(&m, &mut d, contact::resting_rows);
         let (phi_q, rate, gamma) = (d.phi_q.clone(), d.phi_dot.clone(), d.gamma.clone());
         // Φ along q(t) = q ⊕ (t q̇ + t²/2 q̈)
         let mut phi_at = |t: f64| -> Vec<f64> {
             let dv: Vec<f64> = (0..nv).map(|k| t * qd[k] + 0.5 * t * t * qdd[k]).collect();
             let mut st = state.clone();
             st[..nq].copy_from_slice(&displaced(&m, &q1, &dv));
-            dynamics::kinematics(&m, &mut d, &st);
-            dynamics::constraints(&m, &mut d, &st[nq..nq + nv]);
+            d.eval_state.copy_from_slice(&st);
+            kinematics::kinematics(&m, &mut d);
+            dynamics::constraints(&m, &mut d, contact::resting_rows);
             d.phi.clone()
         };
         let h = 1e-4;
@@ -1306,22 +1308,30 @@ fn right_hand_side_and_projection_do_not_allocate() {
                u_axis = [0.0, 1.0, 0.0]\nsize = [0.1, 0.1]\n",
     ] {
         let scene = Scene::from_str(&text, "x.toml").unwrap();
-        let (m, mut d) = model::compile(&scene, "x.toml").unwrap();
+        let (m, mut d) = compile(&scene, "x.toml").unwrap();
         for mem in d.contact_memory.iter_mut() {
             mem.active = true;
             mem.impact_velocity = 0.1;
         }
         let mut state = d.state.clone();
         let mut dy = vec![0.0; m.nstate()];
-        engine::evaluate(&m, &mut d, &state, Some(&mut dy));
+        Rhs {
+            model: &m,
+            data: &mut d,
+        }
+        .rhs(0.0, &state, &mut dy);
         let mut moved = false;
         let n = alloc_counter::count(|| {
             for k in 0..10 {
                 state[m.nq - 1] += 1e-7 * k as f64;
-                engine::evaluate(&m, &mut d, &state, Some(&mut dy));
+                Rhs {
+                    model: &m,
+                    data: &mut d,
+                }
+                .rhs(0.0, &state, &mut dy);
             }
             d.state.copy_from_slice(&state);
-            moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL);
+            moved = dynamics::project_state(&m, &mut d, dynamics::PROJECTION_TOL, contact::resting_rows);
         });
         assert!(dy.iter().all(|x| x.is_finite()));
         for (i, out) in d.contact_out.iter().enumerate() {
@@ -1332,8 +1342,9 @@ fn right_hand_side_and_projection_do_not_allocate() {
             assert!(moved, "the perturbed state of {} was not projected", m.name);
             // the projected state satisfies Φ = 0 and Φ_q q̇ = 0
             let st = d.state.clone();
-            dynamics::kinematics(&m, &mut d, &st);
-            dynamics::constraints(&m, &mut d, &st[m.nq..m.nq + m.nv]);
+            d.eval_state.copy_from_slice(&st);
+            kinematics::kinematics(&m, &mut d);
+            dynamics::constraints(&m, &mut d, contact::resting_rows);
             let worst = |v: &[f64]| v.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
             let (p, v) = (worst(&d.phi), worst(&d.phi_dot));
             eprintln!("{}: after projection |Φ| = {p:.1e}, |Φ_q q̇| = {v:.1e}", m.name);
@@ -1358,7 +1369,7 @@ fn restored_state_continues_bit_for_bit_with_projection() {
     };
     let mut a = start(&text);
     continue_for(&mut a, 50);
-    let snap = a.snapshot();
+    let snap = a.snapshot(Vec::new());
     let tail_a = continue_for(&mut a, 50);
     // into a fresh simulation, and back into the original one
     let mut b = Simulation::from_scene_str(&text, "test.toml").unwrap();
@@ -1393,7 +1404,7 @@ fn mixed_chain_conserves_energy_with_and_without_loops() {
         run(&mut s, 5.0, 0.01, |s, _| {
             balance = balance.max((get(s, "energy.total") + get(s, "energy.dissipated") - e0).abs());
             ke_max = ke_max.max(get(s, "energy.kinetic"));
-            resid = resid.max(s.engine_mut().unwrap().constraint_residual());
+            resid = resid.max(s.constraint_residual().unwrap());
         });
         let dissipated = get(&mut s, "energy.dissipated");
         eprintln!(
@@ -1471,8 +1482,8 @@ fn parallelogram_passes_its_change_points_on_its_branch() {
             fail = Some(e.to_string());
             break;
         }
-        resid = resid.max(s.engine_mut().unwrap().constraint_residual());
-        let r = s.engine().unwrap().data().schur_rank;
+        resid = resid.max(s.constraint_residual().unwrap());
+        let r = s.data().unwrap().schur_rank;
         (rmin, rmax) = (rmin.min(r), rmax.max(r));
         dq = dq.max((get(&mut s, "rocker_pivot.q") - get(&mut s, "crank_pivot.q")).abs());
     }

@@ -2,7 +2,7 @@
 //! this thread while `Engine::advance` runs, after a warm-up (the first advances may size
 //! buffers lazily). Asserts a count, not a time.
 
-use contact_fmu::engine::ContactEventKind;
+use contact_fmu::model::ContactEventKind;
 use contact_fmu::scene::{Law, Method};
 use contact_fmu::simulation::Simulation;
 
@@ -28,15 +28,14 @@ fn allocations(scene: &str, method: Method, warmup: usize, steps: usize) -> (u64
         t += h;
         sim.step_to(t).expect("warm-up advances");
     }
-    let engine = sim.engine_mut().expect("engine");
-    let (s0, e0) = (engine.counters().steps, engine.counters().events);
+    let (s0, e0) = (sim.counters().steps, sim.counters().events);
     let n = count(|| {
         for _ in 0..steps {
             t += h;
-            engine.advance(t).expect("advances");
+            sim.step_to(t).expect("advances");
         }
     });
-    (n, engine.counters().steps - s0, engine.counters().events - e0)
+    (n, sim.counters().steps - s0, sim.counters().events - e0)
 }
 
 /// Allocations of one `advance` over `span` seconds starting at `t0` (after a warm-up
@@ -44,10 +43,9 @@ fn allocations(scene: &str, method: Method, warmup: usize, steps: usize) -> (u64
 fn one_advance(scene: &str, method: Method, t0: f64, span: f64) -> (u64, u64, u64) {
     let mut sim = start(scene, method);
     sim.step_to(t0).expect("warm-up advance");
-    let engine = sim.engine_mut().expect("engine");
-    let (s0, e0) = (engine.counters().steps, engine.counters().events);
-    let n = count(|| engine.advance(t0 + span).expect("advances"));
-    (n, engine.counters().steps - s0, engine.counters().events - e0)
+    let (s0, e0) = (sim.counters().steps, sim.counters().events);
+    let n = count(|| sim.step_to(t0 + span).expect("advances"));
+    (n, sim.counters().steps - s0, sim.counters().events - e0)
 }
 
 /// Inside one `advance` without events, the allocation count does not grow with the number
@@ -148,7 +146,7 @@ struct ImpulseRun {
     resting: bool,
     /// Energies at the end: kinetic, potential, contact, dissipated [J]; and the total at
     /// the start of the window.
-    energies: [f64; 4],
+    energies: contact_fmu::outputs::Energies,
     total_before: f64,
 }
 
@@ -168,32 +166,31 @@ fn impulse_run(scene: &str, contact: &str, method: Method, warmup: usize, advanc
         t += h;
         sim.step_to(t).expect("warm-up advances");
     }
-    let engine = sim.engine_mut().expect("engine");
-    let ci = engine
+    let ci = sim
         .model()
+        .expect("model")
         .contacts
         .iter()
         .position(|c| c.name == contact)
         .expect("contact");
     assert_eq!(
-        engine.model().contacts[ci].law,
+        sim.model().expect("model").contacts[ci].law,
         Law::Impulse,
         "the law parameter took effect"
     );
-    let t_warm = engine.time();
-    let s0 = engine.counters().steps;
-    let impacts0 = engine.data().contact_memory[ci].impacts;
-    let e = engine.energies();
-    let total_before = e[0] + e[1] + e[2] + e[3];
+    let t_warm = sim.time();
+    let s0 = sim.counters().steps;
+    let impacts0 = sim.data().expect("data").contact_memory[ci].impacts;
+    let e = sim.energies().expect("energies");
+    let total_before = e.kinetic + e.potential + e.contact + e.dissipated;
     let allocations = count(|| {
         for _ in 0..advances {
             t += h;
-            engine.advance(t).expect("advances");
+            sim.step_to(t).expect("advances");
         }
     });
     let window = |k: ContactEventKind| {
-        engine
-            .contact_events()
+        sim.contact_events()
             .iter()
             .filter(|ev| ev.time > t_warm && ev.contact == ci && ev.kind == k)
             .count()
@@ -201,13 +198,13 @@ fn impulse_run(scene: &str, contact: &str, method: Method, warmup: usize, advanc
     ImpulseRun {
         allocations,
         advances,
-        steps: engine.counters().steps - s0,
-        impacts: engine.data().contact_memory[ci].impacts - impacts0,
+        steps: sim.counters().steps - s0,
+        impacts: sim.data().expect("data").contact_memory[ci].impacts - impacts0,
         logged_impacts: window(ContactEventKind::Impact),
         logged_rests: window(ContactEventKind::Rest),
-        log_len: engine.contact_events().len(),
-        resting: engine.data().contact_memory[ci].active,
-        energies: engine.energies(),
+        log_len: sim.contact_events().len(),
+        resting: sim.data().expect("data").contact_memory[ci].active,
+        energies: sim.energies().expect("energies"),
         total_before,
     }
 }
@@ -239,7 +236,12 @@ fn impulse_law_impacts_and_resting_do_not_allocate() {
             method.name()
         );
         // At rest the ball has no kinetic energy; the energy it had went to the impacts.
-        let [ke, pe, ce, dissipated] = r.energies;
+        let (ke, pe, ce, dissipated) = (
+            r.energies.kinetic,
+            r.energies.potential,
+            r.energies.contact,
+            r.energies.dissipated,
+        );
         assert!(
             ke < 1e-12 * r.total_before,
             "{}: kinetic energy {ke:.3e} J at rest",
@@ -274,24 +276,23 @@ fn event_log_wraps_without_allocating() {
     // thousands of events (touch/separation chatter at each bounce), enough to wrap it.
     let mut sim = start("bouncing_ball", Method::Rk4);
     let h = sim.scene().model.interval;
-    let engine = sim.engine_mut().expect("engine");
     let mut t = 0.0;
     for _ in 0..10 {
         t += h;
-        engine.advance(t).expect("warm-up advances");
+        sim.step_to(t).expect("warm-up advances");
     }
     let (mut allocations, mut wraps, mut longest) = (0, 0, 0);
     for _ in 0..1000 {
-        let before = engine.contact_events().len();
+        let before = sim.contact_events().len();
         t += h;
-        allocations += count(|| engine.advance(t).expect("advances"));
-        let after = engine.contact_events().len();
+        allocations += count(|| sim.step_to(t).expect("advances"));
+        let after = sim.contact_events().len();
         wraps += usize::from(after < before);
         longest = longest.max(after);
     }
     println!(
         "bouncing_ball rk4: {allocations} allocations in 1000 advances, {} events, log wrapped {wraps} times",
-        engine.counters().events
+        sim.counters().events
     );
     assert!(wraps >= 1, "the log never filled ({longest} entries)");
     assert!(longest <= 4096, "the log grew to {longest} entries");
