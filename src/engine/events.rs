@@ -129,7 +129,7 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
 /// are logged.
 pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     let nc = m.contacts.len();
-    let Some(method) = d.solver.method() else { return None };
+    let method = d.solver.method()?;
     if nc == 0 {
         return None;
     }
