@@ -8,8 +8,6 @@
 use super::lifecycle::LifeState;
 use crate::simulation::Snapshot;
 
-/// Marks a live [`SavedState`] (guards against a foreign or freed pointer).
-pub(crate) const STATE_MAGIC: u64 = 0x5354_4154_4543_464d; // "MFCETATS"
 const SERIAL_MAGIC: &[u8; 8] = b"CFMUSTAT";
 const SERIAL_VERSION: u32 = 1;
 /// Bytes before the snapshot: magic 8, version 4, flags 4, total length 8, model hash 8,
@@ -19,7 +17,6 @@ const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 4 + 4 + 8 * 4 + 8;
 /// Everything `fmi2SetFMUstate` needs to put an instance back where it was.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SavedState {
-    pub(crate) magic: u64,
     /// Hash of the scene text: a state only restores into an instance of the same model.
     pub model_hash: u64,
     /// The state-machine state.
@@ -48,7 +45,6 @@ impl SavedState {
         snapshot: Snapshot,
     ) -> SavedState {
         SavedState {
-            magic: STATE_MAGIC,
             model_hash,
             lifecycle,
             time,
@@ -57,11 +53,6 @@ impl SavedState {
             last_successful_time,
             snapshot,
         }
-    }
-
-    /// True for a state made by this library (and not yet freed).
-    pub fn is_valid(&self) -> bool {
-        self.magic == STATE_MAGIC
     }
 
     /// The serialized bytes.
