@@ -7,6 +7,10 @@
 //! logger) instead of a read of freed memory. The registries are the only globals; everything
 //! an instance allocates is freed by `fmi2FreeInstance` (saved states by `fmi2FreeFMUstate`),
 //! so a host may unload the library afterwards.
+//!
+//! Safety, for every function: `c` and `fmi2FMUstate` values may be anything (they are looked
+//! up before use), but FMI 2.0's rule holds that one instance, and a state, is not used or
+//! freed on two threads at once. Each function's `# Safety` names its other pointers.
 
 #![allow(non_snake_case)]
 
@@ -191,8 +195,7 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
 /// `fmi2SetDebugLogging`
 ///
 /// # Safety
-/// FMI 2.0 calling conventions: `c` from `fmi2Instantiate`, `categories` holds
-/// `n_categories` strings.
+/// `categories` holds `n_categories` strings, each NULL or NUL-terminated.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetDebugLogging(
     c: fmi2Component,
@@ -304,7 +307,7 @@ pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
 /// `fmi2SetupExperiment`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetupExperiment(
     c: fmi2Component,
@@ -328,7 +331,7 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 /// `fmi2EnterInitializationMode`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -345,7 +348,7 @@ pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2St
 /// variable) and compiles the model.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -361,7 +364,7 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Sta
 /// `fmi2Terminate`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -372,7 +375,7 @@ pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
 /// `fmi2Reset`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -545,7 +548,8 @@ pub unsafe extern "C" fn fmi2SetString(
 /// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.
 ///
 /// # Safety
-/// `state` points to NULL or to a live state of this library.
+/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+/// before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -560,7 +564,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUst
 /// its lifecycle state, time and stop time.
 ///
 /// # Safety
-/// `state` is a live state of this library.
+/// See the module docs (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -575,7 +579,8 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) 
 /// `fmi2FreeFMUstate`: frees `*state` (NULL is ignored) and sets it to NULL.
 ///
 /// # Safety
-/// `state` is NULL or points to NULL or to a live state of this library.
+/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+/// before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -606,7 +611,7 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
 /// `fmi2SerializedFMUstateSize`
 ///
 /// # Safety
-/// `state` is a live state of this library, `size` is writable.
+/// `size` is NULL or writable (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     c: fmi2Component,
@@ -630,7 +635,7 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
 /// `fmi2SerializeFMUstate`: writes exactly `fmi2SerializedFMUstateSize` bytes.
 ///
 /// # Safety
-/// `state` is a live state of this library, `serialized` holds `size` bytes.
+/// `serialized` holds `size` writable bytes (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SerializeFMUstate(
     c: fmi2Component,
@@ -660,7 +665,8 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
 /// overwrites `*state` when it is not NULL).
 ///
 /// # Safety
-/// `serialized` holds `size` bytes; `state` points to NULL or to a live state.
+/// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
+/// handle (whose value is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     c: fmi2Component,
@@ -682,7 +688,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
 /// `fmi2GetDirectionalDerivative`: not supported (`providesDirectionalDerivative` is false).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     c: fmi2Component,
@@ -710,7 +716,7 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
 /// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs` is false).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     c: fmi2Component,
@@ -732,7 +738,7 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
 /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     c: fmi2Component,
@@ -755,7 +761,7 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
 /// time) to exactly `current_communication_point + communication_step_size`.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2DoStep(
     c: fmi2Component,
@@ -773,7 +779,7 @@ pub unsafe extern "C" fn fmi2DoStep(
 /// `fmi2CancelStep`: never allowed, since `fmi2DoStep` never returns `fmi2Pending`.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -784,7 +790,7 @@ pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
 /// `fmi2GetStatus`: not supported (only meaningful after `fmi2Pending`, never returned).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *mut c_int) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -799,7 +805,7 @@ pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *
 /// `fmi2GetRealStatus`: answers `fmi2LastSuccessfulTime`.
 ///
 /// # Safety
-/// `value` is writable.
+/// `value` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Real) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -816,7 +822,7 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value:
 /// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2Integer) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -829,7 +835,7 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _va
 /// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
 ///
 /// # Safety
-/// `value` is writable.
+/// `value` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Boolean) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
@@ -846,7 +852,7 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, val
 /// `fmi2GetStringStatus`: not supported (`fmi2PendingStatus` needs an asynchronous step).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2String) -> fmi2Status {
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
