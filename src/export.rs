@@ -11,6 +11,7 @@
 //! the bundled ones can be kept under version control).
 
 use crate::fmi::LOG_CATEGORIES;
+use crate::guid::guid;
 use crate::scene::{Scene, SceneError};
 use crate::simulation::Simulation;
 use crate::variables::{Causality, EnumType, Range, VarType, Variability, Variable, VariableTable, UNITS};
@@ -18,13 +19,12 @@ use quick_xml::events::attributes::Attribute;
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::name::QName;
 use quick_xml::Writer;
-use sha2::{Digest, Sha256};
 use std::borrow::Cow;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-/// The crate version, written into `generationTool` and mixed into the GUID.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// The crate version, written into `generationTool` (and mixed into the GUID).
+pub use crate::guid::VERSION;
 
 /// The FMI platform folder of this build (`binaries/<PLATFORM>/`).
 pub const PLATFORM: &str = if cfg!(target_os = "windows") {
@@ -104,41 +104,6 @@ pub struct ExportedFmu {
     pub guid: String,
     /// Number of model variables.
     pub variables: usize,
-}
-
-/// SHA-256 of the scene text followed by the crate version.
-fn digest(scene_text: &str) -> [u8; 32] {
-    let mut h = Sha256::new();
-    h.update(scene_text.as_bytes());
-    h.update(b"\ncontact-fmu ");
-    h.update(VERSION.as_bytes());
-    h.finalize().into()
-}
-
-/// The FMU's GUID: `{8-4-4-4-12}` hex from the SHA-256 of the scene text and the crate
-/// version (formatted as an RFC 9562 version-8 UUID), so the same scene always gets the
-/// same GUID and `fmi2Instantiate` can check that the description and the scene belong
-/// together.
-pub fn guid(scene_text: &str) -> String {
-    let mut b = digest(scene_text);
-    b[6] = (b[6] & 0x0f) | 0x80;
-    b[8] = (b[8] & 0x3f) | 0x80;
-    let hex: String = b[..16].iter().map(|x| format!("{x:02x}")).collect();
-    format!(
-        "{{{}-{}-{}-{}-{}}}",
-        &hex[0..8],
-        &hex[8..12],
-        &hex[12..16],
-        &hex[16..20],
-        &hex[20..32]
-    )
-}
-
-/// A 64-bit fingerprint of the scene (the first bytes of the same digest), stored in
-/// serialized FMU states so that a state only restores into the same model.
-pub fn model_hash(scene_text: &str) -> u64 {
-    let b = digest(scene_text);
-    u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
 }
 
 /// Shortest text that reads back as exactly `x` (an `xs:double`).
@@ -667,19 +632,6 @@ pub fn export_command(scene_path: &Path, out: Option<&Path>) -> Result<ExportedF
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn guid_is_deterministic_and_uuid_shaped() {
-        let a = guid("[model]\nname = \"x\"\n");
-        assert_eq!(a, guid("[model]\nname = \"x\"\n"));
-        assert_ne!(a, guid("[model]\nname = \"y\"\n"));
-        assert_eq!(a.len(), 38);
-        let inner = &a[1..37];
-        let groups: Vec<usize> = inner.split('-').map(str::len).collect();
-        assert_eq!(groups, [8, 4, 4, 4, 12]);
-        assert!(a.starts_with('{') && a.ends_with('}'));
-        assert_eq!(&inner[14..15], "8", "version nibble");
-    }
 
     #[test]
     fn reals_are_written_exactly_and_briefly() {

@@ -1,18 +1,35 @@
 //! The FMI functions called through their C signatures, in-process (the Python tests drive
 //! the exported FMU files through fmpy; these pin the same behaviour without a host).
 
-use contact_fmu::export::guid;
 use contact_fmu::fmi::exports::*;
 use contact_fmu::fmi::lifecycle::LifeState;
 use contact_fmu::fmi::types::*;
+use contact_fmu::guid::guid;
 use contact_fmu::simulation::Simulation;
 use contact_fmu::variables::{Causality, VarType};
 use std::ffi::CString;
 use std::path::PathBuf;
 use std::ptr;
+use std::sync::{PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 
 const OK: fmi2Status = fmi2Status::fmi2OK;
 const ERROR: fmi2Status = fmi2Status::fmi2Error;
+
+/// Tests run on parallel threads of one process, so an address freed by one test may come back
+/// from the next allocation of another. A test that keeps a freed handle to check that it is
+/// refused holds this lock exclusively (no other test allocates instances or states meanwhile);
+/// every other test that makes them holds it shared.
+static HANDLES: RwLock<()> = RwLock::new(());
+
+/// For a test that makes instances or states.
+fn shared() -> RwLockReadGuard<'static, ()> {
+    HANDLES.read().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// For a test that keeps freed handles.
+fn exclusive() -> RwLockWriteGuard<'static, ()> {
+    HANDLES.write().unwrap_or_else(PoisonError::into_inner)
+}
 
 /// A scene unpacked like an FMU, in a folder whose path contains a space.
 struct Unpacked {
@@ -124,6 +141,7 @@ fn real_outputs(sim: &Simulation) -> Vec<u32> {
 
 #[test]
 fn stepping_through_fmi_equals_the_simulation_facade_bit_for_bit() {
+    let _handles = shared();
     let u = Unpacked::new("facade");
     let mut sim = u.simulation();
     let outs = real_outputs(&sim);
@@ -142,6 +160,7 @@ fn stepping_through_fmi_equals_the_simulation_facade_bit_for_bit() {
 
 #[test]
 fn wrong_guid_empty_name_or_missing_resources_give_null() {
+    let _handles = shared();
     let u = Unpacked::new("null");
     assert!(u
         .instantiate_with("x", "{00000000-0000-0000-0000-000000000000}", &u.uri())
@@ -161,6 +180,7 @@ fn wrong_guid_empty_name_or_missing_resources_give_null() {
 
 #[test]
 fn null_component_and_null_arrays_are_errors_not_crashes() {
+    let _handles = shared();
     let u = Unpacked::new("nulls");
     // SAFETY: NULL pointers are what is checked.
     unsafe {
@@ -180,6 +200,7 @@ fn null_component_and_null_arrays_are_errors_not_crashes() {
 
 #[test]
 fn calls_out_of_sequence_are_errors_and_reset_recovers() {
+    let _handles = shared();
     let u = Unpacked::new("sequence");
     let c = u.instantiate();
     assert_eq!(c.state(), LifeState::Instantiated);
@@ -205,6 +226,7 @@ fn calls_out_of_sequence_are_errors_and_reset_recovers() {
 
 #[test]
 fn communication_points_must_match_and_steps_must_be_positive() {
+    let _handles = shared();
     let u = Unpacked::new("points");
     for (t, h) in [
         (0.0, 0.0),
@@ -226,6 +248,7 @@ fn communication_points_must_match_and_steps_must_be_positive() {
 
 #[test]
 fn stop_time_limits_the_steps() {
+    let _handles = shared();
     let u = Unpacked::new("stop");
     let c = u.instantiate();
     // SAFETY: a live instance.
@@ -240,6 +263,7 @@ fn stop_time_limits_the_steps() {
 
 #[test]
 fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
+    let _handles = shared();
     let u = Unpacked::new("states");
     let sim = u.simulation();
     let outs = real_outputs(&sim);
@@ -306,6 +330,7 @@ fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
 
 #[test]
 fn a_state_of_another_model_is_refused() {
+    let _handles = shared();
     let u = Unpacked::new("other a");
     let mut v = Unpacked::new("other b");
     v.text.push_str("\n# a different scene text is a different model\n");
@@ -332,6 +357,7 @@ fn types_platform_and_version() {
 
 #[test]
 fn enumerations_are_set_as_integers_and_checked_at_initialisation() {
+    let _handles = shared();
     let u = Unpacked::new("enums");
     let sim = u.simulation();
     let method = sim.table().index_of("solver.method").unwrap() as u32;
@@ -355,4 +381,192 @@ fn enumerations_are_set_as_integers_and_checked_at_initialisation() {
         assert_eq!(fmi2SetInteger(c.0, &method, 1, &7), OK);
         assert_eq!(fmi2ExitInitializationMode(c.0), ERROR, "method 7 does not exist");
     }
+}
+
+/// Handle values that are not live instances: never instantiated, misaligned, the top of the
+/// address space, a pointer to memory of another kind.
+fn garbage_handles(elsewhere: &mut f64) -> [*mut std::ffi::c_void; 4] {
+    [
+        0x10 as fmi2Component,
+        0x1001 as fmi2Component,
+        (usize::MAX & !0xf) as fmi2Component,
+        (elsewhere as *mut f64).cast(),
+    ]
+}
+
+/// Calls every function that takes a component with `c`, which is not a live instance, and
+/// with arguments that would be valid for one: each must return `fmi2Error` without reading
+/// `c` (a crash or a sanitizer report would be the failure).
+///
+/// # Safety
+/// The arrays passed are valid, only `c` is not.
+unsafe fn every_call_on_a_dead_handle_is_an_error(c: fmi2Component) {
+    let vr: fmi2ValueReference = 0;
+    let mut real: fmi2Real = 0.0;
+    let mut int: fmi2Integer = 0;
+    let mut boolean: fmi2Boolean = 0;
+    let mut string: fmi2String = ptr::null();
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    let mut size = 0usize;
+    let mut bytes = [0 as fmi2Byte; 16];
+    let order: fmi2Integer = 1;
+    // SAFETY: every pointer but `c` is valid for the call; `c` must not be read.
+    unsafe {
+        assert_eq!(fmi2SetDebugLogging(c, FMI2_TRUE, 0, ptr::null()), ERROR);
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), ERROR);
+        assert_eq!(fmi2EnterInitializationMode(c), ERROR);
+        assert_eq!(fmi2ExitInitializationMode(c), ERROR);
+        assert_eq!(fmi2Terminate(c), ERROR);
+        assert_eq!(fmi2Reset(c), ERROR);
+        assert_eq!(fmi2GetReal(c, &vr, 1, &mut real), ERROR);
+        assert_eq!(fmi2GetInteger(c, &vr, 1, &mut int), ERROR);
+        assert_eq!(fmi2GetBoolean(c, &vr, 1, &mut boolean), ERROR);
+        assert_eq!(fmi2GetString(c, &vr, 1, &mut string), ERROR);
+        assert_eq!(fmi2SetReal(c, &vr, 1, &1.0), ERROR);
+        assert_eq!(fmi2SetInteger(c, &vr, 1, &1), ERROR);
+        assert_eq!(fmi2SetBoolean(c, &vr, 1, &FMI2_TRUE), ERROR);
+        assert_eq!(fmi2SetString(c, &vr, 1, &c"x".as_ptr()), ERROR);
+        assert_eq!(fmi2GetFMUstate(c, &mut state), ERROR);
+        assert!(state.is_null(), "no state is allocated for a dead instance");
+        assert_eq!(fmi2SetFMUstate(c, state), ERROR);
+        assert_eq!(fmi2FreeFMUstate(c, &mut state), ERROR);
+        assert_eq!(fmi2SerializedFMUstateSize(c, state, &mut size), ERROR);
+        assert_eq!(fmi2SerializeFMUstate(c, state, bytes.as_mut_ptr(), bytes.len()), ERROR);
+        assert_eq!(
+            fmi2DeSerializeFMUstate(c, bytes.as_ptr(), bytes.len(), &mut state),
+            ERROR
+        );
+        assert!(state.is_null());
+        assert_eq!(fmi2GetDirectionalDerivative(c, &vr, 1, &vr, 1, &1.0, &mut real), ERROR);
+        assert_eq!(fmi2SetRealInputDerivatives(c, &vr, 1, &order, &1.0), ERROR);
+        assert_eq!(fmi2GetRealOutputDerivatives(c, &vr, 1, &order, &mut real), ERROR);
+        assert_eq!(fmi2DoStep(c, 0.0, 1e-3, FMI2_TRUE), ERROR);
+        assert_eq!(fmi2CancelStep(c), ERROR);
+        assert_eq!(fmi2GetStatus(c, 0, &mut int), ERROR);
+        assert_eq!(fmi2GetRealStatus(c, 2, &mut real), ERROR);
+        assert_eq!(fmi2GetIntegerStatus(c, 0, &mut int), ERROR);
+        assert_eq!(fmi2GetBooleanStatus(c, 4, &mut boolean), ERROR);
+        assert_eq!(fmi2GetStringStatus(c, 3, &mut string), ERROR);
+        assert_eq!(instance_state(c), None);
+        // Freeing it is ignored, also twice.
+        fmi2FreeInstance(c);
+        fmi2FreeInstance(c);
+    }
+    assert_eq!((real, int, boolean, size), (0.0, 0, 0, 0), "nothing was written");
+    assert!(string.is_null());
+}
+
+#[test]
+fn freed_and_garbage_component_handles_are_errors_not_crashes() {
+    let _alone = exclusive();
+    let u = Unpacked::new("stale component");
+    let c = u.instantiate();
+    c.init();
+    assert_eq!(c.step(0.0, 1e-3), OK);
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    // SAFETY: a live instance and a state slot.
+    unsafe { assert_eq!(fmi2GetFMUstate(c.0, &mut state), OK) };
+    let freed = c.0;
+    drop(c); // fmi2FreeInstance
+    let mut elsewhere = 1.5;
+    // SAFETY: only the component handles are invalid.
+    unsafe {
+        every_call_on_a_dead_handle_is_an_error(freed);
+        for g in garbage_handles(&mut elsewhere) {
+            every_call_on_a_dead_handle_is_an_error(g);
+        }
+        // A live FMU state is not a component either.
+        every_call_on_a_dead_handle_is_an_error(state);
+    }
+    assert_eq!(elsewhere, 1.5);
+    // The state outlives its instance and is freed through another one.
+    let other = u.instantiate();
+    // SAFETY: a live instance and a live state.
+    unsafe {
+        assert_eq!(fmi2FreeFMUstate(other.0, &mut state), OK);
+    }
+    assert!(state.is_null());
+}
+
+#[test]
+fn freed_and_garbage_fmu_states_are_errors_not_crashes() {
+    let _alone = exclusive();
+    let u = Unpacked::new("stale state");
+    let c = u.instantiate();
+    c.init();
+    assert_eq!(c.step(0.0, 1e-3), OK);
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    let mut size = 0usize;
+    let mut elsewhere = 1.5;
+    // SAFETY: a live instance; every pointer but the FMU state handles is valid.
+    unsafe {
+        assert_eq!(fmi2GetFMUstate(c.0, &mut state), OK);
+        assert_eq!(fmi2SerializedFMUstateSize(c.0, state, &mut size), OK);
+        let mut bytes = vec![0 as fmi2Byte; size];
+        assert_eq!(fmi2SerializeFMUstate(c.0, state, bytes.as_mut_ptr(), size), OK);
+        let freed = state;
+        assert_eq!(fmi2FreeFMUstate(c.0, &mut state), OK);
+        assert!(state.is_null());
+
+        let mut dead = vec![freed, c.0];
+        dead.extend(garbage_handles(&mut elsewhere));
+        for s in dead {
+            assert_eq!(fmi2SetFMUstate(c.0, s), ERROR);
+            assert_eq!(c.state(), LifeState::Error);
+            let mut n = 0usize;
+            assert_eq!(fmi2SerializedFMUstateSize(c.0, s, &mut n), ERROR);
+            assert_eq!(n, 0);
+            assert_eq!(fmi2SerializeFMUstate(c.0, s, bytes.as_mut_ptr(), size), ERROR);
+            // Neither freed again nor overwritten, and the slot keeps its value.
+            let mut slot = s;
+            assert_eq!(fmi2FreeFMUstate(c.0, &mut slot), ERROR);
+            assert_eq!(slot, s);
+            assert_eq!(fmi2GetFMUstate(c.0, &mut slot), ERROR);
+            assert_eq!(fmi2DeSerializeFMUstate(c.0, bytes.as_ptr(), size, &mut slot), ERROR);
+            assert_eq!(slot, s);
+        }
+        assert_eq!(elsewhere, 1.5);
+
+        // The instance itself is unharmed: reset, and the bytes of the freed state restore.
+        assert_eq!(fmi2Reset(c.0), OK);
+        let mut restored: fmi2FMUstate = ptr::null_mut();
+        assert_eq!(fmi2DeSerializeFMUstate(c.0, bytes.as_ptr(), size, &mut restored), OK);
+        assert_eq!(fmi2SetFMUstate(c.0, restored), OK);
+        assert_eq!(fmi2FreeFMUstate(c.0, &mut restored), OK);
+    }
+    assert_eq!(c.state(), LifeState::StepComplete);
+    assert_eq!(c.step(1e-3, 1e-3), OK);
+}
+
+#[test]
+fn eight_instances_step_in_parallel_on_eight_threads() {
+    let _handles = shared();
+    let u = Unpacked::new("threads");
+    let mut sim = u.simulation();
+    let outs = real_outputs(&sim);
+    let h = 1e-3;
+    sim.initialize(0.0).unwrap();
+    for k in 0..200 {
+        sim.step_to(k as f64 * h + h).unwrap();
+    }
+    let expected: Vec<f64> = outs.iter().map(|&vr| sim.get(vr as usize).unwrap()).collect();
+    let start = std::sync::Barrier::new(8);
+    std::thread::scope(|s| {
+        let threads: Vec<_> = (0..8)
+            .map(|_| {
+                s.spawn(|| {
+                    let c = u.instantiate();
+                    c.init();
+                    start.wait();
+                    for k in 0..200 {
+                        assert_eq!(c.step(k as f64 * h, h), OK);
+                    }
+                    c.reals(&outs)
+                })
+            })
+            .collect();
+        for t in threads {
+            assert_eq!(t.join().unwrap(), expected);
+        }
+    });
 }

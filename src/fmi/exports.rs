@@ -1,14 +1,22 @@
 //! The 34 exported C functions of FMI 2.0 Co-Simulation (25 common, 9 co-simulation).
 //!
 //! Each one catches panics (`std::panic::catch_unwind`), checks its pointers and the calling
-//! state (a bit mask per function, see `lifecycle`), and forwards to [`Instance`]. Nothing is
-//! global: everything an instance allocates is freed by `fmi2FreeInstance` (saved states by
-//! `fmi2FreeFMUstate`), so a host may unload the library afterwards.
+//! state (a bit mask per function, see `lifecycle`), and forwards to [`Instance`]. A component
+//! or state handle is dereferenced only after `registry` has confirmed it is live, so NULL, a
+//! freed handle or a garbage value gives `fmi2Error` (unlogged: there is no instance, hence no
+//! logger) instead of a read of freed memory. The registries are the only globals; everything
+//! an instance allocates is freed by `fmi2FreeInstance` (saved states by `fmi2FreeFMUstate`),
+//! so a host may unload the library afterwards.
+//!
+//! Safety, for every function: `c` and `fmi2FMUstate` values may be anything (they are looked
+//! up before use), but FMI 2.0's rule holds that one instance, and a state, is not used or
+//! freed on two threads at once. Each function's `# Safety` names its other pointers.
 
 #![allow(non_snake_case)]
 
-use super::instance::{log_raw, Access, Failure, FmiResult, Instance, InstantiateArgs, INSTANCE_MAGIC};
+use super::instance::{log_raw, Access, Failure, FmiResult, Instance, InstantiateArgs};
 use super::lifecycle::{self, LifeState};
+use super::registry::{INSTANCES, STATES};
 use super::saved::SavedState;
 use super::types::*;
 use std::ffi::CStr;
@@ -27,32 +35,34 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-/// Borrows the instance behind a component pointer, if it is one of ours and alive.
+/// Borrows the instance behind a component handle if the handle is a live instance of this
+/// library (see `registry`). NULL, a freed handle or any other value gives `None` and is not
+/// read.
 ///
 /// # Safety
-/// `c` is NULL or a pointer returned by `fmi2Instantiate`.
+/// While the borrow lasts, no other thread uses or frees `c` (FMI 2.0: one instance is not
+/// called concurrently).
 unsafe fn instance<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
     let p = c as *mut Instance;
-    if p.is_null() || (*p).magic != INSTANCE_MAGIC {
+    if !INSTANCES.contains(p) {
         return None;
     }
-    Some(&mut *p)
+    // SAFETY: a live handle is a `Box<Instance>` leaked by `fmi2Instantiate` and not yet
+    // released by `fmi2FreeInstance`; nothing else uses it meanwhile (this function's contract).
+    Some(unsafe { &mut *p })
 }
 
-/// Runs one FMI call: looks up the instance, checks the calling state, catches panics and
-/// turns failures into a logged status.
-///
-/// # Safety
-/// `c` is NULL or a pointer returned by `fmi2Instantiate`; `body` upholds the safety of the
-/// pointers it reads.
-unsafe fn call(
-    c: fmi2Component,
+/// Runs one FMI call on `found`, the instance [`instance`] looked up: checks the calling
+/// state, catches panics and turns failures into a logged status. Without an instance the
+/// call returns `fmi2Error` and logs nothing (there is no logger to log to).
+fn call(
+    found: Option<&mut Instance>,
     func: &'static str,
     mask: u32,
     body: impl FnOnce(&mut Instance) -> FmiResult,
 ) -> fmi2Status {
     let outer = catch_unwind(AssertUnwindSafe(|| {
-        let Some(inst) = instance(c) else {
+        let Some(inst) = found else {
             return fmi2Status::fmi2Error;
         };
         if inst.state.bit() & mask == 0 {
@@ -78,28 +88,32 @@ unsafe fn call(
 /// A slice from a C array, or a failure when the array is NULL but its length is not 0.
 ///
 /// # Safety
-/// When not NULL, `p` points to `n` valid elements.
+/// When not NULL, `p` points to `n` valid elements that nothing writes during `'a`.
 unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResult<&'a [T]> {
     if n == 0 {
         Ok(&[])
     } else if p.is_null() {
         Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
     } else {
-        Ok(std::slice::from_raw_parts(p, n))
+        // SAFETY: `p` is not NULL and points to `n` valid elements (this function's contract).
+        Ok(unsafe { std::slice::from_raw_parts(p, n) })
     }
 }
 
 /// A mutable slice from a C array (see [`slice`]).
 ///
 /// # Safety
-/// When not NULL, `p` points to `n` valid, writable elements.
+/// When not NULL, `p` points to `n` valid, writable elements that nothing else accesses
+/// during `'a`.
 unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> FmiResult<&'a mut [T]> {
     if n == 0 {
         Ok(&mut [])
     } else if p.is_null() {
         Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
     } else {
-        Ok(std::slice::from_raw_parts_mut(p, n))
+        // SAFETY: `p` is not NULL and points to `n` writable elements (this function's
+        // contract).
+        Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
     }
 }
 
@@ -111,40 +125,49 @@ unsafe fn string_arg(s: fmi2String) -> Option<String> {
     if s.is_null() {
         None
     } else {
-        Some(CStr::from_ptr(s).to_string_lossy().into_owned())
+        // SAFETY: `s` is not NULL and NUL-terminated (this function's contract).
+        Some(unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned())
     }
 }
 
-/// Borrows a saved state, if it is one of ours and alive.
+/// Borrows a saved state if the handle is a live state of this library (see `registry`);
+/// anything else is refused without being read.
 ///
 /// # Safety
-/// `s` is NULL or a pointer returned by `fmi2GetFMUstate`/`fmi2DeSerializeFMUstate`.
+/// While the borrow lasts, no other thread frees or overwrites `s`.
 unsafe fn saved_state<'a>(s: fmi2FMUstate) -> FmiResult<&'a SavedState> {
     let p = s as *const SavedState;
     if p.is_null() {
         return Err(Failure::error("the FMU state is NULL"));
     }
-    if !(*p).is_valid() {
+    if !STATES.contains(p) {
         return Err(Failure::error(
             "the FMU state was not made by this FMU or has been freed",
         ));
     }
-    Ok(&*p)
+    // SAFETY: a live handle is a `Box<SavedState>` leaked by `store_state` and not yet
+    // released by `fmi2FreeFMUstate`; nothing writes it meanwhile (this function's contract).
+    Ok(unsafe { &*p })
 }
 
-/// Stores a state into `*slot`: allocates when `*slot` is NULL, otherwise overwrites it.
+/// Stores a state into `*slot`: allocates when `*slot` is NULL, otherwise overwrites it if it
+/// is a live state (anything else is refused without being read).
 ///
 /// # Safety
-/// `slot` is a valid pointer; `*slot` is NULL or a live state of this library.
+/// `slot` is NULL or valid for reading and writing; no other thread uses `*slot` meanwhile.
 unsafe fn store_state(slot: *mut fmi2FMUstate, state: SavedState) -> FmiResult {
     if slot.is_null() {
         return Err(Failure::error("the FMUstate pointer is NULL"));
     }
-    let existing = *slot as *mut SavedState;
+    // SAFETY: `slot` is not NULL and readable (this function's contract).
+    let existing = unsafe { *slot } as *mut SavedState;
     if existing.is_null() {
-        *slot = Box::into_raw(Box::new(state)) as fmi2FMUstate;
-    } else if (*existing).is_valid() {
-        *existing = state;
+        let p = STATES.register(Box::new(state)) as fmi2FMUstate;
+        // SAFETY: `slot` is not NULL and writable (this function's contract).
+        unsafe { *slot = p };
+    } else if STATES.contains(existing) {
+        // SAFETY: a live `Box<SavedState>` (see `saved_state`) that nothing else uses.
+        unsafe { *existing = state };
     } else {
         return Err(Failure::error(
             "*FMUstate is neither NULL nor a live FMU state of this FMU",
@@ -172,8 +195,7 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
 /// `fmi2SetDebugLogging`
 ///
 /// # Safety
-/// FMI 2.0 calling conventions: `c` from `fmi2Instantiate`, `categories` holds
-/// `n_categories` strings.
+/// `categories` holds `n_categories` strings, each NULL or NUL-terminated.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetDebugLogging(
     c: fmi2Component,
@@ -181,11 +203,16 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
     n_categories: usize,
     categories: *const fmi2String,
 ) -> fmi2Status {
-    call(c, "fmi2SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
-        let names = slice(categories, n_categories, "categories")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
+        // SAFETY: `categories` holds `n_categories` strings (this function's contract).
+        let names = unsafe { slice(categories, n_categories, "categories") }?;
         let mut list = Vec::with_capacity(names.len());
         for &n in names {
-            list.push(string_arg(n).ok_or_else(|| Failure::error("a log category is NULL"))?);
+            // SAFETY: each category is NULL or NUL-terminated (this function's contract).
+            let name = unsafe { string_arg(n) };
+            list.push(name.ok_or_else(|| Failure::error("a log category is NULL"))?);
         }
         inst.set_debug_logging(logging_on != FMI2_FALSE, &list)
     })
@@ -211,8 +238,18 @@ pub unsafe extern "C" fn fmi2Instantiate(
         if functions.is_null() {
             return ptr::null_mut();
         }
-        let callbacks = *functions;
-        let name = string_arg(instance_name).unwrap_or_default();
+        // SAFETY: `functions` is not NULL and points to a callbacks struct (this function's
+        // contract); the struct is `Copy`.
+        let callbacks = unsafe { *functions };
+        // SAFETY: string arguments are NULL or NUL-terminated (this function's contract).
+        let (name, guid, location) = unsafe {
+            (
+                string_arg(instance_name),
+                string_arg(fmu_guid),
+                string_arg(fmu_resource_location),
+            )
+        };
+        let name = name.unwrap_or_default();
         let report = |message: &str| {
             let cname = std::ffi::CString::new(name.replace('\0', " ")).unwrap_or_default();
             log_raw(
@@ -224,7 +261,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
                 message,
             );
         };
-        let (Some(guid), Some(location)) = (string_arg(fmu_guid), string_arg(fmu_resource_location)) else {
+        let (Some(guid), Some(location)) = (guid, location) else {
             report("fmi2Instantiate: fmuGUID and fmuResourceLocation must not be NULL");
             return ptr::null_mut();
         };
@@ -237,7 +274,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             logging_on: logging_on != FMI2_FALSE,
         };
         match catch_unwind(AssertUnwindSafe(|| Instance::new(&args))) {
-            Ok(Ok(inst)) => Box::into_raw(Box::new(inst)) as fmi2Component,
+            Ok(Ok(inst)) => INSTANCES.register(Box::new(inst)) as fmi2Component,
             Ok(Err(message)) => {
                 report(&message);
                 ptr::null_mut()
@@ -254,25 +291,23 @@ pub unsafe extern "C" fn fmi2Instantiate(
     result.unwrap_or(ptr::null_mut())
 }
 
-/// `fmi2FreeInstance`: frees everything the instance holds (allowed in every state).
+/// `fmi2FreeInstance`: frees everything the instance holds (allowed in every state). NULL, a
+/// handle freed before or any other value that is not a live instance is ignored.
 ///
 /// # Safety
-/// `c` is NULL or a pointer returned by `fmi2Instantiate` and not freed before.
+/// No other thread uses `c` during or after the call (FMI 2.0).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
-        if instance(c).is_some() {
-            let mut boxed = Box::from_raw(c as *mut Instance);
-            boxed.magic = 0;
-            drop(boxed);
-        }
+        // SAFETY: nothing uses the instance any more (this function's contract).
+        drop(unsafe { INSTANCES.release(c as *mut Instance) });
     }));
 }
 
 /// `fmi2SetupExperiment`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetupExperiment(
     c: fmi2Component,
@@ -282,7 +317,9 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
     stop_time_defined: fmi2Boolean,
     stop_time: fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2SetupExperiment", lifecycle::SETUP_EXPERIMENT, |inst| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetupExperiment", lifecycle::SETUP_EXPERIMENT, |inst| {
         inst.setup_experiment(
             (tolerance_defined != FMI2_FALSE).then_some(tolerance),
             start_time,
@@ -294,11 +331,13 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 /// `fmi2EnterInitializationMode`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
     call(
-        c,
+        found,
         "fmi2EnterInitializationMode",
         lifecycle::ENTER_INITIALIZATION_MODE,
         |inst| inst.enter_initialization_mode(),
@@ -309,11 +348,13 @@ pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2St
 /// variable) and compiles the model.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
     call(
-        c,
+        found,
         "fmi2ExitInitializationMode",
         lifecycle::EXIT_INITIALIZATION_MODE,
         |inst| inst.exit_initialization_mode(),
@@ -323,19 +364,23 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Sta
 /// `fmi2Terminate`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
-    call(c, "fmi2Terminate", lifecycle::TERMINATE, |inst| inst.terminate())
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2Terminate", lifecycle::TERMINATE, |inst| inst.terminate())
 }
 
 /// `fmi2Reset`
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
-    call(c, "fmi2Reset", lifecycle::RESET, |inst| inst.reset())
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2Reset", lifecycle::RESET, |inst| inst.reset())
 }
 
 /// `fmi2GetReal`
@@ -349,9 +394,11 @@ pub unsafe extern "C" fn fmi2GetReal(
     nvr: usize,
     value: *mut fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let out = slice_mut(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
         inst.get_values(Access::Real, vrs, |k, x| out[k] = x)
     })
 }
@@ -367,9 +414,11 @@ pub unsafe extern "C" fn fmi2GetInteger(
     nvr: usize,
     value: *mut fmi2Integer,
 ) -> fmi2Status {
-    call(c, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let out = slice_mut(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
         inst.get_values(Access::Integer, vrs, |k, x| out[k] = x.round() as fmi2Integer)
     })
 }
@@ -385,9 +434,11 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     nvr: usize,
     value: *mut fmi2Boolean,
 ) -> fmi2Status {
-    call(c, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let out = slice_mut(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
         inst.get_values(Access::Boolean, vrs, |k, x| {
             out[k] = if x != 0.0 { FMI2_TRUE } else { FMI2_FALSE }
         })
@@ -405,8 +456,11 @@ pub unsafe extern "C" fn fmi2GetString(
     nvr: usize,
     _value: *mut fmi2String,
 ) -> fmi2Status {
-    call(c, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
+        // SAFETY: `vr` holds `nvr` elements (this function's contract).
+        let vrs = unsafe { slice(vr, nvr, "vr") }?;
         inst.get_values(Access::String, vrs, |_, _| {})
     })
 }
@@ -422,9 +476,11 @@ pub unsafe extern "C" fn fmi2SetReal(
     nvr: usize,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    call(c, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let vals = slice(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
         inst.set_values(Access::Real, vrs, |k| vals[k])
     })
 }
@@ -440,9 +496,11 @@ pub unsafe extern "C" fn fmi2SetInteger(
     nvr: usize,
     value: *const fmi2Integer,
 ) -> fmi2Status {
-    call(c, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let vals = slice(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
         inst.set_values(Access::Integer, vrs, |k| f64::from(vals[k]))
     })
 }
@@ -458,9 +516,11 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     nvr: usize,
     value: *const fmi2Boolean,
 ) -> fmi2Status {
-    call(c, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
-        let vals = slice(value, nvr, "value")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
+        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
         inst.set_values(Access::Boolean, vrs, |k| if vals[k] != FMI2_FALSE { 1.0 } else { 0.0 })
     })
 }
@@ -476,8 +536,11 @@ pub unsafe extern "C" fn fmi2SetString(
     nvr: usize,
     _value: *const fmi2String,
 ) -> fmi2Status {
-    call(c, "fmi2SetString", lifecycle::SET_VALUES, |inst| {
-        let vrs = slice(vr, nvr, "vr")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetString", lifecycle::SET_VALUES, |inst| {
+        // SAFETY: `vr` holds `nvr` elements (this function's contract).
+        let vrs = unsafe { slice(vr, nvr, "vr") }?;
         inst.set_values(Access::String, vrs, |_| 0.0)
     })
 }
@@ -485,11 +548,15 @@ pub unsafe extern "C" fn fmi2SetString(
 /// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.
 ///
 /// # Safety
-/// `state` points to NULL or to a live state of this library.
+/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+/// before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    call(c, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| {
-        store_state(state, inst.save())
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| {
+        // SAFETY: `state` points to NULL or to a live state (this function's contract).
+        unsafe { store_state(state, inst.save()) }
     })
 }
 
@@ -497,11 +564,14 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUst
 /// its lifecycle state, time and stop time.
 ///
 /// # Safety
-/// `state` is a live state of this library.
+/// See the module docs (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
-    call(c, "fmi2SetFMUstate", lifecycle::FMU_STATE, |inst| {
-        let saved = saved_state(state)?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SetFMUstate", lifecycle::FMU_STATE, |inst| {
+        // SAFETY: the host does not free `state` during the call (FMI 2.0).
+        let saved = unsafe { saved_state(state) }?;
         inst.restore(saved)
     })
 }
@@ -509,23 +579,31 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) 
 /// `fmi2FreeFMUstate`: frees `*state` (NULL is ignored) and sets it to NULL.
 ///
 /// # Safety
-/// `state` is NULL or points to NULL or to a live state of this library.
+/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+/// before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    call(c, "fmi2FreeFMUstate", lifecycle::FMU_STATE, |_| {
-        if state.is_null() || (*state).is_null() {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2FreeFMUstate", lifecycle::FMU_STATE, |_| {
+        if state.is_null() {
             return Ok(());
         }
-        let p = *state as *mut SavedState;
-        if !(*p).is_valid() {
+        // SAFETY: `state` is not NULL and points to a readable handle (this function's
+        // contract).
+        let p = unsafe { *state } as *mut SavedState;
+        if p.is_null() {
+            return Ok(());
+        }
+        // SAFETY: no other thread uses the state (FMI 2.0).
+        let Some(boxed) = (unsafe { STATES.release(p) }) else {
             return Err(Failure::error(
                 "the FMU state was not made by this FMU or has been freed",
             ));
-        }
-        let mut boxed = Box::from_raw(p);
-        boxed.magic = 0;
+        };
         drop(boxed);
-        *state = ptr::null_mut();
+        // SAFETY: `state` is not NULL and writable (this function's contract).
+        unsafe { *state = ptr::null_mut() };
         Ok(())
     })
 }
@@ -533,19 +611,23 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
 /// `fmi2SerializedFMUstateSize`
 ///
 /// # Safety
-/// `state` is a live state of this library, `size` is writable.
+/// `size` is NULL or writable (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     c: fmi2Component,
     state: fmi2FMUstate,
     size: *mut usize,
 ) -> fmi2Status {
-    call(c, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
-        let saved = saved_state(state)?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
+        // SAFETY: the host does not free `state` during the call (FMI 2.0).
+        let saved = unsafe { saved_state(state) }?;
         if size.is_null() {
             return Err(Failure::error("size is NULL"));
         }
-        *size = saved.to_bytes().len();
+        // SAFETY: `size` is not NULL and writable (this function's contract).
+        unsafe { *size = saved.to_bytes().len() };
         Ok(())
     })
 }
@@ -553,7 +635,7 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
 /// `fmi2SerializeFMUstate`: writes exactly `fmi2SerializedFMUstateSize` bytes.
 ///
 /// # Safety
-/// `state` is a live state of this library, `serialized` holds `size` bytes.
+/// `serialized` holds `size` writable bytes (`state` is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SerializeFMUstate(
     c: fmi2Component,
@@ -561,15 +643,19 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     serialized: *mut fmi2Byte,
     size: usize,
 ) -> fmi2Status {
-    call(c, "fmi2SerializeFMUstate", lifecycle::FMU_STATE, |_| {
-        let bytes = saved_state(state)?.to_bytes();
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2SerializeFMUstate", lifecycle::FMU_STATE, |_| {
+        // SAFETY: the host does not free `state` during the call (FMI 2.0).
+        let bytes = unsafe { saved_state(state) }?.to_bytes();
         if size < bytes.len() {
             return Err(Failure::error(format!(
                 "the buffer holds {size} bytes, the state needs {} (ask fmi2SerializedFMUstateSize)",
                 bytes.len()
             )));
         }
-        let out = slice_mut(serialized as *mut u8, bytes.len(), "serializedState")?;
+        // SAFETY: `serialized` holds `size` >= `bytes.len()` bytes (this function's contract).
+        let out = unsafe { slice_mut(serialized as *mut u8, bytes.len(), "serializedState") }?;
         out.copy_from_slice(&bytes);
         Ok(())
     })
@@ -579,7 +665,8 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
 /// overwrites `*state` when it is not NULL).
 ///
 /// # Safety
-/// `serialized` holds `size` bytes; `state` points to NULL or to a live state.
+/// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
+/// handle (whose value is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     c: fmi2Component,
@@ -587,17 +674,21 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     state: *mut fmi2FMUstate,
 ) -> fmi2Status {
-    call(c, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |inst| {
-        let bytes = slice(serialized as *const u8, size, "serializedState")?;
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |inst| {
+        // SAFETY: `serialized` holds `size` bytes (this function's contract).
+        let bytes = unsafe { slice(serialized as *const u8, size, "serializedState") }?;
         let saved = SavedState::from_bytes(bytes, inst.model_hash()).map_err(Failure::error)?;
-        store_state(state, saved)
+        // SAFETY: `state` points to NULL or to a live state (this function's contract).
+        unsafe { store_state(state, saved) }
     })
 }
 
 /// `fmi2GetDirectionalDerivative`: not supported (`providesDirectionalDerivative` is false).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     c: fmi2Component,
@@ -608,8 +699,10 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     _dv_known: *const fmi2Real,
     _dv_unknown: *mut fmi2Real,
 ) -> fmi2Status {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
     call(
-        c,
+        found,
         "fmi2GetDirectionalDerivative",
         lifecycle::GET_DIRECTIONAL_DERIVATIVE,
         |_| Err(Failure::error("not supported (providesDirectionalDerivative is false)")),
@@ -623,7 +716,7 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
 /// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs` is false).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     c: fmi2Component,
@@ -632,8 +725,10 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     _order: *const fmi2Integer,
     _value: *const fmi2Real,
 ) -> fmi2Status {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
     call(
-        c,
+        found,
         "fmi2SetRealInputDerivatives",
         lifecycle::SET_REAL_INPUT_DERIVATIVES,
         |_| Err(Failure::error("not supported (canInterpolateInputs is false)")),
@@ -643,7 +738,7 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
 /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     c: fmi2Component,
@@ -652,8 +747,10 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _order: *const fmi2Integer,
     _value: *mut fmi2Real,
 ) -> fmi2Status {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
     call(
-        c,
+        found,
         "fmi2GetRealOutputDerivatives",
         lifecycle::GET_REAL_OUTPUT_DERIVATIVES,
         |_| Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)")),
@@ -664,7 +761,7 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
 /// time) to exactly `current_communication_point + communication_step_size`.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2DoStep(
     c: fmi2Component,
@@ -672,7 +769,9 @@ pub unsafe extern "C" fn fmi2DoStep(
     communication_step_size: fmi2Real,
     _no_set_fmu_state_prior_to_current_point: fmi2Boolean,
 ) -> fmi2Status {
-    call(c, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
         inst.do_step(current_communication_point, communication_step_size)
     })
 }
@@ -680,19 +779,23 @@ pub unsafe extern "C" fn fmi2DoStep(
 /// `fmi2CancelStep`: never allowed, since `fmi2DoStep` never returns `fmi2Pending`.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
-    call(c, "fmi2CancelStep", lifecycle::CANCEL_STEP, |_| Ok(()))
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2CancelStep", lifecycle::CANCEL_STEP, |_| Ok(()))
 }
 
 /// `fmi2GetStatus`: not supported (only meaningful after `fmi2Pending`, never returned).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *mut c_int) -> fmi2Status {
-    call(c, "fmi2GetStatus", lifecycle::GET_STATUS, |_| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetStatus", lifecycle::GET_STATUS, |_| {
         Err(Failure::error(
             "not supported: fmi2DoStep is synchronous and never returns fmi2Pending",
         ))
@@ -702,12 +805,15 @@ pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *
 /// `fmi2GetRealStatus`: answers `fmi2LastSuccessfulTime`.
 ///
 /// # Safety
-/// `value` is writable.
+/// `value` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Real) -> fmi2Status {
-    call(c, "fmi2GetRealStatus", lifecycle::GET_STATUS, |inst| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetRealStatus", lifecycle::GET_STATUS, |inst| {
         let x = inst.real_status(kind)?;
-        let out = slice_mut(value, 1, "value")?;
+        // SAFETY: `value` is NULL or writable (this function's contract).
+        let out = unsafe { slice_mut(value, 1, "value") }?;
         out[0] = x;
         Ok(())
     })
@@ -716,10 +822,12 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value:
 /// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2Integer) -> fmi2Status {
-    call(c, "fmi2GetIntegerStatus", lifecycle::GET_STATUS, |_| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetIntegerStatus", lifecycle::GET_STATUS, |_| {
         Err(Failure::error(format!("status kind {kind} has no Integer value")))
     })
 }
@@ -727,12 +835,15 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _va
 /// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
 ///
 /// # Safety
-/// `value` is writable.
+/// `value` is NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Boolean) -> fmi2Status {
-    call(c, "fmi2GetBooleanStatus", lifecycle::GET_STATUS, |inst| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetBooleanStatus", lifecycle::GET_STATUS, |inst| {
         let b = inst.boolean_status(kind)?;
-        let out = slice_mut(value, 1, "value")?;
+        // SAFETY: `value` is NULL or writable (this function's contract).
+        let out = unsafe { slice_mut(value, 1, "value") }?;
         out[0] = if b { FMI2_TRUE } else { FMI2_FALSE };
         Ok(())
     })
@@ -741,22 +852,26 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, val
 /// `fmi2GetStringStatus`: not supported (`fmi2PendingStatus` needs an asynchronous step).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// See the module docs (only `c`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2String) -> fmi2Status {
-    call(c, "fmi2GetStringStatus", lifecycle::GET_STATUS, |_| {
+    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+    let found = unsafe { instance(c) };
+    call(found, "fmi2GetStringStatus", lifecycle::GET_STATUS, |_| {
         Err(Failure::error(format!(
             "not supported (status kind {kind}; fmi2PendingStatus needs an asynchronous step)"
         )))
     })
 }
 
-/// Whether an instance is in a given state (for tests).
+/// The state-machine state of an instance, or `None` when `c` is not a live instance (for
+/// tests).
 ///
 /// # Safety
-/// `c` from `fmi2Instantiate`.
+/// No other thread uses or frees `c` during the call.
 pub unsafe fn instance_state(c: fmi2Component) -> Option<LifeState> {
-    instance(c).map(|i| i.state)
+    // SAFETY: nothing else uses `c` meanwhile (this function's contract).
+    unsafe { instance(c) }.map(|i| i.state)
 }
 
 #[cfg(test)]
@@ -772,7 +887,7 @@ mod tests {
         std::fs::create_dir_all(dir.join("resources")).unwrap();
         std::fs::write(dir.join("resources/scene.toml"), &text).unwrap();
         let uri = CString::new(format!("file://{}", dir.join("resources").display())).unwrap();
-        let guid = CString::new(crate::export::guid(&text)).unwrap();
+        let guid = CString::new(crate::guid::guid(&text)).unwrap();
         let callbacks = fmi2CallbackFunctions {
             logger: None,
             allocate_memory: None,
@@ -808,7 +923,9 @@ mod tests {
             let mut state: fmi2FMUstate = ptr::null_mut();
             assert_eq!(fmi2GetFMUstate(c, &mut state), fmi2Status::fmi2OK);
 
-            let status = call(c, "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| panic!("deliberate"));
+            let status = call(instance(c), "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| {
+                panic!("deliberate")
+            });
             assert_eq!(status, fmi2Status::fmi2Error);
             assert_eq!(instance_state(c), Some(LifeState::Error));
             assert_eq!(

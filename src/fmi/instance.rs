@@ -11,9 +11,6 @@ use crate::variables::{Causality, VarType, Variable};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_int;
 
-/// Marks a live [`Instance`] behind an `fmi2Component`.
-pub(crate) const INSTANCE_MAGIC: u64 = 0x494e_5354_4346_4d55; // "UMFCTSNI"
-
 /// The log categories declared in the model description: (name, description).
 pub const LOG_CATEGORIES: [(&CStr, &str); 6] = [
     (c"logEvents", "Instantiation, initialisation, reset, restored states"),
@@ -158,7 +155,6 @@ pub struct InstantiateArgs<'a> {
 
 /// One FMU instance.
 pub struct Instance {
-    pub(crate) magic: u64,
     name: CString,
     logger: fmi2CallbackLogger,
     environment: fmi2ComponentEnvironment,
@@ -194,7 +190,7 @@ impl Instance {
         let path = dir.join("scene.toml");
         let scene_text = std::fs::read_to_string(&path)
             .map_err(|e| format!("fmi2Instantiate: cannot read the scene {}: {e}", path.display()))?;
-        let expected = crate::export::guid(&scene_text);
+        let expected = crate::guid::guid(&scene_text);
         if args.guid != expected {
             return Err(format!(
                 "fmi2Instantiate: GUID mismatch: the host passed {:?} but this FMU's model description has {expected:?} (modelDescription.xml and resources/scene.toml do not belong together)",
@@ -205,7 +201,6 @@ impl Instance {
         let sim = Simulation::from_scene_str(&scene_text, &origin).map_err(|e| format!("fmi2Instantiate: {e}"))?;
         let name = CString::new(args.instance_name.replace('\0', " ")).unwrap_or_default();
         let inst = Instance {
-            magic: INSTANCE_MAGIC,
             name,
             logger: args.callbacks.logger,
             environment: args.callbacks.component_environment,
@@ -213,7 +208,7 @@ impl Instance {
             enabled: [true; LOG_CATEGORIES.len()],
             state: LifeState::Instantiated,
             sim,
-            model_hash: crate::export::model_hash(&scene_text),
+            model_hash: crate::guid::model_hash(&scene_text),
             scene_text,
             origin,
             start_time: 0.0,

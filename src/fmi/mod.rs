@@ -3,18 +3,20 @@
 //! This layer knows nothing of physics; it drives the [`crate::simulation::Simulation`]
 //! facade. One library serves every exported scene: `fmi2Instantiate` reads the scene from
 //! the FMU's `resources/scene.toml` and checks the host's GUID against the one derived from
-//! that text (see [`crate::export::guid`]).
+//! that text (see [`crate::guid::guid`]). It does not depend on the exporter.
 //!
 //! - `types`: the C types of `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h`.
 //! - `lifecycle`: the state machine, one bit mask of allowed states per function.
 //! - `instance`: one instance in safe Rust (logging, values, steps, states).
 //! - `saved`: `fmi2FMUstate` and its serialized bytes.
+//! - `registry`: the live instance and state handles, checked before any is dereferenced.
 //! - `uri`: decoding `fmuResourceLocation`.
 //! - `exports`: the 34 `extern "C"` functions.
 
 pub mod exports;
 pub mod instance;
 pub mod lifecycle;
+mod registry;
 pub mod saved;
 pub mod types;
 pub mod uri;

@@ -10,16 +10,12 @@
 use super::lifecycle::LifeState;
 use crate::checkpoint::Snapshot;
 
-/// Marks a live [`SavedState`] (guards against a foreign or freed pointer).
-pub(crate) const STATE_MAGIC: u64 = 0x5354_4154_4543_464d; // "MFCETATS"
-
 /// Host numbers in the snapshot: lifecycle code, start time, stop flag, stop time.
 const HOST_LEN: usize = 4;
 
 /// Everything `fmi2SetFMUstate` needs to put an instance back where it was.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SavedState {
-    pub(crate) magic: u64,
     /// Hash of the scene text: a state only restores into an instance of the same model.
     pub model_hash: u64,
     /// The state-machine state.
@@ -42,18 +38,12 @@ impl SavedState {
         snapshot: Snapshot,
     ) -> SavedState {
         SavedState {
-            magic: STATE_MAGIC,
             model_hash,
             lifecycle,
             start_time,
             stop_time,
             snapshot,
         }
-    }
-
-    /// True for a state made by this library (and not yet freed).
-    pub fn is_valid(&self) -> bool {
-        self.magic == STATE_MAGIC
     }
 
     /// The serialized bytes.
