@@ -78,6 +78,14 @@ impl Dopri5 {
 }
 
 impl Integrator for Dopri5 {
+    fn core(&self) -> &StepCore {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        &mut self.core
+    }
+
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);
         self.err_old = 1e-4;
@@ -175,14 +183,6 @@ impl Integrator for Dopri5 {
                 *o = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
             }
         });
-    }
-
-    fn core(&self) -> &StepCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut StepCore {
-        &mut self.core
     }
 }
 

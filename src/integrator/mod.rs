@@ -344,17 +344,21 @@ mod tests {
     use super::test_problems::*;
     use super::*;
 
+    /// Solver settings for `method` with largest step 0.01.
+    fn settings(method: Method, rtol: f64, atol: f64) -> SolverSection {
+        SolverSection {
+            method,
+            rtol,
+            atol,
+            max_step: 1e-2,
+        }
+    }
+
     /// After construction and reset, stepping allocates nothing (every method).
     #[test]
     fn stepping_does_not_allocate() {
-        let settings = |method| SolverSection {
-            method,
-            rtol: 1e-8,
-            atol: 1e-10,
-            max_step: 1e-2,
-        };
         for method in Method::ALL {
-            let mut m = create(&settings(method), 2);
+            let mut m = create(&settings(method, 1e-8, 1e-10), 2);
             let mut sys = SpringDamper { omega: 10.0, g: 9.81 };
             m.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
             m.step(&mut sys, 1.0).unwrap();
@@ -389,14 +393,8 @@ mod tests {
     /// integrator with other history, given that warm state, continues bit for bit.
     #[test]
     fn warm_restart_keeps_the_jacobian_and_is_reproduced_from_the_warm_state() {
-        let settings = |method| SolverSection {
-            method,
-            rtol: 1e-6,
-            atol: 1e-8,
-            max_step: 1e-2,
-        };
         for method in [Method::Sdirk, Method::Radau5] {
-            let s = settings(method);
+            let s = settings(method, 1e-6, 1e-8);
             let mut sys = SpringDamper { omega: 1e4, g: 9.81 };
             let mut a = create(&s, 2);
             a.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
@@ -439,14 +437,8 @@ mod tests {
     /// [`WARM_JACOBIAN_MAX`] numbers is neither saved nor kept.
     #[test]
     fn warm_state_sizes_and_checks() {
-        let s = |method| SolverSection {
-            method,
-            rtol: 1e-6,
-            atol: 1e-8,
-            max_step: 1e-2,
-        };
         for method in [Method::Dopri5, Method::Rk4] {
-            let mut m = create(&s(method), 2);
+            let mut m = create(&settings(method, 1e-6, 1e-8), 2);
             let mut w = vec![7.0];
             m.warm_state(&mut w);
             assert_eq!(w, [7.0], "{method:?}");
@@ -454,7 +446,7 @@ mod tests {
             assert!(m.set_warm_state(&[1.0]).is_err());
         }
         for method in [Method::Sdirk, Method::Radau5] {
-            let mut m = create(&s(method), 2);
+            let mut m = create(&settings(method, 1e-6, 1e-8), 2);
             let mut w = Vec::new();
             m.warm_state(&mut w);
             assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
@@ -477,7 +469,7 @@ mod tests {
         }
         let n = 201;
         assert!(n * n > WARM_JACOBIAN_MAX);
-        let mut m = create(&s(Method::Sdirk), n);
+        let mut m = create(&settings(Method::Sdirk, 1e-6, 1e-8), n);
         m.reset(&mut Decay, 0.0, &vec![0.0; n], 0.0);
         run_to(m.as_mut(), &mut Decay, 0.01);
         assert!(m.stats().jac_evals >= 1);

@@ -91,12 +91,6 @@ impl Radau5 {
     /// Factors both iteration matrices for step `h` unless done. False if singular.
     fn factor(&mut self, h: f64) -> bool {
         let n = self.core.y.len();
-        let (lu_big, perm_big, lu_err, perm_err) = (
-            &mut self.lu_big,
-            &mut self.perm_big,
-            &mut self.lu_err,
-            &mut self.perm_err,
-        );
         self.newton.factor(h, |jac| {
             let m = 3 * n;
             for (bi, a_row) in A.iter().enumerate() {
@@ -105,15 +99,16 @@ impl Radau5 {
                     for i in 0..n {
                         let row = (bi * n + i) * m + bj * n;
                         for j in 0..n {
-                            lu_big[row + j] = -a * jac[i * n + j];
+                            self.lu_big[row + j] = -a * jac[i * n + j];
                         }
                     }
                 }
             }
             for i in 0..m {
-                lu_big[i * m + i] += 1.0;
+                self.lu_big[i * m + i] += 1.0;
             }
-            linalg::lu_in_place(lu_big, m, perm_big) && NewtonCore::factor_shifted(jac, h * gamma0(), lu_err, perm_err)
+            linalg::lu_in_place(&mut self.lu_big, m, &mut self.perm_big)
+                && NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
         })
     }
 
@@ -130,7 +125,7 @@ impl Radau5 {
     }
 
     /// Solves the stage equations for step `h`; returns the largest contraction rate.
-    fn newton(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
+    fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
         let core = &mut self.core;
         let n = core.y.len();
         // starting values: the previous collocation polynomial, extrapolated
@@ -239,7 +234,7 @@ impl ImplicitMethod for Radau5 {
         if !self.factor(h) {
             return None;
         }
-        let theta = self.newton(sys, h)?;
+        let theta = self.solve_stages(sys, h)?;
         let err = self.error_estimate(sys, h, refine);
         Some((err, theta))
     }

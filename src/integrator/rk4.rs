@@ -31,6 +31,14 @@ impl Rk4 {
 }
 
 impl Integrator for Rk4 {
+    fn core(&self) -> &StepCore {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        &mut self.core
+    }
+
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], _h: f64) {
         self.core.start(sys, t, y);
         self.f_prev.copy_from_slice(&self.core.f);
@@ -89,14 +97,6 @@ impl Integrator for Rk4 {
                 *o = h00 * core.y_prev[i] + h10 * h * f_prev[i] + h01 * core.y[i] + h11 * h * core.f[i];
             }
         });
-    }
-
-    fn core(&self) -> &StepCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut StepCore {
-        &mut self.core
     }
 }
 

@@ -165,11 +165,10 @@ impl ImplicitMethod for Sdirk {
     }
 
     fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, _refine: bool) -> Option<(f64, f64)> {
-        let (lu, perm) = (&mut self.lu, &mut self.perm);
-        if !self
-            .newton
-            .factor(h, |jac| NewtonCore::factor_shifted(jac, h * GAMMA, lu, perm))
-        {
+        let hg = h * GAMMA;
+        if !self.newton.factor(h, |jac| {
+            NewtonCore::factor_shifted(jac, hg, &mut self.lu, &mut self.perm)
+        }) {
             return None;
         }
         let mut theta = 0.0_f64;
