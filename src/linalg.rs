@@ -1,54 +1,14 @@
-//! Small dense factorisations that work in caller-owned buffers, so that the step allocates
-//! nothing. They serve the per-tree mass-matrix blocks and the loop-constraint Schur
-//! complement, which are a few dozen rows at most; faer's allocation-free API would need a
-//! scratch arena for matrices this small and nalgebra's decompositions take ownership.
+//! Small dense factorisations that work in caller-owned buffers, so that a step allocates
+//! nothing: the tree-sparse `LᵀDL` of the per-tree mass-matrix blocks, Cholesky with diagonal
+//! pivoting for the loop-constraint and contact Schur complements (a few dozen rows at most),
+//! and LU with partial pivoting for the implicit integrators' iteration matrices. faer's
+//! allocation-free API would need a scratch arena for matrices this small and nalgebra's
+//! decompositions take ownership.
 
 /// Dot product.
 #[inline]
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// Cholesky factorisation `A = L Lᵀ` of a symmetric positive definite row-major `n × n`
-/// matrix, in place (L in the lower triangle). Returns false if a pivot is not positive.
-pub fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut s = a[j * n + j];
-        for k in 0..j {
-            s -= a[j * n + k] * a[j * n + k];
-        }
-        if s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return false;
-        }
-        let l = s.sqrt();
-        a[j * n + j] = l;
-        for i in j + 1..n {
-            let mut t = a[i * n + j];
-            for k in 0..j {
-                t -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = t / l;
-        }
-    }
-    true
-}
-
-/// Solves `L Lᵀ x = b` in place with a factor from [`cholesky_in_place`].
-pub fn cholesky_solve(l: &[f64], n: usize, x: &mut [f64]) {
-    for i in 0..n {
-        let mut s = x[i];
-        for k in 0..i {
-            s -= l[i * n + k] * x[k];
-        }
-        x[i] = s / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = x[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * x[k];
-        }
-        x[i] = s / l[i * n + i];
-    }
 }
 
 /// Marks "no parent" in a branch-induced sparsity pattern.
@@ -162,23 +122,9 @@ pub fn pivoted_cholesky_in_place(a: &mut [f64], n: usize, perm: &mut [usize], re
 /// Solves with the leading `rank` pivots of [`pivoted_cholesky_in_place`]; the unknowns of
 /// dropped (dependent) rows are set to zero. `work` has length `n`.
 pub fn pivoted_cholesky_solve(l: &[f64], n: usize, perm: &[usize], rank: usize, x: &mut [f64], work: &mut [f64]) {
-    for i in 0..n {
-        work[i] = x[perm[i]];
-    }
-    for i in 0..rank {
-        let mut s = work[i];
-        for k in 0..i {
-            s -= l[i * n + k] * work[k];
-        }
-        work[i] = s / l[i * n + i];
-    }
-    for i in (0..rank).rev() {
-        let mut s = work[i];
-        for k in i + 1..rank {
-            s -= l[k * n + i] * work[k];
-        }
-        work[i] = s / l[i * n + i];
-    }
+    gather(perm, n, x, work);
+    forward_substitute::<false>(l, n, rank, work);
+    back_substitute::<true>(l, n, rank, work);
     for w in work.iter_mut().take(n).skip(rank) {
         *w = 0.0;
     }
@@ -187,26 +133,94 @@ pub fn pivoted_cholesky_solve(l: &[f64], n: usize, perm: &[usize], rank: usize, 
     }
 }
 
+/// Factors the row-major `n × n` matrix `a` in place as `P·A = L·U` (unit lower `L` below the
+/// diagonal, `U` on and above it); `perm[i]` is the original row now in row `i`. Returns
+/// false when a pivot is zero or not finite (the matrix is singular to working precision).
+pub fn lu_in_place(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool {
+    debug_assert!(a.len() >= n * n && perm.len() >= n);
+    for (i, p) in perm.iter_mut().enumerate().take(n) {
+        *p = i;
+    }
+    for k in 0..n {
+        let mut piv = k;
+        let mut best = a[k * n + k].abs();
+        for i in k + 1..n {
+            let v = a[i * n + k].abs();
+            if v > best {
+                best = v;
+                piv = i;
+            }
+        }
+        if !(best > 0.0 && best.is_finite()) {
+            return false;
+        }
+        if piv != k {
+            for j in 0..n {
+                a.swap(k * n + j, piv * n + j);
+            }
+            perm.swap(k, piv);
+        }
+        let d = a[k * n + k];
+        for i in k + 1..n {
+            let l = a[i * n + k] / d;
+            a[i * n + k] = l;
+            if l != 0.0 {
+                for j in k + 1..n {
+                    a[i * n + j] -= l * a[k * n + j];
+                }
+            }
+        }
+    }
+    true
+}
+
+/// Solves `A·x = b` with the factors from [`lu_in_place`]; `x` holds `b` on entry and the
+/// solution on return, `work` is scratch of length `n`.
+pub fn lu_solve(lu: &[f64], n: usize, perm: &[usize], x: &mut [f64], work: &mut [f64]) {
+    gather(perm, n, x, work);
+    forward_substitute::<true>(lu, n, n, work);
+    back_substitute::<false>(lu, n, n, work);
+    x[..n].copy_from_slice(&work[..n]);
+}
+
+/// `work[i] = x[perm[i]]` for `i < n`.
+fn gather(perm: &[usize], n: usize, x: &[f64], work: &mut [f64]) {
+    for i in 0..n {
+        work[i] = x[perm[i]];
+    }
+}
+
+/// Solves `L w' = w` in place with the lower triangle of the leading `m × m` block of the
+/// row-major `n × n` matrix `l`; its diagonal is taken as 1 when `UNIT`.
+fn forward_substitute<const UNIT: bool>(l: &[f64], n: usize, m: usize, w: &mut [f64]) {
+    for i in 0..m {
+        let mut s = w[i];
+        for k in 0..i {
+            s -= l[i * n + k] * w[k];
+        }
+        w[i] = if UNIT { s } else { s / l[i * n + i] };
+    }
+}
+
+/// Solves `U w' = w` in place with `U` the upper triangle of the leading `m × m` block of the
+/// row-major `n × n` matrix `a`, or, when `TRANSPOSED`, the transpose of its lower triangle.
+fn back_substitute<const TRANSPOSED: bool>(a: &[f64], n: usize, m: usize, w: &mut [f64]) {
+    for i in (0..m).rev() {
+        let mut s = w[i];
+        for k in i + 1..m {
+            let u_ik = if TRANSPOSED { a[k * n + i] } else { a[i * n + k] };
+            s -= u_ik * w[k];
+        }
+        w[i] = s / a[i * n + i];
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn cholesky_solves_spd_system() {
-        let a = [4.0, 2.0, 0.4, 2.0, 5.0, 1.0, 0.4, 1.0, 3.0];
-        let mut f = a;
-        assert!(cholesky_in_place(&mut f, 3));
-        let b = [1.0, 2.0, 3.0];
-        let mut x = b;
-        cholesky_solve(&f, 3, &mut x);
-        for i in 0..3 {
-            let r: f64 = (0..3).map(|k| a[i * 3 + k] * x[k]).sum();
-            assert!((r - b[i]).abs() < 1e-14);
-        }
-    }
-
-    #[test]
-    fn ltdl_solves_a_branched_tree_system_like_dense_cholesky() {
+    fn ltdl_solves_a_branched_tree_system_like_dense_lu() {
         // dofs: 0 root, 1 child of 0, 2 child of 1, 3 child of 0 (a sibling branch), 4 child of 3
         let parent = [NO_PARENT, 0, 1, 0, 3];
         let n = 5;
@@ -236,9 +250,10 @@ mod tests {
         }
         let b = [1.0, -2.0, 0.5, 3.0, -1.0];
         let mut dense = a;
-        assert!(cholesky_in_place(&mut dense, n));
+        let mut perm = [0; 5];
+        assert!(lu_in_place(&mut dense, n, &mut perm));
         let mut x1 = b;
-        cholesky_solve(&dense, n, &mut x1);
+        lu_solve(&dense, n, &perm, &mut x1, &mut [0.0; 5]);
         // garbage in the entries between sibling branches must not matter
         let mut sparse = a;
         sparse[2 * n + 3] = 123.0;
@@ -278,5 +293,31 @@ mod tests {
             let r: f64 = (0..3).map(|k| orig[i * 3 + k] * x[k]).sum();
             assert!((r - b[i]).abs() < 1e-12, "row {i}: {r} vs {}", b[i]);
         }
+    }
+
+    #[test]
+    fn lu_solves_a_system_that_needs_pivoting() {
+        // zero leading pivot: fails without row exchanges
+        let a0 = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0];
+        let x_true = [1.0, -2.0, 0.5];
+        let mut b = [0.0; 3];
+        for i in 0..3 {
+            b[i] = (0..3).map(|j| a0[i * 3 + j] * x_true[j]).sum();
+        }
+        let mut a = a0;
+        let mut perm = [0; 3];
+        assert!(lu_in_place(&mut a, 3, &mut perm));
+        let mut work = [0.0; 3];
+        lu_solve(&a, 3, &perm, &mut b, &mut work);
+        for i in 0..3 {
+            assert!((b[i] - x_true[i]).abs() < 1e-14, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn lu_reports_a_singular_matrix() {
+        let mut a = [1.0, 2.0, 2.0, 4.0];
+        let mut perm = [0; 2];
+        assert!(!lu_in_place(&mut a, 2, &mut perm));
     }
 }

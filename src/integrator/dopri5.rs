@@ -1,6 +1,7 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::{error_norm, initial_step, Integrator, IntegratorError, OdeSystem, Stats};
+use super::core::StepCore;
+use super::{error_norm, Integrator, IntegratorError, OdeSystem};
 
 const C2: f64 = 1.0 / 5.0;
 const C3: f64 = 3.0 / 10.0;
@@ -39,24 +40,18 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
-/// Steps (and gaps to the end) below this multiple of |t| are rounding noise.
-const ROUNDOFF_GAP: f64 = 16.0 * f64::EPSILON;
 /// The Dormand-Prince 5(4) method.
 pub struct Dopri5 {
-    rtol: f64,
-    atol: f64,
-    hmax: f64,
-    t: f64,
-    t_prev: f64,
-    h: f64,
+    /// Step state; `core.f` is the FSAL stage `k₁`.
+    core: StepCore,
     err_old: f64,
-    y: Vec<f64>,
     y_new: Vec<f64>,
-    k: [Vec<f64>; 7],
+    /// Stages `k₂ … k₇`.
+    k: [Vec<f64>; 6],
     tmp: Vec<f64>,
     err: Vec<f64>,
-    cont: [Vec<f64>; 5],
-    stats: Stats,
+    /// Dense output coefficients after `core.y_prev`.
+    cont: [Vec<f64>; 4],
 }
 
 impl Dopri5 {
@@ -64,82 +59,54 @@ impl Dopri5 {
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> Dopri5 {
         let v = || vec![0.0; n];
         Dopri5 {
-            rtol,
-            atol,
-            hmax,
-            t: 0.0,
-            t_prev: 0.0,
-            h: 0.0,
+            core: StepCore::new(n, rtol, atol, hmax),
             err_old: 1e-4,
-            y: v(),
             y_new: v(),
-            k: [v(), v(), v(), v(), v(), v(), v()],
+            k: [v(), v(), v(), v(), v(), v()],
             tmp: v(),
             err: v(),
-            cont: [v(), v(), v(), v(), v()],
-            stats: Stats::default(),
+            cont: [v(), v(), v(), v()],
+        }
+    }
+
+    /// Dense output of a zero-length step (with `core.y_prev = y`).
+    fn clear_dense(&mut self) {
+        for c in self.cont.iter_mut() {
+            c.iter_mut().for_each(|x| *x = 0.0);
         }
     }
 }
 
 impl Integrator for Dopri5 {
+    fn core(&self) -> &StepCore {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        &mut self.core
+    }
+
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
-        self.t = t;
-        self.t_prev = t;
-        self.y.copy_from_slice(y);
-        sys.rhs(t, y, &mut self.k[0]);
-        self.stats.rhs_evals += 1;
+        self.core.start(sys, t, y);
         self.err_old = 1e-4;
-        self.h = if h > 0.0 {
-            h.min(self.hmax)
-        } else {
-            let [k0, k1, ..] = &mut self.k;
-            self.stats.rhs_evals += 1;
-            initial_step(
-                sys,
-                t,
-                &self.y,
-                k0,
-                self.rtol,
-                self.atol,
-                5,
-                &mut self.tmp,
-                k1,
-                self.hmax,
-            )
-        };
-        // dense output of a zero-length step
-        for c in self.cont.iter_mut() {
-            c.iter_mut().for_each(|x| *x = 0.0);
-        }
-        self.cont[0].copy_from_slice(y);
+        self.core.first_step(sys, h, 5, &mut self.tmp, &mut self.k[0]);
+        self.clear_dense();
     }
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
-        let n = self.y.len();
+        let n = self.core.y.len();
         let mut rejected_before = false;
-        if t_max - self.t <= ROUNDOFF_GAP * self.t.abs() {
-            // the end is within rounding of the current time: arrive without a step
-            for c in self.cont.iter_mut() {
-                c.iter_mut().for_each(|x| *x = 0.0);
-            }
-            self.cont[0].copy_from_slice(&self.y);
-            self.t_prev = self.t;
-            self.t = self.t.max(t_max);
+        if self.core.arrive_within_roundoff(t_max) {
+            // the end is within rounding of the current time: arrived without a step
+            self.clear_dense();
             return Ok(());
         }
         loop {
-            let mut h = self.h.min(self.hmax);
-            // stretch a step by up to 1 % rather than leave a sliver before t_max (Hairer)
-            let last = self.t + 1.01 * h >= t_max;
-            if last {
-                h = t_max - self.t;
-            }
-            if h <= ROUNDOFF_GAP * self.t.abs().max(1e-300) {
-                return Err(IntegratorError::StepSizeUnderflow(self.t));
-            }
-            let (t, y) = (self.t, &self.y);
-            let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k;
+            let (h, last) = self.core.trial_step(t_max)?;
+            let t_new = self.core.step_end(h, last, t_max);
+            let core = &mut self.core;
+            let (t, y, k1) = (core.t, &core.y, &mut core.f);
+            let [k2, k3, k4, k5, k6, k7] = &mut self.k;
             let tmp = &mut self.tmp;
             for i in 0..n {
                 tmp[i] = y[i] + h * A21 * k1[i];
@@ -160,21 +127,20 @@ impl Integrator for Dopri5 {
             for i in 0..n {
                 tmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
             }
-            let t_new = if last { t_max } else { t + h };
             sys.rhs(t_new, tmp, k6);
             let y_new = &mut self.y_new;
             for i in 0..n {
                 y_new[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
             }
             sys.rhs(t_new, y_new, k7);
-            self.stats.rhs_evals += 6;
+            core.stats.rhs_evals += 6;
             for i in 0..n {
                 self.err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             }
-            let err = error_norm(&self.err, y, y_new, self.rtol, self.atol);
+            let err = error_norm(&self.err, y, y_new, core.rtol, core.atol);
             if !err.is_finite() {
-                self.stats.rejected += 1;
-                self.h = h * 0.1;
+                core.stats.rejected += 1;
+                core.h = h * 0.1;
                 if !y_new.iter().all(|v| v.is_finite()) && h < 1e-14 {
                     return Err(IntegratorError::NotFinite(t));
                 }
@@ -190,58 +156,33 @@ impl Integrator for Dopri5 {
                 for i in 0..n {
                     let dy = y_new[i] - y[i];
                     let bspl = h * k1[i] - dy;
-                    self.cont[0][i] = y[i];
-                    self.cont[1][i] = dy;
-                    self.cont[2][i] = bspl;
-                    self.cont[3][i] = dy - h * k7[i] - bspl;
-                    self.cont[4][i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+                    self.cont[0][i] = dy;
+                    self.cont[1][i] = bspl;
+                    self.cont[2][i] = dy - h * k7[i] - bspl;
+                    self.cont[3][i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
                 }
                 std::mem::swap(k1, k7);
-                std::mem::swap(&mut self.y, &mut self.y_new);
-                self.t_prev = self.t;
-                self.t = t_new;
-                self.stats.steps += 1;
+                std::mem::swap(&mut core.y_prev, &mut core.y);
+                std::mem::swap(&mut core.y, y_new);
+                core.advance(t_new);
                 // keep the unclipped proposal when the step was cut short by t_max
-                self.h = if last { h_new.max(self.h) } else { h_new };
-                self.h = self.h.min(self.hmax);
+                core.set_next_step(h_new, last);
                 return Ok(());
             }
-            self.stats.rejected += 1;
+            core.stats.rejected += 1;
             rejected_before = true;
-            self.h = h / (fac11 / 0.9).min(5.0);
+            core.h = h / (fac11 / 0.9).min(5.0);
         }
     }
 
-    fn t(&self) -> f64 {
-        self.t
-    }
-    fn t_prev(&self) -> f64 {
-        self.t_prev
-    }
-    fn y(&self) -> &[f64] {
-        &self.y
-    }
     fn interpolate(&self, t: f64, out: &mut [f64]) {
-        let h = self.t - self.t_prev;
-        if h <= 0.0 {
-            out.copy_from_slice(&self.y);
-            return;
-        }
-        let s = (t - self.t_prev) / h;
-        let s1 = 1.0 - s;
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = self.cont[0][i]
-                + s * (self.cont[1][i] + s1 * (self.cont[2][i] + s * (self.cont[3][i] + s1 * self.cont[4][i])));
-        }
-    }
-    fn next_step(&self) -> f64 {
-        self.h
-    }
-    fn stats(&self) -> Stats {
-        self.stats
-    }
-    fn set_stats(&mut self, s: Stats) {
-        self.stats = s;
+        let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &self.cont);
+        self.core.interpolate(t, out, |s, _, out| {
+            let s1 = 1.0 - s;
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+            }
+        });
     }
 }
 

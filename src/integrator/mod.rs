@@ -6,13 +6,19 @@
 //! at a communication point without one it restarts with [`Integrator::restart`], which lets an
 //! implicit method keep its Jacobian (that memory is part of saved states:
 //! [`Integrator::warm_state`]).
+//!
+//! Every method embeds a [`StepCore`] (time, state, step size, counters and the bookkeeping of
+//! a step); the implicit ones also share a [`newton::NewtonCore`] (Jacobian, simplified
+//! Newton, warm memory) and the step-size controller of [`newton::ImplicitMethod`].
 
+pub mod core;
 pub mod dopri5;
-pub mod lu;
+pub mod newton;
 pub mod radau;
 pub mod rk4;
 pub mod sdirk;
 
+pub use self::core::StepCore;
 use crate::scene::{Method, SolverSection};
 
 /// A first-order system `y' = f(t, y)`.
@@ -55,20 +61,36 @@ pub trait Integrator {
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64);
     /// Takes one accepted step that ends at or before `t_max`.
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError>;
-    /// Current time.
-    fn t(&self) -> f64;
-    /// Time at the start of the last step.
-    fn t_prev(&self) -> f64;
-    /// Current state.
-    fn y(&self) -> &[f64];
     /// State at `t` in `[t_prev, t]` from the dense output of the last step.
     fn interpolate(&self, t: f64, out: &mut [f64]);
+    /// The step state (time, state, step size, counters) that the accessors below read.
+    fn core(&self) -> &StepCore;
+    /// The step state, to change (for [`Integrator::set_stats`]).
+    fn core_mut(&mut self) -> &mut StepCore;
+    /// Current time.
+    fn t(&self) -> f64 {
+        self.core().t
+    }
+    /// Time at the start of the last step.
+    fn t_prev(&self) -> f64 {
+        self.core().t_prev
+    }
+    /// Current state.
+    fn y(&self) -> &[f64] {
+        &self.core().y
+    }
     /// The step size the method would try next (saved in FMU states).
-    fn next_step(&self) -> f64;
+    fn next_step(&self) -> f64 {
+        self.core().h
+    }
     /// Counters since creation.
-    fn stats(&self) -> Stats;
+    fn stats(&self) -> Stats {
+        self.core().stats
+    }
     /// Sets the counters (restoring a saved state).
-    fn set_stats(&mut self, s: Stats);
+    fn set_stats(&mut self, s: Stats) {
+        self.core_mut().stats = s;
+    }
     /// Restarts at `(t, y)` where the right-hand side did not change (a communication point
     /// without an event). Like [`Integrator::reset`], but an implicit method keeps its memory
     /// (Jacobian, Newton and step-size controller history). What it keeps is exactly what
@@ -98,92 +120,6 @@ pub trait Integrator {
 /// writes into saved states; above it the Jacobian is recomputed after each restart, so that
 /// the FMU states of big scenes stay small.
 pub const WARM_JACOBIAN_MAX: usize = 40_000;
-
-/// Size of the controller memory of the implicit methods in their warm state: accepted step,
-/// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag.
-const WARM_HEADER: usize = 5;
-
-/// Memory an implicit method carries across a warm restart (see [`Integrator::restart`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct WarmMemory {
-    /// Step size and error norm of the last accepted step (0: none).
-    pub h_acc: f64,
-    pub err_acc: f64,
-    /// Newton convergence-rate memory.
-    pub eta: f64,
-    /// The Jacobian is to be refreshed before the next step.
-    pub jac_stale: bool,
-    /// The Jacobian holds an evaluation (false: J = 0, functional iteration).
-    pub jac_valid: bool,
-}
-
-impl WarmMemory {
-    /// Whether a system of size `n` keeps its Jacobian across warm restarts.
-    pub fn keeps_jacobian(n: usize) -> bool {
-        n.saturating_mul(n) <= WARM_JACOBIAN_MAX
-    }
-
-    /// Writes the memory and, when present and small enough, the row-major Jacobian `jac`.
-    pub fn write(&self, jac: &[f64], n: usize, out: &mut Vec<f64>) {
-        let with_jac = self.jac_valid && Self::keeps_jacobian(n);
-        out.extend_from_slice(&[
-            self.h_acc,
-            self.err_acc,
-            self.eta,
-            self.jac_stale as u8 as f64,
-            with_jac as u8 as f64,
-        ]);
-        if with_jac {
-            out.extend_from_slice(jac);
-        }
-    }
-
-    /// Parses what [`WarmMemory::write`] wrote (empty: the memory after a reset) and copies
-    /// the Jacobian into `jac` (zeros when absent).
-    pub fn read(v: &[f64], jac: &mut [f64], n: usize) -> Result<WarmMemory, String> {
-        if v.is_empty() {
-            jac.iter_mut().for_each(|x| *x = 0.0);
-            return Ok(WarmMemory::cold());
-        }
-        let bad = || {
-            format!(
-                "integrator memory has {} numbers, not a state of this method and model",
-                v.len()
-            )
-        };
-        if v.len() < WARM_HEADER {
-            return Err(bad());
-        }
-        let with_jac = v[4] != 0.0;
-        let len = WARM_HEADER + if with_jac { n * n } else { 0 };
-        if v.len() != len {
-            return Err(bad());
-        }
-        if with_jac {
-            jac.copy_from_slice(&v[WARM_HEADER..]);
-        } else {
-            jac.iter_mut().for_each(|x| *x = 0.0);
-        }
-        Ok(WarmMemory {
-            h_acc: v[0],
-            err_acc: v[1],
-            eta: v[2],
-            jac_stale: v[3] != 0.0,
-            jac_valid: with_jac,
-        })
-    }
-
-    /// The memory after a reset: none.
-    pub fn cold() -> WarmMemory {
-        WarmMemory {
-            h_acc: 0.0,
-            err_acc: 0.0,
-            eta: 1.0,
-            jac_stale: false,
-            jac_valid: false,
-        }
-    }
-}
 
 /// Weighted RMS norm of an error estimate (Hairer's): `sqrt(mean((err/(atol+rtol·max|y|))²))`.
 pub fn error_norm(err: &[f64], y0: &[f64], y1: &[f64], rtol: f64, atol: f64) -> f64 {
@@ -404,20 +340,25 @@ pub(crate) mod alloc_counter {
 
 #[cfg(test)]
 mod tests {
+    use super::newton::WARM_HEADER;
     use super::test_problems::*;
     use super::*;
+
+    /// Solver settings for `method` with largest step 0.01.
+    fn settings(method: Method, rtol: f64, atol: f64) -> SolverSection {
+        SolverSection {
+            method,
+            rtol,
+            atol,
+            max_step: 1e-2,
+        }
+    }
 
     /// After construction and reset, stepping allocates nothing (every method).
     #[test]
     fn stepping_does_not_allocate() {
-        let settings = |method| SolverSection {
-            method,
-            rtol: 1e-8,
-            atol: 1e-10,
-            max_step: 1e-2,
-        };
         for method in Method::ALL {
-            let mut m = create(&settings(method), 2);
+            let mut m = create(&settings(method, 1e-8, 1e-10), 2);
             let mut sys = SpringDamper { omega: 10.0, g: 9.81 };
             m.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
             m.step(&mut sys, 1.0).unwrap();
@@ -452,14 +393,8 @@ mod tests {
     /// integrator with other history, given that warm state, continues bit for bit.
     #[test]
     fn warm_restart_keeps_the_jacobian_and_is_reproduced_from_the_warm_state() {
-        let settings = |method| SolverSection {
-            method,
-            rtol: 1e-6,
-            atol: 1e-8,
-            max_step: 1e-2,
-        };
         for method in [Method::Sdirk, Method::Radau5] {
-            let s = settings(method);
+            let s = settings(method, 1e-6, 1e-8);
             let mut sys = SpringDamper { omega: 1e4, g: 9.81 };
             let mut a = create(&s, 2);
             a.reset(&mut sys, 0.0, &[0.0, -1.0], 0.0);
@@ -502,14 +437,8 @@ mod tests {
     /// [`WARM_JACOBIAN_MAX`] numbers is neither saved nor kept.
     #[test]
     fn warm_state_sizes_and_checks() {
-        let s = |method| SolverSection {
-            method,
-            rtol: 1e-6,
-            atol: 1e-8,
-            max_step: 1e-2,
-        };
         for method in [Method::Dopri5, Method::Rk4] {
-            let mut m = create(&s(method), 2);
+            let mut m = create(&settings(method, 1e-6, 1e-8), 2);
             let mut w = vec![7.0];
             m.warm_state(&mut w);
             assert_eq!(w, [7.0], "{method:?}");
@@ -517,7 +446,7 @@ mod tests {
             assert!(m.set_warm_state(&[1.0]).is_err());
         }
         for method in [Method::Sdirk, Method::Radau5] {
-            let mut m = create(&s(method), 2);
+            let mut m = create(&settings(method, 1e-6, 1e-8), 2);
             let mut w = Vec::new();
             m.warm_state(&mut w);
             assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
@@ -540,7 +469,7 @@ mod tests {
         }
         let n = 201;
         assert!(n * n > WARM_JACOBIAN_MAX);
-        let mut m = create(&s(Method::Sdirk), n);
+        let mut m = create(&settings(Method::Sdirk, 1e-6, 1e-8), n);
         m.reset(&mut Decay, 0.0, &vec![0.0; n], 0.0);
         run_to(m.as_mut(), &mut Decay, 0.01);
         assert!(m.stats().jac_evals >= 1);

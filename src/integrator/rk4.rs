@@ -1,124 +1,102 @@
 //! Classical fixed-step Runge-Kutta 4, a baseline. Dense output is the cubic Hermite
 //! interpolant through both ends of the step.
 
-use super::{Integrator, IntegratorError, OdeSystem, Stats};
+use super::core::StepCore;
+use super::{Integrator, IntegratorError, OdeSystem};
 
-/// Fixed-step RK4 with step `h`.
+/// Fixed-step RK4 with step `h` (`core.h`).
 pub struct Rk4 {
-    h: f64,
-    t: f64,
-    t_prev: f64,
-    y: Vec<f64>,
-    y_prev: Vec<f64>,
+    /// Step state; `core.f` is `f(t, y)`, the first stage of the next step.
+    core: StepCore,
+    /// `f(t_prev, y_prev)` (dense output).
     f_prev: Vec<f64>,
-    k: [Vec<f64>; 4],
+    /// Stages `k₂ … k₄`.
+    k: [Vec<f64>; 3],
     tmp: Vec<f64>,
-    stats: Stats,
 }
 
 impl Rk4 {
     /// A method for systems of size `n` with step `h`.
     pub fn new(n: usize, h: f64) -> Rk4 {
         let v = || vec![0.0; n];
+        let mut core = StepCore::new(n, 0.0, 0.0, h);
+        core.h = h;
         Rk4 {
-            h,
-            t: 0.0,
-            t_prev: 0.0,
-            y: v(),
-            y_prev: v(),
+            core,
             f_prev: v(),
-            k: [v(), v(), v(), v()],
+            k: [v(), v(), v()],
             tmp: v(),
-            stats: Stats::default(),
         }
     }
 }
 
 impl Integrator for Rk4 {
+    fn core(&self) -> &StepCore {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        &mut self.core
+    }
+
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], _h: f64) {
-        self.t = t;
-        self.t_prev = t;
-        self.y.copy_from_slice(y);
-        self.y_prev.copy_from_slice(y);
-        sys.rhs(t, y, &mut self.k[0]);
-        self.f_prev.copy_from_slice(&self.k[0]);
-        self.stats.rhs_evals += 1;
+        self.core.start(sys, t, y);
+        self.f_prev.copy_from_slice(&self.core.f);
     }
 
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
-        let n = self.y.len();
+        let core = &mut self.core;
+        let n = core.y.len();
         // stretch the last step by up to 1 % rather than leave a sliver before t_max
-        let last = self.t + 1.01 * self.h >= t_max;
-        let h = if last { t_max - self.t } else { self.h };
+        let last = core.t + 1.01 * core.h >= t_max;
+        let h = if last { t_max - core.t } else { core.h };
         if h <= 0.0 {
-            return Err(IntegratorError::StepSizeUnderflow(self.t));
+            return Err(IntegratorError::StepSizeUnderflow(core.t));
         }
-        let t = self.t;
-        let [k1, k2, k3, k4] = &mut self.k;
+        let t = core.t;
+        let t_new = core.step_end(h, last, t_max);
+        let k1 = &mut core.f;
+        let [k2, k3, k4] = &mut self.k;
         let tmp = &mut self.tmp;
         for i in 0..n {
-            tmp[i] = self.y[i] + 0.5 * h * k1[i];
+            tmp[i] = core.y[i] + 0.5 * h * k1[i];
         }
         sys.rhs(t + 0.5 * h, tmp, k2);
         for i in 0..n {
-            tmp[i] = self.y[i] + 0.5 * h * k2[i];
+            tmp[i] = core.y[i] + 0.5 * h * k2[i];
         }
         sys.rhs(t + 0.5 * h, tmp, k3);
         for i in 0..n {
-            tmp[i] = self.y[i] + h * k3[i];
+            tmp[i] = core.y[i] + h * k3[i];
         }
-        let t_new = if last { t_max } else { t + h };
         sys.rhs(t_new, tmp, k4);
-        self.y_prev.copy_from_slice(&self.y);
+        core.y_prev.copy_from_slice(&core.y);
         self.f_prev.copy_from_slice(k1);
         for i in 0..n {
-            self.y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            core.y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
-        if !self.y.iter().all(|v| v.is_finite()) {
+        if !core.y.iter().all(|v| v.is_finite()) {
             return Err(IntegratorError::NotFinite(t));
         }
-        sys.rhs(t_new, &self.y, k1);
-        self.stats.rhs_evals += 4;
-        self.stats.steps += 1;
-        self.t_prev = t;
-        self.t = t_new;
+        sys.rhs(t_new, &core.y, k1);
+        core.stats.rhs_evals += 4;
+        core.advance(t_new);
         Ok(())
     }
 
-    fn t(&self) -> f64 {
-        self.t
-    }
-    fn t_prev(&self) -> f64 {
-        self.t_prev
-    }
-    fn y(&self) -> &[f64] {
-        &self.y
-    }
     fn interpolate(&self, t: f64, out: &mut [f64]) {
-        let h = self.t - self.t_prev;
-        if h <= 0.0 {
-            out.copy_from_slice(&self.y);
-            return;
-        }
-        let s = (t - self.t_prev) / h;
-        let (h00, h10, h01, h11) = (
-            (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
-            s * (1.0 - s) * (1.0 - s),
-            s * s * (3.0 - 2.0 * s),
-            s * s * (s - 1.0),
-        );
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = h00 * self.y_prev[i] + h10 * h * self.f_prev[i] + h01 * self.y[i] + h11 * h * self.k[0][i];
-        }
-    }
-    fn next_step(&self) -> f64 {
-        self.h
-    }
-    fn stats(&self) -> Stats {
-        self.stats
-    }
-    fn set_stats(&mut self, s: Stats) {
-        self.stats = s;
+        let (core, f_prev) = (&self.core, &self.f_prev);
+        core.interpolate(t, out, |s, h, out| {
+            let (h00, h10, h01, h11) = (
+                (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
+                s * (1.0 - s) * (1.0 - s),
+                s * s * (3.0 - 2.0 * s),
+                s * s * (s - 1.0),
+            );
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = h00 * core.y_prev[i] + h10 * h * f_prev[i] + h01 * core.y[i] + h11 * h * core.f[i];
+            }
+        });
     }
 }
 

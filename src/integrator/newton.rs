@@ -1,0 +1,402 @@
+//! What the implicit methods (SDIRK4 and Radau IIA) share: simplified Newton iterations with a
+//! forward-difference Jacobian kept across steps ([`NewtonCore`]), the memory a warm restart
+//! carries ([`WarmMemory`], written into saved states), and the step driver with RADAU5's
+//! step-size controller and Gustafsson's prediction ([`ImplicitMethod`], for which
+//! [`Integrator`] is implemented here).
+//!
+//! - The Jacobian is refreshed only when Newton fails or converges slowly; the LU factors of
+//!   the iteration matrices are kept while `h` and `J` do not change (a step-size change
+//!   below 20 % is not made, to keep them).
+//! - After a reset (a restart after a discontinuity) the iteration begins with `J = 0`
+//!   (functional iteration), so that a non-stiff phase costs no Jacobian at all; a plain
+//!   [`Integrator::restart`] keeps `J` and the controller memory.
+
+use super::core::StepCore;
+use super::{Integrator, IntegratorError, OdeSystem, WARM_JACOBIAN_MAX};
+use crate::linalg;
+
+/// Most Newton iterations per solve.
+const MAX_NEWTON: usize = 7;
+/// Newton contraction rate above which the Jacobian is refreshed before the next step.
+const SLOW_CONTRACTION: f64 = 0.5;
+/// Safety factor of the step-size controller.
+const SAFETY: f64 = 0.9;
+/// Largest step-size increase and decrease factors.
+const MAX_GROW: f64 = 8.0;
+const MAX_SHRINK: f64 = 5.0;
+
+/// Size of the controller memory of the implicit methods in their warm state: accepted step,
+/// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag.
+pub(crate) const WARM_HEADER: usize = 5;
+
+/// Memory an implicit method carries across a warm restart (see [`Integrator::restart`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WarmMemory {
+    /// Step size and error norm of the last accepted step (0: none).
+    pub h_acc: f64,
+    pub err_acc: f64,
+    /// Newton convergence-rate memory.
+    pub eta: f64,
+    /// The Jacobian is to be refreshed before the next step.
+    pub jac_stale: bool,
+    /// The Jacobian holds an evaluation (false: J = 0, functional iteration).
+    pub jac_valid: bool,
+}
+
+impl WarmMemory {
+    /// Whether a system of size `n` keeps its Jacobian across warm restarts.
+    pub fn keeps_jacobian(n: usize) -> bool {
+        n.saturating_mul(n) <= WARM_JACOBIAN_MAX
+    }
+
+    /// Writes the memory and, when present and small enough, the row-major Jacobian `jac`.
+    pub fn write(&self, jac: &[f64], n: usize, out: &mut Vec<f64>) {
+        let with_jac = self.jac_valid && Self::keeps_jacobian(n);
+        out.extend_from_slice(&[
+            self.h_acc,
+            self.err_acc,
+            self.eta,
+            self.jac_stale as u8 as f64,
+            with_jac as u8 as f64,
+        ]);
+        if with_jac {
+            out.extend_from_slice(jac);
+        }
+    }
+
+    /// Parses what [`WarmMemory::write`] wrote (empty: the memory after a reset) and copies
+    /// the Jacobian into `jac` (zeros when absent).
+    pub fn read(v: &[f64], jac: &mut [f64], n: usize) -> Result<WarmMemory, String> {
+        if v.is_empty() {
+            jac.iter_mut().for_each(|x| *x = 0.0);
+            return Ok(WarmMemory::cold());
+        }
+        let bad = || {
+            format!(
+                "integrator memory has {} numbers, not a state of this method and model",
+                v.len()
+            )
+        };
+        if v.len() < WARM_HEADER {
+            return Err(bad());
+        }
+        let with_jac = v[4] != 0.0;
+        let len = WARM_HEADER + if with_jac { n * n } else { 0 };
+        if v.len() != len {
+            return Err(bad());
+        }
+        if with_jac {
+            jac.copy_from_slice(&v[WARM_HEADER..]);
+        } else {
+            jac.iter_mut().for_each(|x| *x = 0.0);
+        }
+        Ok(WarmMemory {
+            h_acc: v[0],
+            err_acc: v[1],
+            eta: v[2],
+            jac_stale: v[3] != 0.0,
+            jac_valid: with_jac,
+        })
+    }
+
+    /// The memory after a reset: none.
+    pub fn cold() -> WarmMemory {
+        WarmMemory {
+            h_acc: 0.0,
+            err_acc: 0.0,
+            eta: 1.0,
+            jac_stale: false,
+            jac_valid: false,
+        }
+    }
+}
+
+/// Jacobian, Newton and controller state of an implicit method for a system of size `n`.
+#[derive(Debug, Clone)]
+pub struct NewtonCore {
+    /// Newton stopping tolerance in the weighted norm.
+    pub newton_tol: f64,
+    /// Most Newton iterations per solve.
+    pub max_newton: usize,
+    /// Row-major Jacobian ∂f/∂y (zero after a reset until Newton first needs one).
+    pub jac: Vec<f64>,
+    /// What a warm restart keeps besides `jac`.
+    pub mem: WarmMemory,
+    /// The Jacobian was evaluated at the current state.
+    pub jac_fresh: bool,
+    /// Step size the iteration matrices were factored for (0: none).
+    lu_h: f64,
+    /// Perturbed state and right-hand sides of the finite differences.
+    y_pert: Vec<f64>,
+    f0: Vec<f64>,
+    f1: Vec<f64>,
+}
+
+impl NewtonCore {
+    /// The state for a system of size `n` and relative tolerance `rtol`, as after a reset.
+    pub fn new(n: usize, rtol: f64) -> NewtonCore {
+        NewtonCore {
+            newton_tol: (10.0 * f64::EPSILON / rtol.max(1e-300)).max(0.03_f64.min(rtol.sqrt())),
+            max_newton: MAX_NEWTON,
+            jac: vec![0.0; n * n],
+            mem: WarmMemory::cold(),
+            jac_fresh: false,
+            lu_h: 0.0,
+            y_pert: vec![0.0; n],
+            f0: vec![0.0; n],
+            f1: vec![0.0; n],
+        }
+    }
+
+    /// System size.
+    fn n(&self) -> usize {
+        self.f0.len()
+    }
+
+    /// Forward-difference Jacobian at `(core.t, core.y)` (n + 1 evaluations: `f(t, y)` is
+    /// evaluated afresh, since `core.f` may satisfy a stage equation only to the Newton
+    /// tolerance).
+    pub fn jacobian(&mut self, sys: &mut dyn OdeSystem, core: &mut StepCore) {
+        let n = self.n();
+        sys.rhs(core.t, &core.y, &mut self.f0);
+        self.y_pert.copy_from_slice(&core.y);
+        for j in 0..n {
+            let yj = core.y[j];
+            let dy = (f64::EPSILON * 1e-5_f64.max(yj.abs())).sqrt();
+            self.y_pert[j] = yj + dy;
+            let dy = self.y_pert[j] - yj; // exactly representable increment
+            sys.rhs(core.t, &self.y_pert, &mut self.f1);
+            for i in 0..n {
+                self.jac[i * n + j] = (self.f1[i] - self.f0[i]) / dy;
+            }
+            self.y_pert[j] = yj;
+        }
+        core.stats.rhs_evals += n as u64 + 1;
+        core.stats.jac_evals += 1;
+        self.jac_fresh = true;
+        self.mem.jac_stale = false;
+        self.mem.jac_valid = true;
+        self.lu_h = 0.0;
+    }
+
+    /// Factors the iteration matrices for step `h` with `factor(jac)` unless they are
+    /// factored for this `h` and the current Jacobian. False if singular.
+    pub fn factor(&mut self, h: f64, factor: impl FnOnce(&[f64]) -> bool) -> bool {
+        if self.lu_h == h {
+            return true;
+        }
+        let ok = factor(&self.jac);
+        self.lu_h = if ok { h } else { 0.0 };
+        ok
+    }
+
+    /// Writes `I − c·jac` into `lu` and factors it in place (see [`linalg::lu_in_place`]).
+    pub fn factor_shifted(jac: &[f64], c: f64, lu: &mut [f64], perm: &mut [usize]) -> bool {
+        let n = perm.len();
+        for (l, j) in lu.iter_mut().zip(jac) {
+            *l = -c * j;
+        }
+        for i in 0..n {
+            lu[i * n + i] += 1.0;
+        }
+        linalg::lu_in_place(lu, n, perm)
+    }
+
+    /// Simplified Newton iterations: each call of `correct` applies one correction and returns
+    /// its weighted norm and whether it is at rounding level. Returns the largest contraction
+    /// rate once converged, or None when the iteration diverges, would not converge within
+    /// the iterations left, or is not finite.
+    pub fn iterate(&mut self, mut correct: impl FnMut() -> (f64, bool)) -> Option<f64> {
+        let mut norm_old = 0.0;
+        let mut theta_max: f64 = 0.0;
+        let mut eta = self.mem.eta.max(f64::EPSILON).powf(0.8);
+        for iter in 0..self.max_newton {
+            let (norm, at_roundoff) = correct();
+            if !norm.is_finite() {
+                return None;
+            }
+            // corrections at rounding level: converged, whatever their ratio says
+            if !at_roundoff && iter > 0 {
+                let theta = norm / norm_old;
+                theta_max = theta_max.max(theta);
+                if theta >= 0.99 {
+                    return None;
+                }
+                // predicted error after the remaining iterations is too large: give up early
+                let left = (self.max_newton - 1 - iter) as i32;
+                if theta.powi(left) / (1.0 - theta) * norm > self.newton_tol {
+                    return None;
+                }
+                eta = theta / (1.0 - theta);
+            }
+            if at_roundoff || eta * norm <= self.newton_tol {
+                self.mem.eta = eta;
+                return Some(theta_max);
+            }
+            norm_old = norm;
+        }
+        None
+    }
+
+    /// Forgets the Jacobian: J = 0 (functional iteration) until Newton needs one.
+    fn drop_jacobian(&mut self) {
+        self.jac.iter_mut().for_each(|x| *x = 0.0);
+        self.mem.jac_valid = false;
+        self.lu_h = 0.0;
+    }
+
+    /// Sets the memory that warm restarts carry (the Jacobian is in `jac` already).
+    fn set_memory(&mut self, m: WarmMemory) {
+        self.mem = m;
+        self.jac_fresh = false;
+        self.lu_h = 0.0;
+    }
+}
+
+/// An implicit Runge-Kutta method on a [`StepCore`] and a [`NewtonCore`]: what differs between
+/// SDIRK4 and Radau IIA. [`Integrator`] is implemented for it below.
+pub trait ImplicitMethod {
+    /// The step state and the Newton state.
+    fn parts(&self) -> (&StepCore, &NewtonCore);
+    /// The same, to change.
+    fn parts_mut(&mut self) -> (&mut StepCore, &mut NewtonCore);
+    /// Clears the method's dense output to that of a zero-length step (`y_prev = y` is set).
+    fn clear_dense(&mut self);
+    /// Calls [`StepCore::first_step`] with the method's order and scratch.
+    fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64);
+    /// One attempt of a step of size `h`: (error norm, largest Newton contraction), or None
+    /// if Newton failed. `refine`: after a rejection or before the first accepted step.
+    fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, refine: bool) -> Option<(f64, f64)>;
+    /// Accepts the attempted step of size `h` ending at `t_new`: state, dense output, `t`.
+    fn accept(&mut self, sys: &mut dyn OdeSystem, h: f64, t_new: f64);
+    /// Dense output at `t` (see [`Integrator::interpolate`]).
+    fn dense_output(&self, t: f64, out: &mut [f64]);
+
+    /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
+    fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.parts_mut().0.start(sys, t, y);
+        self.clear_dense();
+        self.first_step(sys, h);
+        self.parts_mut().1.jac_fresh = false;
+    }
+
+    /// A fresh Jacobian at the current state.
+    fn jacobian(&mut self, sys: &mut dyn OdeSystem) {
+        let (core, newton) = self.parts_mut();
+        newton.jacobian(sys, core);
+    }
+}
+
+impl<M: ImplicitMethod> Integrator for M {
+    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // everything from before a restart after a discontinuity is discarded; the iteration
+        // starts with J = 0 (functional iteration, enough while the problem is not stiff) and
+        // a Jacobian is evaluated only when that fails to converge or converges slowly
+        let newton = self.parts_mut().1;
+        newton.drop_jacobian();
+        newton.set_memory(WarmMemory::cold());
+    }
+
+    fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.start(sys, t, y, h);
+        // keep J (and the LU factors, which are a function of J and h and are recomputed
+        // identically after a restore), Newton and controller memory: all of it is in
+        // `warm_state`, except a Jacobian too big to save, which is dropped here
+        let newton = self.parts_mut().1;
+        if !WarmMemory::keeps_jacobian(newton.n()) {
+            newton.drop_jacobian();
+        }
+    }
+
+    fn warm_state(&self, out: &mut Vec<f64>) {
+        let newton = self.parts().1;
+        newton.mem.write(&newton.jac, newton.n(), out);
+    }
+
+    fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let newton = self.parts_mut().1;
+        let n = newton.n();
+        let m = WarmMemory::read(v, &mut newton.jac, n)?;
+        newton.set_memory(m);
+        Ok(())
+    }
+
+    fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
+        if self.parts().1.mem.jac_stale {
+            self.jacobian(sys);
+        }
+        if self.parts_mut().0.arrive_within_roundoff(t_max) {
+            self.clear_dense();
+            return Ok(());
+        }
+        let mut rejected_before = false;
+        loop {
+            let (h, last) = self.parts().0.trial_step(t_max)?;
+            let refine = rejected_before || self.parts().1.mem.h_acc == 0.0;
+            let attempt = self.attempt(sys, h, refine);
+            let (core, newton) = self.parts_mut();
+            let Some((err, theta)) = attempt else {
+                // Newton failed: a fresh Jacobian first, then a smaller step
+                core.stats.rejected += 1;
+                rejected_before = true;
+                if !newton.jac_fresh {
+                    newton.jacobian(sys, core);
+                } else {
+                    core.h = h * 0.5;
+                }
+                continue;
+            };
+            if !err.is_finite() {
+                core.stats.rejected += 1;
+                rejected_before = true;
+                core.h = h * 0.2;
+                continue;
+            }
+            // step-size proposal (RADAU5's controller with Gustafsson's prediction)
+            let mut quot = (err.powf(0.25) / SAFETY).clamp(1.0 / MAX_GROW, MAX_SHRINK);
+            if err <= 1.0 {
+                let mem = &mut newton.mem;
+                if mem.h_acc > 0.0 {
+                    let gus = (mem.h_acc / h) * (err * err / mem.err_acc).powf(0.25) / SAFETY;
+                    quot = quot.max(gus.clamp(1.0 / MAX_GROW, MAX_SHRINK));
+                }
+                mem.h_acc = h;
+                mem.err_acc = err.max(1e-2);
+                let t_new = core.step_end(h, last, t_max);
+                self.accept(sys, h, t_new);
+                let (core, newton) = self.parts_mut();
+                newton.jac_fresh = false;
+                if theta > SLOW_CONTRACTION {
+                    newton.mem.jac_stale = true;
+                }
+                let mut h_new = h / quot;
+                if rejected_before {
+                    h_new = h_new.min(h);
+                }
+                // keep h (and the LU factors) for changes below 20 %
+                let ratio = h_new / h;
+                if (1.0..=1.2).contains(&ratio) && !newton.mem.jac_stale {
+                    h_new = h;
+                }
+                core.set_next_step(h_new, last);
+                return Ok(());
+            }
+            core.stats.rejected += 1;
+            rejected_before = true;
+            core.h = if newton.mem.h_acc == 0.0 { h * 0.1 } else { h / quot };
+        }
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        self.dense_output(t, out);
+    }
+
+    fn core(&self) -> &StepCore {
+        self.parts().0
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        self.parts_mut().0
+    }
+}
