@@ -479,6 +479,29 @@ pub struct InputSpec {
 /// The reserved name of the fixed world.
 pub const GROUND: &str = "ground";
 
+/// What a contact law needs of the other constants: Kelvin-Voigt a given stiffness, Flores
+/// e > 0, the Hertz family a stiffness or two materials to derive it from. The error names
+/// the field and says why.
+pub fn check_law(
+    law: Law,
+    restitution: f64,
+    has_stiffness: bool,
+    has_materials: bool,
+) -> Result<(), (&'static str, String)> {
+    if law == Law::Flores && restitution <= 0.0 {
+        return Err(("restitution", "the flores law needs e > 0".into()));
+    }
+    match law {
+        Law::KelvinVoigt if !has_stiffness => Err(("stiffness", "required for the kelvin_voigt law".into())),
+        Law::KelvinVoigt | Law::Impulse => Ok(()),
+        _ if !has_stiffness && !has_materials => Err((
+            "stiffness",
+            "give stiffness, or both sphere_material and material to derive it".into(),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
 pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
 
@@ -745,9 +768,6 @@ impl Scene {
         if !(0.0..=1.0).contains(&c.restitution) {
             return Err(err("restitution", format!("must be in [0, 1] (got {})", c.restitution)));
         }
-        if c.law == Law::Flores && c.restitution <= 0.0 {
-            return Err(err("restitution", "the flores law needs e > 0".into()));
-        }
         if !(c.radius > 0.0 && c.radius.is_finite()) {
             return Err(err("radius", format!("must be > 0 (got {})", c.radius)));
         }
@@ -830,22 +850,8 @@ impl Scene {
                 }
             }
         }
-        match c.law {
-            Law::KelvinVoigt => {
-                if c.stiffness.is_none() {
-                    return Err(err("stiffness", "required for the kelvin_voigt law".into()));
-                }
-            }
-            Law::Impulse => {}
-            _ => {
-                if c.stiffness.is_none() && (c.sphere_material.is_none() || c.material.is_none()) {
-                    return Err(err(
-                        "stiffness",
-                        "give stiffness, or both sphere_material and material to derive it".into(),
-                    ));
-                }
-            }
-        }
+        let materials = c.sphere_material.is_some() && c.material.is_some();
+        check_law(c.law, c.restitution, c.stiffness.is_some(), materials).map_err(|(f, m)| err(f, m))?;
         if let Some(k) = c.stiffness {
             if !(k > 0.0 && k.is_finite()) {
                 return Err(err("stiffness", format!("must be > 0 (got {k})")));

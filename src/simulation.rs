@@ -4,12 +4,12 @@
 //! variables and the same numbers.
 
 use crate::checkpoint::Snapshot;
-use crate::compile::compile;
+use crate::compile::{compile_with, Parameters};
 use crate::engine::{self, EngineError};
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
-use crate::variables::{Causality, VarRef, VarType, Variable, VariableTable};
+use crate::variables::{set_parameter, Causality, VarRef, VarType, Variable, VariableTable};
 use std::path::Path;
 
 /// An error from the simulation facade, with a message for the user.
@@ -180,46 +180,15 @@ impl Simulation {
         }
     }
 
-    /// The scene with the current parameter values applied.
-    pub fn effective_scene(&self) -> Scene {
-        let mut s = self.scene.clone();
-        for (vr, var) in self.table.vars.iter().enumerate() {
-            if var.causality != Causality::Parameter {
-                continue;
-            }
-            let x = self.values[vr];
-            match var.target {
-                VarRef::YoungsModulus(i) => s.material[i].youngs_modulus = x,
-                VarRef::PoissonRatio(i) => s.material[i].poisson_ratio = x,
-                VarRef::Mass(i) => s.body[i].mass = x,
-                VarRef::ContactLaw(i) => {
-                    if let Some(l) = crate::scene::Law::from_index(x as i64) {
-                        s.contact[i].law = l
-                    }
-                }
-                VarRef::Restitution(i) => s.contact[i].restitution = x,
-                VarRef::Exponent(i) => s.contact[i].exponent = Some(x),
-                VarRef::Damping(i) => s.contact[i].damping = Some(x),
-                VarRef::MaxPenetration(i) => s.contact[i].max_penetration = Some(x),
-                VarRef::MinImpactVelocity(i) => s.contact[i].min_impact_velocity = Some(x),
-                VarRef::Stiffness(i) => s.contact[i].stiffness = Some(x),
-                VarRef::SolverMethod => {
-                    if let Some(m) = crate::scene::Method::from_index(x as i64) {
-                        s.solver.method = m
-                    }
-                }
-                VarRef::SolverRtol => s.solver.rtol = x,
-                VarRef::SolverAtol => s.solver.atol = x,
-                VarRef::SolverMaxStep => s.solver.max_step = x,
-                _ => {}
+    /// The current parameter values (and input start values), as the compiler reads them.
+    pub fn parameters(&self) -> Parameters {
+        let mut p = Parameters::of_scene(&self.scene);
+        for (var, &x) in self.table.vars.iter().zip(&self.values) {
+            if matches!(var.causality, Causality::Parameter | Causality::Input) {
+                set_parameter(&mut p, var.target, x);
             }
         }
-        for (i, inp) in s.input.iter_mut().enumerate() {
-            if let Some(vr) = self.table.vars.iter().position(|v| v.target == VarRef::Input(i)) {
-                inp.start = self.values[vr];
-            }
-        }
-        s
+        p
     }
 
     /// Checks every parameter against its range; the message names the variable and range.
@@ -248,9 +217,7 @@ impl Simulation {
     fn ensure_compiled(&mut self) -> Result<&mut Compiled, SimError> {
         if self.compiled.is_none() || !self.compiled_fresh {
             self.check_parameters()?;
-            let scene = self.effective_scene();
-            scene.validate(&self.origin)?;
-            let (model, mut data) = compile(&scene, &self.origin)?;
+            let (model, mut data) = compile_with(&self.scene, &self.parameters(), &self.origin)?;
             engine::start(&model, &mut data).map_err(|err| {
                 SceneError::new(
                     &self.origin,

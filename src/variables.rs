@@ -4,6 +4,7 @@
 //!
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
+use crate::compile::Parameters;
 use crate::scene::{JointType, Law, Method, Scene};
 
 /// Value type as seen by FMI.
@@ -566,5 +567,53 @@ impl VariableTable {
     /// Index of a variable by name.
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.vars.iter().position(|v| v.name == name)
+    }
+}
+
+/// Writes the value `x` of the parameter (or input start value) `target` into `params`;
+/// every other variable is not a parameter and changes nothing.
+pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
+    match target {
+        VarRef::YoungsModulus(i) => params.materials[i].youngs_modulus = x,
+        VarRef::PoissonRatio(i) => params.materials[i].poisson_ratio = x,
+        VarRef::Mass(i) => params.masses[i] = x,
+        VarRef::ContactLaw(i) => {
+            if let Some(l) = Law::from_index(x as i64) {
+                params.contacts[i].law = l;
+            }
+        }
+        VarRef::Restitution(i) => params.contacts[i].restitution = x,
+        VarRef::Exponent(i) => params.contacts[i].exponent = x,
+        VarRef::Damping(i) => params.contacts[i].damping = x,
+        VarRef::MaxPenetration(i) => params.contacts[i].max_penetration = x,
+        VarRef::MinImpactVelocity(i) => params.contacts[i].min_impact_velocity = x,
+        VarRef::Stiffness(i) => params.contacts[i].stiffness = Some(x),
+        VarRef::SolverMethod => {
+            if let Some(m) = Method::from_index(x as i64) {
+                params.solver.method = m;
+            }
+        }
+        VarRef::SolverRtol => params.solver.rtol = x,
+        VarRef::SolverAtol => params.solver.atol = x,
+        VarRef::SolverMaxStep => params.solver.max_step = x,
+        VarRef::Input(i) => params.input_start[i] = x,
+        VarRef::BodyPosition(..)
+        | VarRef::BodyVelocity(..)
+        | VarRef::BodyAngularVelocity(..)
+        | VarRef::BodyQuaternion(..)
+        | VarRef::JointQ(_)
+        | VarRef::JointQd(_)
+        | VarRef::ContactDelta(_)
+        | VarRef::ContactDeltaDot(_)
+        | VarRef::ContactForce(_)
+        | VarRef::ContactActive(_)
+        | VarRef::ContactImpacts(_)
+        | VarRef::EnergyKinetic
+        | VarRef::EnergyPotential
+        | VarRef::EnergyContact
+        | VarRef::EnergyTotal
+        | VarRef::EnergyDissipated
+        | VarRef::SolverSteps
+        | VarRef::SolverRhsEvals => {}
     }
 }

@@ -1,17 +1,22 @@
 //! One contact element from its scene entry: the shape in its body's frame, the stiffness
 //! (given, or Hertz's from the materials), the law constants.
 
+use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::element::{ContactElement, Shape};
 use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
 use crate::scene::{ContactSpec, ContactType, Law, Scene, SceneError, Side};
 use crate::spatial::triad;
 use nalgebra::Vector3;
 
-/// Compiles one contact. `body_of` maps names to body indices (None = ground), `local_point`
-/// and `local_dir` express world points and directions in a body's initial frame.
+/// Compiles one contact with its parameter values `p` (materials: `materials`, in scene
+/// order). `body_of` maps names to body indices (None = ground), `local_point` and
+/// `local_dir` express world points and directions in a body's initial frame.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn compile_contact(
     scene: &Scene,
     c: &ContactSpec,
+    p: &ContactValues,
+    materials: &[MaterialValues],
     origin: &str,
     body_of: &dyn Fn(&str) -> Option<usize>,
     local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
@@ -81,8 +86,12 @@ pub(super) fn compile_contact(
             )
         }
     };
-    let material = |name: &Option<String>| name.as_ref().and_then(|n| scene.material.iter().find(|m| &m.name == n));
-    let (stiffness, derived) = match c.stiffness {
+    let material = |name: &Option<String>| {
+        name.as_ref()
+            .and_then(|n| scene.material.iter().position(|m| &m.name == n))
+            .map(|i| materials[i])
+    };
+    let (stiffness, derived) = match p.stiffness {
         Some(k) => (k, false),
         None => match (material(&c.sphere_material), material(&c.material)) {
             (Some(a), Some(b)) => (
@@ -95,7 +104,7 @@ pub(super) fn compile_contact(
                 ),
                 true,
             ),
-            _ if c.law == Law::Impulse => (0.0, true),
+            _ if p.law == Law::Impulse => (0.0, true),
             _ => {
                 return Err(SceneError::new(
                     origin,
@@ -109,8 +118,8 @@ pub(super) fn compile_contact(
     Ok(ContactElement {
         name: c.name.clone(),
         kind: c.kind,
-        law: c.law,
-        restitution: c.restitution,
+        law: p.law,
+        restitution: p.restitution,
         sphere_body,
         center: local_point(sphere_body, v(c.center)),
         radius: c.radius,
@@ -118,14 +127,14 @@ pub(super) fn compile_contact(
         shape,
         stiffness,
         stiffness_derived: derived,
-        exponent: c.exponent.unwrap_or(1.5),
-        damping: c.damping.unwrap_or(0.0),
-        max_penetration: c.max_penetration_or_default(),
-        min_impact_velocity: c.min_impact_velocity_or_default(),
+        exponent: p.exponent,
+        damping: p.damping,
+        max_penetration: p.max_penetration,
+        min_impact_velocity: p.min_impact_velocity,
         bound_radius,
         impulse_method: c.impulse_method,
         constraint_row: None,
-        hysteresis: hysteresis_factor(c.law, c.restitution),
+        hysteresis: hysteresis_factor(p.law, p.restitution),
     })
 }
 

@@ -8,11 +8,15 @@
 //! ground. Degrees of freedom are numbered tree by tree (depth first), so the joint-space mass
 //! matrix is block diagonal with one dense block per independent tree.
 //!
+//! - `parameters`: the values a host may set (their defaults from the scene).
 //! - `contact`: one contact element from its scene entry (shape, stiffness, law constants).
 //! - `velocities`: the initial joint rates from the scene's body velocities.
 
 mod contact;
+pub mod parameters;
 mod velocities;
+
+pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
 use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
@@ -28,9 +32,16 @@ fn quat_of(a: [f64; 4]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(a[0], a[1], a[2], a[3]))
 }
 
-/// Compiles a validated scene into a model and its data at the initial configuration
-/// (positions, and velocities projected onto the joint coordinates).
+/// Compiles a validated scene with its own parameter values (see [`compile_with`]).
 pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError> {
+    compile_with(scene, &Parameters::of_scene(scene), origin)
+}
+
+/// Compiles a validated scene with parameter values `params` into a model and its data at
+/// the initial configuration (positions, and velocities projected onto the joint
+/// coordinates). The law constants are computed here, once.
+pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<(Model, Data), SceneError> {
+    params.check(scene, origin)?;
     let nb = scene.body.len();
     let body_idx = |name: &str| -> Option<usize> { scene.body.iter().position(|b| b.name == name) };
     let pos0: Vec<Vector3<f64>> = scene.body.iter().map(|b| to_v(b.position)).collect();
@@ -106,9 +117,10 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
     let mut bodies: Vec<Body> = scene
         .body
         .iter()
-        .map(|b| Body {
+        .zip(&params.masses)
+        .map(|(b, &mass)| Body {
             name: b.name.clone(),
-            mass: b.mass,
+            mass,
             inertia: to_v(b.inertia),
             joint: 0,
         })
@@ -293,10 +305,12 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
         .collect();
 
     let mut contacts = Vec::with_capacity(scene.contact.len());
-    for c in &scene.contact {
+    for (c, p) in scene.contact.iter().zip(&params.contacts) {
         contacts.push(contact::compile_contact(
             scene,
             c,
+            p,
+            &params.materials,
             origin,
             &|n| to_body(n),
             &|b, p| local_point(b, p),
@@ -356,14 +370,14 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
         springs,
         contacts,
         inputs,
-        input_start: scene.input.iter().map(|i| i.start).collect(),
+        input_start: params.input_start.clone(),
         nq,
         nv,
         trees,
         tree_block,
         dof_joint,
         dof_parent,
-        solver: scene.solver.clone(),
+        solver: params.solver.clone(),
         baumgarte: 20.0,
         warnings,
     };

@@ -1,0 +1,94 @@
+//! Parameter values: the numbers of a scene that a host may set before initialisation
+//! (materials, masses, contact-law constants, solver settings, input start values). The
+//! scene gives their defaults; [`super::compile`] reads them from here, so that changing a
+//! parameter never edits the scene.
+
+use crate::scene::{check_law, Law, Scene, SceneError, SolverSection};
+
+/// Elastic constants of a material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaterialValues {
+    /// Young's modulus E [Pa].
+    pub youngs_modulus: f64,
+    /// Poisson's ratio ν.
+    pub poisson_ratio: f64,
+}
+
+/// The settable constants of a contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactValues {
+    /// Force law.
+    pub law: Law,
+    /// Coefficient of restitution.
+    pub restitution: f64,
+    /// Exponent n.
+    pub exponent: f64,
+    /// Kelvin-Voigt damping [N s/m].
+    pub damping: f64,
+    /// Largest admissible penetration [m].
+    pub max_penetration: f64,
+    /// Floor on δ̇⁻ [m/s].
+    pub min_impact_velocity: f64,
+    /// Stiffness, when the scene gives one (else derived from the materials).
+    pub stiffness: Option<f64>,
+}
+
+/// Every parameter value of a scene, by item (scene order).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameters {
+    /// Per material.
+    pub materials: Vec<MaterialValues>,
+    /// Per body: mass [kg].
+    pub masses: Vec<f64>,
+    /// Per contact.
+    pub contacts: Vec<ContactValues>,
+    /// Solver settings.
+    pub solver: SolverSection,
+    /// Per input: its value at the start.
+    pub input_start: Vec<f64>,
+}
+
+impl Parameters {
+    /// The scene's own values (its defaults filled in).
+    pub fn of_scene(scene: &Scene) -> Parameters {
+        Parameters {
+            materials: scene
+                .material
+                .iter()
+                .map(|m| MaterialValues {
+                    youngs_modulus: m.youngs_modulus,
+                    poisson_ratio: m.poisson_ratio,
+                })
+                .collect(),
+            masses: scene.body.iter().map(|b| b.mass).collect(),
+            contacts: scene
+                .contact
+                .iter()
+                .map(|c| ContactValues {
+                    law: c.law,
+                    restitution: c.restitution,
+                    exponent: c.exponent.unwrap_or(1.5),
+                    damping: c.damping.unwrap_or(0.0),
+                    max_penetration: c.max_penetration_or_default(),
+                    min_impact_velocity: c.min_impact_velocity_or_default(),
+                    stiffness: c.stiffness,
+                })
+                .collect(),
+            solver: scene.solver.clone(),
+            input_start: scene.input.iter().map(|i| i.start).collect(),
+        }
+    }
+
+    /// Checks what depends on several values at once (a law's needs: Kelvin-Voigt needs a
+    /// stiffness, Flores e > 0, the Hertz family a stiffness or two materials); single values
+    /// are checked against their ranges by the variable table. The message names the contact
+    /// and the field.
+    pub fn check(&self, scene: &Scene, origin: &str) -> Result<(), SceneError> {
+        for (c, v) in scene.contact.iter().zip(&self.contacts) {
+            let materials = c.sphere_material.is_some() && c.material.is_some();
+            check_law(v.law, v.restitution, v.stiffness.is_some(), materials)
+                .map_err(|(field, msg)| SceneError::new(origin, format!("contact {:?}", c.name), field, msg))?;
+        }
+        Ok(())
+    }
+}
