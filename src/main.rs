@@ -45,6 +45,13 @@ enum Command {
         /// Print nothing but errors.
         #[arg(long)]
         quiet: bool,
+        /// Write the state at the stop time to this file (a checkpoint to resume from).
+        #[arg(long, value_name = "FILE")]
+        save_state: Option<PathBuf>,
+        /// Start from a state saved with --save-state (of the same scene) instead of the
+        /// initial configuration; --stop-time must lie after its time.
+        #[arg(long, value_name = "FILE")]
+        resume: Option<PathBuf>,
     },
     /// Benchmarks: work-precision, stress, scaling, targets (tables and CSV).
     Bench {
@@ -67,6 +74,8 @@ fn main() -> ExitCode {
             set,
             csv,
             quiet,
+            save_state,
+            resume,
         }) => run::simulate_command(
             &scene,
             &RunOptions {
@@ -75,6 +84,8 @@ fn main() -> ExitCode {
                 set,
                 csv,
                 quiet,
+                save_state,
+                resume,
             },
         )
         .map(|_| ()),

@@ -1,6 +1,7 @@
 //! Native runs for the command line: `simulate` and the main job (export and run every
 //! bundled scene, print one summary table).
 
+use crate::checkpoint::Snapshot;
 use crate::simulation::{RunError, SimError, Simulation};
 use crate::variables::{Causality, VarType};
 use std::io::Write;
@@ -20,6 +21,10 @@ pub struct RunOptions {
     pub csv: Option<PathBuf>,
     /// No progress or summary.
     pub quiet: bool,
+    /// Checkpoint written at the stop time.
+    pub save_state: Option<PathBuf>,
+    /// Checkpoint to start from.
+    pub resume: Option<PathBuf>,
 }
 
 /// Summary of a run.
@@ -87,7 +92,9 @@ pub fn run_simulation(
     if !(stop_time > 0.0 && stop_time.is_finite()) {
         return Err(format!("stop time must be > 0 (got {stop_time})"));
     }
-    sim.initialize(0.0).map_err(|e| e.to_string())?;
+    if !sim.is_initialized() {
+        sim.initialize(0.0).map_err(|e| e.to_string())?;
+    }
     let e0 = sim.energies().map_err(|e| e.to_string())?;
     let mut scale = e0.total().abs().max(e0.kinetic);
     each(sim)?;
@@ -122,6 +129,18 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
     let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
     for w in warnings_of(&mut sim) {
         eprintln!("warning: {w}");
+    }
+    let model_hash = || -> Result<u64, String> {
+        let text = std::fs::read_to_string(scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+        Ok(crate::guid::model_hash(&text))
+    };
+    if let Some(path) = &o.resume {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let snapshot = Snapshot::from_bytes(&bytes, model_hash()?).map_err(|e| format!("{}: {e}", path.display()))?;
+        sim.restore(&snapshot).map_err(|e| format!("{}: {e}", path.display()))?;
+        if !sim.is_initialized() {
+            sim.initialize(0.0).map_err(|e| e.to_string())?;
+        }
     }
     apply_settings(&mut sim, &o.set)?;
     let stop = o.stop_time.unwrap_or(sim.scene().model.stop_time);
@@ -173,6 +192,13 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
     )?;
     if let Some(mut w) = writer {
         w.flush().map_err(|e| e.to_string())?;
+    }
+    if let Some(path) = &o.save_state {
+        let bytes = sim.snapshot(Vec::new()).to_bytes(model_hash()?);
+        std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        if !o.quiet {
+            println!("saved the state at t = {} to {}", sim.time(), path.display());
+        }
     }
     if !o.quiet {
         print_table(std::slice::from_ref(&summary));

@@ -263,8 +263,9 @@ impl Simulation {
             .map_err(|EngineError { time, message }| SimError::Step { time, message })
     }
 
-    /// Runs from the current state over communication points `interval` apart to
-    /// `stop_time` (the last one exactly there), calling `each` after every point.
+    /// Runs from the current state over the communication points (the multiples of
+    /// `interval`, see [`communication_points`]) to `stop_time` (the last one exactly
+    /// there), calling `each` after every point.
     pub fn run(
         &mut self,
         stop_time: f64,
@@ -411,11 +412,14 @@ impl Simulation {
     }
 }
 
-/// The communication points after `t0` up to `stop_time`, `interval` apart; the last one is
-/// exactly `stop_time`.
+/// The communication points after `t0` up to `stop_time`: the multiples of `interval` (so
+/// that a run resumed from a checkpoint meets the same points as the uninterrupted one),
+/// the last one exactly `stop_time`.
 pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iterator<Item = f64> {
-    let n = ((stop_time - t0) / interval - 1e-9).ceil().max(1.0) as u64;
-    (1..=n).map(move |k| if k == n { stop_time } else { t0 + k as f64 * interval })
+    let first = ((t0 / interval) * (1.0 + 1e-12)).floor() as u64 + 1;
+    let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
+    let first = first.min(n);
+    (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
 }
 
 /// Sets input `i`; the integrator restarts at the next advance (inputs are piecewise constant
