@@ -275,7 +275,7 @@ pub fn no_extra_rows(_m: &Model, _d: &mut Data) {}
 /// redundant constraint row.
 pub const REDUNDANT_PIVOT: f64 = 1e-10;
 
-/// Solves the constrained equations of motion (33): on entry `d.qacc` holds `τ − C` and the
+/// Solves the constrained equations of motion (31), in the block form (34): on entry `d.qacc` holds `τ − C` and the
 /// mass blocks are factorised; on exit `d.qacc` holds q̈ and `d.lambda` the multipliers.
 pub fn solve_constrained(m: &Model, d: &mut Data) {
     solve_mass(m, &d.mass_blocks, &mut d.qacc);

@@ -1,5 +1,5 @@
 //! Scene files: the user's TOML description of a multibody system (see the README and
-//! `CONTRACT.md`). Parsing is done by serde; [`Scene::validate`] checks what serde cannot
+//! `docs/scene.md`). Parsing is done by serde; [`Scene::validate`] checks what serde cannot
 //! (names that refer to each other, signs, ranges) and reports the file, the item and the field.
 //!
 //! Units are SI. Positions, axes and velocities are in the world frame at the initial
@@ -341,7 +341,7 @@ pub enum Side {
 #[serde(rename_all = "snake_case")]
 pub enum ImpulseMethod {
     /// Generalised impulse-momentum balance in joint coordinates with the loops closed
-    /// (PHYSICS.md §3.1): Newton's law `J q̇⁺ = −e J q̇⁻` holds exactly.
+    /// (docs/physics.md §3.1): Newton's law `J q̇⁺ = −e J q̇⁻` holds exactly.
     #[default]
     Exact,
     /// The paper's effective masses (17) and velocity formulas (18)-(19) (with the corrected

@@ -1,5 +1,5 @@
 //! The table of a scene's user-visible variables: parameters, inputs and outputs, with the
-//! names fixed by `CONTRACT.md`. It is a pure function of the scene; the FMI layer and the
+//! names fixed by `README.md` ("FMU variables"). It is a pure function of the scene; the FMI layer and the
 //! exporter read it, the simulation answers get/set by index into it.
 //!
 //! The value reference of a variable is its index in [`VariableTable::vars`].
