@@ -50,9 +50,9 @@ pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1
     if !crossed {
         return false;
     }
-    let nc = m.contacts.len();
-    if k >= nc {
-        return d.contact_memory[k - nc].active;
+    let n_contacts = m.contacts.len();
+    if k >= n_contacts {
+        return d.contact_memory[k - n_contacts].active;
     }
     let c = &m.contacts[k];
     if c.law == Law::Impulse && !d.contact_memory[k].active && g1 <= 0.0 {
@@ -76,9 +76,9 @@ pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
 /// the impulse-law contacts settled. An error when a contact reached `max_penetration`.
 pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
     evaluate_current(m, d);
-    let nc = m.contacts.len();
+    let n_contacts = m.contacts.len();
     let mut impulse_work = false;
-    for i in 0..nc {
+    for i in 0..n_contacts {
         let c = &m.contacts[i];
         let gap = gap(m, d, i);
         let mem = d.contact_memory[i];
@@ -114,8 +114,8 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 d.log_event(i, ContactEventKind::Separation, gap.delta, gap.delta_dot, 0.0);
             }
         }
-        let (before, now) = (d.events.g[nc + i], d.events.g_new[nc + i]);
-        if relevant_crossing(m, d, nc + i, before, now, gap.delta) {
+        let (before, now) = (d.events.g[n_contacts + i], d.events.g_new[n_contacts + i]);
+        if relevant_crossing(m, d, n_contacts + i, before, now, gap.delta) {
             let kind = if now <= 0.0 {
                 ContactEventKind::Clamp
             } else {
@@ -138,8 +138,8 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
 /// approach nor separate rest if their constraint force pushes (an active set: the most
 /// tensile one is dropped until all push). Works on the preallocated `d.impacts`.
 pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
-    let nc = m.contacts.len();
-    let max_rounds = 100 + 20 * nc;
+    let n_contacts = m.contacts.len();
+    let max_rounds = 100 + 20 * n_contacts;
     let mut rounds = 0;
     loop {
         let w = &mut d.impacts;
@@ -182,7 +182,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
     }
     // Resting set.
     d.impacts.was.clear();
-    for k in 0..nc {
+    for k in 0..n_contacts {
         let active = d.contact_memory[k].active;
         d.impacts.was.push(active);
     }
@@ -214,7 +214,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         d.contact_memory[i].active = false;
         evaluate(m, d);
     }
-    for i in 0..nc {
+    for i in 0..n_contacts {
         let (before, now) = (d.impacts.was[i], d.contact_memory[i].active);
         if m.contacts[i].law == Law::Impulse && now != before {
             let g = gap(m, d, i);

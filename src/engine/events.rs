@@ -32,8 +32,8 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
     } else {
         kinematics(m, d);
     }
-    let nc = m.contacts.len();
-    for i in 0..nc {
+    let n_contacts = m.contacts.len();
+    for i in 0..n_contacts {
         let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
         let (g, aux) = if at_step_end {
             (&mut d.events.g_new, &mut d.events.aux_new)
@@ -41,7 +41,7 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
             (&mut d.events.g, &mut d.events.aux)
         };
         g[i] = mode;
-        g[nc + i] = clamp_value;
+        g[n_contacts + i] = clamp_value;
         aux[i] = a;
     }
 }
@@ -67,21 +67,21 @@ fn interpolate(d: &mut Data, t: f64) {
 /// `d.eval_state` and the data evaluated there).
 fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
     interpolate(d, t);
-    let nc = m.contacts.len();
-    let needs_dynamics = matches!(probe, Probe::Event(k) if k < nc
+    let n_contacts = m.contacts.len();
+    let needs_dynamics = matches!(probe, Probe::Event(k) if k < n_contacts
         && m.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
     if needs_dynamics {
         evaluate(m, d);
     } else {
         let i = match probe {
-            Probe::Event(k) => k % nc,
+            Probe::Event(k) => k % n_contacts,
             Probe::Delta(i) | Probe::Rate(i) => i,
         };
         contact_kinematics(m, d, i);
     }
     match probe {
-        Probe::Event(k) if k < nc => modes::contact_event_values(m, d, k, d.clamp_events).0,
-        Probe::Event(k) => modes::contact_event_values(m, d, k - nc, d.clamp_events).1,
+        Probe::Event(k) if k < n_contacts => modes::contact_event_values(m, d, k, d.clamp_events).0,
+        Probe::Event(k) => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
         Probe::Delta(i) => contact::gap(m, d, i).delta,
         Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
     }
@@ -128,9 +128,9 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
 /// (None: the step can be accepted whole). Peaks of continuous contacts before that event
 /// are logged.
 pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
-    let nc = m.contacts.len();
+    let n_contacts = m.contacts.len();
     let method = d.solver.method()?;
-    if nc == 0 {
+    if n_contacts == 0 {
         return None;
     }
     let (t0, t1) = (method.t_prev(), method.t());
@@ -139,8 +139,8 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     // Earliest relevant crossing.
     let mut t_first = t1;
     let mut any = false;
-    for k in 0..2 * nc {
-        let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % nc].0);
+    for k in 0..2 * n_contacts {
+        let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % n_contacts].0);
         if modes::relevant_crossing(m, d, k, g0, g1, delta1) {
             let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);
             any = true;
@@ -149,7 +149,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     }
     // Tunnelling: δ of a contact that is not in contact crossed zero without its event
     // function turning positive at the end of the step (it passed δ_max or the patch).
-    for i in 0..nc {
+    for i in 0..n_contacts {
         let (d0, d1) = (d.events.aux[i].0, d.events.aux_new[i].0);
         if d.contact_memory[i].active || !(d0 <= 0.0 && d1 > 0.0) || d.events.g_new[i] > 0.0 {
             continue;
@@ -167,7 +167,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         }
     }
     // Peaks of continuous contacts inside the accepted part of the step (diagnostic).
-    for i in 0..nc {
+    for i in 0..n_contacts {
         if m.contacts[i].law == Law::Impulse || !d.contact_memory[i].active {
             continue;
         }
