@@ -26,9 +26,6 @@ pub mod export;
 pub mod fmi;
 pub mod forward;
 pub mod guid;
-// The test-only counting allocator in `integrator` calls `System` without `unsafe {}` blocks;
-// this exemption applies to test builds only and can go once those calls are wrapped.
-#[cfg_attr(test, allow(unsafe_op_in_unsafe_fn))]
 pub mod integrator;
 pub mod kinematics;
 pub mod linalg;

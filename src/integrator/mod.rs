@@ -318,14 +318,17 @@ pub(crate) mod alloc_counter {
     unsafe impl GlobalAlloc for Counting {
         unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
             let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-            System.alloc(layout)
+            // SAFETY: the caller's contract of `GlobalAlloc::alloc`, passed on.
+            unsafe { System.alloc(layout) }
         }
         unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            System.dealloc(ptr, layout)
+            // SAFETY: `ptr` came from this allocator, i.e. from `System`, with `layout`.
+            unsafe { System.dealloc(ptr, layout) }
         }
         unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
             let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-            System.realloc(ptr, layout, new_size)
+            // SAFETY: as `dealloc`, and the caller's contract of `GlobalAlloc::realloc`.
+            unsafe { System.realloc(ptr, layout, new_size) }
         }
     }
 
