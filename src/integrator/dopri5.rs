@@ -179,8 +179,10 @@ impl Integrator for Dopri5 {
         let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &self.cont);
         self.core.interpolate(t, out, |s, _, out| {
             let s1 = 1.0 - s;
-            for (i, o) in out.iter_mut().enumerate() {
-                *o = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+            let n = out.len();
+            let (y0, c0, c1, c2, c3) = (&y0[..n], &c0[..n], &c1[..n], &c2[..n], &c3[..n]);
+            for i in 0..n {
+                out[i] = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
             }
         });
     }
