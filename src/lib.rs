@@ -19,6 +19,7 @@ pub mod linalg;
 pub mod model;
 pub mod run;
 pub mod scene;
+pub mod scene_builder;
 pub mod simulation;
 pub mod spatial;
 pub mod variables;
