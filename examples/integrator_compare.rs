@@ -123,24 +123,13 @@ impl OdeSystem for Multibody {
 /// scene's default solver and experiment.
 fn pendulum_scene() -> Scene {
     let rod = |name: &str, x: f64| BodySpec::new(name, 1.0, [1e-3, 1.0 / 12.0, 1.0 / 12.0], [x, 0.0, 0.0]);
+    let y = [0.0, 1.0, 0.0];
     SceneBuilder::new("double_pendulum")
         .gravity([0.0, 0.0, -9.81])
         .body(rod("upper", 0.5))
         .body(rod("lower", 1.5))
-        .joint(JointSpec::revolute(
-            "shoulder",
-            GROUND,
-            "upper",
-            [0.0; 3],
-            [0.0, 1.0, 0.0],
-        ))
-        .joint(JointSpec::revolute(
-            "elbow",
-            "upper",
-            "lower",
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-        ))
+        .joint(JointSpec::revolute("shoulder", GROUND, "upper", [0.0; 3], y))
+        .joint(JointSpec::revolute("elbow", "upper", "lower", [1.0, 0.0, 0.0], y))
         .build()
 }
 const PENDULUM_T_END: f64 = 2.0;

@@ -33,6 +33,40 @@ use crate::scene::{
 };
 use nalgebra::UnitQuaternion;
 
+/// For each table `key / keys: Type` of a scene: the [`SceneBuilder`] methods `key`, which adds
+/// one `[[key]]`, and `keys`, which adds several.
+macro_rules! add_tables {
+    ($($key:ident / $keys:ident: $t:ty),* $(,)?) => {
+        $(
+            #[doc = concat!("Adds a `[[", stringify!($key), "]]`.")]
+            pub fn $key(mut self, table: $t) -> SceneBuilder {
+                self.scene.$key.push(table);
+                self
+            }
+
+            #[doc = concat!("Adds several `[[", stringify!($key), "]]` tables.")]
+            pub fn $keys(mut self, tables: impl IntoIterator<Item = $t>) -> SceneBuilder {
+                self.scene.$key.extend(tables);
+                self
+            }
+        )*
+    };
+}
+
+/// Chainable setters `key(self, value) -> Self` that give optional keys (`Option` fields) of a
+/// scene table a value.
+macro_rules! optional_keys {
+    ($($(#[$doc:meta])* $key:ident: $t:ty),* $(,)?) => {
+        $(
+            $(#[$doc])*
+            pub fn $key(mut self, value: $t) -> Self {
+                self.$key = Some(value);
+                self
+            }
+        )*
+    };
+}
+
 /// Builds a [`Scene`] table by table; tables keep the order in which they are added.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneBuilder {
@@ -100,57 +134,18 @@ impl SceneBuilder {
         self
     }
 
-    /// Adds a `[[material]]`.
-    pub fn material(mut self, m: MaterialSpec) -> SceneBuilder {
-        self.scene.material.push(m);
-        self
+    add_tables! {
+        material / materials: MaterialSpec,
+        body / bodies: BodySpec,
+        joint / joints: JointSpec,
+        spring_damper / spring_dampers: SpringDamperSpec,
+        contact / contacts: ContactSpec,
+        input / inputs: InputSpec,
     }
 
     /// Adds [`MaterialSpec::steel`].
     pub fn steel(self) -> SceneBuilder {
         self.material(MaterialSpec::steel())
-    }
-
-    /// Adds a `[[body]]`.
-    pub fn body(mut self, b: BodySpec) -> SceneBuilder {
-        self.scene.body.push(b);
-        self
-    }
-
-    /// Adds several `[[body]]` tables.
-    pub fn bodies(mut self, b: impl IntoIterator<Item = BodySpec>) -> SceneBuilder {
-        self.scene.body.extend(b);
-        self
-    }
-
-    /// Adds a `[[joint]]`.
-    pub fn joint(mut self, j: JointSpec) -> SceneBuilder {
-        self.scene.joint.push(j);
-        self
-    }
-
-    /// Adds a `[[spring_damper]]`.
-    pub fn spring_damper(mut self, s: SpringDamperSpec) -> SceneBuilder {
-        self.scene.spring_damper.push(s);
-        self
-    }
-
-    /// Adds a `[[contact]]`.
-    pub fn contact(mut self, c: ContactSpec) -> SceneBuilder {
-        self.scene.contact.push(c);
-        self
-    }
-
-    /// Adds several `[[contact]]` tables.
-    pub fn contacts(mut self, c: impl IntoIterator<Item = ContactSpec>) -> SceneBuilder {
-        self.scene.contact.extend(c);
-        self
-    }
-
-    /// Adds an `[[input]]`.
-    pub fn input(mut self, i: InputSpec) -> SceneBuilder {
-        self.scene.input.push(i);
-        self
     }
 
     /// The scene (not validated).
@@ -444,28 +439,17 @@ impl ContactSpec {
         self
     }
 
-    /// `stiffness` K [N/m^n].
-    pub fn stiffness(mut self, k: f64) -> ContactSpec {
-        self.stiffness = Some(k);
-        self
-    }
-
-    /// `damping` c [N s/m] (Kelvin-Voigt).
-    pub fn damping(mut self, c: f64) -> ContactSpec {
-        self.damping = Some(c);
-        self
-    }
-
-    /// `max_penetration` [m].
-    pub fn max_penetration(mut self, delta: f64) -> ContactSpec {
-        self.max_penetration = Some(delta);
-        self
-    }
-
-    /// `min_impact_velocity` [m/s].
-    pub fn min_impact_velocity(mut self, v: f64) -> ContactSpec {
-        self.min_impact_velocity = Some(v);
-        self
+    optional_keys! {
+        /// `stiffness` K [N/m^n].
+        stiffness: f64,
+        /// `damping` c [N s/m] (Kelvin-Voigt).
+        damping: f64,
+        /// `exponent` n of the force law.
+        exponent: f64,
+        /// `max_penetration` [m].
+        max_penetration: f64,
+        /// `min_impact_velocity` [m/s].
+        min_impact_velocity: f64,
     }
 
     /// `impulse_method` (impulse law).

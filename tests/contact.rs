@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{compile, energy_balance, get, open, start, vec_out};
+use common::{compile, energy_balance, get, open, rk4_step, start, vec_out};
 use contact_fmu::contact::{self, geometry, ContactElement, Shape};
 use contact_fmu::dynamics::{self, Frame};
 use contact_fmu::engine::{ContactEvent, ContactEventKind};
@@ -221,12 +221,7 @@ fn scalar_restitution(m: f64, k: f64, d: f64, v0: f64) -> f64 {
     };
     let (mut x, mut v) = (0.0_f64, v0);
     for _ in 0..10_000_000 {
-        let (k1x, k1v) = (v, acc(x, v));
-        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
-        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
-        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
-        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        let (xn, vn) = rk4_step(acc, x, v, h);
         if xn <= 0.0 && vn < 0.0 {
             let s = x / (x - xn);
             return -(v + s * (vn - v)) / v0;
@@ -321,12 +316,7 @@ fn kelvin_voigt_cut_at_zero_force() {
     let acc = |x: f64, v: f64| -((k * x + c * v).max(0.0)) / M;
     let (mut x, mut v) = (0.0_f64, v0);
     let exit = loop {
-        let (k1x, k1v) = (v, acc(x, v));
-        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
-        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
-        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
-        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        let (xn, vn) = rk4_step(acc, x, v, h);
         if xn <= 0.0 && vn < 0.0 {
             break -vn;
         }
@@ -356,7 +346,10 @@ fn kelvin_voigt_cut_at_zero_force() {
 // ---------------------------------------------------------------------------------------------
 // Energy balance
 
-fn energy_drift(law: Law, floor: fn(ContactSpec) -> ContactSpec, stop: f64) -> (f64, usize) {
+/// Sets more keys of the floor contact.
+type FloorKeys = fn(ContactSpec) -> ContactSpec;
+
+fn energy_drift(law: Law, floor: FloorKeys, stop: f64) -> (f64, usize) {
     let mut s = start(ball_on_floor(law, floor, 0.0, 9.81, 0.05));
     let e0 = energy_balance(&mut s);
     let mut worst: f64 = 0.0;
@@ -374,7 +367,7 @@ fn energy_drift(law: Law, floor: fn(ContactSpec) -> ContactSpec, stop: f64) -> (
 
 #[test]
 fn damped_impacts_balance_energy() {
-    let cases: [(Law, fn(ContactSpec) -> ContactSpec); 3] = [
+    let cases: [(Law, FloorKeys); 3] = [
         (Law::HertzLn, |c| c.restitution(0.5)),
         (Law::Flores, |c| c.restitution(0.5)),
         (Law::KelvinVoigt, |c| c.stiffness(1e6).damping(40.0)),

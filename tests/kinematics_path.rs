@@ -2,17 +2,17 @@
 //! along a body's path to the ground it must give the same poses, velocities, bias
 //! accelerations, inertias and motion subspaces bit for bit, and touch no other body.
 
+mod common;
+
 use contact_fmu::dynamics;
 use contact_fmu::model::{self, Data, Model};
 use contact_fmu::scene::Scene;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-use std::path::Path;
 
 /// The rail vehicle (car → bogies (prismatic) → wheels (revolute): paths of depth 3) at a
 /// state away from the start: every coordinate shifted, every velocity nonzero.
 fn rail_vehicle() -> (Model, Data, Vec<f64>) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
-    let scene = Scene::from_file(&path).unwrap();
+    let scene = Scene::from_file(&common::bundled("rail_vehicle")).unwrap();
     let (m, d) = model::compile(&scene, "rail_vehicle").unwrap();
     let mut state = d.state.clone();
     for (k, x) in state[..m.nq].iter_mut().enumerate() {

@@ -311,6 +311,11 @@ fn check_four_bar(frame: UnitQuaternion<f64>, rate: f64) {
     assert!(de / ke_max < 1e-6, "energy drift {:.3e}", de / ke_max);
 }
 
+/// The crank's pivot of the planar mechanisms: at the origin, about −y.
+fn crank_pivot() -> JointSpec {
+    JointSpec::revolute("crank_pivot", GROUND, "crank", [0.0; 3], -Vector3::y())
+}
+
 /// Slider-crank: crank radius r about the origin, rod length l, slider on the line z = e.
 const SC: (f64, f64, f64) = (0.1, 0.4, 0.03);
 
@@ -349,13 +354,7 @@ fn slider_crank(method: Method, rtol: f64, th0: f64, rate: f64, close_at_slider:
                 .angular_velocity([0.0, -drod * rate, 0.0]),
         )
         .body(body("slider", 0.5, [0.001, 0.001, 0.001], pc(th0), ident()).velocity(d_dtheta(&pc, th0) * rate))
-        .joint(JointSpec::revolute(
-            "crank_pivot",
-            GROUND,
-            "crank",
-            [0.0; 3],
-            -Vector3::y(),
-        ))
+        .joint(crank_pivot())
         .joint(JointSpec::revolute("crank_pin", "crank", "rod", pb(th0), -Vector3::y()));
     for j in last_two {
         t = t.joint(j);
@@ -566,6 +565,17 @@ fn spherical_pendulum(method: Method, rtol: f64) -> Scene {
         .build()
 }
 
+/// |Q| of the quaternion of the first joint (the spherical pendulum's ball joint).
+fn first_joint_quaternion_norm(s: &Simulation) -> f64 {
+    let e = s.engine().unwrap();
+    let j = &e.model().joints[0];
+    e.data().state[j.qpos..j.qpos + 4]
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt()
+}
+
 #[test]
 fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
     let principal = [0.03, 0.05, 0.07];
@@ -586,13 +596,7 @@ fn spherical_pendulum_conserves_energy_and_vertical_momentum() {
         z_min = z_min.min(z);
         z_max = z_max.max(z);
     });
-    let e = s.engine().unwrap();
-    let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
-        .iter()
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt();
+    let qn = first_joint_quaternion_norm(&s);
     eprintln!(
         "spherical pendulum 10 s rtol 1e-10: |ΔE|/KE_max = {:.3e}, |ΔL_z|/|L_z| = {:.3e}, z in [{z_min:.3}, {z_max:.3}], | |Q| − 1 | = {:.1e}",
         de / ke_max,
@@ -610,13 +614,7 @@ fn long_run_keeps_joint_quaternions_normalised() {
     // at a loose tolerance the norm of Q drifts by about rtol per second unless rescaled
     let mut s = start(spherical_pendulum(Method::Dopri5, 1e-6));
     s.step_to(200.0).unwrap();
-    let e = s.engine().unwrap();
-    let j = &e.model().joints[0];
-    let qn: f64 = e.data().state[j.qpos..j.qpos + 4]
-        .iter()
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt();
+    let qn = first_joint_quaternion_norm(&s);
     eprintln!(
         "spherical pendulum 200 s rtol 1e-6: | |Q| − 1 | = {:.2e}",
         (qn - 1.0).abs()
@@ -997,35 +995,15 @@ fn loop_zoo(closing: &str) -> Scene {
     let q = |x: f64, y: f64, z: f64, a: f64| {
         UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::new(x, y, z)), a)
     };
+    // name, mass, principal moments, centre of mass, orientation (axis, angle)
+    let links = [
+        ("a", 1.0, [0.01, 0.02, 0.025], [0.3, 0.1, 0.0], (1.0, 0.2, 0.0, 0.3)),
+        ("b", 1.2, [0.02, 0.02, 0.03], [0.6, 0.3, 0.2], (0.0, 1.0, 0.3, -0.4)),
+        ("c", 0.8, [0.01, 0.015, 0.02], [0.8, 0.1, 0.5], (0.5, 0.5, 1.0, 0.7)),
+        ("d", 0.5, [0.005, 0.006, 0.007], [1.0, -0.2, 0.6], (1.0, -1.0, 0.2, 1.2)),
+    ];
     let t = header("zoo", [0.0, 0.0, -G], Method::Dopri5, 1e-8, 1e-10, 0.05)
-        .body(body(
-            "a",
-            1.0,
-            [0.01, 0.02, 0.025],
-            Vector3::new(0.3, 0.1, 0.0),
-            q(1.0, 0.2, 0.0, 0.3),
-        ))
-        .body(body(
-            "b",
-            1.2,
-            [0.02, 0.02, 0.03],
-            Vector3::new(0.6, 0.3, 0.2),
-            q(0.0, 1.0, 0.3, -0.4),
-        ))
-        .body(body(
-            "c",
-            0.8,
-            [0.01, 0.015, 0.02],
-            Vector3::new(0.8, 0.1, 0.5),
-            q(0.5, 0.5, 1.0, 0.7),
-        ))
-        .body(body(
-            "d",
-            0.5,
-            [0.005, 0.006, 0.007],
-            Vector3::new(1.0, -0.2, 0.6),
-            q(1.0, -1.0, 0.2, 1.2),
-        ))
+        .bodies(links.map(|(name, m, inertia, com, (x, y, z, a))| body(name, m, inertia, com.into(), q(x, y, z, a))))
         .joint(JointSpec::revolute("j1", GROUND, "a", [0.0; 3], [0.1, 0.2, 1.0]))
         .joint(JointSpec::prismatic("j2", "a", "b", [0.5, 0.2, 0.1], [1.0, 0.3, -0.2]))
         .joint(JointSpec::spherical("j3", "b", "c", [0.7, 0.2, 0.4]))
@@ -1280,13 +1258,7 @@ fn parallelogram_passes_its_change_points_on_its_branch() {
                     .velocity(bd / 2.0)
                     .angular_velocity(spin),
             )
-            .joint(JointSpec::revolute(
-                "crank_pivot",
-                GROUND,
-                "crank",
-                [0.0; 3],
-                -Vector3::y(),
-            ))
+            .joint(crank_pivot())
             .joint(JointSpec::revolute("crank_pin", "crank", "coupler", b, Vector3::y()))
             .joint(JointSpec::revolute(
                 "rocker_pivot",

@@ -10,6 +10,9 @@ fn branched() -> Scene {
     let hub = BodySpec::new("hub", 3.0, [0.02, 0.03, 0.04], [0.0, 0.0, 0.0])
         .velocity([0.3, 0.0, 1.0])
         .angular_velocity([0.2, 0.5, -0.1]);
+    // an arm hinged to the hub
+    let hinge =
+        |name: &str, arm: &str, anchor: [f64; 3], axis: [f64; 3]| JointSpec::revolute(name, "hub", arm, anchor, axis);
     SceneBuilder::new("branched")
         .gravity([0.0, 0.0, -9.81])
         .tolerances(1e-11, 1e-13)
@@ -17,20 +20,8 @@ fn branched() -> Scene {
         .body(hub)
         .body(BodySpec::new("left", 1.0, [0.001, 0.05, 0.05], [-0.5, 0.0, 0.0]))
         .body(BodySpec::new("right", 1.5, [0.001, 0.08, 0.08], [0.5, 0.0, 0.2]))
-        .joint(JointSpec::revolute(
-            "hinge_left",
-            "hub",
-            "left",
-            [-0.1, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-        ))
-        .joint(JointSpec::revolute(
-            "hinge_right",
-            "hub",
-            "right",
-            [0.1, 0.0, 0.0],
-            [0.0, 0.0, 1.0],
-        ))
+        .joint(hinge("hinge_left", "left", [-0.1, 0.0, 0.0], [0.0, 1.0, 0.0]))
+        .joint(hinge("hinge_right", "right", [0.1, 0.0, 0.0], [0.0, 0.0, 1.0]))
         .build()
 }
 

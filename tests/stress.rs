@@ -17,6 +17,15 @@ fn last(out: &Outcome, name: &str) -> f64 {
     out.last(name).expect("output recorded")
 }
 
+/// The run's energy balance error is below `tol`.
+fn balanced(out: &Outcome, tol: f64, what: &str) {
+    assert!(
+        out.energy_error < tol,
+        "{what}: energy balance error {}",
+        out.energy_error
+    );
+}
+
 fn finished(out: &Outcome, what: &str) {
     assert!(
         out.failure.is_none(),
@@ -52,11 +61,7 @@ fn hertz_impact_matches_closed_form_from_soft_to_very_stiff() {
                 "K={k:e}: largest penetration {} m, closed form {dmax} m",
                 out.max_penetration
             );
-            assert!(
-                out.energy_error < 1e-6,
-                "K={k:e}: energy balance error {}",
-                out.energy_error
-            );
+            balanced(&out, 1e-6, &format!("K={k:e}"));
         }
     }
 }
@@ -92,11 +97,7 @@ fn impact_speeds_over_five_decades() {
         let out = record(&spec(&scene, Method::Dopri5, stop, stop / 100.0), &["ball.v[3]"]).unwrap();
         finished(&out, &format!("v0={v0}"));
         assert!(out.penetration_ratio < 1.0);
-        assert!(
-            out.energy_error < 1e-5,
-            "v0={v0}: energy balance error {}",
-            out.energy_error
-        );
+        balanced(&out, 1e-5, &format!("v0={v0}"));
         ratios.push(last(&out, "ball.v[3]") / v0);
     }
     assert!((ratios[0] - ratios[1]).abs() < 1e-4, "rebound ratios {ratios:?}");
@@ -124,11 +125,7 @@ fn flores_restitution_over_the_range() {
         finished(&out, law);
         let eff = last(&out, "ball.v[3]");
         assert!((eff - e).abs() < 0.1 * e, "{law} e={e}: effective restitution {eff}");
-        assert!(
-            out.energy_error < 1e-5,
-            "{law} e={e}: energy balance error {}",
-            out.energy_error
-        );
+        balanced(&out, 1e-5, &format!("{law} e={e}"));
     }
 }
 
@@ -210,12 +207,7 @@ fn hertz_ln_with_vanishing_impact_velocity() {
         finished(&out, m.name());
         let z = last(&out, "ball.r[3]");
         assert!((z - (0.01 - delta)).abs() < 1e-12, "{}: z = {z}", m.name());
-        assert!(
-            out.energy_error < 1e-8,
-            "{}: energy balance error {}",
-            m.name(),
-            out.energy_error
-        );
+        balanced(&out, 1e-8, m.name());
     }
 }
 

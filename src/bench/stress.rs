@@ -47,6 +47,13 @@ fn last(out: &Outcome, name: &str) -> f64 {
     out.last(name).unwrap_or(f64::NAN)
 }
 
+/// Records the ball's height only; returns the run and the final height [m].
+fn height_run(spec: &RunSpec) -> Result<(Outcome, f64), String> {
+    let out = record(spec, &["ball.r[3]"])?;
+    let z = last(&out, "ball.r[3]");
+    Ok((out, z))
+}
+
 /// Effective restitution of a ball that hit the plane at `v0` without gravity.
 fn rebound(out: &Outcome, v0: f64) -> f64 {
     last(out, "ball.v[3]") / v0
@@ -158,12 +165,10 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
     // 4. Communication step 1e-6 .. 1 s: the bouncing ball for 1 s (hertz_ln e = 0.8); the
     // final height must not depend on the communication step (events are located inside).
     let bb = scenes::ball_plane("comm", Law::HertzLn, 0.8, 0.0, 0.1, true, 1.0, 1e-3);
-    let reference = record(&spec(&bb, "comm", Method::Dopri5, 1.0, 1e-3), &["ball.r[3]"])?;
-    let z_ref = last(&reference, "ball.r[3]");
+    let (_, z_ref) = height_run(&spec(&bb, "comm", Method::Dopri5, 1.0, 1e-3))?;
     for h in [1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0] {
         for m in [Method::Dopri5, Method::Sdirk] {
-            let out = record(&spec(&bb, "comm", m, 1.0, h), &["ball.r[3]"])?;
-            let z = last(&out, "ball.r[3]");
+            let (out, z) = height_run(&spec(&bb, "comm", m, 1.0, h))?;
             push(Row {
                 group: "comm_step",
                 case: format!("h_comm={h:.0e}"),
@@ -273,8 +278,7 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
         for floor in [0.0, 1e-3] {
             let scene = scenes::slow_touch(v, floor);
             for m in [Method::Dopri5, Method::Sdirk] {
-                let out = record(&spec(&scene, "slow", m, 0.1, 1e-3), &["ball.r[3]"])?;
-                let z = last(&out, "ball.r[3]");
+                let (out, z) = height_run(&spec(&scene, "slow", m, 0.1, 1e-3))?;
                 push(Row {
                     group: "slow_touch",
                     case: format!("v={v:.0e} floor={floor:.0e}"),

@@ -9,9 +9,24 @@ use contact_fmu::model::{self, Data, Model};
 use contact_fmu::scene::Scene;
 use contact_fmu::simulation::Simulation;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
 
 /// Name of the scenes in messages.
 pub const ORIGIN: &str = "test.toml";
+
+/// The bundled scene `fmu/<name>/scene.toml`.
+pub fn bundled(name: &str) -> PathBuf {
+    fmu_dir().join(name).join("scene.toml")
+}
+
+/// Every bundled scene: (name, path), sorted by name.
+pub fn bundled_scenes() -> Vec<(String, PathBuf)> {
+    contact_fmu::bench::bundled_scenes(&fmu_dir()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn fmu_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu")
+}
 
 /// Validates `scene` like a scene file (panics with the message if it is not valid).
 pub fn checked(scene: impl Into<Scene>) -> Scene {
@@ -73,4 +88,16 @@ pub fn run(s: &mut Simulation, t_end: f64, dt: f64, mut each: impl FnMut(&mut Si
         s.step_to(t).unwrap_or_else(|e| panic!("{e}"));
         each(s, t);
     }
+}
+
+/// One classical Runge-Kutta step of size `h` of `ẍ = acc(x, ẋ)` from `(x, v)`: the new
+/// `(x, v)` (for scalar reference solutions written independently of the library).
+pub fn rk4_step(acc: impl Fn(f64, f64) -> f64, x: f64, v: f64, h: f64) -> (f64, f64) {
+    let (k1x, k1v) = (v, acc(x, v));
+    let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+    let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+    let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
+    let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+    let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    (xn, vn)
 }
