@@ -19,50 +19,14 @@ fn round_trips(scene: &Scene) {
 
 #[test]
 fn what_a_builder_leaves_out_has_the_scene_file_default() {
+    // one table a line: only the keys without a default
     let text = r#"
-[model]
-name = "minimal"
-
-[[body]]
-name = "ball"
-mass = 1.0
-inertia = [0.1, 0.1, 0.1]
-position = [0.0, 0.0, 1.0]
-
-[[joint]]
-name = "hinge"
-type = "revolute"
-parent = "ground"
-child = "ball"
-axis = [0.0, 1.0, 0.0]
-
-[[spring_damper]]
-name = "spring"
-body_a = "ground"
-point_a = [0.0, 0.0, 2.0]
-body_b = "ball"
-point_b = [0.0, 0.0, 1.0]
-stiffness = 10.0
-
-[[contact]]
-name = "floor"
-type = "sphere_plane"
-law = "hertz"
-sphere_body = "ball"
-center = [0.0, 0.0, 1.0]
-radius = 0.1
-body = "ground"
-origin = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [1.0, 1.0]
-stiffness = 1e6
-
-[[input]]
-name = "push"
-type = "force"
-body = "ball"
-direction = [1.0, 0.0, 0.0]
+model = { name = "minimal" }
+body = [{ name = "ball", mass = 1.0, inertia = [0.1, 0.1, 0.1], position = [0.0, 0.0, 1.0] }]
+joint = [{ name = "hinge", type = "revolute", parent = "ground", child = "ball", axis = [0.0, 1.0, 0.0] }]
+spring_damper = [{ name = "spring", body_a = "ground", point_a = [0.0, 0.0, 2.0], body_b = "ball", point_b = [0.0, 0.0, 1.0], stiffness = 10.0 }]
+contact = [{ name = "floor", type = "sphere_plane", law = "hertz", sphere_body = "ball", center = [0.0, 0.0, 1.0], radius = 0.1, body = "ground", origin = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0], u_axis = [1.0, 0.0, 0.0], size = [1.0, 1.0], stiffness = 1e6 }]
+input = [{ name = "push", type = "force", body = "ball", direction = [1.0, 0.0, 0.0] }]
 "#;
     let parsed = Scene::from_str(text, "minimal.toml").unwrap();
     let ball = BodySpec::new("ball", 1.0, [0.1, 0.1, 0.1], [0.0, 0.0, 1.0]);
