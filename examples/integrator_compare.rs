@@ -26,7 +26,8 @@ use contact_fmu::compile::compile;
 use contact_fmu::forward::Rhs;
 use contact_fmu::integrator::{dopri5::Dopri5, radau::Radau5, rk4::Rk4, sdirk::Sdirk, Integrator, OdeSystem};
 use contact_fmu::model::{Data, Model};
-use contact_fmu::scene::{Method, Scene};
+use contact_fmu::scene::{BodySpec, JointSpec, Method, Scene, GROUND};
+use contact_fmu::scene_builder::SceneBuilder;
 use contact_fmu::simulation::Simulation;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -124,39 +125,24 @@ impl OdeSystem for Multibody {
     }
 }
 
-const PENDULUM_SCENE: &str = r#"
-[model]
-name = "double_pendulum"
-gravity = [0.0, 0.0, -9.81]
-[[body]]
-name = "upper"
-mass = 1.0
-inertia = [1e-3, 0.08333333333333333, 0.08333333333333333]
-position = [0.5, 0.0, 0.0]
-[[body]]
-name = "lower"
-mass = 1.0
-inertia = [1e-3, 0.08333333333333333, 0.08333333333333333]
-position = [1.5, 0.0, 0.0]
-[[joint]]
-name = "shoulder"
-type = "revolute"
-parent = "ground"
-child = "upper"
-anchor = [0.0, 0.0, 0.0]
-axis = [0.0, 1.0, 0.0]
-[[joint]]
-name = "elbow"
-type = "revolute"
-parent = "upper"
-child = "lower"
-anchor = [1.0, 0.0, 0.0]
-axis = [0.0, 1.0, 0.0]
-"#;
+/// Two rods (1 kg, 1 m, along x) on revolute joints about y, released horizontally; the
+/// scene's default solver and experiment.
+fn pendulum_scene() -> Scene {
+    let rod = |name: &str, x: f64| BodySpec::new(name, 1.0, [1e-3, 1.0 / 12.0, 1.0 / 12.0], [x, 0.0, 0.0]);
+    let y = [0.0, 1.0, 0.0];
+    SceneBuilder::new("double_pendulum")
+        .gravity([0.0, 0.0, -9.81])
+        .body(rod("upper", 0.5))
+        .body(rod("lower", 1.5))
+        .joint(JointSpec::revolute("shoulder", GROUND, "upper", [0.0; 3], y))
+        .joint(JointSpec::revolute("elbow", "upper", "lower", [1.0, 0.0, 0.0], y))
+        .build()
+}
 const PENDULUM_T_END: f64 = 2.0;
 
 fn pendulum() -> (Multibody, Vec<f64>) {
-    let scene = Scene::from_str(PENDULUM_SCENE, "double_pendulum").expect("scene");
+    let scene = pendulum_scene();
+    scene.validate("double_pendulum").expect("scene");
     let (model, data) = compile(&scene, "double_pendulum").expect("compile");
     let y0 = data.state.clone();
     (Multibody { model, data, evals: 0 }, y0)

@@ -33,6 +33,7 @@ pub mod model;
 pub mod outputs;
 pub mod run;
 pub mod scene;
+pub mod scene_builder;
 pub mod simulation;
 pub mod spatial;
 pub mod variables;

@@ -84,6 +84,19 @@ pub struct ModelSection {
     pub interval: f64,
 }
 
+impl ModelSection {
+    /// `[model]` named `name`, every other key at its scene-file default.
+    pub fn new(name: &str) -> ModelSection {
+        ModelSection {
+            name: name.to_string(),
+            description: String::new(),
+            gravity: default_gravity(),
+            stop_time: default_stop_time(),
+            interval: default_interval(),
+        }
+    }
+}
+
 fn default_gravity() -> [f64; 3] {
     [0.0, 0.0, -9.81]
 }
@@ -201,6 +214,22 @@ pub struct BodySpec {
     /// Angular velocity, world frame [rad/s].
     #[serde(default)]
     pub angular_velocity: [f64; 3],
+}
+
+impl BodySpec {
+    /// A body with the scene-file defaults for what is not given: principal axes along the
+    /// world axes, at rest.
+    pub fn new(name: &str, mass: f64, inertia: [f64; 3], position: [f64; 3]) -> BodySpec {
+        BodySpec {
+            name: name.to_string(),
+            mass,
+            inertia,
+            position,
+            orientation: identity_quaternion(),
+            velocity: [0.0; 3],
+            angular_velocity: [0.0; 3],
+        }
+    }
 }
 
 fn identity_quaternion() -> [f64; 4] {
@@ -435,6 +464,52 @@ pub struct ContactSpec {
     /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
     #[serde(default)]
     pub impulse_method: ImpulseMethod,
+}
+
+impl ContactSpec {
+    /// A contact between the sphere (`center`, `radius`) on `sphere_body` and a shape on
+    /// `body`, every optional key at its scene-file default (the shape's keys unset).
+    pub fn new(
+        name: &str,
+        kind: ContactType,
+        law: Law,
+        sphere_body: &str,
+        center: [f64; 3],
+        radius: f64,
+        body: &str,
+    ) -> ContactSpec {
+        ContactSpec {
+            name: name.to_string(),
+            kind,
+            law,
+            restitution: default_restitution(),
+            sphere_body: sphere_body.to_string(),
+            center,
+            radius,
+            sphere_material: None,
+            body: body.to_string(),
+            material: None,
+            other_center: None,
+            other_radius: None,
+            origin: None,
+            normal: None,
+            u_axis: None,
+            size: None,
+            axis_point: None,
+            axis: None,
+            cylinder_radius: None,
+            length: None,
+            theta_range: None,
+            ref_axis: None,
+            side: Side::default(),
+            stiffness: None,
+            damping: None,
+            exponent: None,
+            max_penetration: None,
+            min_impact_velocity: None,
+            impulse_method: ImpulseMethod::default(),
+        }
+    }
 }
 
 fn default_restitution() -> f64 {

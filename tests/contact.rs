@@ -1,5 +1,5 @@
 //! Contact module checked against physics: detection geometry against hand computations and
-//! finite differences, Hertz closed forms (docs/physics.md §6), effective restitution of the
+//! finite differences, Hertz closed forms (PHYSICS.md §6), effective restitution of the
 //! damped laws against an independent integration of the scalar law, energy balance,
 //! impulse laws against (14)-(16), the paper's effective mass (17)-(19) against the exact
 //! solve, resting contact, cylinders, Newton's cradle, and scene validation.
@@ -7,10 +7,17 @@
 //! Run: `cargo test --release --test contact -- --nocapture` (measured numbers are printed;
 //! docs/contact.md quotes them).
 
+mod common;
+
+use common::{compile, energy_balance, get, open, rk4_step, start, vec_out};
 use contact_fmu::contact::{self, geometry, ContactElement, Shape};
 use contact_fmu::kinematics;
 use contact_fmu::model::{ContactEvent, ContactEventKind};
-use contact_fmu::scene::{ContactType, ImpulseMethod, Law, Scene};
+use contact_fmu::scene::{
+    BodySpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, JointSpec, Law, Method, Side, SpringDamperSpec,
+    GROUND,
+};
+use contact_fmu::scene_builder::{Cylinder, Plane, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 use contact_fmu::spatial::Frame;
 use contact_fmu::spatial::Spatial;
@@ -19,17 +26,6 @@ use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
 // helpers
-
-fn sim(text: &str) -> Simulation {
-    let mut s = Simulation::from_scene_str(text, "test.toml").unwrap_or_else(|e| panic!("{e}"));
-    s.initialize(0.0).unwrap_or_else(|e| panic!("{e}"));
-    s
-}
-
-fn get(s: &mut Simulation, name: &str) -> f64 {
-    let vr = s.table().index_of(name).unwrap_or_else(|| panic!("no variable {name}"));
-    s.get(vr).unwrap()
-}
 
 fn events(s: &Simulation) -> Vec<ContactEvent> {
     s.contact_events().to_vec()
@@ -45,26 +41,13 @@ fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
 
-fn v3(v: Vector3<f64>) -> String {
-    format!("[{:?}, {:?}, {:?}]", v.x, v.y, v.z)
-}
-
-fn header(gravity: f64, rtol: f64, atol: f64, max_step: f64) -> String {
-    format!(
-        "[model]\nname = \"t\"\ngravity = [0.0, 0.0, {:?}]\nstop_time = 1.0\ninterval = 1e-3\n\n\
-         [solver]\nmethod = \"dopri5\"\nrtol = {rtol:?}\natol = {atol:?}\nmax_step = {max_step:?}\n\n\
-         [[material]]\nname = \"steel\"\nyoungs_modulus = 210e9\npoisson_ratio = 0.3\n\n",
-        -gravity
-    )
-}
-
-fn ball(name: &str, mass: f64, radius: f64, pos: Vector3<f64>, vel: Vector3<f64>) -> String {
-    let i = 0.4 * mass * radius * radius;
-    format!(
-        "[[body]]\nname = \"{name}\"\nmass = {mass:?}\ninertia = [{i:?}, {i:?}, {i:?}]\nposition = {}\nvelocity = {}\n\n",
-        v3(pos),
-        v3(vel)
-    )
+/// A scene "t" with gravity `gravity` along −z, dopri5 at these tolerances and steel.
+fn header(gravity: f64, rtol: f64, atol: f64, max_step: f64) -> SceneBuilder {
+    SceneBuilder::new("t")
+        .gravity([0.0, 0.0, -gravity])
+        .experiment(1.0, 1e-3)
+        .solver(Method::Dopri5, rtol, atol, max_step)
+        .steel()
 }
 
 /// Steel ball, R = 10 mm.
@@ -73,24 +56,27 @@ const M: f64 = 0.0329;
 const E_STEEL: f64 = 210e9;
 const NU_STEEL: f64 = 0.3;
 
-/// A steel ball above a steel floor (plane z = 0), a gap `gap` away, moving down at `v0`.
-fn ball_on_floor(law: &str, extra: &str, v0: f64, gravity: f64, gap: f64) -> String {
-    let mut t = header(gravity, 1e-10, 1e-14, 1e-3);
-    t += &ball(
-        "ball",
-        M,
-        R,
-        Vector3::new(0.0, 0.0, R + gap),
-        Vector3::new(0.0, 0.0, -v0),
-    );
-    t += &format!(
-        "[[contact]]\nname = \"floor\"\ntype = \"sphere_plane\"\nlaw = \"{law}\"\nsphere_body = \"ball\"\n\
-         center = [0.0, 0.0, {:?}]\nradius = {R:?}\nsphere_material = \"steel\"\nbody = \"ground\"\n\
-         material = \"steel\"\norigin = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\n\
-         size = [1.0, 1.0]\n{extra}\n",
-        R + gap
-    );
-    t
+/// A steel ball above a steel floor (plane z = 0), a gap `gap` away, moving down at `v0`;
+/// `floor` sets more keys of the contact.
+fn ball_on_floor(
+    law: Law,
+    floor: impl FnOnce(ContactSpec) -> ContactSpec,
+    v0: f64,
+    gravity: f64,
+    gap: f64,
+) -> SceneBuilder {
+    let ball = BodySpec::sphere("ball", M, R, [0.0, 0.0, R + gap]).velocity([0.0, 0.0, -v0]);
+    let plane = Plane::horizontal([0.0; 3], [1.0, 1.0]);
+    let contact =
+        ContactSpec::sphere_plane("floor", law, Sphere::of(&ball, R), GROUND, plane).materials("steel", "steel");
+    header(gravity, 1e-10, 1e-14, 1e-3).body(ball).contact(floor(contact))
+}
+
+/// A contact between steel spheres.
+fn steel_spheres(name: &str, law: Law, e: f64, a: Sphere, b: Sphere) -> ContactSpec {
+    ContactSpec::sphere_sphere(name, law, a, b)
+        .restitution(e)
+        .materials("steel", "steel")
 }
 
 /// Hertz stiffness of two steel bodies, effective radius `r_eff`, computed here from the
@@ -125,7 +111,7 @@ fn gamma(x: f64) -> f64 {
     (2.0 * PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * a
 }
 
-/// Closed forms of docs/physics.md §6: (δ_max, F_max, t_c).
+/// Closed forms of PHYSICS.md §6: (δ_max, F_max, t_c).
 fn hertz_closed_form(m: f64, k: f64, v0: f64) -> (f64, f64, f64) {
     let dmax = (5.0 * m * v0 * v0 / (4.0 * k)).powf(0.4);
     let c = 4.0 * PI.sqrt() * gamma(0.4) / (5.0 * gamma(0.9));
@@ -138,7 +124,7 @@ fn hertz_closed_form(m: f64, k: f64, v0: f64) -> (f64, f64, f64) {
 #[test]
 fn hertz_sphere_plane_matches_closed_form() {
     let v0 = 1.0;
-    let mut s = sim(&ball_on_floor("hertz", "", v0, 0.0, 1e-4));
+    let mut s = start(ball_on_floor(Law::Hertz, |c| c, v0, 0.0, 1e-4));
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     let touch = first(&ev, ContactEventKind::Touch);
@@ -177,15 +163,14 @@ fn hertz_sphere_sphere_matches_closed_form() {
     let gap = 1e-4;
     let x1 = -r1 - gap / 2.0;
     let x2 = r2 + gap / 2.0;
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    t += &ball("small", m1, r1, Vector3::new(x1, 0.0, 0.0), Vector3::new(v0, 0.0, 0.0));
-    t += &ball("large", m2, r2, Vector3::new(x2, 0.0, 0.0), Vector3::zeros());
-    t += &format!(
-        "[[contact]]\nname = \"c\"\ntype = \"sphere_sphere\"\nlaw = \"hertz\"\nsphere_body = \"small\"\n\
-         center = [{x1:?}, 0.0, 0.0]\nradius = {r1:?}\nsphere_material = \"steel\"\nbody = \"large\"\n\
-         material = \"steel\"\nother_center = [{x2:?}, 0.0, 0.0]\nother_radius = {r2:?}\n"
-    );
-    let mut s = sim(&t);
+    let small = BodySpec::sphere("small", m1, r1, [x1, 0.0, 0.0]).velocity([v0, 0.0, 0.0]);
+    let large = BodySpec::sphere("large", m2, r2, [x2, 0.0, 0.0]);
+    let c = ContactSpec::sphere_sphere("c", Law::Hertz, Sphere::of(&small, r1), Sphere::of(&large, r2));
+    let scene = header(0.0, 1e-10, 1e-14, 1e-3)
+        .body(small)
+        .body(large)
+        .contact(c.materials("steel", "steel"));
+    let mut s = start(scene);
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     let touch = first(&ev, ContactEventKind::Touch);
@@ -216,11 +201,11 @@ fn hertz_sphere_sphere_matches_closed_form() {
 // Effective restitution of the damped laws
 
 /// The hysteresis bracket factor of each law, written here independently of the library.
-fn damping_factor(law: &str, e: f64) -> f64 {
+fn damping_factor(law: Law, e: f64) -> f64 {
     match law {
-        "hertz_ln" => 3.0 * (1.0 - e * e) / 4.0,
-        "hunt_crossley" => 3.0 * (1.0 - e) / 2.0,
-        "flores" => 8.0 * (1.0 - e) / (5.0 * e),
+        Law::HertzLn => 3.0 * (1.0 - e * e) / 4.0,
+        Law::HuntCrossley => 3.0 * (1.0 - e) / 2.0,
+        Law::Flores => 8.0 * (1.0 - e) / (5.0 * e),
         _ => unreachable!(),
     }
 }
@@ -237,12 +222,7 @@ fn scalar_restitution(m: f64, k: f64, d: f64, v0: f64) -> f64 {
     };
     let (mut x, mut v) = (0.0_f64, v0);
     for _ in 0..10_000_000 {
-        let (k1x, k1v) = (v, acc(x, v));
-        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
-        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
-        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
-        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        let (xn, vn) = rk4_step(acc, x, v, h);
         if xn <= 0.0 && vn < 0.0 {
             let s = x / (x - xn);
             return -(v + s * (vn - v)) / v0;
@@ -254,20 +234,16 @@ fn scalar_restitution(m: f64, k: f64, d: f64, v0: f64) -> f64 {
 }
 
 /// Engine: the ball's exit speed over its impact speed (no gravity), and the number of steps.
-fn engine_restitution(law: &str, e: f64, clamp_events: bool) -> (f64, u64) {
+fn engine_restitution(law: Law, e: f64, clamp_events: bool) -> (f64, u64) {
     let v0 = 1.0;
-    let mut s = Simulation::from_scene_str(
-        &ball_on_floor(law, &format!("restitution = {e:?}"), v0, 0.0, 1e-4),
-        "t.toml",
-    )
-    .unwrap();
-    s.initialize(0.0).unwrap();
+    let mut s = start(ball_on_floor(law, |c| c.restitution(e), v0, 0.0, 1e-4));
     s.set_clamp_events(clamp_events).unwrap();
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     assert!(
         ev.iter().any(|e| e.kind == ContactEventKind::Separation),
-        "{law} e={e}: no separation"
+        "{} e={e}: no separation",
+        law.name()
     );
     (get(&mut s, "ball.v[3]") / v0, s.counters().steps)
 }
@@ -279,11 +255,12 @@ fn effective_restitution_of_damped_laws() {
     println!(
         "law           e     engine e_eff   scalar e_eff   |engine-scalar|  steps (clamp events on/off, error off)"
     );
-    for law in ["hertz_ln", "hunt_crossley", "flores"] {
+    for law in [Law::HertzLn, Law::HuntCrossley, Law::Flores] {
         for e in [0.3, 0.5, 0.7, 0.9] {
             let (eng, steps) = engine_restitution(law, e, true);
             let (eng_off, steps_off) = engine_restitution(law, e, false);
             let sc = scalar_restitution(M, k, damping_factor(law, e), 1.0);
+            let law = law.name();
             println!(
                 "{law:13} {e:.1}   {eng:.9}    {sc:.9}    {:.2e}         {steps} / {steps_off} ({:.2e})",
                 (eng - sc).abs(),
@@ -322,11 +299,14 @@ fn kelvin_voigt_cut_at_zero_force() {
     // the cut.
     let (k, zeta, v0) = (1e6, 0.2, 1.0);
     let c = 2.0 * zeta * (k * M).sqrt();
-    let extra = format!("stiffness = {k:?}\ndamping = {c:?}\n");
     let run = |clamp: bool| {
-        let mut s =
-            Simulation::from_scene_str(&ball_on_floor("kelvin_voigt", &extra, v0, 0.0, 1e-4), "t.toml").unwrap();
-        s.initialize(0.0).unwrap();
+        let mut s = start(ball_on_floor(
+            Law::KelvinVoigt,
+            |f| f.stiffness(k).damping(c),
+            v0,
+            0.0,
+            1e-4,
+        ));
         s.set_clamp_events(clamp).unwrap();
         s.step_to(2e-3).unwrap();
         let ev = events(&s);
@@ -337,12 +317,7 @@ fn kelvin_voigt_cut_at_zero_force() {
     let acc = |x: f64, v: f64| -((k * x + c * v).max(0.0)) / M;
     let (mut x, mut v) = (0.0_f64, v0);
     let exit = loop {
-        let (k1x, k1v) = (v, acc(x, v));
-        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
-        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
-        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
-        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        let (xn, vn) = rk4_step(acc, x, v, h);
         if xn <= 0.0 && vn < 0.0 {
             break -vn;
         }
@@ -372,30 +347,35 @@ fn kelvin_voigt_cut_at_zero_force() {
 // ---------------------------------------------------------------------------------------------
 // Energy balance
 
-fn energy_drift(law: &str, extra: &str, stop: f64) -> (f64, usize) {
-    let mut s = sim(&ball_on_floor(law, extra, 0.0, 9.81, 0.05));
-    let e0 = get(&mut s, "energy.total") + get(&mut s, "energy.dissipated");
+/// Sets more keys of the floor contact.
+type FloorKeys = fn(ContactSpec) -> ContactSpec;
+
+fn energy_drift(law: Law, floor: FloorKeys, stop: f64) -> (f64, usize) {
+    let mut s = start(ball_on_floor(law, floor, 0.0, 9.81, 0.05));
+    let e0 = energy_balance(&mut s);
     let mut worst: f64 = 0.0;
     let n = 200;
     for k in 1..=n {
         s.step_to(stop * k as f64 / n as f64).unwrap();
-        let e = get(&mut s, "energy.total") + get(&mut s, "energy.dissipated");
+        let e = energy_balance(&mut s);
         worst = worst.max((e - e0).abs() / e0.abs());
     }
     let bounces = events(&s).iter().filter(|e| e.kind == ContactEventKind::Touch).count();
     let diss = get(&mut s, "energy.dissipated");
-    assert!(diss > 0.1 * e0, "{law}: little dissipated ({diss} of {e0})");
+    assert!(diss > 0.1 * e0, "{}: little dissipated ({diss} of {e0})", law.name());
     (worst, bounces)
 }
 
 #[test]
 fn damped_impacts_balance_energy() {
-    for (law, extra) in [
-        ("hertz_ln", "restitution = 0.5"),
-        ("flores", "restitution = 0.5"),
-        ("kelvin_voigt", "stiffness = 1e6\ndamping = 40.0"),
-    ] {
-        let (worst, bounces) = energy_drift(law, extra, 0.4);
+    let cases: [(Law, FloorKeys); 3] = [
+        (Law::HertzLn, |c| c.restitution(0.5)),
+        (Law::Flores, |c| c.restitution(0.5)),
+        (Law::KelvinVoigt, |c| c.stiffness(1e6).damping(40.0)),
+    ];
+    for (law, floor) in cases {
+        let (worst, bounces) = energy_drift(law, floor, 0.4);
+        let law = law.name();
         println!("{law}: {bounces} bounces, max |total + dissipated - initial| / initial = {worst:.2e}");
         assert!(worst < 1e-7, "{law}: energy drift {worst}");
     }
@@ -404,41 +384,24 @@ fn damped_impacts_balance_energy() {
 // ---------------------------------------------------------------------------------------------
 // Impulse law
 
-/// A sphere_sphere `[[contact]]` between the sphere (`ca`, `ra`) of body `a` and the sphere
-/// (`cb`, `rb`) of body `b`.
-#[allow(clippy::too_many_arguments)]
-fn sphere_contact(
-    name: &str,
-    law: &str,
-    e: f64,
-    a: &str,
-    ca: Vector3<f64>,
-    ra: f64,
-    b: &str,
-    cb: Vector3<f64>,
-    rb: f64,
-) -> String {
-    format!(
-        "[[contact]]\nname = \"{name}\"\ntype = \"sphere_sphere\"\nlaw = \"{law}\"\nrestitution = {e:?}\n\
-         sphere_body = \"{a}\"\ncenter = {}\nradius = {ra:?}\nsphere_material = \"steel\"\nbody = \"{b}\"\n\
-         material = \"steel\"\nother_center = {}\nother_radius = {rb:?}\n\n",
-        v3(ca),
-        v3(cb)
-    )
-}
-
 #[test]
 fn impulse_two_free_spheres_follow_14_15() {
     let (m1, r1, v1, m2, r2, v2, e) = (1.0, 0.05, 2.0, 3.0, 0.08, -0.5, 0.6);
     let c1 = Vector3::new(-r1 - 0.005, 0.0, 0.0);
     let c2 = Vector3::new(r2 + 0.005, 0.0, 0.0);
-    for method in ["exact", "effective_mass"] {
-        let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-        t += &ball("a", m1, r1, c1, Vector3::new(v1, 0.0, 0.0));
-        t += &ball("b", m2, r2, c2, Vector3::new(v2, 0.0, 0.0));
-        t += &sphere_contact("c", "impulse", e, "a", c1, r1, "b", c2, r2);
-        t += &format!("impulse_method = \"{method}\"\n");
-        let mut s = sim(&t);
+    for (method, impulse_method) in [
+        ("exact", ImpulseMethod::Exact),
+        ("effective_mass", ImpulseMethod::EffectiveMass),
+    ] {
+        let a = BodySpec::sphere("a", m1, r1, c1).velocity([v1, 0.0, 0.0]);
+        let b = BodySpec::sphere("b", m2, r2, c2).velocity([v2, 0.0, 0.0]);
+        let c = steel_spheres("c", Law::Impulse, e, Sphere::of(&a, r1), Sphere::of(&b, r2));
+        let mut s = start(
+            header(0.0, 1e-10, 1e-14, 1e-3)
+                .body(a)
+                .body(b)
+                .contact(c.impulse_method(impulse_method)),
+        );
         s.step_to(0.01).unwrap();
         let (u1, u2) = (get(&mut s, "a.v[1]"), get(&mut s, "b.v[1]"));
         let w1 = ((m1 - e * m2) * v1 + (1.0 + e) * m2 * v2) / (m1 + m2);
@@ -463,40 +426,32 @@ fn impulse_two_free_spheres_follow_14_15() {
 /// turning at 1 rad/s, with a sphere (r = 10 mm) on its axis at distance `d` from the pivot
 /// that hits a wall x = −r when the rod is vertical. No gravity: ω is constant apart from
 /// the impact.
-fn rod_pendulum(d: f64, e: f64, method: &str) -> String {
+fn rod_pendulum(d: f64, e: f64, method: ImpulseMethod) -> SceneBuilder {
     let (m, l, r, w0, a0) = (2.0, 1.0, 0.01, 1.0, -0.05_f64);
     let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), a0);
     let com = q * Vector3::new(0.0, 0.0, -l / 2.0);
     let omega = Vector3::new(0.0, w0, 0.0);
     let center = q * Vector3::new(0.0, 0.0, -d);
-    let qq = q.quaternion();
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    t += &format!(
-        "[[body]]\nname = \"rod\"\nmass = {m:?}\ninertia = [{i:?}, {i:?}, 1e-4]\nposition = {}\n\
-         orientation = [{:?}, {:?}, {:?}, {:?}]\nvelocity = {}\nangular_velocity = {}\n\n\
-         [[joint]]\nname = \"pivot\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"rod\"\n\
-         anchor = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\n\n\
-         [[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
-         impulse_method = \"{method}\"\nsphere_body = \"rod\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\n\
-         origin = [{:?}, 0.0, {:?}]\nnormal = [1.0, 0.0, 0.0]\nu_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
-        v3(com),
-        qq.w,
-        qq.i,
-        qq.j,
-        qq.k,
-        v3(omega.cross(&com)),
-        v3(omega),
-        v3(center),
-        -r,
-        -d,
-        i = m * l * l / 12.0,
-    );
-    t
+    let i = m * l * l / 12.0;
+    let wall = Plane::new([-r, 0.0, -d], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0]);
+    header(0.0, 1e-10, 1e-14, 1e-3)
+        .body(
+            BodySpec::new("rod", m, [i, i, 1e-4], com.into())
+                .orientation(q)
+                .velocity(omega.cross(&com))
+                .angular_velocity(omega),
+        )
+        .joint(JointSpec::revolute("pivot", GROUND, "rod", [0.0; 3], [0.0, 1.0, 0.0]))
+        .contact(
+            ContactSpec::sphere_plane("wall", Law::Impulse, Sphere::new("rod", center, r), GROUND, wall)
+                .restitution(e)
+                .impulse_method(method),
+        )
 }
 
 /// ω after / ω before for the rod pendulum.
-fn rod_ratio(d: f64, e: f64, method: &str) -> Result<f64, String> {
-    let mut s = sim(&rod_pendulum(d, e, method));
+fn rod_ratio(d: f64, e: f64, method: ImpulseMethod) -> Result<f64, String> {
+    let mut s = start(rod_pendulum(d, e, method));
     s.step_to(0.2).map_err(|e| e.to_string())?;
     assert_eq!(get(&mut s, "wall.impacts"), 1.0);
     Ok(get(&mut s, "pivot.qd") / 1.0)
@@ -509,8 +464,8 @@ fn impulse_pendulum_wall_exact_and_effective_mass() {
     println!("rod pendulum (pivot at one end, L = 1 m), struck at distance d from the pivot, e = {e}:");
     println!("d/L     exact ω+/ω−    effective-mass ω+/ω−   (17)-(19) predicted 1 − (1+e)·3d/(2L)");
     for d in [0.5, 2.0 / 3.0, 0.8, 1.0] {
-        let exact = rod_ratio(d, e, "exact").unwrap();
-        let eff = rod_ratio(d, e, "effective_mass").unwrap();
+        let exact = rod_ratio(d, e, ImpulseMethod::Exact).unwrap();
+        let eff = rod_ratio(d, e, ImpulseMethod::EffectiveMass).unwrap();
         // (17): m_eff = m (L/2) / d; exact effective mass I_pivot / d² = m L²/(3 d²).
         let predicted = 1.0 - (1.0 + e) * 3.0 * d / (2.0 * l);
         println!("{:.4}  {exact:.15}  {eff:.15}  {predicted:.15}", d / l);
@@ -519,8 +474,8 @@ fn impulse_pendulum_wall_exact_and_effective_mass() {
     }
     // At the centre of percussion the two agree; struck near the pivot the effective mass
     // (17) is too small to stop the approach: an error, not a silent pass-through.
-    assert!((rod_ratio(2.0 / 3.0, e, "effective_mass").unwrap() + e).abs() < 1e-12);
-    let err = rod_ratio(0.25, e, "effective_mass").unwrap_err();
+    assert!((rod_ratio(2.0 / 3.0, e, ImpulseMethod::EffectiveMass).unwrap() + e).abs() < 1e-12);
+    let err = rod_ratio(0.25, e, ImpulseMethod::EffectiveMass).unwrap_err();
     println!("d = L/4, effective mass: {err}");
     assert!(err.contains("approaching") && err.contains("\"wall\""), "{err}");
 }
@@ -535,19 +490,17 @@ fn impulse_bob_on_oblique_wall_rebounds_with_minus_e() {
     let omega = Vector3::new(0.0, w0, 0.0);
     let n = Vector3::new(1.0, 0.0, 0.3).normalize();
     let origin = Vector3::new(0.0, 0.0, -l) - n * r;
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    t += &ball("bob", 1.0, r, c, omega.cross(&c)).replace("\n\n", &format!("\nangular_velocity = {}\n\n", v3(omega)));
-    t += &format!(
-        "[[joint]]\nname = \"pivot\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"bob\"\n\
-         anchor = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\n\n\
-         [[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
-         sphere_body = \"bob\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\norigin = {}\nnormal = {}\n\
-         u_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
-        v3(c),
-        v3(origin),
-        v3(n)
+    let bob = BodySpec::sphere("bob", 1.0, r, c)
+        .velocity(omega.cross(&c))
+        .angular_velocity(omega);
+    let wall = Plane::new(origin, n, [0.0, 1.0, 0.0], [1.0, 1.0]);
+    let contact = ContactSpec::sphere_plane("wall", Law::Impulse, Sphere::of(&bob, r), GROUND, wall).restitution(e);
+    let mut s = start(
+        header(0.0, 1e-10, 1e-14, 1e-3)
+            .body(bob)
+            .joint(JointSpec::revolute("pivot", GROUND, "bob", [0.0; 3], [0.0, 1.0, 0.0]))
+            .contact(contact),
     );
-    let mut s = sim(&t);
     assert!((get(&mut s, "pivot.qd") - w0).abs() < 1e-12);
     s.step_to(0.2).unwrap();
     let ev = first(&events(&s), ContactEventKind::Impact);
@@ -577,13 +530,12 @@ fn impulse_simultaneous_and_sequential_impacts() {
     let ca = Vector3::zeros();
     let cb = Vector3::new(2.0 * r * th.cos() + gap, 2.0 * r * th.sin(), 0.0);
     let cc = Vector3::new(cb.x, -cb.y, 0.0);
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    t += &ball("a", m, r, ca, Vector3::new(v0, 0.0, 0.0));
-    t += &ball("b", m, r, cb, Vector3::zeros());
-    t += &ball("c", m, r, cc, Vector3::zeros());
-    t += &sphere_contact("ab", "impulse", e, "a", ca, r, "b", cb, r);
-    t += &sphere_contact("ac", "impulse", e, "a", ca, r, "c", cc, r);
-    let mut s = sim(&t);
+    let a = BodySpec::sphere("a", m, r, ca).velocity([v0, 0.0, 0.0]);
+    let b = BodySpec::sphere("b", m, r, cb);
+    let c = BodySpec::sphere("c", m, r, cc);
+    let ab = steel_spheres("ab", Law::Impulse, e, Sphere::of(&a, r), Sphere::of(&b, r));
+    let ac = steel_spheres("ac", Law::Impulse, e, Sphere::of(&a, r), Sphere::of(&c, r));
+    let mut s = start(header(0.0, 1e-10, 1e-14, 1e-3).bodies([a, b, c]).contacts([ab, ac]));
     s.step_to(0.05).unwrap();
     let p = m * (1.0 + e) * v0 * th.cos() / (1.0 + 2.0 * th.cos().powi(2));
     let va = get(&mut s, "a.v[1]");
@@ -599,33 +551,17 @@ fn impulse_simultaneous_and_sequential_impacts() {
 
     // Three touching balls in a row, e = 1: the impact travels through (one round per
     // contact, at the same instant); the first two stop, the last leaves at v0.
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    let c: Vec<Vector3<f64>> = (0..3).map(|k| Vector3::new(2.0 * r * k as f64, 0.0, 0.0)).collect();
     let c0 = Vector3::new(-gap, 0.0, 0.0);
-    t += &ball(
-        "b0",
-        m,
-        r,
-        c0 - Vector3::new(2.0 * r, 0.0, 0.0),
-        Vector3::new(v0, 0.0, 0.0),
-    );
-    for (k, ck) in c.iter().enumerate() {
-        t += &ball(&format!("b{}", k + 1), m, r, *ck, Vector3::zeros());
-    }
-    t += &sphere_contact(
-        "c01",
-        "impulse",
-        1.0,
-        "b0",
-        c0 - Vector3::new(2.0 * r, 0.0, 0.0),
-        r,
-        "b1",
-        c[0],
-        r,
-    );
-    t += &sphere_contact("c12", "impulse", 1.0, "b1", c[0], r, "b2", c[1], r);
-    t += &sphere_contact("c23", "impulse", 1.0, "b2", c[1], r, "b3", c[2], r);
-    let mut s = sim(&t);
+    let mut balls = vec![BodySpec::sphere("b0", m, r, c0 - Vector3::new(2.0 * r, 0.0, 0.0)).velocity([v0, 0.0, 0.0])];
+    balls.extend((0..3).map(|k| BodySpec::sphere(&format!("b{}", k + 1), m, r, [2.0 * r * k as f64, 0.0, 0.0])));
+    let contacts: Vec<ContactSpec> = balls
+        .windows(2)
+        .map(|p| {
+            let name = format!("c{}{}", &p[0].name[1..], &p[1].name[1..]);
+            steel_spheres(&name, Law::Impulse, 1.0, Sphere::of(&p[0], r), Sphere::of(&p[1], r))
+        })
+        .collect();
+    let mut s = start(header(0.0, 1e-10, 1e-14, 1e-3).bodies(balls).contacts(contacts));
     s.step_to(0.05).unwrap();
     let v: Vec<f64> = (0..4).map(|k| get(&mut s, &format!("b{k}.v[1]"))).collect();
     println!("impulse cradle of 4: final velocities {v:?}");
@@ -649,16 +585,9 @@ fn impulse_ball_comes_to_rest_on_the_floor() {
     // min_impact_velocity (1 mm/s), then a plastic impact and a resting contact: no Zeno
     // lock-up, no fall-through, energy balance exact.
     let (h, e, vmin, g) = (0.1, 0.8, 1e-3, 9.81);
-    let text = ball_on_floor(
-        "impulse",
-        &format!("restitution = {e:?}\nmin_impact_velocity = {vmin:?}"),
-        0.0,
-        g,
-        h,
-    );
-    let text = text
-        + "[[input]]\nname = \"lift\"\ntype = \"force\"\nbody = \"ball\"\ndirection = [0.0, 0.0, 1.0]\nstart = 0.0\n";
-    let mut s = sim(&text);
+    let scene = ball_on_floor(Law::Impulse, |c| c.restitution(e).min_impact_velocity(vmin), 0.0, g, h)
+        .input(InputSpec::force("lift", "ball", [0.0, 0.0, 1.0]).start(0.0));
+    let mut s = start(scene);
     let e0 = get(&mut s, "energy.total");
     let v0 = (2.0 * g * h).sqrt();
     let t_rest = v0 / g * (1.0 + 2.0 * e / (1.0 - e)); // upper bound: the geometric series
@@ -669,7 +598,7 @@ fn impulse_ball_comes_to_rest_on_the_floor() {
         s.step_to(t).unwrap();
         let z = get(&mut s, "ball.r[3]");
         assert!(z > R - 1e-12, "fell through: z = {z} at t = {t}");
-        worst = worst.max((get(&mut s, "energy.total") + get(&mut s, "energy.dissipated") - e0).abs() / e0);
+        worst = worst.max((energy_balance(&mut s) - e0).abs() / e0);
     }
     let ev = events(&s);
     let impacts: Vec<&ContactEvent> = ev.iter().filter(|x| x.kind == ContactEventKind::Impact).collect();
@@ -736,16 +665,13 @@ fn impulse_ball_slides_in_a_groove_as_a_pendulum() {
     let (rho, r, th0, g) = (0.1, R, 0.5_f64, 9.81);
     let len = rho - r;
     let c = Vector3::new(len * th0.sin(), 0.0, -len * th0.cos());
-    let mut t = header(g, 1e-10, 1e-14, 1e-3);
-    t += &ball("ball", M, r, c, Vector3::zeros());
-    t += &format!(
-        "[[contact]]\nname = \"groove\"\ntype = \"sphere_cylinder\"\nlaw = \"impulse\"\nrestitution = 0.5\n\
-         sphere_body = \"ball\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\naxis_point = [0.0, 0.0, 0.0]\n\
-         axis = [0.0, 1.0, 0.0]\ncylinder_radius = {rho:?}\nlength = 0.2\nside = \"inside\"\n\
-         theta_range = [-1.5, 1.5]\nref_axis = [0.0, 0.0, -1.0]\n",
-        v3(c)
-    );
-    let mut s = sim(&t);
+    let ball = BodySpec::sphere("ball", M, r, c);
+    let cylinder = Cylinder::new([0.0; 3], [0.0, 1.0, 0.0], rho, 0.2);
+    let groove = ContactSpec::sphere_cylinder("groove", Law::Impulse, Sphere::of(&ball, r), GROUND, cylinder)
+        .restitution(0.5)
+        .side(Side::Inside)
+        .theta_range([-1.5, 1.5], [0.0, 0.0, -1.0]);
+    let mut s = start(header(g, 1e-10, 1e-14, 1e-3).body(ball).contact(groove));
     assert_eq!(get(&mut s, "groove.active"), 1.0, "resting from the start");
     let e0 = get(&mut s, "energy.total");
     // period of the pendulum with amplitude th0: 4 sqrt(l/g) K(sin(th0/2)), K by the AGM
@@ -796,13 +722,13 @@ fn impulse_ball_slides_in_a_groove_as_a_pendulum() {
 // ---------------------------------------------------------------------------------------------
 // Cylinders
 
-fn cylinder_contact(law: &str, extra: &str, c: Vector3<f64>, rho: f64, side: &str) -> String {
-    format!(
-        "[[contact]]\nname = \"cyl\"\ntype = \"sphere_cylinder\"\nlaw = \"{law}\"\n{extra}\nsphere_body = \"ball\"\n\
-         center = {}\nradius = {R:?}\nsphere_material = \"steel\"\nbody = \"ground\"\nmaterial = \"steel\"\n\
-         axis_point = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\ncylinder_radius = {rho:?}\nlength = 0.2\nside = \"{side}\"\n",
-        v3(c)
-    )
+/// The steel ball `ball` at `c` against a steel cylinder of radius `rho` about the y axis.
+fn cylinder_contact(law: Law, e: f64, c: Vector3<f64>, rho: f64, side: Side) -> ContactSpec {
+    let cylinder = Cylinder::new([0.0; 3], [0.0, 1.0, 0.0], rho, 0.2);
+    ContactSpec::sphere_cylinder("cyl", law, Sphere::new("ball", c, R), GROUND, cylinder)
+        .restitution(e)
+        .materials("steel", "steel")
+        .side(side)
 }
 
 #[test]
@@ -814,16 +740,13 @@ fn ball_settles_at_the_bottom_of_a_groove() {
     let (rho, th0, g) = (0.1, 0.3_f64, 9.81);
     let len = rho - R;
     let c = Vector3::new(len * th0.sin(), 0.0, -len * th0.cos() + 1e-3);
-    let mut t = header(g, 1e-8, 1e-12, 1e-3);
-    t += &ball("ball", M, R, c, Vector3::zeros());
-    t += &cylinder_contact("hunt_crossley", "restitution = 0.5", c, rho, "inside");
-    t += &format!(
-        "[[spring_damper]]\nname = \"drag\"\nbody_a = \"ground\"\npoint_a = [-100.0, 0.0, {:?}]\nbody_b = \"ball\"\n\
-         point_b = {}\nstiffness = 0.0\ndamping = 0.5\n",
-        c.z,
-        v3(c)
+    let drag = SpringDamperSpec::new("drag", GROUND, [-100.0, 0.0, c.z], "ball", c, 0.0).damping(0.5);
+    let mut s = start(
+        header(g, 1e-8, 1e-12, 1e-3)
+            .body(BodySpec::sphere("ball", M, R, c))
+            .contact(cylinder_contact(Law::HuntCrossley, 0.5, c, rho, Side::Inside))
+            .spring_damper(drag),
     );
-    let mut s = sim(&t);
     s.step_to(4.0).unwrap();
     let (x, z) = (get(&mut s, "ball.r[1]"), get(&mut s, "ball.r[3]"));
     // concave: circumferential relative radius 1/(1/R − 1/ρ), axial R; K from their geometric mean
@@ -854,17 +777,15 @@ fn ball_bounces_off_a_convex_cylinder_along_its_normal() {
     let c = n * a + Vector3::new(0.0, 0.0, 0.002);
     let v = Vector3::new(0.0, 0.0, -v0);
     let expect = v - 2.0 * v.dot(&n) * n;
-    for law in ["impulse", "hertz"] {
-        let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-        t += &ball("ball", M, R, c, v);
-        t += &cylinder_contact(law, "restitution = 1.0", c, rho, "outside");
-        let mut s = sim(&t);
-        s.step_to(0.01).unwrap();
-        let out = Vector3::new(
-            get(&mut s, "ball.v[1]"),
-            get(&mut s, "ball.v[2]"),
-            get(&mut s, "ball.v[3]"),
+    for law in [Law::Impulse, Law::Hertz] {
+        let mut s = start(
+            header(0.0, 1e-10, 1e-14, 1e-3)
+                .body(BodySpec::sphere("ball", M, R, c).velocity(v))
+                .contact(cylinder_contact(law, 1.0, c, rho, Side::Outside)),
         );
+        s.step_to(0.01).unwrap();
+        let out = vec_out(&mut s, "ball.v");
+        let law = law.name();
         let angle = (out.normalize().cross(&expect.normalize())).norm().asin();
         println!(
             "convex cylinder, {law}: exit velocity {:?} (mirror {:?}), angle off {angle:.3e} rad, speed rel {:.2e}",
@@ -892,33 +813,24 @@ fn newtons_cradle_of_five_hertz_balls() {
     // Five touching free steel balls (R 10 mm), the first hits at 1 m/s; pure Hertz (e = 1).
     let v0 = 1.0;
     let gap = 1e-4;
-    let mut t = header(0.0, 1e-10, 1e-14, 1e-3);
-    let xs: Vec<f64> = (0..5).map(|k| if k == 0 { -gap } else { 2.0 * R * k as f64 }).collect();
-    for (k, &x) in xs.iter().enumerate() {
-        let v = if k == 0 { v0 } else { 0.0 };
-        t += &ball(
-            &format!("b{k}"),
-            M,
-            R,
-            Vector3::new(x, 0.0, 0.0),
-            Vector3::new(v, 0.0, 0.0),
-        );
-    }
-    for k in 0..4 {
-        let (a, b) = (Vector3::new(xs[k], 0.0, 0.0), Vector3::new(xs[k + 1], 0.0, 0.0));
-        t = t + &sphere_contact(
-            &format!("c{k}"),
-            "hertz",
-            1.0,
-            &format!("b{k}"),
-            a,
-            R,
-            &format!("b{}", k + 1),
-            b,
-            R,
-        );
-    }
-    let mut s = sim(&t);
+    let balls: Vec<BodySpec> = (0..5)
+        .map(|k| {
+            let (x, v) = if k == 0 { (-gap, v0) } else { (2.0 * R * k as f64, 0.0) };
+            BodySpec::sphere(&format!("b{k}"), M, R, [x, 0.0, 0.0]).velocity([v, 0.0, 0.0])
+        })
+        .collect();
+    let contacts: Vec<ContactSpec> = (0..4)
+        .map(|k| {
+            steel_spheres(
+                &format!("c{k}"),
+                Law::Hertz,
+                1.0,
+                Sphere::of(&balls[k], R),
+                Sphere::of(&balls[k + 1], R),
+            )
+        })
+        .collect();
+    let mut s = start(header(0.0, 1e-10, 1e-14, 1e-3).bodies(balls).contacts(contacts));
     let e0 = get(&mut s, "energy.total");
     s.step_to(0.01).unwrap();
     let v: Vec<f64> = (0..5).map(|k| get(&mut s, &format!("b{k}.v[1]"))).collect();
@@ -946,73 +858,54 @@ fn newtons_cradle_of_five_hertz_balls() {
 
 #[test]
 fn bad_contact_definitions_are_clear_errors() {
-    let base = ball_on_floor("hertz_ln", "restitution = 0.8", 0.0, 9.81, 0.1);
+    let base = ball_on_floor(Law::HertzLn, |c| c.restitution(0.8), 0.0, 9.81, 0.1).build();
+    // the scene file with one key of the contact changed
+    let bad = |edit: fn(&mut ContactSpec)| {
+        let mut scene = base.clone();
+        edit(&mut scene.contact[0]);
+        scene.to_toml()
+    };
+    let text = base.to_toml();
     let cases: Vec<(String, &str, &str)> = vec![
         (
-            base.replace("sphere_body = \"ball\"", "sphere_body = \"bal\""),
+            bad(|c| c.sphere_body = "bal".into()),
             "sphere_body",
             "unknown body \"bal\"",
         ),
+        (bad(|c| c.body = "floor2".into()), "body", "unknown body \"floor2\""),
         (
-            base.replace("body = \"ground\"", "body = \"floor2\""),
-            "body",
-            "unknown body \"floor2\"",
-        ),
-        (
-            base.replace("sphere_body = \"ball\"", "sphere_body = \"ground\""),
+            bad(|c| c.sphere_body = GROUND.into()),
             "body",
             "both shapes are on the ground",
         ),
+        (bad(|c| c.radius = 0.0), "radius", "must be > 0"),
+        (bad(|c| c.radius = -0.01), "radius", "must be > 0"),
+        (bad(|c| c.restitution = 1.2), "restitution", "[0, 1]"),
+        (bad(|c| c.restitution = -0.1), "restitution", "[0, 1]"),
         (
-            base.replace(&format!("radius = {R:?}"), "radius = 0.0"),
-            "radius",
-            "must be > 0",
-        ),
-        (
-            base.replace(&format!("radius = {R:?}"), "radius = -0.01"),
-            "radius",
-            "must be > 0",
-        ),
-        (
-            base.replace("restitution = 0.8", "restitution = 1.2"),
-            "restitution",
-            "[0, 1]",
-        ),
-        (
-            base.replace("restitution = 0.8", "restitution = -0.1"),
-            "restitution",
-            "[0, 1]",
-        ),
-        (
-            base.replace("law = \"hertz_ln\"", "law = \"kelvin_voigt\""),
+            bad(|c| c.law = Law::KelvinVoigt),
             "stiffness",
             "required for the kelvin_voigt law",
         ),
         (
-            base.replace("sphere_material = \"steel\"\n", ""),
+            bad(|c| c.sphere_material = None),
             "stiffness",
             "give stiffness, or both sphere_material and material",
         ),
         (
-            base.replace("material = \"steel\"\norigin", "material = \"rubber\"\norigin"),
+            bad(|c| c.material = Some("rubber".into())),
             "material",
             "unknown material",
         ),
+        (bad(|c| c.max_penetration = Some(0.0)), "max_penetration", "> 0"),
+        // names the scene format does not know: errors in the text itself
         (
-            base.replace("restitution = 0.8", "restitution = 0.8\nmax_penetration = 0.0"),
-            "max_penetration",
-            "> 0",
-        ),
-        (
-            base.replace("law = \"hertz_ln\"", "law = \"hertz_lm\""),
+            text.replace("law = \"hertz_ln\"", "law = \"hertz_lm\""),
             "toml",
             "unknown variant",
         ),
         (
-            base.replace(
-                "restitution = 0.8",
-                "restitution = 0.8\nimpulse_method = \"approximate\"",
-            ),
+            text.replace("impulse_method = \"exact\"", "impulse_method = \"approximate\""),
             "toml",
             "unknown variant",
         ),
@@ -1037,8 +930,8 @@ fn bad_contact_definitions_are_clear_errors() {
 fn penetration_beyond_max_is_a_failed_step() {
     // A soft linear contact and a fast ball: δ reaches max_penetration (2 mm): the step
     // fails with a message naming the contact, the state stays at the last good time.
-    let extra = "stiffness = 1e3\ndamping = 0.0\nmax_penetration = 0.002";
-    let mut s = sim(&ball_on_floor("kelvin_voigt", extra, 5.0, 0.0, 1e-3));
+    let floor = |c: ContactSpec| c.stiffness(1e3).damping(0.0).max_penetration(0.002);
+    let mut s = start(ball_on_floor(Law::KelvinVoigt, floor, 5.0, 0.0, 1e-3));
     let err = s.step_to(0.01).unwrap_err().to_string();
     println!("{err}");
     assert!(
@@ -1313,20 +1206,27 @@ fn broad_phase_keeps_the_event_sign() {
     // A free ball (r = 0.05) against a sphere, a plane and a cylinder on a second free body;
     // over many random poses the broad-phase event value has the exact one's sign, and it
     // does skip the far cases.
-    let mut t = header(0.0, 1e-8, 1e-12, 1e-3);
-    t += &ball("ball", 1.0, 0.05, Vector3::zeros(), Vector3::zeros());
-    t += &ball("other", 1.0, 0.05, Vector3::new(0.0, 0.0, -1.0), Vector3::zeros());
-    let common = "sphere_body = \"ball\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.05\nbody = \"other\"\nstiffness = 1e6\n";
-    t += &format!(
-        "[[contact]]\nname = \"s\"\ntype = \"sphere_sphere\"\nlaw = \"hertz\"\n{common}other_center = [0.0, 0.0, -1.0]\n\
-         other_radius = 0.3\nmax_penetration = 0.2\n\n\
-         [[contact]]\nname = \"p\"\ntype = \"sphere_plane\"\nlaw = \"hertz\"\n{common}origin = [0.0, 0.0, -1.0]\n\
-         normal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [0.6, 0.4]\nmax_penetration = 0.3\n\n\
-         [[contact]]\nname = \"c\"\ntype = \"sphere_cylinder\"\nlaw = \"hertz\"\n{common}axis_point = [0.0, 0.0, -1.0]\n\
-         axis = [0.0, 1.0, 0.0]\ncylinder_radius = 0.3\nlength = 0.5\nside = \"inside\"\n\n"
+    let ball = || Sphere::new("ball", [0.0; 3], 0.05);
+    let at = [0.0, 0.0, -1.0];
+    let contacts = [
+        ContactSpec::sphere_sphere("s", Law::Hertz, ball(), Sphere::new("other", at, 0.3)).max_penetration(0.2),
+        ContactSpec::sphere_plane("p", Law::Hertz, ball(), "other", Plane::horizontal(at, [0.6, 0.4]))
+            .max_penetration(0.3),
+        ContactSpec::sphere_cylinder(
+            "c",
+            Law::Hertz,
+            ball(),
+            "other",
+            Cylinder::new(at, [0.0, 1.0, 0.0], 0.3, 0.5),
+        )
+        .side(Side::Inside),
+    ];
+    let (m, mut d) = compile(
+        header(0.0, 1e-8, 1e-12, 1e-3)
+            .body(BodySpec::sphere("ball", 1.0, 0.05, [0.0; 3]))
+            .body(BodySpec::sphere("other", 1.0, 0.05, at))
+            .contacts(contacts.map(|c| c.stiffness(1e6))),
     );
-    let scene = Scene::from_str(&t, "bp.toml").unwrap();
-    let (m, mut d) = contact_fmu::compile::compile(&scene, "bp.toml").unwrap();
     let mut seed: u64 = 12345;
     let mut rnd = || {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -1375,14 +1275,9 @@ fn broad_phase_keeps_the_event_sign() {
 fn snapshot_restores_contact_memory_bit_for_bit() {
     // In the middle of a hertz_ln contact (δ̇⁻ remembered) and while an impulse contact rests:
     // save, go on, restore, go on again: the same numbers, bit for bit.
-    for (text, t_save) in [
-        (
-            ball_on_floor("hertz_ln", "restitution = 0.5", 1.0, 9.81, 1e-4),
-            1e-4 + 3e-5,
-        ),
-        (ball_on_floor("impulse", "restitution = 0.5", 0.0, 9.81, 0.01), 0.2),
-    ] {
-        let mut s = sim(&text);
+    for (law, v0, gap, t_save) in [(Law::HertzLn, 1.0, 1e-4, 1e-4 + 3e-5), (Law::Impulse, 0.0, 0.01, 0.2)] {
+        let scene = ball_on_floor(law, |c| c.restitution(0.5), v0, 9.81, gap).build();
+        let mut s = start(scene.clone());
         s.step_to(t_save).unwrap();
         assert_eq!(get(&mut s, "floor.active"), 1.0, "in contact when saved");
         let snap = s.snapshot(Vec::new());
@@ -1398,7 +1293,7 @@ fn snapshot_restores_contact_memory_bit_for_bit() {
             out
         };
         let a = run(&mut s);
-        let mut fresh = Simulation::from_scene_str(&text, "t.toml").unwrap();
+        let mut fresh = open(scene);
         fresh
             .restore(&contact_fmu::checkpoint::Snapshot::from_bytes(&bytes, 0).unwrap())
             .unwrap();
@@ -1416,10 +1311,10 @@ fn resting_ball_slides_off_the_edge_and_falls() {
     // contact lets go when the centre leaves the patch (x = 0.1 m at t = 0.2 s), then the
     // ball falls freely.
     let (g, vx): (f64, f64) = (9.81, 0.5);
-    let text = ball_on_floor("impulse", "restitution = 0.5", 0.0, g, 0.0)
-        .replace("size = [1.0, 1.0]", "size = [0.2, 0.2]")
-        .replace("velocity = [0.0, 0.0, -0.0]", &format!("velocity = [{vx:?}, 0.0, 0.0]"));
-    let mut s = sim(&text);
+    let mut scene = ball_on_floor(Law::Impulse, |c| c.restitution(0.5), 0.0, g, 0.0).build();
+    scene.contact[0].size = Some([0.2, 0.2]);
+    scene.body[0].velocity = [vx, 0.0, 0.0];
+    let mut s = start(scene);
     assert_eq!(get(&mut s, "floor.active"), 1.0, "rests from the start");
     s.step_to(0.3).unwrap();
     let release = first(&events(&s), ContactEventKind::Release);
@@ -1445,47 +1340,37 @@ fn impulse_on_a_closed_loop_keeps_it_closed() {
     let u = Vector3::new(-a0.sin(), 0.0, -a0.cos());
     let (pa, pb) = (Vector3::zeros(), Vector3::new(a, 0.0, 0.0));
     let omega = Vector3::new(0.0, w0, 0.0);
-    let body = |name: &str, m: f64, inertia: [f64; 3], c: Vector3<f64>, v: Vector3<f64>, w: Vector3<f64>| {
-        format!(
-            "[[body]]\nname = \"{name}\"\nmass = {m:?}\ninertia = [{:?}, {:?}, {:?}]\nposition = {}\nvelocity = {}\n\
-             angular_velocity = {}\n\n",
-            inertia[0],
-            inertia[1],
-            inertia[2],
-            v3(c),
-            v3(v),
-            v3(w)
-        )
-    };
     let joint = |name: &str, parent: &str, child: &str, anchor: Vector3<f64>| {
-        format!(
-            "[[joint]]\nname = \"{name}\"\ntype = \"revolute\"\nparent = \"{parent}\"\nchild = \"{child}\"\nanchor = {}\n\
-             axis = [0.0, 1.0, 0.0]\n\n",
-            v3(anchor)
-        )
+        JointSpec::revolute(name, parent, child, anchor, [0.0, 1.0, 0.0])
     };
     let c1 = pa + u * (l / 2.0);
     let c2 = pb + u * (l / 2.0);
     let cc = (pa + pb) / 2.0 + u * l;
     let vc = omega.cross(&(u * l));
     let sphere = pa + u * l - Vector3::new(0.05, 0.0, 0.0);
-    let mut t = header(0.0, 1e-11, 1e-14, 1e-3);
-    t += &body("crank1", 1.0, [0.01, 0.01, 0.002], c1, omega.cross(&(c1 - pa)), omega);
-    t += &body("crank2", 1.5, [0.02, 0.02, 0.002], c2, omega.cross(&(c2 - pb)), omega);
-    t += &body("coupler", 2.0, [0.001, 0.03, 0.03], cc, vc, Vector3::zeros());
-    t += &joint("j1", "ground", "crank1", pa);
-    t += &joint("j2", "ground", "crank2", pb);
-    t += &joint("j3", "crank1", "coupler", pa + u * l);
-    t += &joint("j4", "crank2", "coupler", pb + u * l);
-    t += &format!(
-        "[[contact]]\nname = \"wall\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = {e:?}\n\
-         sphere_body = \"coupler\"\ncenter = {}\nradius = {r:?}\nbody = \"ground\"\norigin = [{:?}, 0.0, {:?}]\n\
-         normal = [1.0, 0.0, 0.0]\nu_axis = [0.0, 1.0, 0.0]\nsize = [1.0, 1.0]\n",
-        v3(sphere),
-        -0.05 - r,
-        -l
+    let wall = Plane::new([-0.05 - r, 0.0, -l], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0]);
+    let mut s = start(
+        header(0.0, 1e-11, 1e-14, 1e-3)
+            .body(
+                BodySpec::new("crank1", 1.0, [0.01, 0.01, 0.002], c1.into())
+                    .velocity(omega.cross(&(c1 - pa)))
+                    .angular_velocity(omega),
+            )
+            .body(
+                BodySpec::new("crank2", 1.5, [0.02, 0.02, 0.002], c2.into())
+                    .velocity(omega.cross(&(c2 - pb)))
+                    .angular_velocity(omega),
+            )
+            .body(BodySpec::new("coupler", 2.0, [0.001, 0.03, 0.03], cc.into()).velocity(vc))
+            .joint(joint("j1", GROUND, "crank1", pa))
+            .joint(joint("j2", GROUND, "crank2", pb))
+            .joint(joint("j3", "crank1", "coupler", pa + u * l))
+            .joint(joint("j4", "crank2", "coupler", pb + u * l))
+            .contact(
+                ContactSpec::sphere_plane("wall", Law::Impulse, Sphere::new("coupler", sphere, r), GROUND, wall)
+                    .restitution(e),
+            ),
     );
-    let mut s = sim(&t);
     assert!((get(&mut s, "j1.qd") - w0).abs() < 1e-12 && (get(&mut s, "j2.qd") - w0).abs() < 1e-12);
     s.step_to(0.1).unwrap();
     let ev = first(&events(&s), ContactEventKind::Impact);
@@ -1508,9 +1393,9 @@ fn a_sphere_passing_behind_a_plate_is_not_a_contact() {
     // A ball rising from below through a one-sided floor plate (normal up, no gravity): it
     // enters the admissible zone through δ = δ_max from behind; that is no touch (no force, no
     // error), and the ball goes on at its speed.
-    for law in ["hertz", "impulse"] {
-        let text = ball_on_floor(law, "", -1.0, 0.0, -0.05);
-        let mut s = sim(&text);
+    for law in [Law::Hertz, Law::Impulse] {
+        let mut s = start(ball_on_floor(law, |c| c, -1.0, 0.0, -0.05));
+        let law = law.name();
         s.step_to(0.1).unwrap();
         let v = get(&mut s, "ball.v[3]");
         println!(
@@ -1567,23 +1452,30 @@ fn resting_ball_leaves_an_accelerating_platform() {
     let (g, k, mp, a) = (9.81, 1000.0, 1.0, 0.02_f64);
     let w = (k / (mp + M)).sqrt();
     let l0 = 1.0 + (mp + M) * g / k; // compressed by the weight at z = 0
-    let mut t = header(g, 1e-11, 1e-14, 1e-3);
-    t += &ball("plate", mp, 0.1, Vector3::new(0.0, 0.0, -a), Vector3::zeros());
-    t += &ball("ball", M, R, Vector3::new(0.0, 0.0, -a + R), Vector3::zeros());
-    t += &format!(
-        "[[joint]]\nname = \"slide\"\ntype = \"prismatic\"\nparent = \"ground\"\nchild = \"plate\"\n\
-         anchor = [0.0, 0.0, {:?}]\naxis = [0.0, 0.0, 1.0]\n\n\
-         [[spring_damper]]\nname = \"spring\"\nbody_a = \"ground\"\npoint_a = [0.0, 0.0, -1.0]\nbody_b = \"plate\"\n\
-         point_b = [0.0, 0.0, {:?}]\nstiffness = {k:?}\nfree_length = {l0:?}\n\n\
-         [[contact]]\nname = \"floor\"\ntype = \"sphere_plane\"\nlaw = \"impulse\"\nrestitution = 0.5\n\
-         sphere_body = \"ball\"\ncenter = [0.0, 0.0, {:?}]\nradius = {R:?}\nbody = \"plate\"\n\
-         origin = [0.0, 0.0, {:?}]\nnormal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [1.0, 1.0]\n",
-        -a,
-        -a,
-        -a + R,
-        -a
+    let ball = BodySpec::sphere("ball", M, R, [0.0, 0.0, -a + R]);
+    let floor = ContactSpec::sphere_plane(
+        "floor",
+        Law::Impulse,
+        Sphere::of(&ball, R),
+        "plate",
+        Plane::horizontal([0.0, 0.0, -a], [1.0, 1.0]),
     );
-    let mut s = sim(&t);
+    let mut s = start(
+        header(g, 1e-11, 1e-14, 1e-3)
+            .body(BodySpec::sphere("plate", mp, 0.1, [0.0, 0.0, -a]))
+            .body(ball)
+            .joint(JointSpec::prismatic(
+                "slide",
+                GROUND,
+                "plate",
+                [0.0, 0.0, -a],
+                [0.0, 0.0, 1.0],
+            ))
+            .spring_damper(
+                SpringDamperSpec::new("spring", GROUND, [0.0, 0.0, -1.0], "plate", [0.0, 0.0, -a], k).free_length(l0),
+            )
+            .contact(floor.restitution(0.5)),
+    );
     assert_eq!(get(&mut s, "floor.active"), 1.0);
     assert!(rel(get(&mut s, "floor.force"), M * (g + a * w * w)) < 1e-9);
     s.step_to(0.1).unwrap();

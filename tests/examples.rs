@@ -4,27 +4,14 @@
 //! vehicle's forward momentum, the slider-crank's loop closure, and the convergence of the
 //! continuous contact analysis to the piecewise (impulsive) one as the contact stiffens.
 
+mod common;
+
+use common::{get, rk4_step};
 use contact_fmu::scene::{Law, Scene};
 use contact_fmu::simulation::Simulation;
-use std::path::PathBuf;
-
-fn scene_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("fmu")
-        .join(name)
-        .join("scene.toml")
-}
 
 fn load(name: &str) -> Simulation {
-    Simulation::from_file(&scene_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-fn get(sim: &mut Simulation, name: &str) -> f64 {
-    let vr = sim
-        .table()
-        .index_of(name)
-        .unwrap_or_else(|| panic!("no variable {name:?}"));
-    sim.get(vr).unwrap_or_else(|e| panic!("{name}: {e}"))
+    Simulation::from_file(&common::bundled(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 /// Hertz stiffness of a sphere on a plane, eq. (22) with the square-root radius term.
@@ -183,17 +170,10 @@ fn rail_vehicle_settles_to_static_equilibrium_at_constant_speed() {
 /// (dimensionless; independent of stiffness, mass and impact speed), by RK4.
 fn lankarani_nikravesh_restitution(e: f64) -> f64 {
     let chi = 0.75 * (1.0 - e * e);
-    let f = |x: f64, v: f64| -> (f64, f64) { (v, -(x.max(0.0).powf(1.5) * (1.0 + chi * v)).max(0.0)) };
+    let acc = |x: f64, v: f64| -(x.max(0.0).powf(1.5) * (1.0 + chi * v)).max(0.0);
     let (mut x, mut v, h) = (0.0_f64, 1.0_f64, 2e-5);
     loop {
-        let k1 = f(x, v);
-        let k2 = f(x + 0.5 * h * k1.0, v + 0.5 * h * k1.1);
-        let k3 = f(x + 0.5 * h * k2.0, v + 0.5 * h * k2.1);
-        let k4 = f(x + h * k3.0, v + h * k3.1);
-        let (xn, vn) = (
-            x + h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0),
-            v + h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1),
-        );
+        let (xn, vn) = rk4_step(acc, x, v, h);
         if xn < 0.0 {
             // linear interpolation of the velocity at the crossing
             return -(v + (vn - v) * x / (x - xn));

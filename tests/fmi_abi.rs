@@ -1,6 +1,8 @@
 //! The FMI functions called through their C signatures, in-process (the Python tests drive
 //! the exported FMU files through fmpy; these pin the same behaviour without a host).
 
+mod common;
+
 use contact_fmu::fmi::exports::*;
 use contact_fmu::fmi::lifecycle::LifeState;
 use contact_fmu::fmi::types::*;
@@ -39,8 +41,7 @@ struct Unpacked {
 
 impl Unpacked {
     fn new(tag: &str) -> Unpacked {
-        let text =
-            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/bouncing_ball/scene.toml")).unwrap();
+        let text = std::fs::read_to_string(common::bundled("bouncing_ball")).unwrap();
         let root = std::env::temp_dir().join(format!("contact fmu abi {} {tag}", std::process::id()));
         std::fs::create_dir_all(root.join("resources")).unwrap();
         std::fs::write(root.join("resources/scene.toml"), &text).unwrap();

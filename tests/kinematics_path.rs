@@ -2,17 +2,17 @@
 //! along a body's path to the ground it must give the same poses, velocities, bias
 //! accelerations, inertias and motion subspaces bit for bit, and touch no other body.
 
+mod common;
+
 use contact_fmu::compile::compile;
 use contact_fmu::kinematics;
 use contact_fmu::model::{Data, Model};
 use contact_fmu::scene::Scene;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-use std::path::Path;
 
 /// The rail vehicle's compiled model and data.
 fn compiled() -> (Model, Data) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
-    let scene = Scene::from_file(&path).unwrap();
+    let scene = Scene::from_file(&common::bundled("rail_vehicle")).unwrap();
     compile(&scene, "rail_vehicle").unwrap()
 }
 

@@ -9,29 +9,15 @@
 //!
 //! and review the diff before committing.
 
+mod common;
+
+use common::bundled_scenes;
 use contact_fmu::export::model_description_xml;
 use contact_fmu::scene::Scene;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// (name, scene path) of every bundled scene, sorted.
-fn bundled_scenes() -> Vec<(String, PathBuf)> {
-    let mut v: Vec<(String, PathBuf)> = std::fs::read_dir(root().join("fmu"))
-        .expect("fmu/ exists")
-        .filter_map(|e| e.ok())
-        .map(|e| {
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                e.path().join("scene.toml"),
-            )
-        })
-        .filter(|(_, p)| p.is_file())
-        .collect();
-    v.sort();
-    v
 }
 
 fn first_difference(a: &str, b: &str) -> String {
@@ -169,7 +155,7 @@ fn model_structure_lists_every_output_and_exactly_the_initial_unknowns() {
 
 #[test]
 fn the_description_is_a_pure_function_of_the_scene_text() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/bouncing_ball/scene.toml");
+    let path = common::bundled("bouncing_ball");
     let text = std::fs::read_to_string(path).unwrap();
     let scene = Scene::from_str(&text, "scene").unwrap();
     let a = model_description_xml(&scene, &text);

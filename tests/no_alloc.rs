@@ -8,26 +8,39 @@ use contact_fmu::simulation::Simulation;
 
 #[path = "common/alloc_counter.rs"]
 mod alloc_counter;
+mod common;
 use alloc_counter::count;
 
-fn start(scene: &str, method: Method) -> Simulation {
-    let path = format!("{}/fmu/{scene}/scene.toml", env!("CARGO_MANIFEST_DIR"));
-    let mut sim = Simulation::from_file(std::path::Path::new(&path)).expect("scene loads");
+/// The bundled scene `scene` with `method`, not initialised.
+fn load(scene: &str, method: Method) -> Simulation {
+    let mut sim = Simulation::from_file(&common::bundled(scene)).expect("scene loads");
     sim.set_by_name("solver.method", method as i64 as f64).expect("method");
+    sim
+}
+
+fn start(scene: &str, method: Method) -> Simulation {
+    let mut sim = load(scene, method);
     sim.initialize(0.0).expect("initialises");
     sim
+}
+
+/// Steps over `n` communication intervals of the scene from t = 0; returns the interval and
+/// the time reached.
+fn warm_up(sim: &mut Simulation, n: usize) -> (f64, f64) {
+    let h = sim.scene().model.interval;
+    let mut t = 0.0;
+    for _ in 0..n {
+        t += h;
+        sim.step_to(t).expect("warm-up advances");
+    }
+    (h, t)
 }
 
 /// Allocations during `advance` over `steps` communication intervals after `warmup` ones,
 /// and the number of integrator steps and events meanwhile.
 fn allocations(scene: &str, method: Method, warmup: usize, steps: usize) -> (u64, u64, u64) {
     let mut sim = start(scene, method);
-    let h = sim.scene().model.interval;
-    let mut t = 0.0;
-    for _ in 0..warmup {
-        t += h;
-        sim.step_to(t).expect("warm-up advances");
-    }
+    let (h, mut t) = warm_up(&mut sim, warmup);
     let (s0, e0) = (sim.counters().steps, sim.counters().events);
     let n = count(|| {
         for _ in 0..steps {
@@ -154,18 +167,11 @@ struct ImpulseRun {
 /// `initialize`, like an FMU host would), warms up over `warmup` communication intervals and
 /// counts the allocations of the next `advances` ones.
 fn impulse_run(scene: &str, contact: &str, method: Method, warmup: usize, advances: usize) -> ImpulseRun {
-    let path = format!("{}/fmu/{scene}/scene.toml", env!("CARGO_MANIFEST_DIR"));
-    let mut sim = Simulation::from_file(std::path::Path::new(&path)).expect("scene loads");
-    sim.set_by_name("solver.method", method as i64 as f64).expect("method");
+    let mut sim = load(scene, method);
     sim.set_by_name(&format!("{contact}.law"), Law::Impulse as i64 as f64)
         .expect("law");
     sim.initialize(0.0).expect("initialises");
-    let h = sim.scene().model.interval;
-    let mut t = 0.0;
-    for _ in 0..warmup {
-        t += h;
-        sim.step_to(t).expect("warm-up advances");
-    }
+    let (h, mut t) = warm_up(&mut sim, warmup);
     let ci = sim
         .model()
         .expect("model")

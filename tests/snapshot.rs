@@ -3,21 +3,20 @@
 //! the scene's own method and with the implicit methods, whose Jacobian and controller memory
 //! survive the restart at each communication point and so must travel with the state.
 
+mod common;
+
+use contact_fmu::bench::output_indices;
 use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::Method;
 use contact_fmu::simulation::Simulation;
-use contact_fmu::variables::Causality;
 use std::path::{Path, PathBuf};
 
+/// Every output, as bits.
 fn outputs(sim: &mut Simulation) -> Vec<u64> {
-    let idx: Vec<usize> = sim
-        .variables()
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output)
-        .map(|(i, _)| i)
-        .collect();
-    idx.iter().map(|&i| sim.get(i).unwrap().to_bits()).collect()
+    output_indices(sim)
+        .into_iter()
+        .map(|i| sim.get(i).unwrap().to_bits())
+        .collect()
 }
 
 /// Opens `path`, with `method` instead of the scene's own when given.
@@ -78,12 +77,7 @@ fn check_scene(path: &Path, method: Option<Method>, fresh_method: Option<Method>
 }
 
 fn scenes() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu"))
-        .unwrap()
-        .map(|e| e.unwrap().path().join("scene.toml"))
-        .filter(|p| p.is_file())
-        .collect();
-    v.sort();
+    let v: Vec<PathBuf> = common::bundled_scenes().into_iter().map(|(_, p)| p).collect();
     assert!(v.len() >= 4, "expected the bundled scenes, found {}", v.len());
     v
 }
@@ -117,7 +111,7 @@ fn implicit_methods_carry_their_jacobian_in_the_state_and_continue_bit_identical
 /// refused.
 #[test]
 fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
-    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/rail_vehicle/scene.toml"));
+    let path = &common::bundled("rail_vehicle");
     let mut a = open(path, Some(Method::Sdirk));
     a.initialize(0.0).unwrap();
     for k in 1..=10 {

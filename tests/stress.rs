@@ -4,27 +4,26 @@
 //! `hertz_ln` touched at a vanishing speed. Every case must finish, or fail with a clear
 //! error where the physics cannot be described.
 
+use contact_fmu::bench::scenes::{self, BALL_MASS as M};
 use contact_fmu::bench::stress::{hertz_duration, hertz_max_penetration, steel_ball_plane_stiffness};
-use contact_fmu::bench::{record, scenes, Outcome, RunSpec};
-use contact_fmu::scene::Method;
+use contact_fmu::bench::{record, Outcome, RunSpec};
+use contact_fmu::scene::{Law, Method, Scene};
 
-const M: f64 = 0.0329;
-
-fn spec(text: String, method: Method, set: &[(&str, f64)], stop: f64, interval: f64) -> RunSpec {
-    let mut s: Vec<(String, f64)> = vec![("solver.method".into(), method as i64 as f64)];
-    s.extend(set.iter().map(|(n, v)| (n.to_string(), *v)));
-    RunSpec {
-        text,
-        origin: "stress".into(),
-        set: s,
-        stop_time: stop,
-        interval,
-    }
+fn spec(scene: &Scene, method: Method, stop: f64, interval: f64) -> RunSpec {
+    RunSpec::new(scene.clone(), "stress", stop, interval).method(method)
 }
 
 fn last(out: &Outcome, name: &str) -> f64 {
-    let c = out.traj.column(name).expect("output recorded");
-    out.traj.rows.last().expect("rows")[c]
+    out.last(name).expect("output recorded")
+}
+
+/// The run's energy balance error is below `tol`.
+fn balanced(out: &Outcome, tol: f64, what: &str) {
+    assert!(
+        out.energy_error < tol,
+        "{what}: energy balance error {}",
+        out.energy_error
+    );
 }
 
 fn finished(out: &Outcome, what: &str) {
@@ -44,19 +43,10 @@ fn hertz_impact_matches_closed_form_from_soft_to_very_stiff() {
         let tc = hertz_duration(M, v0, k);
         let stop = 1e-3 / v0 + 2.0 * tc;
         let interval = tc / 400.0;
-        let text = scenes::ball_plane(
-            "k",
-            "hertz",
-            1.0,
-            v0,
-            1e-3,
-            false,
-            stop,
-            interval,
-            &format!("stiffness = {k:e}"),
-        );
+        let mut scene = scenes::ball_plane("k", Law::Hertz, 1.0, v0, 1e-3, false, stop, interval);
+        scene.contact[0].stiffness = Some(k);
         for m in [Method::Dopri5, Method::Sdirk] {
-            let out = record(&spec(text.clone(), m, &[], stop, interval), &["ball.v[3]"]).unwrap();
+            let out = record(&spec(&scene, m, stop, interval), &["ball.v[3]"]).unwrap();
             finished(&out, &format!("K={k:e} {}", m.name()));
             let v = last(&out, "ball.v[3]");
             assert!(
@@ -71,11 +61,7 @@ fn hertz_impact_matches_closed_form_from_soft_to_very_stiff() {
                 "K={k:e}: largest penetration {} m, closed form {dmax} m",
                 out.max_penetration
             );
-            assert!(
-                out.energy_error < 1e-6,
-                "K={k:e}: energy balance error {}",
-                out.energy_error
-            );
+            balanced(&out, 1e-6, &format!("K={k:e}"));
         }
     }
 }
@@ -86,18 +72,9 @@ fn penetration_beyond_max_penetration_fails_clearly() {
     // K = 1e4 at 10 m/s: the closed-form penetration 44 mm exceeds the 10 mm radius.
     let k = 1e4;
     assert!(hertz_max_penetration(M, 10.0, k) > 0.01);
-    let text = scenes::ball_plane(
-        "deep",
-        "hertz",
-        1.0,
-        10.0,
-        1e-3,
-        false,
-        0.05,
-        1e-4,
-        &format!("stiffness = {k:e}"),
-    );
-    let out = record(&spec(text, Method::Dopri5, &[], 0.05, 1e-4), &[]).unwrap();
+    let mut scene = scenes::ball_plane("deep", Law::Hertz, 1.0, 10.0, 1e-3, false, 0.05, 1e-4);
+    scene.contact[0].stiffness = Some(k);
+    let out = record(&spec(&scene, Method::Dopri5, 0.05, 1e-4), &[]).unwrap();
     let msg = out.failure.expect("the run must fail");
     assert!(msg.contains("max_penetration"), "unclear message: {msg}");
     assert!(
@@ -116,15 +93,11 @@ fn impact_speeds_over_five_decades() {
     for v0 in [1e-3, 50.0] {
         let tc = hertz_duration(M, v0, ks);
         let stop = 1e-3 + 3.0 * tc;
-        let text = scenes::ball_plane("speed", "hertz_ln", 0.8, v0, v0 * 1e-3, false, stop, stop / 100.0, "");
-        let out = record(&spec(text, Method::Dopri5, &[], stop, stop / 100.0), &["ball.v[3]"]).unwrap();
+        let scene = scenes::ball_plane("speed", Law::HertzLn, 0.8, v0, v0 * 1e-3, false, stop, stop / 100.0);
+        let out = record(&spec(&scene, Method::Dopri5, stop, stop / 100.0), &["ball.v[3]"]).unwrap();
         finished(&out, &format!("v0={v0}"));
         assert!(out.penetration_ratio < 1.0);
-        assert!(
-            out.energy_error < 1e-5,
-            "v0={v0}: energy balance error {}",
-            out.energy_error
-        );
+        balanced(&out, 1e-5, &format!("v0={v0}"));
         ratios.push(last(&out, "ball.v[3]") / v0);
     }
     assert!((ratios[0] - ratios[1]).abs() < 1e-4, "rebound ratios {ratios:?}");
@@ -140,22 +113,19 @@ fn flores_restitution_over_the_range() {
     let tc = hertz_duration(M, 1.0, ks);
     let stop = 1e-3 + 3.0 * tc;
     for (law, e) in [
-        ("flores", 0.5),
-        ("flores", 0.8),
-        ("flores", 0.95),
-        ("hertz_ln", 1.0),
-        ("hunt_crossley", 1.0),
+        (Law::Flores, 0.5),
+        (Law::Flores, 0.8),
+        (Law::Flores, 0.95),
+        (Law::HertzLn, 1.0),
+        (Law::HuntCrossley, 1.0),
     ] {
-        let text = scenes::ball_plane("e", law, e, 1.0, 1e-3, false, stop, stop / 100.0, "");
-        let out = record(&spec(text, Method::Dopri5, &[], stop, stop / 100.0), &["ball.v[3]"]).unwrap();
+        let scene = scenes::ball_plane("e", law, e, 1.0, 1e-3, false, stop, stop / 100.0);
+        let out = record(&spec(&scene, Method::Dopri5, stop, stop / 100.0), &["ball.v[3]"]).unwrap();
+        let law = law.name();
         finished(&out, law);
         let eff = last(&out, "ball.v[3]");
         assert!((eff - e).abs() < 0.1 * e, "{law} e={e}: effective restitution {eff}");
-        assert!(
-            out.energy_error < 1e-5,
-            "{law} e={e}: energy balance error {}",
-            out.energy_error
-        );
+        balanced(&out, 1e-5, &format!("{law} e={e}"));
     }
 }
 
@@ -163,9 +133,9 @@ fn flores_restitution_over_the_range() {
 /// height whether the host steps by 0.1 ms or by the whole 0.3 s.
 #[test]
 fn result_does_not_depend_on_the_communication_step() {
-    let text = scenes::ball_plane("comm", "hertz_ln", 0.8, 0.0, 0.1, true, 0.3, 1e-3, "");
+    let scene = scenes::ball_plane("comm", Law::HertzLn, 0.8, 0.0, 0.1, true, 0.3, 1e-3);
     let z = |h: f64| {
-        let out = record(&spec(text.clone(), Method::Dopri5, &[], 0.3, h), &["ball.r[3]"]).unwrap();
+        let out = record(&spec(&scene, Method::Dopri5, 0.3, h), &["ball.r[3]"]).unwrap();
         finished(&out, "comm");
         last(&out, "ball.r[3]")
     };
@@ -183,8 +153,8 @@ fn result_does_not_depend_on_the_communication_step() {
 fn resting_contact_settles_without_chatter_or_creep() {
     let ks = steel_ball_plane_stiffness();
     let delta = (M * 9.81 / ks).powf(2.0 / 3.0);
-    let text = scenes::ball_plane("rest", "hertz_ln", 0.8, 0.0, 1e-4, true, 10.0, 0.1, "");
-    let s = spec(text, Method::Dopri5, &[], 10.0, 0.1);
+    let scene = scenes::ball_plane("rest", Law::HertzLn, 0.8, 0.0, 1e-4, true, 10.0, 0.1);
+    let s = spec(&scene, Method::Dopri5, 10.0, 0.1);
     let mut sim = contact_fmu::bench::setup(&s).unwrap();
     sim.step_to(5.0).unwrap();
     let events_half = sim.counters().events;
@@ -208,9 +178,9 @@ fn resting_contact_settles_without_chatter_or_creep() {
 fn newtons_cradle_conserves_momentum_and_energy() {
     let n = 5;
     let v0 = 0.1;
-    let text = scenes::newtons_cradle(n, v0, 1e-5, "hertz", 1.0, 3e-3);
+    let scene = scenes::newtons_cradle(n, v0, 1e-5, Law::Hertz, 1.0, 3e-3);
     for m in [Method::Dopri5, Method::Sdirk] {
-        let out = record(&spec(text.clone(), m, &[], 3e-3, 1e-5), &[]).unwrap();
+        let out = record(&spec(&scene, m, 3e-3, 1e-5), &[]).unwrap();
         finished(&out, "cradle");
         let v: Vec<f64> = (0..n).map(|i| last(&out, &format!("b{i}.v[1]"))).collect();
         let p: f64 = v.iter().sum::<f64>() * M;
@@ -233,28 +203,13 @@ fn hertz_ln_with_vanishing_impact_velocity() {
     let ks = steel_ball_plane_stiffness();
     let delta = (M * 9.81 / ks).powf(2.0 / 3.0);
     let v = 1e-8;
-    let text = scenes::ball_plane(
-        "slow",
-        "hertz_ln",
-        0.8,
-        v,
-        v * 1e-4,
-        true,
-        0.1,
-        1e-3,
-        "min_impact_velocity = 0.0",
-    );
+    let scene = scenes::slow_touch(v, 0.0);
     for m in [Method::Dopri5, Method::Sdirk] {
-        let out = record(&spec(text.clone(), m, &[], 0.1, 1e-3), &["ball.r[3]"]).unwrap();
+        let out = record(&spec(&scene, m, 0.1, 1e-3), &["ball.r[3]"]).unwrap();
         finished(&out, m.name());
         let z = last(&out, "ball.r[3]");
         assert!((z - (0.01 - delta)).abs() < 1e-12, "{}: z = {z}", m.name());
-        assert!(
-            out.energy_error < 1e-8,
-            "{}: energy balance error {}",
-            m.name(),
-            out.energy_error
-        );
+        balanced(&out, 1e-8, m.name());
     }
 }
 
@@ -263,8 +218,8 @@ fn hertz_ln_with_vanishing_impact_velocity() {
 /// 2.6 million steps for these 3 s; `bench stress` reports it.)
 #[test]
 fn resting_bar_with_redundant_loop() {
-    let text = scenes::resting_bar("hertz_ln", 0.8, 3.0, 0.1);
-    let out = record(&spec(text, Method::Dopri5, &[], 3.0, 0.1), &["pivot.q"]).unwrap();
+    let scene = scenes::resting_bar(Law::HertzLn, 0.8, 3.0, 0.1);
+    let out = record(&spec(&scene, Method::Dopri5, 3.0, 0.1), &["pivot.q"]).unwrap();
     finished(&out, "dopri5");
     assert!(out.constraint_residual < 1e-9, "|Φ| = {}", out.constraint_residual);
 }

@@ -23,6 +23,7 @@ pub mod targets;
 pub mod work_precision;
 
 use crate::model::Counters;
+use crate::scene::{Method, Scene};
 use crate::simulation::{SimError, Simulation};
 use crate::variables::{Causality, VarRef};
 use clap::Subcommand;
@@ -142,7 +143,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             write_scene,
         } => match write_scene {
             Some(p) => {
-                let text = scenes::sphere_box(n.first().copied().unwrap_or(100), time);
+                let text = scenes::sphere_box(n.first().copied().unwrap_or(100), time).to_toml();
                 std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
             }
             None => scaling::run(&n, time, repeats, &csv),
@@ -188,8 +189,8 @@ pub fn thread_cpu_seconds() -> f64 {
 /// What one scene is run with.
 #[derive(Debug, Clone)]
 pub struct RunSpec {
-    /// Scene text (TOML).
-    pub text: String,
+    /// The scene (validated by [`setup`]).
+    pub scene: Scene,
     /// Name for messages.
     pub origin: String,
     /// `NAME=VALUE` parameter settings.
@@ -198,6 +199,30 @@ pub struct RunSpec {
     pub stop_time: f64,
     /// Communication interval [s].
     pub interval: f64,
+}
+
+impl RunSpec {
+    /// A run of `scene` with its own parameters to `stop_time`, `interval` apart.
+    pub fn new(scene: Scene, origin: &str, stop_time: f64, interval: f64) -> RunSpec {
+        RunSpec {
+            scene,
+            origin: origin.to_string(),
+            set: Vec::new(),
+            stop_time,
+            interval,
+        }
+    }
+
+    /// Adds the parameter setting `name = value`.
+    pub fn with(mut self, name: &str, value: f64) -> RunSpec {
+        self.set.push((name.to_string(), value));
+        self
+    }
+
+    /// Sets `solver.method`.
+    pub fn method(self, method: Method) -> RunSpec {
+        self.with("solver.method", method as i64 as f64)
+    }
 }
 
 /// Outputs recorded at every communication point.
@@ -247,9 +272,17 @@ pub struct Outcome {
     pub seconds: f64,
 }
 
-/// Builds and initialises a simulation.
+impl Outcome {
+    /// The value of output `name` at the last communication point recorded.
+    pub fn last(&self, name: &str) -> Option<f64> {
+        Some(self.traj.rows.last()?[self.traj.column(name)?])
+    }
+}
+
+/// Validates the scene, builds and initialises a simulation.
 pub fn setup(spec: &RunSpec) -> Result<Simulation, String> {
-    let mut sim = Simulation::from_scene_str(&spec.text, &spec.origin).map_err(|e| e.to_string())?;
+    spec.scene.validate(&spec.origin).map_err(|e| e.to_string())?;
+    let mut sim = Simulation::new(spec.scene.clone(), &spec.origin);
     for (name, value) in &spec.set {
         sim.set_by_name(name, *value).map_err(|e| e.to_string())?;
     }
@@ -268,6 +301,32 @@ fn step_error(e: SimError) -> String {
     }
 }
 
+/// Steps `sim` through the communication points of `spec` (the last one at its stop time),
+/// calling `each` after every point reached. Returns the failure, if a step failed.
+fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&mut Simulation)) -> Option<String> {
+    let n = comm_points(spec.stop_time, spec.interval);
+    for k in 1..=n {
+        let t = if k == n {
+            spec.stop_time
+        } else {
+            k as f64 * spec.interval
+        };
+        if let Err(e) = sim.step_to(t) {
+            return Some(step_error(e));
+        }
+        each(sim);
+    }
+    None
+}
+
+/// Value references of the outputs of `sim`, in table order.
+pub fn output_indices(sim: &Simulation) -> Vec<usize> {
+    let vars = sim.variables();
+    (0..vars.len())
+        .filter(|&i| vars[i].causality == Causality::Output)
+        .collect()
+}
+
 /// Times `repeats` runs (setup excluded). Returns (median wall [s], median thread CPU [s],
 /// counters of the last run, failure of the last run).
 pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, Option<String>), String> {
@@ -275,23 +334,11 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
     let mut cpu = Vec::new();
     let mut counters = Counters::default();
     let mut failure = None;
-    let n = comm_points(spec.stop_time, spec.interval);
     for _ in 0..repeats.max(1) {
         let mut sim = setup(spec)?;
         let c0 = thread_cpu_seconds();
         let t0 = Instant::now();
-        failure = None;
-        for k in 1..=n {
-            let t = if k == n {
-                spec.stop_time
-            } else {
-                k as f64 * spec.interval
-            };
-            if let Err(e) = sim.step_to(t) {
-                failure = Some(step_error(e));
-                break;
-            }
-        }
+        failure = step_through(&mut sim, spec, |_| {});
         wall.push(t0.elapsed().as_secs_f64());
         cpu.push(thread_cpu_seconds() - c0);
         counters = sim.counters();
@@ -303,13 +350,10 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
 /// communication point, with the energy balance, penetrations and loop residuals.
 pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
     let mut sim = setup(spec)?;
-    let vars: Vec<(usize, String)> = sim
-        .variables()
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output)
-        .filter(|(_, v)| outputs.is_empty() || outputs.contains(&v.name.as_str()))
-        .map(|(i, v)| (i, v.name.clone()))
+    let vars: Vec<(usize, String)> = output_indices(&sim)
+        .into_iter()
+        .map(|i| (i, sim.variables()[i].name.clone()))
+        .filter(|(_, name)| outputs.is_empty() || outputs.contains(&name.as_str()))
         .collect();
     let mut traj = Trajectory {
         names: std::iter::once("time".to_string())
@@ -344,20 +388,8 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         }
     };
     sample(&mut sim, &mut out, &mut traj);
-    let n = comm_points(spec.stop_time, spec.interval);
     let t0 = Instant::now();
-    for k in 1..=n {
-        let t = if k == n {
-            spec.stop_time
-        } else {
-            k as f64 * spec.interval
-        };
-        if let Err(e) = sim.step_to(t) {
-            out.failure = Some(step_error(e));
-            break;
-        }
-        sample(&mut sim, &mut out, &mut traj);
-    }
+    out.failure = step_through(&mut sim, spec, |sim| sample(sim, &mut out, &mut traj));
     out.seconds = t0.elapsed().as_secs_f64();
     out.counters = sim.counters();
     out.traj = traj;
@@ -443,7 +475,7 @@ pub fn parse_settings(set: &[String]) -> Result<Vec<(String, f64)>, String> {
                 .split_once('=')
                 .ok_or_else(|| format!("--set {s:?}: expected NAME=VALUE"))?;
             let t = v.trim();
-            let by_name = crate::scene::Method::ALL
+            let by_name = Method::ALL
                 .iter()
                 .find(|m| m.name() == t)
                 .map(|m| *m as i64)
@@ -467,12 +499,11 @@ fn run_command(
     repeats: usize,
     csv: Option<&Path>,
 ) -> Result<(), String> {
-    let text = std::fs::read_to_string(scene).map_err(|e| format!("{}: {e}", scene.display()))?;
-    let sim = Simulation::from_scene_str(&text, &scene.display().to_string()).map_err(|e| e.to_string())?;
+    let parsed = Scene::from_file(scene).map_err(|e| e.to_string())?;
     let spec = RunSpec {
-        stop_time: stop_time.unwrap_or(sim.scene().model.stop_time),
-        interval: interval.unwrap_or(sim.scene().model.interval),
-        text,
+        stop_time: stop_time.unwrap_or(parsed.model.stop_time),
+        interval: interval.unwrap_or(parsed.model.interval),
+        scene: parsed,
         origin: scene.display().to_string(),
         set: parse_settings(set)?,
     };

@@ -2,12 +2,10 @@
 //! energy-balance error and the largest penetration against `max_penetration` are reported,
 //! with a case-specific check (effective restitution, drift, chatter, momentum).
 
-use super::{f, record, scenes, Csv, Outcome, RunSpec};
-use crate::scene::Method;
+use super::scenes::{self, BALL_MASS};
+use super::{f, record, Csv, Outcome, RunSpec};
+use crate::scene::{Law, Method, Scene};
 use std::path::Path;
-
-/// Mass of the benchmark ball [kg].
-const BALL_MASS: f64 = 0.0329;
 /// Hertz stiffness of a 10 mm steel ball on a steel plane (E = 210 GPa, ν = 0.3) [N/m^1.5].
 pub fn steel_ball_plane_stiffness() -> f64 {
     crate::contact::laws::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
@@ -41,23 +39,19 @@ pub struct Row {
     pub expected: f64,
 }
 
-fn spec(text: String, origin: &str, method: Method, set: &[(&str, f64)], stop: f64, interval: f64) -> RunSpec {
-    let mut s: Vec<(String, f64)> = vec![("solver.method".into(), method as i64 as f64)];
-    s.extend(set.iter().map(|(n, v)| (n.to_string(), *v)));
-    RunSpec {
-        text,
-        origin: origin.into(),
-        set: s,
-        stop_time: stop,
-        interval,
-    }
+fn spec(scene: &Scene, origin: &str, method: Method, stop: f64, interval: f64) -> RunSpec {
+    RunSpec::new(scene.clone(), origin, stop, interval).method(method)
 }
 
 fn last(out: &Outcome, name: &str) -> f64 {
-    match (out.traj.column(name), out.traj.rows.last()) {
-        (Some(c), Some(r)) => r[c],
-        _ => f64::NAN,
-    }
+    out.last(name).unwrap_or(f64::NAN)
+}
+
+/// Records the ball's height only; returns the run and the final height [m].
+fn height_run(spec: &RunSpec) -> Result<(Outcome, f64), String> {
+    let out = record(spec, &["ball.r[3]"])?;
+    let z = last(&out, "ball.r[3]");
+    Ok((out, z))
 }
 
 /// Effective restitution of a ball that hit the plane at `v0` without gravity.
@@ -105,21 +99,12 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
         let tc = hertz_duration(BALL_MASS, v0, k);
         let gap = 1e-3;
         let stop = gap / v0 + 2.0 * tc;
-        let text = scenes::ball_plane(
-            "stiff",
-            "hertz_ln",
-            0.8,
-            v0,
-            gap,
-            false,
-            stop,
-            stop / 200.0,
-            &format!("stiffness = {k:e}"),
-        );
+        let mut scene = scenes::ball_plane("stiff", Law::HertzLn, 0.8, v0, gap, false, stop, stop / 200.0);
+        scene.contact[0].stiffness = Some(k);
         for m in methods {
             // rk4 with a step of t_c/100 (its step is max_step).
-            let set: Vec<(&str, f64)> = vec![("solver.max_step", (tc / 100.0).min(1e-3))];
-            let out = record(&spec(text.clone(), "stiffness", m, &set, stop, stop / 200.0), &[])?;
+            let run = spec(&scene, "stiffness", m, stop, stop / 200.0).with("solver.max_step", (tc / 100.0).min(1e-3));
+            let out = record(&run, &[])?;
             let e = rebound(&out, v0);
             push(Row {
                 group: "stiffness",
@@ -135,17 +120,17 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
 
     // 2. Restitution 0.01 .. 1 for the three dissipative Hertz laws, steel, 1 m/s.
     let ks = steel_ball_plane_stiffness();
-    for law in ["hertz_ln", "flores", "hunt_crossley"] {
+    for law in [Law::HertzLn, Law::Flores, Law::HuntCrossley] {
         for e in [0.01, 0.1, 0.3, 0.5, 0.8, 0.95, 1.0] {
             let v0 = 1.0;
             let tc = hertz_duration(BALL_MASS, v0, ks);
             let stop = 1e-3 + 3.0 * tc;
-            let text = scenes::ball_plane("restitution", law, e, v0, 1e-3, false, stop, stop / 100.0, "");
-            let out = record(&spec(text, "restitution", Method::Dopri5, &[], stop, stop / 100.0), &[])?;
+            let scene = scenes::ball_plane("restitution", law, e, v0, 1e-3, false, stop, stop / 100.0);
+            let out = record(&spec(&scene, "restitution", Method::Dopri5, stop, stop / 100.0), &[])?;
             let eff = rebound(&out, v0);
             push(Row {
                 group: "restitution",
-                case: format!("{law} e={e}"),
+                case: format!("{} e={e}", law.name()),
                 method: Method::Dopri5,
                 out,
                 check: "e_eff",
@@ -160,9 +145,9 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
         let tc = hertz_duration(BALL_MASS, v0, ks);
         let gap = v0 * 1e-3;
         let stop = 1e-3 + 3.0 * tc;
-        let text = scenes::ball_plane("speed", "hertz_ln", 0.8, v0, gap, false, stop, stop / 100.0, "");
+        let scene = scenes::ball_plane("speed", Law::HertzLn, 0.8, v0, gap, false, stop, stop / 100.0);
         for m in [Method::Dopri5, Method::Sdirk] {
-            let out = record(&spec(text.clone(), "speed", m, &[], stop, stop / 100.0), &[])?;
+            let out = record(&spec(&scene, "speed", m, stop, stop / 100.0), &[])?;
             let eff = rebound(&out, v0);
             let dmax = hertz_max_penetration(BALL_MASS, v0, ks);
             push(Row {
@@ -179,16 +164,11 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
 
     // 4. Communication step 1e-6 .. 1 s: the bouncing ball for 1 s (hertz_ln e = 0.8); the
     // final height must not depend on the communication step (events are located inside).
-    let bb = scenes::ball_plane("comm", "hertz_ln", 0.8, 0.0, 0.1, true, 1.0, 1e-3, "");
-    let reference = record(
-        &spec(bb.clone(), "comm", Method::Dopri5, &[], 1.0, 1e-3),
-        &["ball.r[3]"],
-    )?;
-    let z_ref = last(&reference, "ball.r[3]");
+    let bb = scenes::ball_plane("comm", Law::HertzLn, 0.8, 0.0, 0.1, true, 1.0, 1e-3);
+    let (_, z_ref) = height_run(&spec(&bb, "comm", Method::Dopri5, 1.0, 1e-3))?;
     for h in [1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0] {
         for m in [Method::Dopri5, Method::Sdirk] {
-            let out = record(&spec(bb.clone(), "comm", m, &[], 1.0, h), &["ball.r[3]"])?;
-            let z = last(&out, "ball.r[3]");
+            let (out, z) = height_run(&spec(&bb, "comm", m, 1.0, h))?;
             push(Row {
                 group: "comm_step",
                 case: format!("h_comm={h:.0e}"),
@@ -205,19 +185,18 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
     let static_delta = (BALL_MASS * 9.81 / ks).powf(2.0 / 3.0);
     let rest_interval = 0.1;
     for m in [Method::Dopri5, Method::Sdirk] {
-        let text = scenes::ball_plane(
+        let scene = scenes::ball_plane(
             "resting",
-            "hertz_ln",
+            Law::HertzLn,
             0.8,
             0.0,
             1e-4,
             true,
             resting_time,
             rest_interval,
-            "",
         );
         let out = record(
-            &spec(text, "resting", m, &[], resting_time, rest_interval),
+            &spec(&scene, "resting", m, resting_time, rest_interval),
             &["ball.r[3]", "ball.v[3]", "floor.active"],
         )?;
         let z = last(&out, "ball.r[3]");
@@ -241,9 +220,9 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
             value: toggles,
             expected: 0.0,
         });
-        let text = scenes::resting_bar("hertz_ln", 0.8, resting_time, rest_interval);
+        let scene = scenes::resting_bar(Law::HertzLn, 0.8, resting_time, rest_interval);
         let out = record(
-            &spec(text, "resting_bar", m, &[], resting_time, rest_interval),
+            &spec(&scene, "resting_bar", m, resting_time, rest_interval),
             &["bar.r[3]", "pivot.q", "tip.active"],
         )?;
         let toggles = chatter(&out, "tip.active");
@@ -270,17 +249,18 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
 
     // 6. Newton's cradle: 5 balls, pure Hertz, 0.1 m/s; the last ball leaves with nearly v0,
     // momentum and energy are conserved.
-    for (law, e) in [("hertz", 1.0), ("hertz_ln", 0.9), ("impulse", 1.0)] {
+    for (law, e) in [(Law::Hertz, 1.0), (Law::HertzLn, 0.9), (Law::Impulse, 1.0)] {
         let n = 5;
-        let text = scenes::newtons_cradle(n, 0.1, 1e-5, law, e, 3e-3);
+        let scene = scenes::newtons_cradle(n, 0.1, 1e-5, law, e, 3e-3);
         for m in [Method::Dopri5, Method::Sdirk] {
-            let out = record(&spec(text.clone(), "cradle", m, &[], 3e-3, 1e-5), &[])?;
+            let out = record(&spec(&scene, "cradle", m, 3e-3, 1e-5), &[])?;
             let v_last = last(&out, &format!("b{}.v[1]", n - 1));
             let p: f64 = (0..n).map(|i| BALL_MASS * last(&out, &format!("b{i}.v[1]"))).sum();
             push(Row {
                 group: "cradle",
                 case: format!(
-                    "{law} e={e}: v_last/v0 (momentum err {:.1e})",
+                    "{} e={e}: v_last/v0 (momentum err {:.1e})",
+                    law.name(),
                     (p / (BALL_MASS * 0.1) - 1.0).abs()
                 ),
                 method: m,
@@ -296,20 +276,9 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
     // without the floor on δ̇⁻ (min_impact_velocity), then resting under gravity.
     for v in [1e-2, 1e-4, 1e-6, 1e-8] {
         for floor in [0.0, 1e-3] {
-            let text = scenes::ball_plane(
-                "slow",
-                "hertz_ln",
-                0.8,
-                v,
-                v * 1e-4,
-                true,
-                0.1,
-                1e-3,
-                &format!("min_impact_velocity = {floor:e}"),
-            );
+            let scene = scenes::slow_touch(v, floor);
             for m in [Method::Dopri5, Method::Sdirk] {
-                let out = record(&spec(text.clone(), "slow", m, &[], 0.1, 1e-3), &["ball.r[3]"])?;
-                let z = last(&out, "ball.r[3]");
+                let (out, z) = height_run(&spec(&scene, "slow", m, 0.1, 1e-3))?;
                 push(Row {
                     group: "slow_touch",
                     case: format!("v={v:.0e} floor={floor:.0e}"),
@@ -378,24 +347,24 @@ pub fn write_scenes(dir: &Path, resting_time: f64) -> Result<(), String> {
     let files = [
         (
             "ball_plane.toml",
-            scenes::ball_plane("ball_plane", "hertz_ln", 0.8, 1.0, 1e-3, false, 0.01, 1e-5, ""),
+            scenes::ball_plane("ball_plane", Law::HertzLn, 0.8, 1.0, 1e-3, false, 0.01, 1e-5),
         ),
         (
             "resting_ball.toml",
-            scenes::ball_plane("resting", "hertz_ln", 0.8, 0.0, 1e-4, true, resting_time, 0.1, ""),
+            scenes::ball_plane("resting", Law::HertzLn, 0.8, 0.0, 1e-4, true, resting_time, 0.1),
         ),
         (
             "resting_bar.toml",
-            scenes::resting_bar("hertz_ln", 0.8, resting_time, 0.1),
+            scenes::resting_bar(Law::HertzLn, 0.8, resting_time, 0.1),
         ),
         (
             "newtons_cradle.toml",
-            scenes::newtons_cradle(5, 0.1, 1e-5, "hertz", 1.0, 3e-3),
+            scenes::newtons_cradle(5, 0.1, 1e-5, Law::Hertz, 1.0, 3e-3),
         ),
     ];
-    for (name, text) in files {
+    for (name, scene) in files {
         let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        std::fs::write(&p, scene.to_toml()).map_err(|e| format!("{}: {e}", p.display()))?;
         println!("wrote {}", p.display());
     }
     Ok(())

@@ -69,8 +69,7 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
         println!("no {}: the rail vehicle targets are not measured", rail.display());
         return csv.write(csv_path);
     }
-    let text = std::fs::read_to_string(&rail).map_err(|e| format!("{}: {e}", rail.display()))?;
-    let scene = Scene::from_str(&text, &rail.display().to_string()).map_err(|e| e.to_string())?;
+    let scene = Scene::from_file(&rail).map_err(|e| e.to_string())?;
     // The scene as bundled, and two variants that remove the stiffness of the hertz_ln
     // damping at resting contacts (δ̇⁻ floored at min_impact_velocity = 1 mm/s): different
     // physics, each measured against its own reference.
@@ -90,23 +89,21 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
         ),
     ];
     for (variant, variant_set) in &variants {
-        let base = RunSpec {
-            text: text.clone(),
-            origin: rail.display().to_string(),
-            set: Vec::new(),
-            stop_time: scene.model.stop_time,
-            interval: scene.model.interval,
-        };
+        let base = RunSpec::new(
+            scene.clone(),
+            &rail.display().to_string(),
+            scene.model.stop_time,
+            scene.model.interval,
+        );
         let with = |method: Method, tol: f64, max_step: f64| {
             let mut s = base.clone();
             s.set.extend(variant_set.iter().cloned());
-            s.set.push(("solver.method".into(), method as i64 as f64));
-            s.set.push(("solver.max_step".into(), max_step));
+            let s = s.method(method).with("solver.max_step", max_step);
             if method != Method::Rk4 {
-                s.set.push(("solver.rtol".into(), tol));
-                s.set.push(("solver.atol".into(), tol * 1e-2));
+                s.with("solver.rtol", tol).with("solver.atol", tol * 1e-2)
+            } else {
+                s
             }
-            s
         };
         let height = ["car.r[3]"];
         let reference = record(&with(Method::Dopri5, 1e-12, scene.solver.max_step), &height)?;

@@ -163,9 +163,8 @@ pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path
         if only.is_some_and(|o| !name.contains(o)) {
             continue;
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let origin = path.display().to_string();
-        let scene = match Scene::from_str(&text, &origin) {
+        let scene = match Scene::from_file(&path) {
             Ok(s) => s,
             Err(e) => {
                 println!("{name}: skipped, the scene does not load: {e}");
@@ -173,24 +172,13 @@ pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path
             }
         };
         let ratio = scene.solver.atol / scene.solver.rtol;
-        let base = RunSpec {
-            text: text.clone(),
-            origin: origin.clone(),
-            set: Vec::new(),
-            stop_time: scene.model.stop_time,
-            interval: scene.model.interval,
-        };
+        let base = RunSpec::new(scene.clone(), &origin, scene.model.stop_time, scene.model.interval);
         let with = |method: Method, tol: f64| -> RunSpec {
-            let mut s = base.clone();
-            s.set.push(("solver.method".into(), method as i64 as f64));
+            let s = base.clone().method(method);
             match method {
-                Method::Rk4 => s.set.push(("solver.max_step".into(), tol)),
-                _ => {
-                    s.set.push(("solver.rtol".into(), tol));
-                    s.set.push(("solver.atol".into(), tol * ratio));
-                }
+                Method::Rk4 => s.with("solver.max_step", tol),
+                _ => s.with("solver.rtol", tol).with("solver.atol", tol * ratio),
             }
-            s
         };
         let positions = position_outputs(&scene);
         let pos_refs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();

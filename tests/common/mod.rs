@@ -1,0 +1,103 @@
+//! Helpers shared by the integration tests: simulations of scenes built with
+//! `contact_fmu::scene_builder`, outputs read by name, a stepping loop. Include with `mod common;`
+//! (the counting allocator of the allocation tests is separate: `common/alloc_counter.rs`).
+
+// Each test binary uses a part of these.
+#![allow(dead_code)]
+
+use contact_fmu::model::{Data, Model};
+use contact_fmu::scene::Scene;
+use contact_fmu::simulation::Simulation;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
+
+/// Name of the scenes in messages.
+pub const ORIGIN: &str = "test.toml";
+
+/// The bundled scene `fmu/<name>/scene.toml`.
+pub fn bundled(name: &str) -> PathBuf {
+    fmu_dir().join(name).join("scene.toml")
+}
+
+/// Every bundled scene: (name, path), sorted by name.
+pub fn bundled_scenes() -> Vec<(String, PathBuf)> {
+    contact_fmu::bench::bundled_scenes(&fmu_dir()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn fmu_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu")
+}
+
+/// Validates `scene` like a scene file (panics with the message if it is not valid).
+pub fn checked(scene: impl Into<Scene>) -> Scene {
+    let scene = scene.into();
+    scene.validate(ORIGIN).unwrap_or_else(|e| panic!("{e}"));
+    scene
+}
+
+/// A simulation of `scene`, not initialised (parameters may still be set).
+pub fn open(scene: impl Into<Scene>) -> Simulation {
+    Simulation::new(checked(scene), ORIGIN)
+}
+
+/// A simulation of `scene`, initialised at t = 0.
+pub fn start(scene: impl Into<Scene>) -> Simulation {
+    let mut s = open(scene);
+    s.initialize(0.0).unwrap_or_else(|e| panic!("{e}"));
+    s
+}
+
+/// The compiled model of `scene` and its data at the initial state.
+pub fn compile(scene: impl Into<Scene>) -> (Model, Data) {
+    contact_fmu::compile::compile(&checked(scene), ORIGIN).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The value of variable `name`.
+pub fn get(s: &mut Simulation, name: &str) -> f64 {
+    let vr = s.table().index_of(name).unwrap_or_else(|| panic!("no variable {name}"));
+    s.get(vr).unwrap()
+}
+
+/// The vector output `prefix[1]`, `prefix[2]`, `prefix[3]` (e.g. `ball.v`).
+pub fn vec_out(s: &mut Simulation, prefix: &str) -> Vector3<f64> {
+    Vector3::new(
+        get(s, &format!("{prefix}[1]")),
+        get(s, &format!("{prefix}[2]")),
+        get(s, &format!("{prefix}[3]")),
+    )
+}
+
+/// The orientation output `body.q[1..4]`.
+pub fn quat_out(s: &mut Simulation, body: &str) -> UnitQuaternion<f64> {
+    let q: Vec<f64> = (1..=4).map(|k| get(s, &format!("{body}.q[{k}]"))).collect();
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// Total plus dissipated energy [J]: constant when the energy balance holds.
+pub fn energy_balance(s: &mut Simulation) -> f64 {
+    get(s, "energy.total") + get(s, "energy.dissipated")
+}
+
+/// Runs `s` to `t_end` in steps of `dt`, calling `each` at every communication point
+/// (the start included).
+pub fn run(s: &mut Simulation, t_end: f64, dt: f64, mut each: impl FnMut(&mut Simulation, f64)) {
+    each(s, 0.0);
+    let n = (t_end / dt).round() as usize;
+    for k in 1..=n {
+        let t = k as f64 * dt;
+        s.step_to(t).unwrap_or_else(|e| panic!("{e}"));
+        each(s, t);
+    }
+}
+
+/// One classical Runge-Kutta step of size `h` of `ẍ = acc(x, ẋ)` from `(x, v)`: the new
+/// `(x, v)` (for scalar reference solutions written independently of the library).
+pub fn rk4_step(acc: impl Fn(f64, f64) -> f64, x: f64, v: f64, h: f64) -> (f64, f64) {
+    let (k1x, k1v) = (v, acc(x, v));
+    let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+    let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+    let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
+    let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+    let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    (xn, vn)
+}
