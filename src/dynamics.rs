@@ -288,14 +288,7 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];
         d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
     }
-    linalg::pivoted_cholesky_solve(
-        &d.schur,
-        nc,
-        &d.schur_perm,
-        d.schur_rank,
-        &mut d.lambda,
-        &mut d.work[..nc],
-    );
+    solve_schur(d, nc);
     for r in 0..nc {
         let l = d.lambda[r];
         if l != 0.0 {
@@ -304,6 +297,19 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
             }
         }
     }
+}
+
+/// Solves `(Φ_q M̄⁻¹ Φ_qᵀ) λ = λ` in place with the factorised Schur complement (dependent
+/// rows dropped).
+fn solve_schur(d: &mut Data, nc: usize) {
+    linalg::pivoted_cholesky_solve(
+        &d.schur,
+        nc,
+        &d.schur_perm,
+        d.schur_rank,
+        &mut d.lambda,
+        &mut d.work[..nc],
+    );
 }
 
 /// Forms `M̄⁻¹ Φ_qᵀ` and the Schur complement `Φ_q M̄⁻¹ Φ_qᵀ` from the factorised mass blocks
@@ -352,14 +358,7 @@ fn max_abs(v: &[f64]) -> f64 {
 fn mass_metric_correction(m: &Model, d: &mut Data, nl: usize) {
     let (nv, nc) = (m.nv, m.nc);
     d.lambda[nl..nc].iter_mut().for_each(|x| *x = 0.0);
-    linalg::pivoted_cholesky_solve(
-        &d.schur,
-        nc,
-        &d.schur_perm,
-        d.schur_rank,
-        &mut d.lambda,
-        &mut d.work[..nc],
-    );
+    solve_schur(d, nc);
     d.work2.iter_mut().for_each(|x| *x = 0.0);
     for r in 0..nc {
         let l = d.lambda[r];

@@ -30,28 +30,8 @@ enum Command {
     Simulate {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Stop time [s] (default: the scene's stop_time).
-        #[arg(long)]
-        stop_time: Option<f64>,
-        /// Communication interval [s] (default: the scene's interval).
-        #[arg(long)]
-        interval: Option<f64>,
-        /// Set a parameter or input: NAME=VALUE (repeatable).
-        #[arg(long = "set", value_name = "NAME=VALUE")]
-        set: Vec<String>,
-        /// Write the outputs at every communication point to this CSV file.
-        #[arg(long)]
-        csv: Option<PathBuf>,
-        /// Print nothing but errors.
-        #[arg(long)]
-        quiet: bool,
-        /// Write the state at the stop time to this file (a checkpoint to resume from).
-        #[arg(long, value_name = "FILE")]
-        save_state: Option<PathBuf>,
-        /// Start from a state saved with --save-state (of the same scene) instead of the
-        /// initial configuration; --stop-time must lie after its time.
-        #[arg(long, value_name = "FILE")]
-        resume: Option<PathBuf>,
+        #[command(flatten)]
+        options: RunOptions,
     },
     /// Benchmarks: work-precision, stress, scaling, targets (tables and CSV).
     Bench {
@@ -67,28 +47,7 @@ fn main() -> ExitCode {
         Some(Command::Export { scene, o }) => contact_fmu::export::export_command(&scene, o.as_deref())
             .map(|e| println!("wrote {}", e.path.display()))
             .map_err(|e| e.to_string()),
-        Some(Command::Simulate {
-            scene,
-            stop_time,
-            interval,
-            set,
-            csv,
-            quiet,
-            save_state,
-            resume,
-        }) => run::simulate_command(
-            &scene,
-            &RunOptions {
-                stop_time,
-                interval,
-                set,
-                csv,
-                quiet,
-                save_state,
-                resume,
-            },
-        )
-        .map(|_| ()),
+        Some(Command::Simulate { scene, options }) => run::simulate_command(&scene, &options).map(|_| ()),
         Some(Command::Bench { what }) => contact_fmu::bench::bench_command(what),
     };
     match result {

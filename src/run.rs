@@ -8,22 +8,39 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Options of `contact-fmu simulate`.
-#[derive(Debug, Clone, Default)]
-pub struct RunOptions {
-    /// Stop time (default: the scene's).
+/// The experiment of a native run: its stop time, communication interval and settings
+/// (the command-line arguments shared by `simulate` and `bench run`).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct Experiment {
+    /// Stop time [s] (default: the scene's stop_time).
+    #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication interval (default: the scene's).
+    /// Communication interval [s] (default: the scene's interval).
+    #[arg(long)]
     pub interval: Option<f64>,
-    /// `NAME=VALUE` settings.
+    /// Set a parameter or input: NAME=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// CSV output file.
+}
+
+/// Options of `contact-fmu simulate`.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct RunOptions {
+    /// Stop time, interval, settings.
+    #[command(flatten)]
+    pub experiment: Experiment,
+    /// Write the outputs at every communication point to this CSV file.
+    #[arg(long)]
     pub csv: Option<PathBuf>,
-    /// No progress or summary.
+    /// Print nothing but errors.
+    #[arg(long)]
     pub quiet: bool,
-    /// Checkpoint written at the stop time.
+    /// Write the state at the stop time to this file (a checkpoint to resume from).
+    #[arg(long, value_name = "FILE")]
     pub save_state: Option<PathBuf>,
-    /// Checkpoint to start from.
+    /// Start from a state saved with --save-state (of the same scene) instead of the
+    /// initial configuration; the stop time must lie after its time.
+    #[arg(long, value_name = "FILE")]
     pub resume: Option<PathBuf>,
 }
 
@@ -142,9 +159,9 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
             sim.initialize(0.0).map_err(|e| e.to_string())?;
         }
     }
-    apply_settings(&mut sim, &o.set)?;
-    let stop = o.stop_time.unwrap_or(sim.scene().model.stop_time);
-    let interval = o.interval.unwrap_or(sim.scene().model.interval);
+    apply_settings(&mut sim, &o.experiment.set)?;
+    let stop = o.experiment.stop_time.unwrap_or(sim.scene().model.stop_time);
+    let interval = o.experiment.interval.unwrap_or(sim.scene().model.interval);
     let outputs: Vec<usize> = sim
         .variables()
         .iter()

@@ -114,11 +114,7 @@ impl Simulation {
     /// parameter is checked by [`Simulation::initialize`], so that a host may set values in
     /// any order.
     pub fn set(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
-        let var = self
-            .table
-            .vars
-            .get(vr)
-            .ok_or_else(|| SimError::Variable(format!("unknown value reference {vr}")))?;
+        let var = variable(&self.table, vr)?;
         match var.causality {
             Causality::Parameter => {
                 if self.initialized {
@@ -165,11 +161,7 @@ impl Simulation {
     /// Reads a variable. Outputs and calculated parameters need a compiled engine: before
     /// initialisation one is compiled from the current parameter values (the initial state).
     pub fn get(&mut self, vr: usize) -> Result<f64, SimError> {
-        let var = self
-            .table
-            .vars
-            .get(vr)
-            .ok_or_else(|| SimError::Variable(format!("unknown value reference {vr}")))?;
+        let var = variable(&self.table, vr)?;
         match var.causality {
             Causality::Parameter | Causality::Input => Ok(self.values[vr]),
             _ => {
@@ -420,6 +412,14 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
     let first = first.min(n);
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
+}
+
+/// The variable with value reference `vr`.
+fn variable(table: &VariableTable, vr: usize) -> Result<&Variable, SimError> {
+    table
+        .vars
+        .get(vr)
+        .ok_or_else(|| SimError::Variable(format!("unknown value reference {vr}")))
 }
 
 /// Sets input `i`; the integrator restarts at the next advance (inputs are piecewise constant

@@ -54,13 +54,7 @@ impl Unpacked {
     }
 
     fn instantiate_with(&self, name: &str, guid_text: &str, uri: &str) -> fmi2Component {
-        let callbacks = fmi2CallbackFunctions {
-            logger: None,
-            allocate_memory: None,
-            free_memory: None,
-            step_finished: None,
-            component_environment: ptr::null_mut(),
-        };
+        let callbacks = fmi2CallbackFunctions::default();
         let name = CString::new(name).unwrap();
         let g = CString::new(guid_text).unwrap();
         let u = CString::new(uri).unwrap();

@@ -180,30 +180,14 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     };
     let (full, state, rest) = (dir.join("full.csv"), dir.join("ball.state"), dir.join("rest.csv"));
     let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
-    assert!(run(&["simulate", &scene, "--quiet", "--stop-time", "0.6", "--csv", &p(&full)]).0);
-    assert!(
-        run(&[
-            "simulate",
-            &scene,
-            "--quiet",
-            "--stop-time",
-            "0.25",
-            "--save-state",
-            &p(&state)
-        ])
-        .0
-    );
-    let (ok, err) = run(&[
-        "simulate",
-        &scene,
-        "--quiet",
-        "--stop-time",
-        "0.6",
-        "--resume",
-        &p(&state),
-        "--csv",
-        &p(&rest),
-    ]);
+    let simulate = |stop: &str, extra: &[&str]| {
+        let mut args = vec!["simulate", &scene, "--quiet", "--stop-time", stop];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    assert!(simulate("0.6", &["--csv", &p(&full)]).0);
+    assert!(simulate("0.25", &["--save-state", &p(&state)]).0);
+    let (ok, err) = simulate("0.6", &["--resume", &p(&state), "--csv", &p(&rest)]);
     assert!(ok, "{err}");
     let full = std::fs::read_to_string(&full).unwrap();
     let rest = std::fs::read_to_string(&rest).unwrap();
@@ -213,15 +197,7 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     let mut bytes = std::fs::read(&state).unwrap();
     bytes[40] ^= 1;
     std::fs::write(&state, bytes).unwrap();
-    let (ok, err) = run(&[
-        "simulate",
-        &scene,
-        "--quiet",
-        "--stop-time",
-        "0.6",
-        "--resume",
-        &p(&state),
-    ]);
+    let (ok, err) = simulate("0.6", &["--resume", &p(&state)]);
     assert!(!ok && err.contains("ball.state") && err.contains("checksum"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -99,15 +99,8 @@ pub enum BenchCommand {
     Run {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Stop time [s] (default: the scene's).
-        #[arg(long)]
-        stop_time: Option<f64>,
-        /// Communication interval [s] (default: the scene's).
-        #[arg(long)]
-        interval: Option<f64>,
-        /// Set a parameter: NAME=VALUE (repeatable).
-        #[arg(long = "set", value_name = "NAME=VALUE")]
-        set: Vec<String>,
+        #[command(flatten)]
+        experiment: crate::run::Experiment,
         /// Timed runs.
         #[arg(long, default_value_t = 5)]
         repeats: usize,
@@ -151,12 +144,17 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
         BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
         BenchCommand::Run {
             scene,
-            stop_time,
-            interval,
-            set,
+            experiment,
             repeats,
             csv,
-        } => run_command(&scene, stop_time, interval, &set, repeats, csv.as_deref()),
+        } => run_command(
+            &scene,
+            experiment.stop_time,
+            experiment.interval,
+            &experiment.set,
+            repeats,
+            csv.as_deref(),
+        ),
     }
 }
 

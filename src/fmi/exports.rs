@@ -888,13 +888,7 @@ mod tests {
         std::fs::write(dir.join("resources/scene.toml"), &text).unwrap();
         let uri = CString::new(format!("file://{}", dir.join("resources").display())).unwrap();
         let guid = CString::new(crate::guid::guid(&text)).unwrap();
-        let callbacks = fmi2CallbackFunctions {
-            logger: None,
-            allocate_memory: None,
-            free_memory: None,
-            step_finished: None,
-            component_environment: ptr::null_mut(),
-        };
+        let callbacks = fmi2CallbackFunctions::default();
         // SAFETY: valid strings and callbacks for the duration of the call.
         let c = unsafe {
             fmi2Instantiate(

@@ -396,12 +396,7 @@ impl Instance {
         vrs: &[fmi2ValueReference],
         mut put: impl FnMut(usize, f64),
     ) -> FmiResult {
-        if access == Access::String && !vrs.is_empty() {
-            return Err(Failure::error(format!(
-                "this model has no String variables (value reference {})",
-                vrs[0]
-            )));
-        }
+        no_strings(access, vrs)?;
         for (k, &vr) in vrs.iter().enumerate() {
             self.variable(vr, access)?;
             let x = self.sim.get(vr as usize)?;
@@ -417,12 +412,7 @@ impl Instance {
         vrs: &[fmi2ValueReference],
         value: impl Fn(usize) -> f64,
     ) -> FmiResult {
-        if access == Access::String && !vrs.is_empty() {
-            return Err(Failure::error(format!(
-                "this model has no String variables (value reference {})",
-                vrs[0]
-            )));
-        }
+        no_strings(access, vrs)?;
         for (k, &vr) in vrs.iter().enumerate() {
             let var = self.variable(vr, access)?;
             match var.causality {
@@ -542,5 +532,15 @@ impl Instance {
             self.state.name()
         ));
         Ok(())
+    }
+}
+
+/// This model has no String variables: a String access with any value reference is refused.
+fn no_strings(access: Access, vrs: &[fmi2ValueReference]) -> FmiResult {
+    match vrs.first() {
+        Some(vr) if access == Access::String => Err(Failure::error(format!(
+            "this model has no String variables (value reference {vr})"
+        ))),
+        _ => Ok(()),
     }
 }

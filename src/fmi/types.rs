@@ -104,3 +104,16 @@ pub struct fmi2CallbackFunctions {
     /// Handed back to the logger unchanged.
     pub component_environment: fmi2ComponentEnvironment,
 }
+
+impl Default for fmi2CallbackFunctions {
+    /// No callbacks at all (a host that wants no log).
+    fn default() -> Self {
+        fmi2CallbackFunctions {
+            logger: None,
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: std::ptr::null_mut(),
+        }
+    }
+}
