@@ -23,8 +23,9 @@ pub mod targets;
 pub mod work_precision;
 
 use crate::model::Counters;
+use crate::outputs::Energies;
 use crate::scene::{Method, Scene};
-use crate::simulation::{SimError, Simulation};
+use crate::simulation::{RunError, SimError, Simulation};
 use crate::variables::{Causality, VarRef};
 use clap::Subcommand;
 use std::io::Write;
@@ -288,10 +289,6 @@ pub fn setup(spec: &RunSpec) -> Result<Simulation, String> {
     Ok(sim)
 }
 
-fn comm_points(stop: f64, interval: f64) -> u64 {
-    (stop / interval - 1e-9).ceil().max(1.0) as u64
-}
-
 fn step_error(e: SimError) -> String {
     match e {
         SimError::Step { time, message } => format!("failed at t = {time}: {message}"),
@@ -302,19 +299,15 @@ fn step_error(e: SimError) -> String {
 /// Steps `sim` through the communication points of `spec` (the last one at its stop time),
 /// calling `each` after every point reached. Returns the failure, if a step failed.
 fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&mut Simulation)) -> Option<String> {
-    let n = comm_points(spec.stop_time, spec.interval);
-    for k in 1..=n {
-        let t = if k == n {
-            spec.stop_time
-        } else {
-            k as f64 * spec.interval
-        };
-        if let Err(e) = sim.step_to(t) {
-            return Some(step_error(e));
-        }
-        each(sim);
+    let result = sim.run(spec.stop_time, spec.interval, |s| {
+        each(s);
+        Ok(())
+    });
+    match result {
+        Ok(()) => None,
+        Err(RunError::Step(e)) => Some(step_error(e)),
+        Err(RunError::Setup(e)) => Some(e),
     }
-    None
 }
 
 /// Value references of the outputs of `sim`, in table order.
@@ -361,7 +354,7 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
     };
     let mut out = Outcome::default();
     let e0 = energies(&mut sim);
-    let mut scale = (e0[0] + e0[1] + e0[2]).abs().max(e0[0]);
+    let mut scale = e0.total().abs().max(e0.kinetic);
     let mut sample = |sim: &mut Simulation, out: &mut Outcome, traj: &mut Trajectory| {
         let mut row = vec![sim.time()];
         for (i, _) in &vars {
@@ -369,8 +362,8 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         }
         traj.rows.push(row);
         let e = energies(sim);
-        scale = scale.max(e[0]);
-        let balance = (e[0] + e[1] + e[2] + e[3]) - (e0[0] + e0[1] + e0[2] + e0[3]);
+        scale = scale.max(e.kinetic);
+        let balance = (e.total() + e.dissipated) - (e0.total() + e0.dissipated);
         out.energy_error = out.energy_error.max(balance.abs() / scale.max(f64::MIN_POSITIVE));
         if let Ok(r) = sim.constraint_residual() {
             out.constraint_residual = out.constraint_residual.max(r);
@@ -394,12 +387,14 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
     Ok(out)
 }
 
-/// [kinetic, potential, contact, dissipated] energies [J].
-pub fn energies(sim: &mut Simulation) -> [f64; 4] {
-    match sim.energies() {
-        Ok(e) => [e.kinetic, e.potential, e.contact, e.dissipated],
-        Err(_) => [f64::NAN; 4],
-    }
+/// The energies at the current state (NaN when the model does not compile).
+pub fn energies(sim: &mut Simulation) -> Energies {
+    sim.energies().unwrap_or(Energies {
+        kinetic: f64::NAN,
+        potential: f64::NAN,
+        contact: f64::NAN,
+        dissipated: f64::NAN,
+    })
 }
 
 /// Creates a CSV file (and its folder).
