@@ -98,8 +98,9 @@ impl Radau5 {
                     let a = h * aij;
                     for i in 0..n {
                         let row = (bi * n + i) * m + bj * n;
-                        for j in 0..n {
-                            self.lu_big[row + j] = -a * jac[i * n + j];
+                        let (dst, src) = (&mut self.lu_big[row..row + n], &jac[i * n..(i + 1) * n]);
+                        for (d, j) in dst.iter_mut().zip(src) {
+                            *d = -a * j;
                         }
                     }
                 }
