@@ -1,9 +1,11 @@
 //! The step state that every method embeds ([`StepCore`]): time and state at both ends of the
 //! last step, `f` at the current state, the step size to try next, the tolerances and the work
 //! counters, with the bookkeeping that all methods do alike (start, step size toward a limit,
-//! arrival within rounding, advance, the dense-output parameter).
+//! arrival within rounding, advance, the dense-output parameter), and the pieces of a saved
+//! integrator state that all methods share ([`StepCore::save_state`], [`StateReader`]).
 
 use super::{initial_step, IntegratorError, OdeSystem, Stats};
+use crate::scene::Method;
 
 /// Steps (and gaps to the end) below this multiple of |t| are rounding noise.
 pub const ROUNDOFF_GAP: f64 = 16.0 * f64::EPSILON;
@@ -122,6 +124,56 @@ impl StepCore {
         self.h = h.min(self.hmax);
     }
 
+    /// Numbers [`StepCore::save_state`] writes for a system of size `n`: `t`, `t_prev`, `h`,
+    /// the four counters, then `y`, `y_prev` and `f`.
+    pub fn saved_len(n: usize) -> usize {
+        7 + 3 * n
+    }
+
+    /// Appends the step state (not the settings `rtol`, `atol`, `hmax`, which come from the
+    /// construction): see [`StepCore::saved_len`].
+    pub fn save_state(&self, out: &mut Vec<f64>) {
+        let s = &self.stats;
+        out.extend_from_slice(&[self.t, self.t_prev, self.h]);
+        out.extend_from_slice(&[s.steps, s.rejected, s.rhs_evals, s.jac_evals].map(|c| c as f64));
+        out.extend_from_slice(&self.y);
+        out.extend_from_slice(&self.y_prev);
+        out.extend_from_slice(&self.f);
+    }
+
+    /// Reads and checks what [`StepCore::save_state`] wrote, without changing anything; apply
+    /// it with [`StepCore::restore`].
+    pub fn read_state<'a>(&self, r: &mut StateReader<'a>) -> Result<SavedCore<'a>, String> {
+        let n = self.y.len();
+        let [t, t_prev, h] = [r.value()?, r.value()?, r.value()?];
+        let stats = Stats {
+            steps: r.count()?,
+            rejected: r.count()?,
+            rhs_evals: r.count()?,
+            jac_evals: r.count()?,
+        };
+        Ok(SavedCore {
+            t,
+            t_prev,
+            h,
+            stats,
+            y: r.take(n)?,
+            y_prev: r.take(n)?,
+            f: r.take(n)?,
+        })
+    }
+
+    /// Sets the step state read by [`StepCore::read_state`].
+    pub fn restore(&mut self, s: &SavedCore) {
+        self.t = s.t;
+        self.t_prev = s.t_prev;
+        self.h = s.h;
+        self.stats = s.stats;
+        self.y.copy_from_slice(s.y);
+        self.y_prev.copy_from_slice(s.y_prev);
+        self.f.copy_from_slice(s.f);
+    }
+
     /// Dense output at `t` in `[t_prev, t]`: `y` after a zero-length step, otherwise
     /// `dense(s, h, out)` with `h = t − t_prev` and `s = (t − t_prev)/h`.
     pub fn interpolate(&self, t: f64, out: &mut [f64], dense: impl FnOnce(f64, f64, &mut [f64])) {
@@ -131,5 +183,142 @@ impl StepCore {
             return;
         }
         dense((t - self.t_prev) / h, h, out);
+    }
+}
+
+/// A [`StepCore`] as read back from a saved state (checked, not yet applied).
+#[derive(Debug, Clone, Copy)]
+pub struct SavedCore<'a> {
+    t: f64,
+    t_prev: f64,
+    h: f64,
+    stats: Stats,
+    y: &'a [f64],
+    y_prev: &'a [f64],
+    f: &'a [f64],
+}
+
+/// Largest counter value that an `f64` holds exactly (2⁵³).
+const MAX_EXACT_COUNT: f64 = 9_007_199_254_740_992.0;
+
+/// Reads a saved integrator state front to back (see [`super::Integrator::load_state`]), so
+/// that a method checks all of it before it changes anything: the first number is the
+/// method's enumeration value (`solver.method`), then each part takes its numbers in the
+/// order they were written, and [`StateReader::finish`] refuses numbers left over.
+#[derive(Debug)]
+pub struct StateReader<'a> {
+    v: &'a [f64],
+    pos: usize,
+    method: Method,
+}
+
+impl<'a> StateReader<'a> {
+    /// Starts reading a state of `method`: checks the leading tag.
+    pub fn new(v: &'a [f64], method: Method) -> Result<StateReader<'a>, String> {
+        let tag = state_tag(method);
+        match v.first() {
+            Some(&x) if x == tag => Ok(StateReader { v, pos: 1, method }),
+            Some(&x) => Err(format!(
+                "the integrator state is not one of {} (it begins with {x}, not {tag})",
+                method.name()
+            )),
+            None => Err(format!("the {} integrator state is empty", method.name())),
+        }
+    }
+
+    /// The next `k` numbers.
+    pub fn take(&mut self, k: usize) -> Result<&'a [f64], String> {
+        let end = self.pos.checked_add(k).filter(|&e| e <= self.v.len()).ok_or_else(|| {
+            format!(
+                "the {} integrator state ends early: {} numbers, not a state of this method and model",
+                self.method.name(),
+                self.v.len()
+            )
+        })?;
+        let s = &self.v[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+
+    /// The next number.
+    pub fn value(&mut self) -> Result<f64, String> {
+        Ok(self.take(1)?[0])
+    }
+
+    /// The next number as a flag: 0 or 1.
+    pub fn flag(&mut self) -> Result<bool, String> {
+        match self.value()? {
+            0.0 => Ok(false),
+            1.0 => Ok(true),
+            x => Err(format!(
+                "the {} integrator state holds {x} at {} where a flag (0 or 1) belongs",
+                self.method.name(),
+                self.pos - 1
+            )),
+        }
+    }
+
+    /// The next number as a counter: a whole number in [0, 2⁵³].
+    pub fn count(&mut self) -> Result<u64, String> {
+        let x = self.value()?;
+        if (0.0..=MAX_EXACT_COUNT).contains(&x) && x.fract() == 0.0 {
+            Ok(x as u64)
+        } else {
+            Err(format!(
+                "the {} integrator state holds {x} at {} where a counter belongs",
+                self.method.name(),
+                self.pos - 1
+            ))
+        }
+    }
+
+    /// The next number as a step size: finite and not negative.
+    pub fn step_size(&mut self) -> Result<f64, String> {
+        let x = self.value()?;
+        if x.is_finite() && x >= 0.0 {
+            Ok(x)
+        } else {
+            Err(format!(
+                "the {} integrator state holds {x} at {} where a step size belongs",
+                self.method.name(),
+                self.pos - 1
+            ))
+        }
+    }
+
+    /// Ends reading: the whole state was read.
+    pub fn finish(self) -> Result<(), String> {
+        if self.pos == self.v.len() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the {} integrator state has {} numbers, {} more than a state of this method and model",
+                self.method.name(),
+                self.v.len(),
+                self.v.len() - self.pos
+            ))
+        }
+    }
+}
+
+/// The first number of a saved state of `method`: its enumeration value (`solver.method`).
+pub fn state_tag(method: Method) -> f64 {
+    method as i64 as f64
+}
+
+/// Appends vectors one after the other (dense-output coefficients).
+pub fn save_blocks(blocks: &[Vec<f64>], out: &mut Vec<f64>) {
+    for b in blocks {
+        out.extend_from_slice(b);
+    }
+}
+
+/// Copies `v`, as written by [`save_blocks`], back into vectors of the same lengths.
+pub fn restore_blocks(blocks: &mut [Vec<f64>], v: &[f64]) {
+    let mut pos = 0;
+    for b in blocks {
+        let end = pos + b.len();
+        b.copy_from_slice(&v[pos..end]);
+        pos = end;
     }
 }

@@ -1,7 +1,8 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::core::StepCore;
+use super::core::{restore_blocks, save_blocks, state_tag, StateReader, StepCore};
 use super::{error_norm, Integrator, IntegratorError, OdeSystem};
+use crate::scene::Method;
 
 const C2: f64 = 1.0 / 5.0;
 const C3: f64 = 3.0 / 10.0;
@@ -173,6 +174,29 @@ impl Integrator for Dopri5 {
             rejected_before = true;
             core.h = h / (fac11 / 0.9).min(5.0);
         }
+    }
+
+    /// Tag, [`StepCore::save_state`], the PI controller's last error, the four dense-output
+    /// coefficient vectors: `9 + 7n` numbers. The stages are not written: each step computes
+    /// them afresh before it reads them (the FSAL stage `k₁` is `core.f`).
+    fn save_state(&self, out: &mut Vec<f64>) {
+        out.push(state_tag(Method::Dopri5));
+        self.core.save_state(out);
+        out.push(self.err_old);
+        save_blocks(&self.cont, out);
+    }
+
+    fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let n = self.core.y.len();
+        let mut r = StateReader::new(v, Method::Dopri5)?;
+        let core = self.core.read_state(&mut r)?;
+        let err_old = r.value()?;
+        let cont = r.take(4 * n)?;
+        r.finish()?;
+        self.core.restore(&core);
+        self.err_old = err_old;
+        restore_blocks(&mut self.cont, cont);
+        Ok(())
     }
 
     fn interpolate(&self, t: f64, out: &mut [f64]) {

@@ -18,7 +18,7 @@ pub mod radau;
 pub mod rk4;
 pub mod sdirk;
 
-pub use self::core::StepCore;
+pub use self::core::{StateReader, StepCore};
 use crate::scene::{Method, SolverSection};
 
 /// A first-order system `y' = f(t, y)`.
@@ -91,6 +91,18 @@ pub trait Integrator {
     fn set_stats(&mut self, s: Stats) {
         self.core_mut().stats = s;
     }
+    /// Appends everything the method needs to go on exactly as it would have: its last step
+    /// (t_prev, t, states, f, dense-output coefficients), the step size to try, controller and
+    /// Newton memory (Jacobian, the factorisation's step size, rate memory, flags...), counters.
+    ///
+    /// Layout: the method's enumeration value (`solver.method`) as a tag,
+    /// [`StepCore::save_state`], then the method's own part (see each method and
+    /// docs/integrators.md). Settings given at construction (tolerances, largest step) are not
+    /// written: the state is for an integrator created with the same settings.
+    fn save_state(&self, out: &mut Vec<f64>);
+    /// Restores what `save_state` wrote, for the same method and system size. Checks the length
+    /// (and that flags are 0/1 etc.) before changing anything; on an error nothing changed.
+    fn load_state(&mut self, v: &[f64]) -> Result<(), String>;
     /// Restarts at `(t, y)` where the right-hand side did not change (a communication point
     /// without an event). Like [`Integrator::reset`], but an implicit method keeps its memory
     /// (Jacobian, Newton and step-size controller history). What it keeps is exactly what
@@ -253,6 +265,31 @@ pub(crate) mod test_problems {
             let b = v0 + w * a;
             let e = (-w * t).exp();
             [x_eq + (a + b * t) * e, (b - w * (a + b * t)) * e]
+        }
+    }
+
+    /// Van der Pol in relaxation form `y₀' = y₁`, `y₁' = ((1 − y₀²) y₁ − y₀)/ε`: stiff for small
+    /// ε, and nonlinear, so that an implicit method's Jacobian goes stale (slow Newton
+    /// contraction near the fast jumps) and is refreshed.
+    pub struct VanDerPol {
+        pub eps: f64,
+    }
+    impl OdeSystem for VanDerPol {
+        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = y[1];
+            dy[1] = ((1.0 - y[0] * y[0]) * y[1] - y[0]) / self.eps;
+        }
+    }
+
+    /// `y' = −λ (y + y³ − 2 sin t)`: stiff for λ ≫ 1, near the slow solution `y + y³ = 2 sin t`,
+    /// where the Jacobian `−λ(1 + 3y²)` drifts by a factor of up to 4 (so that an implicit
+    /// method's Newton iteration slows down and its Jacobian goes stale).
+    pub struct StiffCubic {
+        pub lambda: f64,
+    }
+    impl OdeSystem for StiffCubic {
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = -self.lambda * (y[0] + y[0] * y[0] * y[0] - 2.0 * t.sin());
         }
     }
 
@@ -486,5 +523,478 @@ mod tests {
             m.stats().jac_evals > j0,
             "a big Jacobian is recomputed after a warm restart"
         );
+    }
+
+    /// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// How far one step may go: `Far` (a limit far beyond, the step is not cut), `Near(f)`
+    /// (`t + f·next_step`: cut or stretched when f < 1.01), `Here` (`t` itself: a
+    /// zero-length arrival).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    enum Limit {
+        Far,
+        Near(f64),
+        Here,
+    }
+
+    /// A fixed sequence of limits for `steps` steps: mostly far, some near, a few zero-length.
+    fn limits(seed: u64, steps: usize) -> Vec<Limit> {
+        let mut rng = Rng(seed);
+        (0..steps)
+            .map(|_| {
+                let (u, f) = (rng.next(), rng.next());
+                if u < 0.7 {
+                    Limit::Far
+                } else if u < 0.92 {
+                    Limit::Near(0.05 + 1.2 * f)
+                } else {
+                    Limit::Here
+                }
+            })
+            .collect()
+    }
+
+    /// The `t_max` of a step of `m` under `limit` (a function of the state only, so equal for
+    /// integrators in equal states).
+    fn t_max(m: &dyn Integrator, limit: Limit) -> f64 {
+        match limit {
+            Limit::Far => m.t() + 1e6,
+            Limit::Near(f) => m.t() + f * m.next_step(),
+            Limit::Here => m.t(),
+        }
+    }
+
+    /// Bits of a slice (so that NaNs compare too).
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// Everything observable of `a` and `b` is identical to the bit: `t`, `t_prev`, `y`,
+    /// `next_step`, counters, and the dense output at points inside the last step and at its ends.
+    fn assert_same(a: &dyn Integrator, b: &dyn Integrator, what: &str) {
+        assert_eq!(a.t().to_bits(), b.t().to_bits(), "{what}: t {} vs {}", a.t(), b.t());
+        assert_eq!(a.t_prev().to_bits(), b.t_prev().to_bits(), "{what}: t_prev");
+        assert_eq!(bits(a.y()), bits(b.y()), "{what}: y {:?} vs {:?}", a.y(), b.y());
+        assert_eq!(a.next_step().to_bits(), b.next_step().to_bits(), "{what}: next step");
+        assert_eq!(a.stats(), b.stats(), "{what}: counters");
+        let n = a.y().len();
+        let (mut oa, mut ob) = (vec![0.0; n], vec![0.0; n]);
+        let (t0, t1) = (a.t_prev(), a.t());
+        for s in [0.0, 0.013, 0.25, 0.5, 0.618, 0.9, 0.999, 1.0] {
+            let t = t0 + s * (t1 - t0);
+            a.interpolate(t, &mut oa);
+            b.interpolate(t, &mut ob);
+            assert_eq!(bits(&oa), bits(&ob), "{what}: dense output at θ = {s}");
+        }
+    }
+
+    /// One step of each under the same limit: the same result and the same state after it.
+    fn step_all(ms: &mut [Box<dyn Integrator + Send>], sys: &mut dyn OdeSystem, limit: Limit, what: &str) {
+        let tm = t_max(ms[0].as_ref(), limit);
+        let results: Vec<_> = ms.iter_mut().map(|m| m.step(sys, tm)).collect();
+        for (m, r) in ms.iter().zip(&results).skip(1) {
+            assert_eq!(r, &results[0], "{what}: step result");
+            assert_same(ms[0].as_ref(), m.as_ref(), what);
+        }
+    }
+
+    /// A problem for the save/load tests: system, start, solver settings, which methods.
+    struct Case {
+        name: &'static str,
+        sys: Box<dyn OdeSystem>,
+        y0: Vec<f64>,
+        s: SolverSection,
+        implicit_only: bool,
+        seed: u64,
+    }
+
+    fn cases() -> Vec<Case> {
+        let case = |name, sys: Box<dyn OdeSystem>, y0: &[f64], rtol, atol, max_step, implicit_only, seed| Case {
+            name,
+            sys,
+            y0: y0.to_vec(),
+            s: SolverSection {
+                method: Method::Dopri5,
+                rtol,
+                atol,
+                max_step,
+            },
+            implicit_only,
+            seed,
+        };
+        vec![
+            case(
+                "growth",
+                Box::new(Growth),
+                &Growth::exact(0.0),
+                1e-6,
+                1e-8,
+                0.05,
+                false,
+                1,
+            ),
+            case(
+                "smooth",
+                Box::new(Smooth),
+                &Smooth::exact(0.0),
+                1e-9,
+                1e-10,
+                0.1,
+                false,
+                2,
+            ),
+            case(
+                "soft spring",
+                Box::new(SpringDamper { omega: 10.0, g: 9.81 }),
+                &[0.0, -1.0],
+                1e-7,
+                1e-9,
+                1e-2,
+                false,
+                3,
+            ),
+            // stiff: dopri5 sits at its stability limit (rejections); the implicit methods
+            // keep one Jacobian
+            case(
+                "prothero-robinson",
+                Box::new(ProtheroRobinson { lambda: -1e5 }),
+                &[0.0],
+                1e-6,
+                1e-6,
+                0.5,
+                true,
+                4,
+            ),
+            case(
+                "stiff spring",
+                Box::new(SpringDamper { omega: 1e4, g: 9.81 }),
+                &[0.0, -1.0],
+                1e-8,
+                1e-10,
+                1e-2,
+                true,
+                5,
+            ),
+            // stiff and nonlinear: stale Jacobians, refreshes, Newton failures, rejections
+            case(
+                "van der pol",
+                Box::new(VanDerPol { eps: 1e-3 }),
+                &[2.0, -0.66],
+                1e-6,
+                1e-6,
+                0.1,
+                true,
+                6,
+            ),
+            case(
+                "stiff cubic",
+                Box::new(StiffCubic { lambda: 1e4 }),
+                &[0.0],
+                1e-5,
+                1e-7,
+                0.5,
+                true,
+                7,
+            ),
+            // loose: Newton converges slowly yet accepts, so the Jacobian goes stale
+            case(
+                "cubic, loose",
+                Box::new(StiffCubic { lambda: 1e2 }),
+                &[0.0],
+                1e-3,
+                1e-5,
+                0.05,
+                true,
+                8,
+            ),
+        ]
+    }
+
+    fn is_implicit(method: Method) -> bool {
+        matches!(method, Method::Sdirk | Method::Radau5)
+    }
+
+    /// Where the Newton part of an implicit method's saved state begins (system size `n`).
+    fn newton_offset(n: usize) -> usize {
+        1 + StepCore::saved_len(n) + 3 * n
+    }
+
+    /// Length of a saved state of `method` for size `n` (implicit: with the Jacobian when
+    /// `with_jac`).
+    fn saved_len(method: Method, n: usize, with_jac: bool) -> usize {
+        match method {
+            Method::Dopri5 => 9 + 7 * n,
+            Method::Rk4 => 8 + 4 * n,
+            Method::Sdirk | Method::Radau5 => 15 + 6 * n + if with_jac { n * n } else { 0 },
+        }
+    }
+
+    /// Steps of the first run before a save point (at most), and steps compared after it.
+    const BEFORE: usize = 300;
+    const AFTER: usize = 200;
+
+    /// Runs `m` from the case's start through `limits`.
+    fn run_steps(m: &mut dyn Integrator, c: &mut Case, limits: &[Limit]) {
+        m.reset(c.sys.as_mut(), 0.0, &c.y0, 0.0);
+        for &l in limits {
+            let tm = t_max(m, l);
+            let _ = m.step(c.sys.as_mut(), tm);
+        }
+    }
+
+    /// A state saved after k steps and loaded into a fresh integrator (and into one with
+    /// another history) continues bit for bit like the uninterrupted run: dense output inside
+    /// the last step, then 200 more steps (results, t, y, next step, counters, dense output,
+    /// and in the end the whole saved state). The save points are pseudo-random, plus the
+    /// first ones after a cut step, after a zero-length arrival, with a stale Jacobian (the
+    /// next step refreshes it) and with a fresh one.
+    #[test]
+    fn a_loaded_state_continues_bit_for_bit() {
+        // (stale J saved, fresh J saved, J refreshed after the load, LU refactored on load,
+        // rejections after the load) seen per implicit method
+        let mut seen = std::collections::BTreeMap::new();
+        for mut c in cases() {
+            for method in Method::ALL {
+                if c.implicit_only && method == Method::Rk4 {
+                    continue;
+                }
+                let s = SolverSection { method, ..c.s };
+                let n = c.y0.len();
+                let lim = limits(c.seed * 16 + method as u64, BEFORE + AFTER);
+                // scout: the state after every step
+                let mut scout = create(&s, n);
+                scout.reset(c.sys.as_mut(), 0.0, &c.y0, 0.0);
+                let mut states = Vec::new();
+                for &l in &lim[..BEFORE] {
+                    let mut w = Vec::new();
+                    scout.save_state(&mut w);
+                    states.push(w);
+                    let tm = t_max(scout.as_ref(), l);
+                    let _ = scout.step(c.sys.as_mut(), tm);
+                }
+                let mut rng = Rng(c.seed * 1000 + method as u64);
+                let mut ks = vec![0, 1];
+                ks.extend((0..4).map(|_| 2 + (rng.next() * (BEFORE - 2) as f64) as usize));
+                let first = |p: &dyn Fn(usize) -> bool| (1..BEFORE).find(|&k| p(k));
+                ks.extend(first(&|k| matches!(lim[k - 1], Limit::Near(f) if f < 1.0)));
+                ks.extend(first(&|k| matches!(lim[k - 1], Limit::Here)));
+                let mut stale = None;
+                if is_implicit(method) {
+                    let o = newton_offset(n);
+                    stale = first(&|k| states[k][o + 3] == 1.0);
+                    ks.extend(stale);
+                    ks.extend(first(&|k| states[k][o + 5] == 1.0));
+                }
+                ks.sort_unstable();
+                ks.dedup();
+                // save points: the first k limits, and with a stale Jacobian also a zero-length
+                // arrival after them (which evaluates the Jacobian: a fresh one is saved)
+                let mut prefixes: Vec<Vec<Limit>> = ks.iter().map(|&k| lim[..k].to_vec()).collect();
+                prefixes.extend(stale.map(|k| [&lim[..k], &[Limit::Here][..]].concat()));
+                let mut stale = None;
+                if is_implicit(method) {
+                    let o = newton_offset(n);
+                    stale = first(&|k| states[k][o + 3] == 1.0);
+                    ks.extend(stale);
+                    ks.extend(first(&|k| states[k][o + 5] == 1.0));
+                }
+                ks.sort_unstable();
+                ks.dedup();
+                // save points: the first k limits, and with a stale Jacobian also a zero-length
+                // arrival after them (which evaluates the Jacobian: a fresh one is saved)
+                let mut prefixes: Vec<Vec<Limit>> = ks.iter().map(|&k| lim[..k].to_vec()).collect();
+                prefixes.extend(stale.map(|k| [&lim[..k], &[Limit::Here][..]].concat()));
+                if std::env::var("DIAG").is_ok() && is_implicit(method) {
+                    let o = newton_offset(n);
+                    eprintln!(
+                        "{method:?} {}: stale {} fresh {} valid {} t {} {:?}",
+                        c.name,
+                        states.iter().filter(|w| w[o + 3] == 1.0).count(),
+                        states.iter().filter(|w| w[o + 5] == 1.0).count(),
+                        states.iter().filter(|w| w[o + 4] == 1.0).count(),
+                        scout.t(),
+                        scout.stats()
+                    );
+                }
+                for prefix in prefixes {
+                    let k = prefix.len();
+                    let what = format!("{method:?} on {} saved after {k} steps", c.name);
+                    let mut a = create(&s, n);
+                    run_steps(a.as_mut(), &mut c, &prefix);
+                    let mut w = Vec::new();
+                    a.save_state(&mut w);
+                    if prefix[..] == lim[..k] {
+                        assert_eq!(bits(&w), bits(&states[k]), "{what}: the run is deterministic");
+                    }
+                    let with_jac = is_implicit(method) && w[newton_offset(n) + 4] == 1.0;
+                    assert_eq!(w.len(), saved_len(method, n, with_jac), "{what}: length");
+                    // b: fresh; other: with another history (a Jacobian, LU factors,
+                    // stages and scratch of its own) before the load
+                    let mut b = create(&s, n);
+                    b.load_state(&w).unwrap_or_else(|e| panic!("{what}: {e}"));
+                    let mut other = create(&s, n);
+                    let y_other: Vec<f64> = c.y0.iter().map(|v| 0.5 * v + 0.25).collect();
+                    other.reset(c.sys.as_mut(), 0.3, &y_other, 0.0);
+                    for &l in &lim[BEFORE - 30..BEFORE] {
+                        let tm = t_max(other.as_ref(), l);
+                        let _ = other.step(c.sys.as_mut(), tm);
+                    }
+                    other.load_state(&w).unwrap_or_else(|e| panic!("{what}: {e}"));
+                    for m in [&b, &other] {
+                        let mut w2 = Vec::new();
+                        m.save_state(&mut w2);
+                        assert_eq!(bits(&w2), bits(&w), "{what}: saved again after the load");
+                        assert_same(a.as_ref(), m.as_ref(), &what);
+                    }
+                    let mut ms = [a, b, other];
+                    if is_implicit(method) {
+                        let o = newton_offset(n);
+                        let e = seen.entry(method.name()).or_insert([false; 5]);
+                        e[0] |= w[o + 3] == 1.0;
+                        e[1] |= w[o + 5] == 1.0;
+                        e[3] |= w[o + 6] != 0.0;
+                    }
+                    let stats0 = ms[0].stats();
+                    for (i, &l) in lim[BEFORE..].iter().enumerate() {
+                        step_all(&mut ms, c.sys.as_mut(), l, &format!("{what}, step {} after", i + 1));
+                    }
+                    let saved: Vec<Vec<u64>> = ms
+                        .iter()
+                        .map(|m| {
+                            let mut w = Vec::new();
+                            m.save_state(&mut w);
+                            bits(&w)
+                        })
+                        .collect();
+                    assert!(
+                        saved.iter().all(|w| *w == saved[0]),
+                        "{what}: saved states after {AFTER} more steps"
+                    );
+                    if is_implicit(method) {
+                        let e = seen.entry(method.name()).or_insert([false; 5]);
+                        e[2] |= ms[0].stats().jac_evals > stats0.jac_evals;
+                        e[4] |= ms[0].stats().rejected > stats0.rejected;
+                    }
+                }
+            }
+        }
+        for method in ["sdirk", "radau5"] {
+            assert_eq!(
+                seen[method],
+                [true; 5],
+                "{method}: (stale J saved, fresh J saved, J refreshed after a load, LU refactored on load, rejections after a load)"
+            );
+        }
+    }
+
+    /// A malformed state (truncated, lengthened, of another method or size, a flag that is
+    /// not 0 or 1, a counter that is not a whole number, a bad factorisation step size) is
+    /// refused, and the integrator is left as it was: it saves the same state and continues
+    /// bit for bit like the run it was loaded from.
+    #[test]
+    fn a_malformed_state_is_refused_and_changes_nothing() {
+        for mut c in cases() {
+            if !matches!(c.name, "smooth" | "van der pol" | "stiff cubic") {
+                continue;
+            }
+            for method in Method::ALL {
+                if c.implicit_only && method == Method::Rk4 {
+                    continue;
+                }
+                let s = SolverSection { method, ..c.s };
+                let n = c.y0.len();
+                let what = format!("{method:?} on {}", c.name);
+                let lim = limits(c.seed * 16 + method as u64, 90 + AFTER);
+                let mut a = create(&s, n);
+                run_steps(a.as_mut(), &mut c, &lim[..40]);
+                let (mut s1, mut s2) = (Vec::new(), Vec::new());
+                a.save_state(&mut s1);
+                let mut a2 = create(&s, n);
+                run_steps(a2.as_mut(), &mut c, &lim[..90]);
+                a2.save_state(&mut s2);
+                let mut bad: Vec<(String, Vec<f64>)> = vec![
+                    ("empty".into(), vec![]),
+                    ("tag only".into(), s2[..1].to_vec()),
+                    ("one short".into(), s2[..s2.len() - 1].to_vec()),
+                    ("n short".into(), s2[..s2.len() - n].to_vec()),
+                    ("one more".into(), [&s2[..], &[0.0]].concat()),
+                    ("n more".into(), [&s2[..], &s2[1..=n]].concat()),
+                ];
+                let mut with = |name: String, i: usize, x: f64| {
+                    let mut v = s2.clone();
+                    v[i] = x;
+                    bad.push((name, v));
+                };
+                for m in Method::ALL.into_iter().filter(|&m| m != method) {
+                    with(format!("tag of {m:?}"), 0, m as i64 as f64);
+                }
+                with("tag NaN".into(), 0, f64::NAN);
+                // counters: after the tag and t, t_prev, h
+                for i in 4..8 {
+                    for x in [-1.0, 0.5, f64::NAN, f64::INFINITY, 2f64.powi(60)] {
+                        with(format!("counter {i} = {x}"), i, x);
+                    }
+                }
+                if is_implicit(method) {
+                    let o = newton_offset(n);
+                    let jac_valid = s2[o + 4] == 1.0;
+                    assert_eq!(jac_valid, c.name != "smooth", "{what}: a Jacobian is held");
+                    for i in o + 3..o + 6 {
+                        for x in [2.0, -1.0, 0.5, f64::NAN] {
+                            with(format!("flag {i} = {x}"), i, x);
+                        }
+                    }
+                    // a Jacobian announced and missing, or not announced and present
+                    with("jac_valid flipped".into(), o + 4, if jac_valid { 0.0 } else { 1.0 });
+                    for x in [-1e-3, f64::NAN, f64::INFINITY] {
+                        with(format!("LU step size {x}"), o + 6, x);
+                    }
+                    let mut warm = Vec::new();
+                    a2.warm_state(&mut warm);
+                    bad.push(("a warm state".into(), warm));
+                }
+                // the same method for another system size
+                struct Rest;
+                impl OdeSystem for Rest {
+                    fn rhs(&mut self, _t: f64, _y: &[f64], dy: &mut [f64]) {
+                        dy.fill(0.0);
+                    }
+                }
+                let mut other_size = create(&s, n + 1);
+                other_size.reset(&mut Rest, 0.0, &vec![1.0; n + 1], 0.0);
+                let mut w = Vec::new();
+                other_size.save_state(&mut w);
+                bad.push(("system size n + 1".into(), w));
+
+                let mut b = create(&s, n);
+                b.load_state(&s1).unwrap();
+                for (name, v) in &bad {
+                    let e = b.load_state(v);
+                    assert!(e.is_err(), "{what}: {name} was accepted");
+                    let mut w = Vec::new();
+                    b.save_state(&mut w);
+                    assert_eq!(bits(&w), bits(&s1), "{what}: refusing {name} changed the integrator");
+                }
+                assert!(bad.len() > 25, "{what}: {} malformed states", bad.len());
+                let mut ms = [a, b];
+                assert_same(ms[0].as_ref(), ms[1].as_ref(), &what);
+                for (i, &l) in lim[90..].iter().enumerate() {
+                    step_all(&mut ms, c.sys.as_mut(), l, &format!("{what}, step {} after", i + 1));
+                }
+                // and the good state still loads
+                ms[1].load_state(&s2).unwrap();
+                assert_same(a2.as_ref(), ms[1].as_ref(), &what);
+            }
+        }
     }
 }

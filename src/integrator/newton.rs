@@ -10,10 +10,15 @@
 //! - After a reset (a restart after a discontinuity) the iteration begins with `J = 0`
 //!   (functional iteration), so that a non-stiff phase costs no Jacobian at all; a plain
 //!   [`Integrator::restart`] keeps `J` and the controller memory.
+//! - [`Integrator::save_state`] writes the step state, the dense output and all of the
+//!   Newton state ([`NewtonCore::save_state`]); the LU factors are not written but factored
+//!   again on load, from the same Jacobian and step size by the same code, hence to the same
+//!   bits.
 
-use super::core::StepCore;
+use super::core::{restore_blocks, save_blocks, StateReader, StepCore};
 use super::{Integrator, IntegratorError, OdeSystem, WARM_JACOBIAN_MAX};
 use crate::linalg;
+use crate::scene::Method;
 
 /// Most Newton iterations per solve.
 const MAX_NEWTON: usize = 7;
@@ -111,6 +116,20 @@ impl WarmMemory {
     }
 }
 
+/// Numbers [`NewtonCore::save_state`] writes before the Jacobian: `h_acc`, `err_acc`, `eta`,
+/// `jac_stale`, `jac_valid`, `jac_fresh`, the step size of the factorisation.
+pub const SAVED_NEWTON_HEADER: usize = 7;
+
+/// A [`NewtonCore`] as read back from a saved state (checked, not yet applied).
+#[derive(Debug, Clone, Copy)]
+pub struct SavedNewton<'a> {
+    mem: WarmMemory,
+    jac_fresh: bool,
+    lu_h: f64,
+    /// The Jacobian, when one is held (`mem.jac_valid`).
+    jac: Option<&'a [f64]>,
+}
+
 /// Jacobian, Newton and controller state of an implicit method for a system of size `n`.
 #[derive(Debug, Clone)]
 pub struct NewtonCore {
@@ -151,6 +170,65 @@ impl NewtonCore {
     /// System size.
     fn n(&self) -> usize {
         self.f0.len()
+    }
+
+    /// Appends the Newton state: the [`SAVED_NEWTON_HEADER`] numbers, then the row-major
+    /// Jacobian (n²) when one is held. Without one (`jac_valid` = 0) the Jacobian is all
+    /// zeros (functional iteration: [`NewtonCore::new`], `drop_jacobian`, a cold warm state)
+    /// and is not written. The settings `newton_tol` and `max_newton` come from the
+    /// construction; the LU factors are left to the method (they are a function of the
+    /// Jacobian and the step size written here: see [`ImplicitMethod::factor`]).
+    pub fn save_state(&self, out: &mut Vec<f64>) {
+        let m = &self.mem;
+        let flag = |b: bool| b as u8 as f64;
+        out.extend_from_slice(&[
+            m.h_acc,
+            m.err_acc,
+            m.eta,
+            flag(m.jac_stale),
+            flag(m.jac_valid),
+            flag(self.jac_fresh),
+            self.lu_h,
+        ]);
+        if m.jac_valid {
+            out.extend_from_slice(&self.jac);
+        }
+    }
+
+    /// Reads and checks what [`NewtonCore::save_state`] wrote, without changing anything;
+    /// apply it with [`NewtonCore::restore`].
+    pub fn read_state<'a>(&self, r: &mut StateReader<'a>) -> Result<SavedNewton<'a>, String> {
+        let n = self.n();
+        let [h_acc, err_acc, eta] = [r.value()?, r.value()?, r.value()?];
+        let [jac_stale, jac_valid, jac_fresh] = [r.flag()?, r.flag()?, r.flag()?];
+        let lu_h = r.step_size()?;
+        let jac = if jac_valid { Some(r.take(n * n)?) } else { None };
+        Ok(SavedNewton {
+            mem: WarmMemory {
+                h_acc,
+                err_acc,
+                eta,
+                jac_stale,
+                jac_valid,
+            },
+            jac_fresh,
+            lu_h,
+            jac,
+        })
+    }
+
+    /// Sets the Newton state read by [`NewtonCore::read_state`], with no factorisation
+    /// (`lu_h` = 0); returns the step size the saved factorisation was for (0: none), for
+    /// [`ImplicitMethod::factor`].
+    pub fn restore(&mut self, s: &SavedNewton) -> f64 {
+        match s.jac {
+            Some(j) => self.jac.copy_from_slice(j),
+            None => self.jac.iter_mut().for_each(|x| *x = 0.0),
+        }
+        self.mem = s.mem;
+        self.jac_fresh = s.jac_fresh;
+        self.lu_h = 0.0;
+        s.lu_h
     }
 
     /// Forward-difference Jacobian at `(core.t, core.y)` (n + 1 evaluations: `f(t, y)` is
@@ -271,6 +349,17 @@ pub trait ImplicitMethod {
     fn accept(&mut self, sys: &mut dyn OdeSystem, h: f64, t_new: f64);
     /// Dense output at `t` (see [`Integrator::interpolate`]).
     fn dense_output(&self, t: f64, out: &mut [f64]);
+    /// The method, whose enumeration value tags its saved states.
+    const METHOD: Method;
+    /// The vectors (each of length n) that, with `core.y_prev`, hold the dense output of the
+    /// last step.
+    fn dense_coefficients(&self) -> &[Vec<f64>];
+    /// The same, to change.
+    fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>];
+    /// Factors the iteration matrices for step `h` from the Jacobian with
+    /// [`NewtonCore::factor`] (nothing when they are factored for `h` already). False if
+    /// singular. The factors depend on nothing but the Jacobian and `h`.
+    fn factor(&mut self, h: f64) -> bool;
 
     /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
     fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
@@ -319,6 +408,38 @@ impl<M: ImplicitMethod> Integrator for M {
         let n = newton.n();
         let m = WarmMemory::read(v, &mut newton.jac, n)?;
         newton.set_memory(m);
+        Ok(())
+    }
+
+    /// Tag, [`StepCore::save_state`], the dense-output coefficients (3n for both methods),
+    /// [`NewtonCore::save_state`].
+    fn save_state(&self, out: &mut Vec<f64>) {
+        out.push(super::core::state_tag(Self::METHOD));
+        let (core, newton) = self.parts();
+        core.save_state(out);
+        save_blocks(self.dense_coefficients(), out);
+        newton.save_state(out);
+    }
+
+    /// Everything is checked first; then the LU factors are computed again when the saved
+    /// state had them (for the saved step size, from the saved Jacobian: the inputs and
+    /// operations of the original factorisation, so the same bits).
+    fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let mut r = StateReader::new(v, Self::METHOD)?;
+        let (core, newton) = self.parts();
+        let saved_core = core.read_state(&mut r)?;
+        let dense_len = self.dense_coefficients().iter().map(Vec::len).sum();
+        let dense = r.take(dense_len)?;
+        let saved_newton = newton.read_state(&mut r)?;
+        r.finish()?;
+        let (core, newton) = self.parts_mut();
+        core.restore(&saved_core);
+        let lu_h = newton.restore(&saved_newton);
+        restore_blocks(self.dense_coefficients_mut(), dense);
+        if lu_h != 0.0 {
+            // it succeeded with these inputs before, so it succeeds again and sets lu_h
+            self.factor(lu_h);
+        }
         Ok(())
     }
 

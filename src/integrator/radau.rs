@@ -17,6 +17,7 @@ use super::core::StepCore;
 use super::newton::{ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
 use crate::linalg;
+use crate::scene::Method;
 
 const SQ6: f64 = 2.449_489_742_783_178;
 /// Nodes.
@@ -86,31 +87,6 @@ impl Radau5 {
             work: v(n),
             work_big: v(3 * n),
         }
-    }
-
-    /// Factors both iteration matrices for step `h` unless done. False if singular.
-    fn factor(&mut self, h: f64) -> bool {
-        let n = self.core.y.len();
-        self.newton.factor(h, |jac| {
-            let m = 3 * n;
-            for (bi, a_row) in A.iter().enumerate() {
-                for (bj, aij) in a_row.iter().enumerate() {
-                    let a = h * aij;
-                    for i in 0..n {
-                        let row = (bi * n + i) * m + bj * n;
-                        let (dst, src) = (&mut self.lu_big[row..row + n], &jac[i * n..(i + 1) * n]);
-                        for (d, j) in dst.iter_mut().zip(src) {
-                            *d = -a * j;
-                        }
-                    }
-                }
-            }
-            for i in 0..m {
-                self.lu_big[i * m + i] += 1.0;
-            }
-            linalg::lu_in_place(&mut self.lu_big, m, &mut self.perm_big)
-                && NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
-        })
     }
 
     /// Lagrange basis on the nodes (0, c₁, c₂, c₃) for node `i` (1..=3) at θ.
@@ -229,6 +205,41 @@ impl ImplicitMethod for Radau5 {
 
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
         self.core.first_step(sys, h, 5, &mut self.work, &mut self.fz[1]);
+    }
+
+    const METHOD: Method = Method::Radau5;
+
+    fn dense_coefficients(&self) -> &[Vec<f64>] {
+        &self.z_prev
+    }
+
+    fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
+        &mut self.z_prev
+    }
+
+    /// `I − h A⊗J` and `I − hγ₀J`.
+    fn factor(&mut self, h: f64) -> bool {
+        let n = self.core.y.len();
+        self.newton.factor(h, |jac| {
+            let m = 3 * n;
+            for (bi, a_row) in A.iter().enumerate() {
+                for (bj, aij) in a_row.iter().enumerate() {
+                    let a = h * aij;
+                    for i in 0..n {
+                        let row = (bi * n + i) * m + bj * n;
+                        let (dst, src) = (&mut self.lu_big[row..row + n], &jac[i * n..(i + 1) * n]);
+                        for (d, j) in dst.iter_mut().zip(src) {
+                            *d = -a * j;
+                        }
+                    }
+                }
+            }
+            for i in 0..m {
+                self.lu_big[i * m + i] += 1.0;
+            }
+            linalg::lu_in_place(&mut self.lu_big, m, &mut self.perm_big)
+                && NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
+        })
     }
 
     fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, refine: bool) -> Option<(f64, f64)> {

@@ -1,8 +1,9 @@
 //! Classical fixed-step Runge-Kutta 4, a baseline. Dense output is the cubic Hermite
 //! interpolant through both ends of the step.
 
-use super::core::StepCore;
+use super::core::{state_tag, StateReader, StepCore};
 use super::{Integrator, IntegratorError, OdeSystem};
+use crate::scene::Method;
 
 /// Fixed-step RK4 with step `h` (`core.h`).
 pub struct Rk4 {
@@ -81,6 +82,25 @@ impl Integrator for Rk4 {
         sys.rhs(t_new, &core.y, k1);
         core.stats.rhs_evals += 4;
         core.advance(t_new);
+        Ok(())
+    }
+
+    /// Tag, [`StepCore::save_state`] (its `h` is the fixed step), `f(t_prev, y_prev)` for the
+    /// dense output: `8 + 4n` numbers.
+    fn save_state(&self, out: &mut Vec<f64>) {
+        out.push(state_tag(Method::Rk4));
+        self.core.save_state(out);
+        out.extend_from_slice(&self.f_prev);
+    }
+
+    fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let n = self.core.y.len();
+        let mut r = StateReader::new(v, Method::Rk4)?;
+        let core = self.core.read_state(&mut r)?;
+        let f_prev = r.take(n)?;
+        r.finish()?;
+        self.core.restore(&core);
+        self.f_prev.copy_from_slice(f_prev);
         Ok(())
     }
 

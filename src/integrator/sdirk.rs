@@ -17,6 +17,7 @@ use super::core::StepCore;
 use super::newton::{ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
 use crate::linalg;
+use crate::scene::Method;
 
 /// Number of stages.
 const S: usize = 5;
@@ -164,11 +165,26 @@ impl ImplicitMethod for Sdirk {
         self.core.first_step(sys, h, 4, &mut self.work, &mut self.k[1]);
     }
 
-    fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, _refine: bool) -> Option<(f64, f64)> {
+    const METHOD: Method = Method::Sdirk;
+
+    fn dense_coefficients(&self) -> &[Vec<f64>] {
+        &self.dense
+    }
+
+    fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
+        &mut self.dense
+    }
+
+    /// `I − hγJ`.
+    fn factor(&mut self, h: f64) -> bool {
         let hg = h * GAMMA;
-        if !self.newton.factor(h, |jac| {
+        self.newton.factor(h, |jac| {
             NewtonCore::factor_shifted(jac, hg, &mut self.lu, &mut self.perm)
-        }) {
+        })
+    }
+
+    fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, _refine: bool) -> Option<(f64, f64)> {
+        if !self.factor(h) {
             return None;
         }
         let mut theta = 0.0_f64;
