@@ -101,7 +101,10 @@ impl Snapshot {
         let (body, tail) = b.split_at(b.len() - 8);
         let stored = u64::from_le_bytes(tail.try_into().map_err(|_| "serialized state: no checksum")?);
         if checksum(body) != stored {
-            return Err("serialized state is corrupted (checksum mismatch) or truncated".into());
+            return Err(format!(
+                "serialized state of {} bytes is corrupted or truncated (checksum mismatch)",
+                b.len()
+            ));
         }
         let r = &mut Reader { b: body, pos: r.pos };
         let nsections = r.u32()?;

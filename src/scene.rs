@@ -158,6 +158,10 @@ pub struct SolverSection {
     /// Largest internal step [s] (the fixed step of `rk4`).
     #[serde(default = "default_max_step")]
     pub max_step: f64,
+    /// Continue the integrator across communication points (it may step past one; the
+    /// outputs there come from its dense output) instead of restarting it at each.
+    #[serde(default)]
+    pub continuation: bool,
 }
 
 fn default_rtol() -> f64 {
@@ -177,6 +181,7 @@ impl Default for SolverSection {
             rtol: default_rtol(),
             atol: default_atol(),
             max_step: default_max_step(),
+            continuation: false,
         }
     }
 }

@@ -46,6 +46,10 @@ pub struct Simulation {
     /// True when `compiled` was compiled with the current parameter values.
     compiled_fresh: bool,
     initialized: bool,
+    /// The integrator may step up to here (beyond it the host will not ask).
+    horizon: f64,
+    /// Log contact peaks (a diagnostic).
+    log_peaks: bool,
 }
 
 /// A compiled model and its data.
@@ -67,6 +71,8 @@ impl Simulation {
             compiled: None,
             compiled_fresh: false,
             initialized: false,
+            horizon: f64::INFINITY,
+            log_peaks: false,
         }
     }
 
@@ -218,6 +224,8 @@ impl Simulation {
                     format!("at the initial state: {}", err.message),
                 )
             })?;
+            data.solver.horizon = self.horizon;
+            data.log_peaks = self.log_peaks;
             self.compiled = Some(Compiled { model, data });
             self.compiled_fresh = true;
         }
@@ -273,6 +281,7 @@ impl Simulation {
                 self.time()
             )));
         }
+        self.set_stop_time(Some(stop_time));
         for t in communication_points(self.time(), stop_time, interval) {
             self.step_to(t).map_err(RunError::Step)?;
             each(self).map_err(RunError::Setup)?;
@@ -393,6 +402,25 @@ impl Simulation {
         }
     }
 
+    /// The time beyond which no step will be asked for (the stop time; None: open-ended). The
+    /// integrator continues across communication points and may step past one; it never
+    /// steps past this.
+    pub fn set_stop_time(&mut self, stop: Option<f64>) {
+        self.horizon = stop.unwrap_or(f64::INFINITY);
+        if let Some(c) = self.compiled.as_mut() {
+            c.data.solver.horizon = self.horizon;
+        }
+    }
+
+    /// Logs the largest penetration of every continuous contact as a `Peak` contact event
+    /// (off by default: it costs event-location work and changes no result).
+    pub fn set_peak_events(&mut self, on: bool) {
+        self.log_peaks = on;
+        if let Some(c) = self.compiled.as_mut() {
+            c.data.log_peaks = on;
+        }
+    }
+
     /// Turns the location of force cuts (the damped laws' force reaching zero before δ does)
     /// on (default) or off. Off, the integrator steps over that kink with only its error
     /// control to notice it.
@@ -428,6 +456,8 @@ fn set_input(d: &mut Data, i: usize, value: f64) {
     if d.inputs[i] != value {
         d.inputs[i] = value;
         d.outputs_valid = false;
+        // the right-hand side changed: the method restarts at the current state
+        d.solver.started = false;
     }
 }
 

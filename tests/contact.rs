@@ -125,6 +125,7 @@ fn hertz_closed_form(m: f64, k: f64, v0: f64) -> (f64, f64, f64) {
 fn hertz_sphere_plane_matches_closed_form() {
     let v0 = 1.0;
     let mut s = start(ball_on_floor(Law::Hertz, |c| c, v0, 0.0, 1e-4));
+    s.set_peak_events(true);
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     let touch = first(&ev, ContactEventKind::Touch);
@@ -171,6 +172,7 @@ fn hertz_sphere_sphere_matches_closed_form() {
         .body(large)
         .contact(c.materials("steel", "steel"));
     let mut s = start(scene);
+    s.set_peak_events(true);
     s.step_to(1e-3).unwrap();
     let ev = events(&s);
     let touch = first(&ev, ContactEventKind::Touch);

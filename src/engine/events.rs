@@ -166,8 +166,12 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
             t_first = t;
         }
     }
-    // Peaks of continuous contacts inside the accepted part of the step (diagnostic).
+    // Peaks of continuous contacts inside the accepted part of the step (a diagnostic, when
+    // asked for).
     for i in 0..n_contacts {
+        if !d.log_peaks {
+            break;
+        }
         if m.contacts[i].law == Law::Impulse || !d.contact_memory[i].active {
             continue;
         }

@@ -6,10 +6,14 @@
 //! [`crate::contact::modes`], after which the integrator restarts. No force discontinuity is
 //! stepped over. One `advance`:
 //!
-//! 1. settle resting contacts an input change made pull, and restart the method at `d.state`;
-//! 2. per step: take it; if no event lies inside, accept it (and project onto the loop
-//!    constraints when they drifted); else move to the earliest event, change the modes
-//!    there and restart.
+//! 1. when something changed since the last advance (an input, a restored state without the
+//!    method's step, the first advance): settle resting contacts an input change made pull,
+//!    and restart the method at `d.state`; otherwise *continue* the method's last step;
+//! 2. per step: take it (it may reach past `t_end`); if an event lies inside before `t_end`,
+//!    move to it, change the modes there and restart; if the step ends by `t_end`, accept
+//!    it (and project onto the loop constraints when they drifted); if it reaches past
+//!    `t_end`, the state at `t_end` comes from the dense output and the step stays pending
+//!    for the next advance. So the communication grid does not bound the steps.
 
 pub mod events;
 
@@ -65,59 +69,102 @@ pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
     Ok(())
 }
 
-/// Re-evaluates the event functions at the current state (after the state was set from
-/// outside, e.g. restored).
+/// Re-evaluates the event functions after the state was set from outside (restored): at the
+/// current state, or, when the method continues its last step, at the step's start and end
+/// (as they were when the step was taken).
 pub fn resync(m: &Model, d: &mut Data) {
-    d.eval_state.copy_from_slice(&d.state);
-    events::event_values(m, d, false);
+    let step_ends = d
+        .solver
+        .started
+        .then(|| d.solver.method().map(|i| i.t_prev()))
+        .flatten();
+    match step_ends {
+        Some(_) => {
+            if let Some(i) = d.solver.method() {
+                d.eval_state.copy_from_slice(&i.core().y_prev);
+            }
+            events::event_values(m, d, false);
+            if let Some(i) = d.solver.method() {
+                d.eval_state.copy_from_slice(i.y());
+            }
+            events::event_values(m, d, true);
+        }
+        None => {
+            d.eval_state.copy_from_slice(&d.state);
+            events::event_values(m, d, false);
+        }
+    }
 }
 
-/// Integrates to `t_end`, locating and handling contact events.
+/// Integrates to `t_end`, locating and handling contact events. The method continues its last
+/// step when nothing changed since the previous advance; it may step past `t_end` (up to
+/// `d.solver.horizon`), and the state at `t_end` then comes from its dense output.
 pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     if t_end.is_nan() || t_end < d.time {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
     }
     d.outputs_valid = false;
-    // An input changed at this communication point may have made a resting contact pull.
-    let settled = any_resting(m, d) && modes::resting_violated(m, d);
-    if settled {
-        modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
+    let continuation = m.solver.continuation;
+    if !d.solver.started || !continuation {
+        // An input changed at this communication point may have made a resting contact pull.
+        let settled = any_resting(m, d) && modes::resting_violated(m, d);
+        if settled {
+            modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
+        }
+        restart(m, d, d.solver.pending_step(), !settled)?;
     }
-    // Every advance restarts the method from the current state (one extra evaluation), so
-    // that a restored state continues bit for bit like the original; a plain restart keeps
-    // an implicit method's Jacobian (saved with the state).
-    restart(m, d, d.solver.pending_step(), !settled)?;
     // A remainder of a few ulps (a step or an event that ended a rounding error short of
     // t_end) is not a step any method can take.
     let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
     let mut interrupted = 0usize;
-    while t_end - d.time > t_close {
-        take_step(m, d, t_end)?;
-        match events::first_event(m, d) {
-            None => {
-                interrupted = 0;
-                accept_step(m, d)?;
-            }
-            Some(t_event) => {
+    loop {
+        if d.solver.ahead_of(d.time) {
+            let t_step = d.solver.method().map_or(d.time, |i| i.t());
+            if d.solver.pending_event <= t_end {
                 interrupted += 1;
                 if interrupted > MAX_INTERRUPTED_STEPS {
                     stop_after_failure(d);
-                    return Err(fail(
-                        d,
-                        format!(
-                            "{MAX_INTERRUPTED_STEPS} steps in a row were cut short by contact events (touch and \
-                             separation chatter): the step is too large for the contact stiffness; use an \
-                             adaptive method or a smaller solver.max_step"
-                        ),
-                    ));
+                    return Err(fail(d, event_storm()));
                 }
-                stop_at_event(m, d, t_event)?;
+                stop_at_event(m, d, d.solver.pending_event)?;
+            } else if t_step <= t_end {
+                interrupted = 0;
+                accept_step(m, d)?;
+            } else {
+                interpolate_to(d, t_end);
+                break;
             }
+        } else if t_end - d.time <= t_close {
+            d.time = t_end;
+            break;
+        } else {
+            let limit = if continuation {
+                d.solver.horizon.max(t_end)
+            } else {
+                t_end
+            };
+            take_step(m, d, limit)?;
+            d.solver.pending_event = events::first_event(m, d).unwrap_or(f64::INFINITY);
         }
     }
-    d.time = t_end;
     sync_counters(d);
     Ok(())
+}
+
+fn event_storm() -> String {
+    format!(
+        "{MAX_INTERRUPTED_STEPS} steps in a row were cut short by contact events (touch and separation \
+         chatter): the step is too large for the contact stiffness; use an adaptive method or a smaller \
+         solver.max_step"
+    )
+}
+
+/// The state at `t` inside the method's last step, from its dense output.
+fn interpolate_to(d: &mut Data, t: f64) {
+    if let Some(method) = d.solver.method() {
+        method.interpolate(t, &mut d.state);
+    }
+    d.time = t;
 }
 
 /// Runs `f` with the integrator taken out of the data (so that the right-hand side can

@@ -391,6 +391,7 @@ mod tests {
             rtol,
             atol,
             max_step: 1e-2,
+            ..SolverSection::default()
         }
     }
 
@@ -628,6 +629,7 @@ mod tests {
                 rtol,
                 atol,
                 max_step,
+                ..SolverSection::default()
             },
             implicit_only,
             seed,

@@ -84,8 +84,15 @@ pub struct Solver {
     /// The integrator; `None` only while it steps, or if a panic interrupted a step (the next
     /// advance then reports an error).
     pub stepper: Option<Stepper>,
-    /// True when the method holds the current state (no restart needed).
+    /// True when the method's last step `[t_prev, t]` contains the current time: the next
+    /// advance continues it (no restart). Its end may lie ahead of `Data::time`: the state
+    /// at a communication point inside a step comes from the dense output.
     pub started: bool,
+    /// The earliest located event inside the method's last step after `Data::time`
+    /// (infinite: none). Handled once the simulation reaches it.
+    pub pending_event: f64,
+    /// The method may step up to here (the stop time, when the host gave one).
+    pub horizon: f64,
     /// Step size to try at the next restart when the method has not run since a restore.
     pub next_h: f64,
     /// The method's counters at initialisation (the reported counters are since then).
@@ -93,6 +100,11 @@ pub struct Solver {
 }
 
 impl Solver {
+    /// True when the method's last step reaches past `time` (a continuation is pending).
+    pub fn ahead_of(&self, time: f64) -> bool {
+        self.started && self.method().is_some_and(|m| m.t() > time)
+    }
+
     /// The method, unless it was lost to an internal error.
     pub fn method(&self) -> Option<&(dyn Integrator + Send)> {
         self.stepper.as_ref().map(|s| &*s.method)
@@ -159,6 +171,9 @@ pub struct Data {
     // --- options ---
     /// Locate the instants a damped law's force is cut at zero (and restart there).
     pub clamp_events: bool,
+    /// Log the largest penetration of each continuous contact (a diagnostic: it costs event
+    /// location work and changes no result).
+    pub log_peaks: bool,
     // --- diagnostics ---
     /// Located contact events, oldest first (at most [`EVENT_LOG_CAPACITY`]).
     pub event_log: Vec<ContactEvent>,
@@ -258,10 +273,13 @@ impl Data {
                     start: vec![0.0; n],
                 }),
                 started: false,
+                pending_event: f64::INFINITY,
+                horizon: f64::INFINITY,
                 next_h: 0.0,
                 base: Stats::default(),
             },
             clamp_events: true,
+            log_peaks: false,
             event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
             outputs_valid: false,
             events: EventWork {

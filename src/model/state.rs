@@ -24,8 +24,10 @@ pub enum StatePart {
     ContactMemory = 8,
     /// `Data::counters`: steps, rejected, RHS and Jacobian evaluations, events.
     Counters = 16,
-    /// The integrator: the step size it tries next, its own counters (4), then the length
-    /// of its warm-restart memory and that memory.
+    /// The integrator: whether it continues its last step (0/1), the step size to try at a
+    /// restart, the pending event time (infinite: none), then the length of the method's own
+    /// state and that state (`Integrator::save_state`: its last step, dense output,
+    /// controller and Newton memory, counters; length 0: none, the method restarts cold).
     Solver = 32,
 }
 
@@ -59,9 +61,9 @@ pub const FULL: u32 = 63;
 const MEMORY_LEN: usize = 3;
 /// Numbers in [`StatePart::Counters`].
 const COUNTERS_LEN: usize = 5;
-/// Fixed numbers of [`StatePart::Solver`] before the warm memory: next step, 4 counters,
-/// memory length.
-const SOLVER_HEAD: usize = 6;
+/// Fixed numbers of [`StatePart::Solver`] before the method's state: started, next step,
+/// pending event, length of the method's state.
+const SOLVER_HEAD: usize = 4;
 
 /// Appends the parts of `mask` to `out`.
 pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
@@ -89,18 +91,11 @@ pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
                 ]);
             }
             StatePart::Solver => {
-                let s = d.solver.method().map(|i| i.stats()).unwrap_or_default();
-                out.extend_from_slice(&[
-                    d.solver.pending_step(),
-                    s.steps as f64,
-                    s.rejected as f64,
-                    s.rhs_evals as f64,
-                    s.jac_evals as f64,
-                ]);
+                out.extend_from_slice(&[d.solver.started as u8 as f64, d.solver.next_h, d.solver.pending_event]);
                 let at = out.len();
                 out.push(0.0);
                 if let Some(i) = d.solver.method() {
-                    i.warm_state(out);
+                    i.save_state(out);
                 }
                 out[at] = (out.len() - at - 1) as f64;
             }
@@ -119,8 +114,8 @@ fn count(x: f64, what: &str) -> Result<u64, String> {
 
 /// Writes the parts of `mask` from `v` (as [`get`] wrote them for this model). Checks the
 /// length of every part, that numbers are finite and counts are counts, before it writes
-/// anything; on an error the data is unchanged. The integrator restarts at the next advance
-/// (with the restored memory).
+/// anything; on an error the data is unchanged. The integrator continues from its restored
+/// state exactly as it would have.
 pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> {
     if mask & !FULL != 0 {
         return Err(format!("state: unknown parts in mask {mask:#x}"));
@@ -142,8 +137,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 let head = v
                     .get(at..at + SOLVER_HEAD)
                     .ok_or("state: the integrator part is truncated")?;
-                let warm = count(head[SOLVER_HEAD - 1], "integrator memory length")? as usize;
-                SOLVER_HEAD + warm
+                let own = count(head[SOLVER_HEAD - 1], "integrator state length")? as usize;
+                SOLVER_HEAD + own
             }
         };
         let Some(slice) = v.get(at..at + len) else {
@@ -154,7 +149,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             ));
         };
         let checked = match part {
-            StatePart::Solver => &slice[..1],
+            StatePart::Solver => &slice[1..2],
             StatePart::Counters => &[],
             _ => slice,
         };
@@ -179,8 +174,11 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 }
             }
             StatePart::Solver => {
-                for x in &slice[1..SOLVER_HEAD] {
-                    count(*x, "integrator counter")?;
+                if slice[0] != 0.0 && slice[0] != 1.0 {
+                    return Err(format!("state: integrator started flag {} is not 0 or 1", slice[0]));
+                }
+                if slice[2].is_nan() || slice[2] == f64::NEG_INFINITY {
+                    return Err(format!("state: pending event time {} is not a time", slice[2]));
                 }
             }
             _ => {}
@@ -194,8 +192,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             v.len()
         ));
     }
-    // The integrator memory may still be refused by the method: restore it first.
-    let mut restored_stats = None;
+    // The method's state may still be refused by the method: restore it first.
+    let mut solver_head = None;
     if mask & StatePart::Solver as u32 != 0 {
         let (a, b) = spans[5];
         let s = &v[a..b];
@@ -204,16 +202,17 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             .stepper
             .as_mut()
             .ok_or("state: the integrator was lost after an internal error")?;
-        stepper.method.set_warm_state(&s[SOLVER_HEAD..])?;
-        restored_stats = Some((
-            s[0],
-            Stats {
-                steps: s[1] as u64,
-                rejected: s[2] as u64,
-                rhs_evals: s[3] as u64,
-                jac_evals: s[4] as u64,
-            },
-        ));
+        let own = &s[SOLVER_HEAD..];
+        if own.is_empty() {
+            // no method state: the method restarts cold at the state's time
+            if s[0] != 0.0 {
+                return Err("state: the integrator continues a step but its state is missing".into());
+            }
+            stepper.method.set_warm_state(&[])?;
+        } else {
+            stepper.method.load_state(own)?;
+        }
+        solver_head = Some((s[0] == 1.0, s[1], s[2]));
     }
     // Pass 2: write (nothing below fails).
     for (k, part) in StatePart::ALL.iter().enumerate() {
@@ -244,8 +243,9 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Solver => {}
         }
     }
-    if let Some((h, stats)) = restored_stats {
+    if let Some((started, h, pending)) = solver_head {
         // counters since initialisation = the method's counters − base
+        let stats = d.solver.method().map(|i| i.stats()).unwrap_or_default();
         let c = &d.counters;
         d.solver.base = Stats {
             steps: stats.steps.saturating_sub(c.steps),
@@ -253,12 +253,12 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             rhs_evals: stats.rhs_evals.saturating_sub(c.rhs_evals),
             jac_evals: stats.jac_evals.saturating_sub(c.jac_evals),
         };
-        if let Some(stepper) = d.solver.stepper.as_mut() {
-            stepper.method.set_stats(stats);
-        }
         d.solver.next_h = h;
+        d.solver.pending_event = pending;
+        d.solver.started = started;
+    } else {
+        d.solver.started = false;
     }
-    d.solver.started = false;
     d.outputs_valid = false;
     Ok(())
 }
