@@ -571,15 +571,27 @@ impl Scene {
             ));
         }
         let s = &self.solver;
-        for (f, v, [lo, hi]) in [("rtol", s.rtol, RTOL_RANGE), ("atol", s.atol, ATOL_RANGE)] {
+        for (f, v, [lo, hi], why) in [
+            (
+                "rtol",
+                s.rtol,
+                RTOL_RANGE,
+                "a looser tolerance gives results without meaning (the energy drifts), a tighter one \
+                 lies below the rounding error",
+            ),
+            (
+                "atol",
+                s.atol,
+                ATOL_RANGE,
+                "a looser tolerance gives results without meaning, a tighter one makes steps fail on \
+                 components near zero",
+            ),
+        ] {
             if !(v >= lo && v <= hi) {
                 return Err(err(
                     "[solver]".into(),
                     f,
-                    format!(
-                        "must be in [{lo:e}, {hi:e}] (got {v}): looser tolerances give results without meaning \
-                         (the energy drifts), tighter ones lie below the rounding error"
-                    ),
+                    format!("must be in [{}, {}] (got {}): {why}", short(lo), short(hi), short(v)),
                 ));
             }
         }
@@ -589,7 +601,7 @@ impl Scene {
                 "max_step",
                 format!(
                     "must be finite and >= {MIN_MAX_STEP:e} s (got {}): a smaller step never ends a simulation",
-                    s.max_step
+                    short(s.max_step)
                 ),
             ));
         }
@@ -943,6 +955,16 @@ const DEVICE_NAMES: [&str; 22] = [
     "lpt3", "lpt4", "lpt5", "lpt6", "lpt7", "lpt8", "lpt9",
 ];
 
+/// A number as messages show it: the shorter of plain and scientific notation (`0.5`, `1e-15`).
+fn short(x: f64) -> String {
+    let (plain, sci) = (format!("{x}"), format!("{x:e}"));
+    if sci.len() < plain.len() {
+        sci
+    } else {
+        plain
+    }
+}
+
 /// A name as messages show it: quoted and escaped (`"arm"`, `"a\tb"`), a long one cut to its
 /// first 40 characters.
 pub fn quote(name: &str) -> String {
@@ -975,7 +997,8 @@ fn describe_char(c: char) -> String {
         '\n' => format!("a line feed ({code})"),
         '\r' => format!("a carriage return ({code})"),
         ' ' => format!("a space ({code})"),
-        c if is_forbidden_char(c) => format!("the control character {code}"),
+        '\u{FFFE}' | '\u{FFFF}' => format!("the non-character {code} (XML cannot carry it)"),
+        c if c.is_control() => format!("the control character {code}"),
         c => format!("{c:?} ({code})"),
     }
 }
@@ -1018,7 +1041,7 @@ fn check_model_name(origin: &str, name: &str) -> Result<(), SceneError> {
     let n = name.chars().count();
     if n > MAX_MODEL_NAME {
         return Err(bad(format!(
-            "{} has {n} characters, at most {MAX_MODEL_NAME} are allowed",
+            "{} is {n} characters long, at most {MAX_MODEL_NAME} are allowed",
             quote(name)
         )));
     }
@@ -1026,10 +1049,7 @@ fn check_model_name(origin: &str, name: &str) -> Result<(), SceneError> {
         return Err(bad(format!("{} contains {}", quote(name), describe_char(c))));
     }
     if name.starts_with(|c: char| c.is_ascii_digit()) {
-        return Err(bad(format!(
-            "{} must be a C identifier: starts with a digit",
-            quote(name)
-        )));
+        return Err(bad(format!("{} starts with a digit", quote(name))));
     }
     if DEVICE_NAMES.iter().any(|d| d.eq_ignore_ascii_case(name)) {
         return Err(bad(format!(
@@ -1048,9 +1068,9 @@ fn check_text(origin: &str, item: &str, field: &str, text: &str) -> Result<(), S
             item,
             field,
             format!(
-                "contains {} at character {}; it must be one line of text without control characters",
-                describe_char(c),
-                i + 1
+                "character {} is {}; it must be one line of text without control characters",
+                i + 1,
+                describe_char(c)
             ),
         )),
         None => Ok(()),
@@ -1079,7 +1099,10 @@ fn magnitude(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneE
             origin,
             item,
             field,
-            format!("{x:e} is absurdly large: at most {MAX_MAGNITUDE:e} in magnitude"),
+            format!(
+                "{x:e} is too large: at most {MAX_MAGNITUDE:e} in magnitude (beyond, the model's squares and \
+                 products overflow or lose all precision)"
+            ),
         ))
     }
 }
@@ -1118,7 +1141,7 @@ fn positive(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneEr
     } else if x > 0.0 {
         return Ok(());
     } else {
-        format!("must be > 0 (got {x})")
+        format!("must be > 0 (got {})", short(x))
     };
     Err(SceneError::new(origin, item, field, msg))
 }
@@ -1130,7 +1153,7 @@ fn nonnegative(origin: &str, item: &str, field: &str, x: f64) -> Result<(), Scen
     } else if x >= 0.0 {
         return Ok(());
     } else {
-        format!("must be >= 0 (got {x})")
+        format!("must be >= 0 (got {})", short(x))
     };
     Err(SceneError::new(origin, item, field, msg))
 }
