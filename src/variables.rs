@@ -5,7 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, MIN_MAX_STEP, RTOL_RANGE};
+use crate::scene::{JointType, Law, Method, Scene, ATOL_RANGE, MIN_MAX_STEP, RTOL_RANGE};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -352,10 +352,7 @@ impl VariableTable {
                 format!("{}.max_penetration", c.name),
                 c.max_penetration_or_default(),
                 Some("m"),
-                Range {
-                    max: MAX_MAGNITUDE,
-                    ..pos
-                },
+                pos,
                 VarRef::MaxPenetration(i),
                 "largest admissible penetration",
             ));
