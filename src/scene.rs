@@ -583,8 +583,8 @@ impl Scene {
                 "atol",
                 s.atol,
                 ATOL_RANGE,
-                "a looser tolerance gives results without meaning, a tighter one makes steps fail on \
-                 components near zero",
+                "a looser tolerance gives results without meaning, a much tighter one makes steps \
+                 fail on components near zero",
             ),
         ] {
             if !(v >= lo && v <= hi) {
@@ -927,9 +927,11 @@ impl Scene {
 pub const RTOL_RANGE: [f64; 2] = [1e-14, 1e-2];
 
 /// `solver.atol` must lie in this range (closed): it is absolute, in the units of the state
-/// (m, rad, m/s, rad/s, J), so above 1e-2 the error control stops seeing the motion, and below
-/// 1e-16 steps fail on components that are (nearly) zero. The FMU parameter has the same range.
-pub const ATOL_RANGE: [f64; 2] = [1e-16, 1e-2];
+/// (m, rad, m/s, rad/s, J), so above 1e-2 the error control stops seeing the motion; small
+/// motions need small values (1e-17 for oscillations of 1e-4 rad), but far below 1e-20 steps
+/// fail on components that stay near zero (at 1e-30 the bundled slider-crank fails). The FMU
+/// parameter has the same range.
+pub const ATOL_RANGE: [f64; 2] = [1e-20, 1e-2];
 
 /// Smallest `solver.max_step` [s]: the step of `rk4`, and a cap on every method's step;
 /// a smaller one makes any simulation practically endless (and below the rounding of the

@@ -571,9 +571,9 @@ fn tolerances_where_results_mean_nothing_are_refused_in_the_scene() {
         ("rtol = 1e-8", "rtol = 0.011", "rtol", "(got 0.011)"),
         ("rtol = 1e-8", "rtol = 1e-15", "rtol", "(got 1e-15)"),
         ("rtol = 1e-8", "rtol = 0.0", "rtol", "(got 0)"),
-        ("atol = 1e-10", "atol = 0.1", "atol", "[1e-16, 0.01] (got 0.1)"),
-        ("atol = 1e-10", "atol = 1e-300", "atol", "[1e-16, 0.01]"),
-        ("atol = 1e-10", "atol = -1.0", "atol", "[1e-16, 0.01]"),
+        ("atol = 1e-10", "atol = 0.1", "atol", "[1e-20, 0.01] (got 0.1)"),
+        ("atol = 1e-10", "atol = 1e-300", "atol", "[1e-20, 0.01]"),
+        ("atol = 1e-10", "atol = -1.0", "atol", "[1e-20, 0.01]"),
         ("max_step = 1e-3", "max_step = 0.0", "max_step", ">= 1e-9 s"),
         ("max_step = 1e-3", "max_step = 1e-300", "max_step", ">= 1e-9 s"),
         ("max_step = 1e-3", "max_step = -1.0", "max_step", ">= 1e-9 s"),
@@ -586,7 +586,7 @@ fn tolerances_where_results_mean_nothing_are_refused_in_the_scene() {
         ("rtol = 1e-8", "rtol = 1e-2"),
         ("rtol = 1e-8", "rtol = 1e-14"),
         ("atol = 1e-10", "atol = 1e-2"),
-        ("atol = 1e-10", "atol = 1e-16"),
+        ("atol = 1e-10", "atol = 1e-20"),
         ("max_step = 1e-3", "max_step = 1e-9"),
     ] {
         Scene::from_str(&with(from, to), ORIGIN).unwrap_or_else(|e| panic!("{to}: {e}"));
@@ -605,7 +605,7 @@ fn tolerances_where_results_mean_nothing_are_refused_as_fmu_parameters() {
     for (name, value, range) in [
         ("solver.rtol", 0.5, "[1e-14, 0.01]"),
         ("solver.rtol", 1e-15, "[1e-14, 0.01]"),
-        ("solver.atol", 1.0, "[1e-16, 0.01]"),
+        ("solver.atol", 1.0, "[1e-20, 0.01]"),
         ("solver.max_step", 1e-12, "[1e-9, inf]"),
     ] {
         let mut s = Simulation::from_scene_str(GOOD, ORIGIN).unwrap();
@@ -618,7 +618,7 @@ fn tolerances_where_results_mean_nothing_are_refused_as_fmu_parameters() {
     let table = VariableTable::from_scene(&Scene::from_str(GOOD, ORIGIN).unwrap());
     let range = |n: &str| table.vars[table.index_of(n).unwrap()].range.unwrap();
     assert_eq!((range("solver.rtol").min, range("solver.rtol").max), (1e-14, 1e-2));
-    assert_eq!((range("solver.atol").min, range("solver.atol").max), (1e-16, 1e-2));
+    assert_eq!((range("solver.atol").min, range("solver.atol").max), (1e-20, 1e-2));
     assert_eq!(range("solver.max_step").min, 1e-9);
     let xml = model_description_xml(&Scene::from_str(GOOD, ORIGIN).unwrap(), GOOD);
     assert!(

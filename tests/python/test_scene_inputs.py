@@ -36,7 +36,7 @@ def test_tolerance_ranges_are_in_the_model_description(unzipped):
     md = read_model_description(str(unzipped["bouncing_ball"]))
     v = {v.name: v for v in md.modelVariables}
     assert (float(v["solver.rtol"].min), float(v["solver.rtol"].max)) == (1e-14, 1e-2)
-    assert (float(v["solver.atol"].min), float(v["solver.atol"].max)) == (1e-16, 1e-2)
+    assert (float(v["solver.atol"].min), float(v["solver.atol"].max)) == (1e-20, 1e-2)
     assert float(v["solver.max_step"].min) == 1e-9
 
 
