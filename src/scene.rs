@@ -6,7 +6,7 @@
 //! configuration.
 
 use serde::{Deserialize, Serialize};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 /// An error in a scene: names the file (origin), the item and the field.
@@ -628,56 +628,83 @@ impl Scene {
         Scene::from_str(&text, &origin)
     }
 
-    /// Checks references, signs and ranges. Geometry-level checks that need the compiled tree
+    /// Checks names, references, signs, ranges and magnitudes (the rules of docs/scene.md,
+    /// "Rules for names and numbers"). Geometry-level checks that need the compiled tree
     /// (cycles, loops) are done by the model compiler.
     pub fn validate(&self, origin: &str) -> Result<(), SceneError> {
         let err = |item: String, field: &str, msg: String| SceneError::new(origin, item, field, msg);
         let m = &self.model;
-        if m.name.is_empty()
-            || !m.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-            || m.name.starts_with(|c: char| c.is_ascii_digit())
-        {
+        check_model_name(origin, &m.name)?;
+        check_text(origin, "[model]", "description", &m.description)?;
+        vector(origin, "[model]", "gravity", &m.gravity)?;
+        positive(origin, "[model]", "stop_time", m.stop_time)?;
+        positive(origin, "[model]", "interval", m.interval)?;
+        let points = m.stop_time / m.interval;
+        if points > MAX_COMMUNICATION_POINTS {
             return Err(err(
                 "[model]".into(),
-                "name",
-                format!("{:?} must be a C identifier (letters, digits, _)", m.name),
+                "interval",
+                format!(
+                    "{} gives {points:.3e} communication points up to stop_time = {}; at most {MAX_COMMUNICATION_POINTS:e}",
+                    m.interval, m.stop_time
+                ),
             ));
         }
-        finite3(origin, "[model]", "gravity", m.gravity)?;
-        if !(m.stop_time > 0.0 && m.stop_time.is_finite()) {
-            return Err(err("[model]".into(), "stop_time", "must be > 0".into()));
-        }
-        if !(m.interval > 0.0 && m.interval.is_finite()) {
-            return Err(err("[model]".into(), "interval", "must be > 0".into()));
-        }
         let s = &self.solver;
-        for (f, v) in [("rtol", s.rtol), ("atol", s.atol), ("max_step", s.max_step)] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(err("[solver]".into(), f, format!("must be > 0 (got {v})")));
-            }
-        }
-        let mut names = HashSet::new();
-        let mut unique = |item: String, name: &str| -> Result<(), SceneError> {
-            if name.is_empty() || name.contains(['.', '[', ']', ' ', '"']) {
+        for (f, v, [lo, hi], why) in [
+            (
+                "rtol",
+                s.rtol,
+                RTOL_RANGE,
+                "a looser tolerance gives results without meaning (the energy drifts), a tighter one \
+                 lies below the rounding error",
+            ),
+            (
+                "atol",
+                s.atol,
+                ATOL_RANGE,
+                "a looser tolerance gives results without meaning, a much tighter one makes steps \
+                 fail on components near zero",
+            ),
+        ] {
+            if !(v >= lo && v <= hi) {
                 return Err(err(
-                    item,
-                    "name",
-                    format!("{name:?} is not a valid name (no '.', '[', ']', spaces)"),
+                    "[solver]".into(),
+                    f,
+                    format!("must be in [{}, {}] (got {}): {why}", short(lo), short(hi), short(v)),
                 ));
             }
-            if !names.insert(name.to_string()) {
-                return Err(err(item, "name", format!("duplicate name {name:?}")));
+        }
+        if !(s.max_step >= MIN_MAX_STEP && s.max_step.is_finite()) {
+            return Err(err(
+                "[solver]".into(),
+                "max_step",
+                format!(
+                    "must be finite and >= {MIN_MAX_STEP:e} s (got {}): a smaller step never ends a simulation",
+                    short(s.max_step)
+                ),
+            ));
+        }
+        // every name is valid and unique across the scene
+        let mut names: HashSet<&str> = HashSet::new();
+        let mut unique = |item: &str, name| -> Result<(), SceneError> {
+            check_name(origin, item, name)?;
+            if !names.insert(name) {
+                return Err(SceneError::new(
+                    origin,
+                    item,
+                    "name",
+                    format!("duplicate name {}", quote(name)),
+                ));
             }
             Ok(())
         };
         let mut materials = HashSet::new();
         for mat in &self.material {
-            let item = format!("material {:?}", mat.name);
-            unique(item.clone(), &mat.name)?;
+            let item = item_name("material", &mat.name);
+            unique(&item, &mat.name)?;
             materials.insert(mat.name.as_str());
-            if !(mat.youngs_modulus > 0.0 && mat.youngs_modulus.is_finite()) {
-                return Err(err(item, "youngs_modulus", "must be > 0".into()));
-            }
+            positive(origin, &item, "youngs_modulus", mat.youngs_modulus)?;
             if !(mat.poisson_ratio >= 0.0 && mat.poisson_ratio < 0.5) {
                 return Err(err(
                     item,
@@ -688,15 +715,13 @@ impl Scene {
         }
         let mut bodies = HashSet::new();
         for b in &self.body {
-            let item = format!("body {:?}", b.name);
+            let item = item_name("body", &b.name);
             if b.name == GROUND {
                 return Err(err(item, "name", "\"ground\" is reserved for the fixed world".into()));
             }
-            unique(item.clone(), &b.name)?;
+            unique(&item, &b.name)?;
             bodies.insert(b.name.as_str());
-            if !(b.mass > 0.0 && b.mass.is_finite()) {
-                return Err(err(item, "mass", format!("must be > 0 (got {})", b.mass)));
-            }
+            positive(origin, &item, "mass", b.mass)?;
             let [a, bb, c] = b.inertia;
             if !(a > 0.0 && bb > 0.0 && c > 0.0 && a.is_finite() && bb.is_finite() && c.is_finite()) {
                 return Err(err(
@@ -713,9 +738,9 @@ impl Scene {
                     "violates the triangle inequality (no physical body has these moments)".into(),
                 ));
             }
-            finite3(origin, &item, "position", b.position)?;
-            finite3(origin, &item, "velocity", b.velocity)?;
-            finite3(origin, &item, "angular_velocity", b.angular_velocity)?;
+            vector(origin, &item, "position", &b.position)?;
+            vector(origin, &item, "velocity", &b.velocity)?;
+            vector(origin, &item, "angular_velocity", &b.angular_velocity)?;
             let q = b.orientation;
             let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
             if !(n.is_finite() && (n - 1.0).abs() < 1e-6) {
@@ -727,94 +752,94 @@ impl Scene {
             }
         }
         let is_body = |n: &str| n == GROUND || bodies.contains(n);
+        let mut joints = HashMap::new();
         for j in &self.joint {
-            let item = format!("joint {:?}", j.name);
-            unique(item.clone(), &j.name)?;
+            let item = item_name("joint", &j.name);
+            unique(&item, &j.name)?;
+            joints.insert(j.name.as_str(), j);
             if !is_body(&j.parent) {
-                return Err(err(item, "parent", format!("unknown body {:?}", j.parent)));
+                return Err(err(item, "parent", format!("unknown body {}", quote(&j.parent))));
             }
             if !bodies.contains(j.child.as_str()) {
                 return Err(err(
                     item,
                     "child",
-                    format!("unknown body {:?} (the ground cannot be a child)", j.child),
+                    format!("unknown body {} (the ground cannot be a child)", quote(&j.child)),
                 ));
             }
             if j.parent == j.child {
                 return Err(err(item, "child", "a body cannot be joined to itself".into()));
             }
             if let Some(a) = j.anchor {
-                finite3(origin, &item, "anchor", a)?;
+                vector(origin, &item, "anchor", &a)?;
             }
-            match j.kind {
-                JointType::Revolute | JointType::Prismatic => {
-                    let Some(ax) = j.axis else {
-                        return Err(err(item, "axis", "required for revolute and prismatic joints".into()));
-                    };
-                    nonzero3(origin, &item, "axis", ax)?;
+            match (j.kind, j.axis) {
+                // a fixed or spherical joint that closes a loop uses a given axis too
+                (_, Some(ax)) => direction(origin, &item, "axis", ax)?,
+                (JointType::Revolute | JointType::Prismatic, None) => {
+                    return Err(err(item, "axis", "required for revolute and prismatic joints".into()));
                 }
                 _ => {}
             }
         }
         for s in &self.spring_damper {
-            let item = format!("spring_damper {:?}", s.name);
-            unique(item.clone(), &s.name)?;
+            let item = item_name("spring_damper", &s.name);
+            unique(&item, &s.name)?;
             if !is_body(&s.body_a) {
-                return Err(err(item, "body_a", format!("unknown body {:?}", s.body_a)));
+                return Err(err(item, "body_a", format!("unknown body {}", quote(&s.body_a))));
             }
             if !is_body(&s.body_b) {
-                return Err(err(item, "body_b", format!("unknown body {:?}", s.body_b)));
+                return Err(err(item, "body_b", format!("unknown body {}", quote(&s.body_b))));
             }
             if s.body_a == s.body_b {
                 return Err(err(item, "body_b", "must differ from body_a".into()));
             }
-            if !(s.stiffness >= 0.0 && s.stiffness.is_finite()) {
-                return Err(err(item, "stiffness", "must be >= 0".into()));
-            }
-            if !(s.damping >= 0.0 && s.damping.is_finite()) {
-                return Err(err(item, "damping", "must be >= 0".into()));
-            }
+            vector(origin, &item, "point_a", &s.point_a)?;
+            vector(origin, &item, "point_b", &s.point_b)?;
+            nonnegative(origin, &item, "stiffness", s.stiffness)?;
+            nonnegative(origin, &item, "damping", s.damping)?;
             if let Some(l) = s.free_length {
-                if !(l >= 0.0 && l.is_finite()) {
-                    return Err(err(item, "free_length", "must be >= 0".into()));
-                }
+                nonnegative(origin, &item, "free_length", l)?;
+                magnitude(origin, &item, "free_length", l)?;
             }
         }
         for c in &self.contact {
-            let item = format!("contact {:?}", c.name);
-            unique(item.clone(), &c.name)?;
+            let item = item_name("contact", &c.name);
+            unique(&item, &c.name)?;
             self.validate_contact(origin, &item, c, &bodies, &materials)?;
         }
         for i in &self.input {
-            let item = format!("input {:?}", i.name);
-            unique(item.clone(), &i.name)?;
+            let item = item_name("input", &i.name);
+            unique(&item, &i.name)?;
+            if let Some(d) = i.direction {
+                direction(origin, &item, "direction", d)?;
+            }
             match i.kind {
                 InputType::Force | InputType::Torque => {
                     let Some(b) = &i.body else {
                         return Err(err(item, "body", "required for force and torque inputs".into()));
                     };
                     if !bodies.contains(b.as_str()) {
-                        return Err(err(item, "body", format!("unknown body {b:?}")));
+                        return Err(err(item, "body", format!("unknown body {}", quote(b))));
                     }
-                    let Some(d) = i.direction else {
+                    if i.direction.is_none() {
                         return Err(err(item, "direction", "required for force and torque inputs".into()));
-                    };
-                    nonzero3(origin, &item, "direction", d)?;
+                    }
                 }
                 InputType::JointForce => {
                     let Some(jn) = &i.joint else {
                         return Err(err(item, "joint", "required for joint_force inputs".into()));
                     };
-                    let Some(j) = self.joint.iter().find(|j| &j.name == jn) else {
-                        return Err(err(item, "joint", format!("unknown joint {jn:?}")));
+                    let Some(j) = joints.get(jn.as_str()) else {
+                        return Err(err(item, "joint", format!("unknown joint {}", quote(jn))));
                     };
                     if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
-                        return Err(err(item, "joint", format!("joint {jn:?} is not a 1-DOF joint")));
+                        return Err(err(item, "joint", format!("joint {} is not a 1-DOF joint", quote(jn))));
                     }
                 }
             }
             if !i.start.is_finite() {
-                return Err(err(item, "start", "must be finite".into()));
+                return Err(err(item, "start", format!("must be finite (got {})", i.start)));
             }
         }
         Ok(())
@@ -831,10 +856,10 @@ impl Scene {
         let err = |field: &str, msg: String| SceneError::new(origin, item, field, msg);
         let is_body = |n: &str| n == GROUND || bodies.contains(n);
         if !is_body(&c.sphere_body) {
-            return Err(err("sphere_body", format!("unknown body {:?}", c.sphere_body)));
+            return Err(err("sphere_body", format!("unknown body {}", quote(&c.sphere_body))));
         }
         if !is_body(&c.body) {
-            return Err(err("body", format!("unknown body {:?}", c.body)));
+            return Err(err("body", format!("unknown body {}", quote(&c.body))));
         }
         if c.sphere_body == GROUND && c.body == GROUND {
             return Err(err(
@@ -848,16 +873,58 @@ impl Scene {
         if !(0.0..=1.0).contains(&c.restitution) {
             return Err(err("restitution", format!("must be in [0, 1] (got {})", c.restitution)));
         }
-        if !(c.radius > 0.0 && c.radius.is_finite()) {
-            return Err(err("radius", format!("must be > 0 (got {})", c.radius)));
-        }
-        finite3(origin, item, "center", c.center)?;
+        length(origin, item, "radius", c.radius)?;
+        vector(origin, item, "center", &c.center)?;
         for (f, m) in [("sphere_material", &c.sphere_material), ("material", &c.material)] {
             if let Some(m) = m {
                 if !materials.contains(m.as_str()) {
-                    return Err(err(f, format!("unknown material {m:?}")));
+                    return Err(err(f, format!("unknown material {}", quote(m))));
                 }
             }
+        }
+        // Every number given is checked, whether or not this type of contact uses it.
+        for (f, v) in [
+            ("other_center", c.other_center),
+            ("origin", c.origin),
+            ("axis_point", c.axis_point),
+        ] {
+            if let Some(v) = v {
+                vector(origin, item, f, &v)?;
+            }
+        }
+        for (f, v) in [
+            ("normal", c.normal),
+            ("u_axis", c.u_axis),
+            ("axis", c.axis),
+            ("ref_axis", c.ref_axis),
+        ] {
+            if let Some(v) = v {
+                direction(origin, item, f, v)?;
+            }
+        }
+        for (f, v) in [
+            ("other_radius", c.other_radius),
+            ("cylinder_radius", c.cylinder_radius),
+            ("length", c.length),
+        ] {
+            if let Some(v) = v {
+                length(origin, item, f, v)?;
+            }
+        }
+        if let Some([a, b]) = c.size {
+            if !(a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite()) {
+                return Err(err(
+                    "size",
+                    format!("both side lengths must be finite and > 0 (got [{a}, {b}])"),
+                ));
+            }
+            magnitude(origin, item, "size", a.max(b))?;
+        }
+        if let Some([a, b]) = c.theta_range {
+            if !(a.is_finite() && b.is_finite()) || a >= b {
+                return Err(err("theta_range", "needs finite min < max".into()));
+            }
+            magnitude(origin, item, "theta_range", a.abs().max(b.abs()))?;
         }
         let need = |f: &str, present: bool| -> Result<(), SceneError> {
             if present {
@@ -870,26 +937,16 @@ impl Scene {
             ContactType::SphereSphere => {
                 need("other_center", c.other_center.is_some())?;
                 need("other_radius", c.other_radius.is_some())?;
-                let r = c.other_radius.unwrap_or(0.0);
-                if !(r > 0.0 && r.is_finite()) {
-                    return Err(err("other_radius", format!("must be > 0 (got {r})")));
-                }
             }
             ContactType::SpherePlane => {
                 need("origin", c.origin.is_some())?;
                 need("normal", c.normal.is_some())?;
                 need("u_axis", c.u_axis.is_some())?;
                 need("size", c.size.is_some())?;
-                nonzero3(origin, item, "normal", c.normal.unwrap_or_default())?;
-                nonzero3(origin, item, "u_axis", c.u_axis.unwrap_or_default())?;
                 let n = unit(c.normal.unwrap_or_default());
                 let u = unit(c.u_axis.unwrap_or_default());
                 if (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]).abs() > 1e-6 {
                     return Err(err("u_axis", "must be perpendicular to normal".into()));
-                }
-                let [a, b] = c.size.unwrap_or_default();
-                if !(a > 0.0 && b > 0.0) {
-                    return Err(err("size", "both side lengths must be > 0".into()));
                 }
             }
             ContactType::SphereCylinder => {
@@ -897,31 +954,17 @@ impl Scene {
                 need("axis", c.axis.is_some())?;
                 need("cylinder_radius", c.cylinder_radius.is_some())?;
                 need("length", c.length.is_some())?;
-                nonzero3(origin, item, "axis", c.axis.unwrap_or_default())?;
                 let rho = c.cylinder_radius.unwrap_or(0.0);
-                if !(rho > 0.0 && rho.is_finite()) {
-                    return Err(err("cylinder_radius", format!("must be > 0 (got {rho})")));
-                }
                 if c.side == Side::Inside && rho <= c.radius {
                     return Err(err(
                         "cylinder_radius",
                         "must exceed the sphere radius for an inside contact".into(),
                     ));
                 }
-                let l = c.length.unwrap_or(0.0);
-                if !(l > 0.0 && l.is_finite()) {
-                    return Err(err("length", format!("must be > 0 (got {l})")));
-                }
-                if let Some([a, b]) = c.theta_range {
-                    if !(a.is_finite() && b.is_finite()) || a >= b {
-                        return Err(err("theta_range", "needs finite min < max".into()));
-                    }
-                    if c.ref_axis.is_none() {
-                        return Err(err("ref_axis", "required with theta_range".into()));
-                    }
+                if c.theta_range.is_some() && c.ref_axis.is_none() {
+                    return Err(err("ref_axis", "required with theta_range".into()));
                 }
                 if let Some(r) = c.ref_axis {
-                    nonzero3(origin, item, "ref_axis", r)?;
                     let a = unit(c.axis.unwrap_or_default());
                     let r = unit(r);
                     if (a[0] * r[0] + a[1] * r[1] + a[2] * r[2]).abs() > 1e-6 {
@@ -933,9 +976,7 @@ impl Scene {
         let materials = c.sphere_material.is_some() && c.material.is_some();
         check_law(c.law, c.restitution, c.stiffness.is_some(), materials).map_err(|(f, m)| err(f, m))?;
         if let Some(k) = c.stiffness {
-            if !(k > 0.0 && k.is_finite()) {
-                return Err(err("stiffness", format!("must be > 0 (got {k})")));
-            }
+            positive(origin, item, "stiffness", k)?;
         }
         if let Some(v) = c.max_penetration {
             if !(v > 0.0 && v.is_finite()) {
@@ -944,12 +985,11 @@ impl Scene {
                     format!("must be > 0 (got {v}): no penetration could be admitted"),
                 ));
             }
+            magnitude(origin, item, "max_penetration", v)?;
         }
         for (f, v) in [("damping", c.damping), ("min_impact_velocity", c.min_impact_velocity)] {
             if let Some(v) = v {
-                if !(v >= 0.0 && v.is_finite()) {
-                    return Err(err(f, format!("must be >= 0 (got {v})")));
-                }
+                nonnegative(origin, item, f, v)?;
             }
         }
         if let Some(n) = c.exponent {
@@ -958,6 +998,164 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+/// `solver.rtol` must lie in this range (closed): looser tolerances give results without
+/// meaning (at 3e-2 the bundled bouncing ball gains 19× its energy, at 0.5 5.5×), tighter
+/// ones lie below the rounding error of f64. The FMU parameter has the same range.
+pub const RTOL_RANGE: [f64; 2] = [1e-14, 1e-2];
+
+/// `solver.atol` must lie in this range (closed): it is absolute, in the units of the state
+/// (m, rad, m/s, rad/s, J), so above 1e-2 the error control stops seeing the motion; small
+/// motions need small values (1e-17 for oscillations of 1e-4 rad), but far below 1e-20 steps
+/// fail on components that stay near zero (at 1e-30 the bundled slider-crank fails). The FMU
+/// parameter has the same range.
+pub const ATOL_RANGE: [f64; 2] = [1e-20, 1e-2];
+
+/// Smallest `solver.max_step` [s]: the step of `rk4`, and a cap on every method's step;
+/// a smaller one makes any simulation practically endless (and below the rounding of the
+/// time, truly endless). The FMU parameter has the same lower bound.
+pub const MIN_MAX_STEP: f64 = 1e-9;
+
+/// Largest magnitude of a coordinate [m], a length [m], a vector component (directions,
+/// velocities, gravity) or an angle [rad] in a scene: the model forms squares and products
+/// of them, which overflow or lose all precision beyond this.
+pub const MAX_MAGNITUDE: f64 = 1e12;
+
+/// Most communication points of the default experiment (`stop_time / interval`).
+pub const MAX_COMMUNICATION_POINTS: f64 = 1e9;
+
+/// Longest model name: the FMU's file name (`<name>.fmu`, `<name>.so`) and
+/// `modelIdentifier`, with room for suffixes within the 255 bytes of a file name.
+pub const MAX_MODEL_NAME: usize = 200;
+
+/// Names that Windows reserves for devices, refused as model names (`NUL.fmu` cannot be a
+/// file there), compared without case.
+const DEVICE_NAMES: [&str; 22] = [
+    "con", "prn", "aux", "nul", "com1", "com2", "com3", "com4", "com5", "com6", "com7", "com8", "com9", "lpt1", "lpt2",
+    "lpt3", "lpt4", "lpt5", "lpt6", "lpt7", "lpt8", "lpt9",
+];
+
+/// A number as messages show it: the shorter of plain and scientific notation (`0.5`, `1e-15`).
+fn short(x: f64) -> String {
+    let (plain, sci) = (format!("{x}"), format!("{x:e}"));
+    if sci.len() < plain.len() {
+        sci
+    } else {
+        plain
+    }
+}
+
+/// A name as messages show it: quoted and escaped (`"arm"`, `"a\tb"`), a long one cut to its
+/// first 40 characters.
+pub fn quote(name: &str) -> String {
+    const SHOWN: usize = 40;
+    let n = name.chars().count();
+    if n <= SHOWN {
+        format!("{name:?}")
+    } else {
+        let head: String = name.chars().take(SHOWN).collect();
+        format!("{head:?}… ({n} characters)")
+    }
+}
+
+/// An item as messages name it: its kind and its quoted name, e.g. `body "arm"`.
+pub fn item_name(kind: &str, name: &str) -> String {
+    format!("{kind} {}", quote(name))
+}
+
+/// A character that XML 1.0 cannot carry (U+FFFE, U+FFFF) or a control character (C0,
+/// DEL, C1; tab and line breaks included: an XML attribute would turn them into spaces).
+fn is_forbidden_char(c: char) -> bool {
+    c.is_control() || c == '\u{FFFE}' || c == '\u{FFFF}'
+}
+
+/// A character in words, for messages: `a tab (U+0009)`, `'%' (U+0025)`.
+fn describe_char(c: char) -> String {
+    let code = format!("U+{:04X}", c as u32);
+    match c {
+        '\t' => format!("a tab ({code})"),
+        '\n' => format!("a line feed ({code})"),
+        '\r' => format!("a carriage return ({code})"),
+        ' ' => format!("a space ({code})"),
+        '\u{FFFE}' | '\u{FFFF}' => format!("the non-character {code} (XML cannot carry it)"),
+        c if c.is_control() => format!("the control character {code}"),
+        c => format!("{c:?} ({code})"),
+    }
+}
+
+/// A name of a material, body, joint, spring-damper, contact or input: it becomes (the first
+/// part of) FMU variable names, whose structured form (`arm.mass`, `arm.r[1]`) allows, unquoted,
+/// only a letter or `_` followed by letters, digits and `_` (the FMI 2.0 grammar that fmpy
+/// checks).
+fn check_name(origin: &str, item: &str, name: &str) -> Result<(), SceneError> {
+    let rule = "a name is a letter or '_' followed by letters, digits and '_' \
+                (it becomes part of FMU variable names such as \"arm.mass\")";
+    let bad = |what: String| SceneError::new(origin, item, "name", format!("{} {what}; {rule}", quote(name)));
+    if name.is_empty() {
+        return Err(SceneError::new(
+            origin,
+            item,
+            "name",
+            format!("must not be empty; {rule}"),
+        ));
+    }
+    if let Some(c) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '_')) {
+        return Err(bad(format!("contains {}", describe_char(c))));
+    }
+    if name.starts_with(|c: char| c.is_ascii_digit()) {
+        return Err(bad("starts with a digit".into()));
+    }
+    Ok(())
+}
+
+/// The model name: a C identifier (the FMU's `modelIdentifier`), at most [`MAX_MODEL_NAME`]
+/// characters, not a device name (it is also the FMU's file name).
+fn check_model_name(origin: &str, name: &str) -> Result<(), SceneError> {
+    let item = "[model]";
+    let rule = "the model name is a C identifier (letters, digits, _; not starting with a digit), \
+                the FMU's modelIdentifier and file name";
+    let bad = |what: String| SceneError::new(origin, item, "name", format!("{what}; {rule}"));
+    if name.is_empty() {
+        return Err(bad("must not be empty".into()));
+    }
+    let n = name.chars().count();
+    if n > MAX_MODEL_NAME {
+        return Err(bad(format!(
+            "{} is {n} characters long, at most {MAX_MODEL_NAME} are allowed",
+            quote(name)
+        )));
+    }
+    if let Some(c) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '_')) {
+        return Err(bad(format!("{} contains {}", quote(name), describe_char(c))));
+    }
+    if name.starts_with(|c: char| c.is_ascii_digit()) {
+        return Err(bad(format!("{} starts with a digit", quote(name))));
+    }
+    if DEVICE_NAMES.iter().any(|d| d.eq_ignore_ascii_case(name)) {
+        return Err(bad(format!(
+            "{} is a device name on Windows and cannot be a file name there",
+            quote(name)
+        )));
+    }
+    Ok(())
+}
+
+/// Free text that goes into an XML attribute: no control characters.
+fn check_text(origin: &str, item: &str, field: &str, text: &str) -> Result<(), SceneError> {
+    match text.chars().enumerate().find(|(_, c)| is_forbidden_char(*c)) {
+        Some((i, c)) => Err(SceneError::new(
+            origin,
+            item,
+            field,
+            format!(
+                "character {} is {}; it must be one line of text without control characters",
+                i + 1,
+                describe_char(c)
+            ),
+        )),
+        None => Ok(()),
     }
 }
 
@@ -974,21 +1172,78 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     [v[0] / n, v[1] / n, v[2] / n]
 }
 
-fn finite3(origin: &str, item: &str, field: &str, v: [f64; 3]) -> Result<(), SceneError> {
-    if v.iter().all(|x| x.is_finite()) {
+/// `|x| <= MAX_MAGNITUDE` (for a finite `x`).
+fn magnitude(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneError> {
+    if x.abs() <= MAX_MAGNITUDE {
         Ok(())
     } else {
-        Err(SceneError::new(origin, item, field, "must be finite"))
+        Err(SceneError::new(
+            origin,
+            item,
+            field,
+            format!(
+                "{x:e} is too large: at most {MAX_MAGNITUDE:e} in magnitude (beyond, the model's squares and \
+                 products overflow or lose all precision)"
+            ),
+        ))
     }
 }
 
-fn nonzero3(origin: &str, item: &str, field: &str, v: [f64; 3]) -> Result<(), SceneError> {
-    finite3(origin, item, field, v)?;
+/// A vector (point, velocity, gravity): finite components of magnitude at most
+/// [`MAX_MAGNITUDE`].
+fn vector(origin: &str, item: &str, field: &str, v: &[f64]) -> Result<(), SceneError> {
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return Err(SceneError::new(
+            origin,
+            item,
+            field,
+            format!("must be finite (got a component {x})"),
+        ));
+    }
+    match v.iter().find(|x| x.abs() > MAX_MAGNITUDE) {
+        Some(&x) => magnitude(origin, item, field, x),
+        None => Ok(()),
+    }
+}
+
+/// A direction: a [`vector`] of length > 1e-12 (it is normalised).
+fn direction(origin: &str, item: &str, field: &str, v: [f64; 3]) -> Result<(), SceneError> {
+    vector(origin, item, field, &v)?;
     if v.iter().map(|x| x * x).sum::<f64>() > 1e-24 {
         Ok(())
     } else {
         Err(SceneError::new(origin, item, field, "must not be the zero vector"))
     }
+}
+
+/// A finite `x > 0`.
+fn positive(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneError> {
+    let msg = if !x.is_finite() {
+        format!("must be finite (got {x})")
+    } else if x > 0.0 {
+        return Ok(());
+    } else {
+        format!("must be > 0 (got {})", short(x))
+    };
+    Err(SceneError::new(origin, item, field, msg))
+}
+
+/// A finite `x >= 0`.
+fn nonnegative(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneError> {
+    let msg = if !x.is_finite() {
+        format!("must be finite (got {x})")
+    } else if x >= 0.0 {
+        return Ok(());
+    } else {
+        format!("must be >= 0 (got {})", short(x))
+    };
+    Err(SceneError::new(origin, item, field, msg))
+}
+
+/// A length [m]: finite, > 0, at most [`MAX_MAGNITUDE`].
+fn length(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneError> {
+    positive(origin, item, field, x)?;
+    magnitude(origin, item, field, x)
 }
 
 fn line_col(text: &str, byte: usize) -> (usize, usize) {

@@ -5,7 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{JointType, Law, Method, Scene};
+use crate::scene::{JointType, Law, Method, Scene, ATOL_RANGE, MIN_MAX_STEP, RTOL_RANGE};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -188,6 +188,14 @@ impl Range {
             max_exclusive: false,
         }
     }
+    fn closed([min, max]: [f64; 2]) -> Range {
+        Range {
+            min,
+            min_exclusive: false,
+            max,
+            max_exclusive: false,
+        }
+    }
     /// True when `v` lies in the range.
     pub fn contains(&self, v: f64) -> bool {
         let lo = if self.min_exclusive {
@@ -202,13 +210,22 @@ impl Range {
         };
         v.is_finite() && lo && hi
     }
-    /// Human-readable form, e.g. `(0, inf)` or `[0, 0.5)`.
+    /// Human-readable form, e.g. `(0, inf)`, `[0, 0.5)` or `[1e-14, 0.01]`.
     pub fn describe(&self) -> String {
+        // the shorter of plain and scientific notation
+        let num = |x: f64| {
+            let (plain, sci) = (format!("{x}"), format!("{x:e}"));
+            if sci.len() < plain.len() {
+                sci
+            } else {
+                plain
+            }
+        };
         format!(
             "{}{}, {}{}",
             if self.min_exclusive { "(" } else { "[" },
-            self.min,
-            self.max,
+            num(self.min),
+            num(self.max),
             if self.max_exclusive { ")" } else { "]" }
         )
     }
@@ -385,7 +402,7 @@ impl VariableTable {
             "solver.rtol".into(),
             s.rtol,
             None,
-            pos,
+            Range::closed(RTOL_RANGE),
             VarRef::SolverRtol,
             "relative tolerance",
         ));
@@ -393,7 +410,7 @@ impl VariableTable {
             "solver.atol".into(),
             s.atol,
             None,
-            pos,
+            Range::closed(ATOL_RANGE),
             VarRef::SolverAtol,
             "absolute tolerance",
         ));
@@ -401,7 +418,7 @@ impl VariableTable {
             "solver.max_step".into(),
             s.max_step,
             Some("s"),
-            pos,
+            Range::open_above(MIN_MAX_STEP, false),
             VarRef::SolverMaxStep,
             "largest internal step",
         ));

@@ -4,25 +4,26 @@
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::element::{ContactElement, Shape};
 use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
-use crate::scene::{ContactSpec, ContactType, Law, Scene, SceneError, Side};
+use crate::scene::{item_name, ContactSpec, ContactType, Law, SceneError, Side};
 use crate::spatial::triad;
 use nalgebra::Vector3;
 
 /// Compiles one contact with its parameter values `p` (materials: `materials`, in scene
-/// order). `body_of` maps names to body indices (None = ground), `local_point` and
-/// `local_dir` express world points and directions in a body's initial frame.
+/// order; `material_of` maps their names to indices). `body_of` maps names to body indices
+/// (None = ground), `local_point` and `local_dir` express world points and directions in a
+/// body's initial frame.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn compile_contact(
-    scene: &Scene,
     c: &ContactSpec,
     p: &ContactValues,
     materials: &[MaterialValues],
+    material_of: &dyn Fn(&str) -> Option<usize>,
     origin: &str,
     body_of: &dyn Fn(&str) -> Option<usize>,
     local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
     local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
 ) -> Result<ContactElement, SceneError> {
-    let item = format!("contact {:?}", c.name);
+    let item = item_name("contact", &c.name);
     let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
     let sphere_body = body_of(&c.sphere_body);
     let body = body_of(&c.body);
@@ -86,11 +87,7 @@ pub(super) fn compile_contact(
             )
         }
     };
-    let material = |name: &Option<String>| {
-        name.as_ref()
-            .and_then(|n| scene.material.iter().position(|m| &m.name == n))
-            .map(|i| materials[i])
-    };
+    let material = |name: &Option<String>| name.as_ref().and_then(|n| material_of(n)).map(|i| materials[i]);
     let (stiffness, derived) = match p.stiffness {
         Some(k) => (k, false),
         None => match (material(&c.sphere_material), material(&c.material)) {

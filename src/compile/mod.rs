@@ -20,9 +20,10 @@ pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
 use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
-use crate::scene::{InputType, JointSpec, JointType, Law, Scene, SceneError, GROUND};
+use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::collections::HashMap;
 
 fn to_v(a: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
@@ -43,7 +44,15 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
 pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<(Model, Data), SceneError> {
     params.check(scene, origin)?;
     let nb = scene.body.len();
-    let body_idx = |name: &str| -> Option<usize> { scene.body.iter().position(|b| b.name == name) };
+    // Name → index maps, built once: every lookup below is O(1), so compilation is linear in
+    // the size of the scene.
+    let body_index: HashMap<&str, usize> = scene
+        .body
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (b.name.as_str(), i))
+        .collect();
+    let body_idx = |name: &str| -> Option<usize> { body_index.get(name).copied() };
     let pos0: Vec<Vector3<f64>> = scene.body.iter().map(|b| to_v(b.position)).collect();
     let rot0: Vec<UnitQuaternion<f64>> = scene.body.iter().map(|b| quat_of(b.orientation)).collect();
 
@@ -52,50 +61,29 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     let mut loop_joints = Vec::new();
     for (ji, j) in scene.joint.iter().enumerate() {
         let c = body_idx(&j.child)
-            .ok_or_else(|| SceneError::new(origin, format!("joint {:?}", j.name), "child", "unknown body"))?;
+            .ok_or_else(|| SceneError::new(origin, item_name("joint", &j.name), "child", "unknown body"))?;
         if parent_joint[c].is_none() {
             parent_joint[c] = Some(ji);
         } else {
             loop_joints.push(ji);
         }
     }
-    // Every body must reach the ground.
-    for b in 0..nb {
-        let mut cur = b;
-        let mut seen = 0;
-        while let Some(ji) = parent_joint[cur] {
-            let p = &scene.joint[ji].parent;
-            if p == GROUND {
-                break;
-            }
-            cur = body_idx(p).unwrap_or(cur);
-            seen += 1;
-            if seen > nb {
-                return Err(SceneError::new(
-                    origin,
-                    format!("body {:?}", scene.body[b].name),
-                    "joint",
-                    format!(
-                        "joint cycle through joint {:?}: this body has no path to ground",
-                        scene.joint[ji].name
-                    ),
-                ));
-            }
-        }
-    }
+    // The parent body of each body in the tree (None: the ground, or no joint).
+    let parent_body: Vec<Option<usize>> = parent_joint
+        .iter()
+        .map(|pj| pj.and_then(|ji| body_idx(&scene.joint[ji].parent)))
+        .collect();
+    check_paths_to_ground(scene, origin, &parent_joint, &parent_body)?;
     // Depth-first order from the ground; each root child starts a tree.
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); nb + 1]; // index nb = ground
-    for (b, pj) in parent_joint.iter().enumerate() {
-        let p = match pj {
-            Some(ji) => body_idx(&scene.joint[*ji].parent).unwrap_or(nb),
-            None => nb,
-        };
-        children[p].push(b);
+    for (b, p) in parent_body.iter().enumerate() {
+        children[p.unwrap_or(nb)].push(b);
     }
     let mut order = Vec::with_capacity(nb);
     let mut tree_of = vec![0usize; nb];
+    let mut stack = Vec::new();
     for (t, &root) in children[nb].iter().enumerate() {
-        let mut stack = vec![root];
+        stack.push(root);
         while let Some(b) = stack.pop() {
             order.push(b);
             tree_of[b] = t;
@@ -218,22 +206,18 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         }
     }
     let mut dof_parent = vec![crate::linalg::NO_PARENT; nv];
+    // Per joint: the last dof of the joint itself or, when it has none, of its nearest
+    // ancestor that has any (joints are in depth-first order: a parent's entry comes first).
+    let mut last_dof: Vec<Option<usize>> = Vec::with_capacity(joints.len());
     for j in &joints {
         let t0 = trees[j.tree].0;
         // the last dof of the nearest ancestor joint that has any
-        let mut up = crate::linalg::NO_PARENT;
-        let mut cur = j.parent;
-        while let Some(p) = cur {
-            let pj = &joints[bodies[p].joint];
-            if pj.nv() > 0 {
-                up = pj.qvel + pj.nv() - 1 - t0;
-                break;
-            }
-            cur = pj.parent;
-        }
+        let above = j.parent.and_then(|p| last_dof[bodies[p].joint]);
+        let up = above.map_or(crate::linalg::NO_PARENT, |k| k - t0);
         for k in 0..j.nv() {
             dof_parent[j.qvel + k] = if k == 0 { up } else { j.qvel + k - 1 - t0 };
         }
+        last_dof.push(if j.nv() > 0 { Some(j.qvel + j.nv() - 1) } else { above });
     }
     let mut tree_block = Vec::with_capacity(ntrees);
     let mut off = 0;
@@ -247,7 +231,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     let mut nc = 0;
     for (li, &ji) in loop_joints.iter().enumerate() {
         let j = &scene.joint[ji];
-        let item = format!("joint {:?}", j.name);
+        let item = item_name("joint", &j.name);
         if j.kind == JointType::Free {
             return Err(SceneError::new(
                 origin,
@@ -280,6 +264,12 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     }
 
     let to_body = |name: &str| -> Option<usize> { body_idx(name) };
+    let joint_index: HashMap<&str, usize> = scene
+        .joint
+        .iter()
+        .enumerate()
+        .map(|(i, j)| (j.name.as_str(), i))
+        .collect();
     let local_point = |b: Option<usize>, p: Vector3<f64>| -> Vector3<f64> {
         let (r, q) = pose(b);
         q.inverse() * (p - r)
@@ -304,13 +294,19 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         })
         .collect();
 
+    let material_index: HashMap<&str, usize> = scene
+        .material
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.name.as_str(), i))
+        .collect();
     let mut contacts = Vec::with_capacity(scene.contact.len());
     for (c, p) in scene.contact.iter().zip(&params.contacts) {
         contacts.push(contact::compile_contact(
-            scene,
             c,
             p,
             &params.materials,
+            &|n| material_index.get(n).copied(),
             origin,
             &|n| to_body(n),
             &|b, p| local_point(b, p),
@@ -346,10 +342,10 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
                 direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
             },
             InputType::JointForce => {
-                let ji = scene
+                let ji = i
                     .joint
-                    .iter()
-                    .position(|j| Some(&j.name) == i.joint.as_ref())
+                    .as_deref()
+                    .and_then(|n| joint_index.get(n).copied())
                     .unwrap_or(0);
                 match scene_joint[ji] {
                     Ok(t) => Input::JointForce { qvel: joints[t].qvel },
@@ -385,7 +381,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         if let (InputType::JointForce, Input::JointForce { qvel: usize::MAX }) = (inp.kind, &model.inputs[i]) {
             return Err(SceneError::new(
                 origin,
-                format!("input {:?}", inp.name),
+                item_name("input", &inp.name),
                 "joint",
                 "the joint closes a loop; a joint force needs a tree joint",
             ));
@@ -398,4 +394,59 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     data.eval_state.copy_from_slice(&data.state);
     kinematics(&model, &mut data);
     Ok((model, data))
+}
+
+/// Checks that every body reaches the ground through its tree joints (`parent_joint`,
+/// `parent_body`: the tree as built from the joints). Each body is walked over once
+/// (memoised), so this is linear in the number of bodies. The error names the first body,
+/// in scene order, that has no path, and a joint of the cycle it hangs from.
+fn check_paths_to_ground(
+    scene: &Scene,
+    origin: &str,
+    parent_joint: &[Option<usize>],
+    parent_body: &[Option<usize>],
+) -> Result<(), SceneError> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Reach {
+        Unknown,
+        OnPath,
+        Ground,
+    }
+    let nb = parent_body.len();
+    let mut reach = vec![Reach::Unknown; nb];
+    let mut path = Vec::new();
+    for b in 0..nb {
+        path.clear();
+        let mut cur = b;
+        loop {
+            match reach[cur] {
+                Reach::Ground => break,
+                Reach::OnPath => {
+                    // `cur` is reached a second time: a cycle of joints
+                    let ji = parent_joint[cur].unwrap_or_default();
+                    return Err(SceneError::new(
+                        origin,
+                        item_name("body", &scene.body[b].name),
+                        "joint",
+                        format!(
+                            "joint cycle through joint {:?}: this body has no path to ground",
+                            scene.joint[ji].name
+                        ),
+                    ));
+                }
+                Reach::Unknown => {
+                    reach[cur] = Reach::OnPath;
+                    path.push(cur);
+                    match (parent_joint[cur], parent_body[cur]) {
+                        (Some(_), Some(p)) => cur = p,
+                        _ => break, // the ground, or a free body
+                    }
+                }
+            }
+        }
+        for &p in &path {
+            reach[p] = Reach::Ground;
+        }
+    }
+    Ok(())
 }

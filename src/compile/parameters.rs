@@ -3,7 +3,7 @@
 //! scene gives their defaults; [`super::compile`] reads them from here, so that changing a
 //! parameter never edits the scene.
 
-use crate::scene::{check_law, Law, Scene, SceneError, SolverSection};
+use crate::scene::{check_law, item_name, Law, Scene, SceneError, SolverSection};
 
 /// Elastic constants of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,12 +82,60 @@ impl Parameters {
     /// Checks what depends on several values at once (a law's needs: Kelvin-Voigt needs a
     /// stiffness, Flores e > 0, the Hertz family a stiffness or two materials); single values
     /// are checked against their ranges by the variable table. The message names the contact
-    /// and the field.
+    /// and the field; when a host's parameter value (`<contact>.law`, `<contact>.restitution`)
+    /// makes the combination impossible, it names that parameter and says what to do.
     pub fn check(&self, scene: &Scene, origin: &str) -> Result<(), SceneError> {
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
             let materials = c.sphere_material.is_some() && c.material.is_some();
-            check_law(v.law, v.restitution, v.stiffness.is_some(), materials)
-                .map_err(|(field, msg)| SceneError::new(origin, format!("contact {:?}", c.name), field, msg))?;
+            let has_stiffness = v.stiffness.is_some();
+            let Err((field, msg)) = check_law(v.law, v.restitution, has_stiffness, materials) else {
+                continue;
+            };
+            let item = item_name("contact", &c.name);
+            let law = format!("parameter \"{}.law\" = {} ({})", c.name, v.law as i64, v.law.name());
+            let others = || {
+                Law::ALL
+                    .iter()
+                    .filter(|l| check_law(**l, v.restitution, has_stiffness, materials).is_ok())
+                    .map(|l| format!("{} = {}", l.name(), *l as i64))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let (field, msg) = match field {
+                "stiffness" if v.law != c.law => (
+                    "law",
+                    format!(
+                        "{law} needs a contact stiffness, but \"{name}.stiffness\" is a calculated parameter of \
+                         this FMU (the scene gives this contact no stiffness key{derived}): choose another law \
+                         ({}), or add stiffness to contact {name:?} in the scene and export the FMU again",
+                        others(),
+                        name = c.name,
+                        derived = if materials {
+                            "; it is derived from the materials for the Hertz family"
+                        } else {
+                            ""
+                        },
+                    ),
+                ),
+                "restitution" if v.law != c.law => (
+                    "law",
+                    format!(
+                        "{law} needs a restitution e > 0, but \"{}.restitution\" = {}: set e > 0 or choose another law",
+                        c.name, v.restitution
+                    ),
+                ),
+                "restitution" if v.restitution != c.restitution => (
+                    "restitution",
+                    format!(
+                        "parameter \"{}.restitution\" = {}: the {} law needs e > 0",
+                        c.name,
+                        v.restitution,
+                        v.law.name()
+                    ),
+                ),
+                _ => (field, msg),
+            };
+            return Err(SceneError::new(origin, item, field, msg));
         }
         Ok(())
     }

@@ -18,12 +18,16 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, scene: &Scene) -> (Vec
     d.eval_state[m.nq..].iter_mut().for_each(|x| *x = 0.0);
     kinematics(m, d);
     let mut qvel = vec![0.0; m.nv];
+    // The bodies of each tree, in joint order (one pass over the joints).
+    let mut tree_bodies: Vec<Vec<usize>> = vec![Vec::new(); m.trees.len()];
+    for j in &m.joints {
+        tree_bodies[j.tree].push(j.child);
+    }
     for (t, &(t0, n)) in m.trees.iter().enumerate() {
         if n == 0 {
             continue;
         }
-        let bodies: Vec<usize> = m.joints.iter().filter(|j| j.tree == t).map(|j| j.child).collect();
-        let mut bmat = DMatrix::<f64>::zeros(6 * bodies.len(), n);
+        let bodies = &tree_bodies[t];
         let mut y = DVector::<f64>::zeros(6 * bodies.len());
         for (i, &b) in bodies.iter().enumerate() {
             let spec = &scene.body[b];
@@ -31,6 +35,13 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, scene: &Scene) -> (Vec
                 y[6 * i + k] = spec.velocity[k];
                 y[6 * i + 3 + k] = spec.angular_velocity[k];
             }
+        }
+        // A tree at rest has zero rates: no matrix to build (it is dense, 6 bodies × dofs).
+        if y.norm() == 0.0 {
+            continue;
+        }
+        let mut bmat = DMatrix::<f64>::zeros(6 * bodies.len(), n);
+        for (i, &b) in bodies.iter().enumerate() {
             let c = d.body_pos[b];
             for_each_path_dof(m, b, |k| {
                 let s = d.dof_s[k];
@@ -40,9 +51,6 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, scene: &Scene) -> (Vec
                     bmat[(6 * i + 3 + r, k - t0)] = s.ang[r];
                 }
             });
-        }
-        if y.norm() == 0.0 {
-            continue;
         }
         let svd = bmat.clone().svd(true, true);
         let sol = svd.solve(&y, 1e-12).unwrap_or_else(|_| DVector::zeros(n));
