@@ -767,7 +767,8 @@ fn newest(candidates: &[PathBuf]) -> Option<(std::time::SystemTime, PathBuf)> {
 /// 2. else the library of the cargo profile [`DIST_PROFILE`] in the target directory of the
 ///    running executable (`target/x86_64-unknown-linux-gnu/dist/`, where
 ///    `scripts/build_fmu_library.sh` builds it, or `target/dist/`), when it is not older than
-///    the executable (an older one may lack the latest changes of the sources);
+///    the development library of step 3 (or, without one, the executable): an older one may
+///    lack the latest changes of the sources;
 /// 3. else the development build beside the executable (`target/release/`: with debug
 ///    information, several times larger), with a note saying so.
 ///
@@ -815,17 +816,6 @@ fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
         }
         dist.push(target.join(DIST_PROFILE).join(LIBRARY_FILE));
     }
-    let exe_time = modified(&exe);
-    match newest(&dist) {
-        Some((time, path)) if exe_time.is_none_or(|t| time >= t) => return Ok(path),
-        Some((_, path)) => notes.push(format!(
-            "{} is older than this exporter and may lack changes of the sources (scripts/build_fmu_library.sh rebuilds it): packing the development build",
-            path.display()
-        )),
-        None => notes.push(format!(
-            "no library of the cargo profile `{DIST_PROFILE}` (small, portable; scripts/build_fmu_library.sh builds it): packing the development build"
-        )),
-    }
     let candidates = [
         dir.join(LIBRARY_FILE),
         dir.join("deps").join(LIBRARY_FILE),
@@ -833,7 +823,21 @@ fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
     ];
     // `cargo run` and `cargo test` rebuild the library in `deps/` without copying it up to
     // `target/<profile>/`, so the copy next to the executable can be stale: take the newest.
-    if let Some((_, path)) = newest(&candidates) {
+    let development = newest(&candidates);
+    // The development library is rebuilt whenever the library's sources change (the
+    // executable also when only its own do): a `dist` library older than it may lack changes.
+    let reference = development.as_ref().map(|(time, _)| *time).or_else(|| modified(&exe));
+    match newest(&dist) {
+        Some((time, path)) if reference.is_none_or(|r| time >= r) => return Ok(path),
+        Some((_, path)) => notes.push(format!(
+            "{} is older than the development build and may lack changes of the sources (scripts/build_fmu_library.sh rebuilds it): packing the development build",
+            path.display()
+        )),
+        None => notes.push(format!(
+            "no library of the cargo profile `{DIST_PROFILE}` (small, portable; scripts/build_fmu_library.sh builds it): packing the development build"
+        )),
+    }
+    if let Some((_, path)) = development {
         return Ok(path);
     }
     Err(ExportError::Library(format!(
