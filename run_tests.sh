@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The project's test command: build, Rust tests, export the bundled FMUs, then test the
-# exported .fmu files through a real FMI host (fmpy) in a Python venv.
+# The project's test command: build, Rust tests, build the library the FMUs ship with, export
+# the bundled FMUs, then test the exported .fmu files through real FMI hosts (fmpy in a Python
+# venv, and the FMU Compliance Checker from ../shared/tools/ where it is present).
 #
 #   ./run_tests.sh            everything
 #   ./run_tests.sh -k guid    extra arguments go to pytest
@@ -20,6 +21,9 @@ cargo build --release
 
 echo "== cargo test --release"
 cargo test --release
+
+echo "== the FMU library: cargo profile dist (stripped, LTO), glibc 2.17 through cargo-zigbuild"
+scripts/build_fmu_library.sh
 
 echo "== export the bundled FMUs"
 mkdir -p target/fmu

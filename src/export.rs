@@ -6,15 +6,19 @@
 //! and `documentation/index.html`.
 //!
 //! Everything is deterministic: the GUID is derived from the scene text and the crate
-//! version, the description carries no generation date and the zip entries carry a fixed
-//! timestamp, so the same scene always gives the same `modelDescription.xml` (which is why
-//! the bundled ones can be kept under version control).
+//! version, and the one date, `generationDateAndTime` (also the zip entries' timestamp), is
+//! `SOURCE_DATE_EPOCH` when that is set and a fixed date (1980-01-01) otherwise, so the same
+//! scene always gives the same FMU. [`model_description_xml`] is the description without the
+//! date, which is what `modelDescription/` keeps under version control.
+//!
+//! The library packed is the one of the cargo profile `dist` (no debug information, stripped,
+//! fat LTO), built for glibc 2.17 by `scripts/build_fmu_library.sh`; see [`find_library`].
 
 use crate::fmi::LOG_CATEGORIES;
 use crate::guid::guid;
 use crate::scene::{Scene, SceneError};
 use crate::simulation::Simulation;
-use crate::variables::{Causality, EnumType, Range, VarType, Variability, Variable, VariableTable, UNITS};
+use crate::variables::{Causality, EnumType, Range, Unit, VarType, Variability, Variable, VariableTable, UNITS};
 use quick_xml::events::attributes::Attribute;
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::name::QName;
@@ -84,6 +88,9 @@ pub enum ExportError {
     /// The shared library was not found.
     #[error("{0}")]
     Library(String),
+    /// `SOURCE_DATE_EPOCH` is set but is not a number of seconds since 1970.
+    #[error("SOURCE_DATE_EPOCH = {0:?} is not a whole number of seconds since 1970-01-01 (0 to {MAX_EPOCH})")]
+    SourceDateEpoch(String),
 }
 
 fn io_error(path: &Path) -> impl FnOnce(io::Error) -> ExportError + '_ {
@@ -207,11 +214,11 @@ fn range_attributes(r: Option<Range>) -> Vec<(&'static str, String)> {
 }
 
 /// The units used by the table, in [`UNITS`] order.
-fn used_units(table: &VariableTable) -> Vec<(&'static str, [i32; 3])> {
+fn used_units(table: &VariableTable) -> Vec<Unit> {
     UNITS
         .iter()
         .copied()
-        .filter(|(name, _)| table.vars.iter().any(|v| v.unit == Some(*name)))
+        .filter(|u| table.vars.iter().any(|v| v.unit == Some(u.name)))
         .collect()
 }
 
@@ -220,6 +227,22 @@ fn used_enums(table: &VariableTable) -> Vec<EnumType> {
     [EnumType::ContactLaw, EnumType::SolverMethod]
         .into_iter()
         .filter(|e| table.vars.iter().any(|v| v.vtype == VarType::Enumeration(*e)))
+        .collect()
+}
+
+/// The 1-based indices of the variables an output depends on directly, for the
+/// `dependencies` attribute of `ModelStructure/Outputs`: every input for an output that
+/// depends on the inputs, none otherwise (see docs/fmi.md, "Dependencies").
+pub fn output_dependencies(table: &VariableTable, output: usize) -> Vec<usize> {
+    if !table.vars[output].depends_on_inputs {
+        return Vec::new();
+    }
+    table
+        .vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Input)
+        .map(|(i, _)| i + 1)
         .collect()
 }
 
@@ -246,14 +269,90 @@ pub fn model_structure(table: &VariableTable) -> (Vec<usize>, Vec<usize>) {
     (outputs, initial)
 }
 
-/// The `modelDescription.xml` of a scene (UTF-8, element order of the FMI 2.0 schema, no
-/// generation date).
+/// The `modelDescription.xml` of a scene (UTF-8, element order of the FMI 2.0 schema) without
+/// `generationDateAndTime`: a pure function of the scene text, kept in `modelDescription/`.
 pub fn model_description_xml(scene: &Scene, scene_text: &str) -> String {
-    let bytes = write_model_description(scene, scene_text).expect("writing XML into a Vec<u8> cannot fail");
+    model_description_xml_dated(scene, scene_text, None)
+}
+
+/// The `modelDescription.xml` of a scene with `generationDateAndTime` set to `generated` (an
+/// `xs:dateTime` such as [`format_utc`] writes), as packed into the FMU.
+pub fn model_description_xml_dated(scene: &Scene, scene_text: &str, generated: Option<&str>) -> String {
+    let bytes = write_model_description(scene, scene_text, generated).expect("writing XML into a Vec<u8> cannot fail");
     String::from_utf8(bytes).expect("quick-xml writes the UTF-8 it is given")
 }
 
-fn write_model_description(scene: &Scene, scene_text: &str) -> io::Result<Vec<u8>> {
+/// The generation time of exported FMUs when `SOURCE_DATE_EPOCH` is not set:
+/// 1980-01-01T00:00:00Z, the earliest time a zip entry can carry.
+pub const DEFAULT_EPOCH: u64 = 315_532_800;
+
+/// The latest `SOURCE_DATE_EPOCH` accepted: 9999-12-31T23:59:59Z.
+pub const MAX_EPOCH: u64 = 253_402_300_799;
+
+/// The generation time of an export [s since 1970-01-01 UTC]: `SOURCE_DATE_EPOCH` (the
+/// reproducible-builds convention) when it is set, [`DEFAULT_EPOCH`] otherwise, so that the
+/// same scene and library always give the same FMU. A value that is not a whole number of
+/// seconds is refused.
+pub fn generation_epoch() -> Result<u64, ExportError> {
+    match std::env::var("SOURCE_DATE_EPOCH") {
+        Err(std::env::VarError::NotPresent) => Ok(DEFAULT_EPOCH),
+        Ok(text) if text.is_empty() => Ok(DEFAULT_EPOCH),
+        Ok(text) => match text.parse::<u64>() {
+            Ok(t) if t <= MAX_EPOCH => Ok(t),
+            _ => Err(ExportError::SourceDateEpoch(text)),
+        },
+        Err(std::env::VarError::NotUnicode(text)) => {
+            Err(ExportError::SourceDateEpoch(text.to_string_lossy().into_owned()))
+        }
+    }
+}
+
+/// The UTC calendar time of `epoch` seconds since 1970-01-01: (year, month, day, hour,
+/// minute, second).
+pub fn utc_time(epoch: u64) -> (u64, u64, u64, u64, u64, u64) {
+    let leap = |y: u64| (y.is_multiple_of(4) && !y.is_multiple_of(100)) || y.is_multiple_of(400);
+    let mut days = epoch / 86_400;
+    let secs = epoch % 86_400;
+    let mut year = 1970;
+    loop {
+        let in_year = if leap(year) { 366 } else { 365 };
+        if days < in_year {
+            break;
+        }
+        days -= in_year;
+        year += 1;
+    }
+    let mut month = 1;
+    for length in [
+        31,
+        if leap(year) { 29 } else { 28 },
+        31,
+        30,
+        31,
+        30,
+        31,
+        31,
+        30,
+        31,
+        30,
+        31,
+    ] {
+        if days < length {
+            break;
+        }
+        days -= length;
+        month += 1;
+    }
+    (year, month, days + 1, secs / 3600, secs % 3600 / 60, secs % 60)
+}
+
+/// `epoch` as an `xs:dateTime` in UTC, e.g. `1980-01-01T00:00:00Z`.
+pub fn format_utc(epoch: u64) -> String {
+    let (y, mo, d, h, mi, s) = utc_time(epoch);
+    format!("{y:04}-{mo:02}-{d:02}T{h:02}:{mi:02}:{s:02}Z")
+}
+
+fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
     let table = VariableTable::from_scene(scene);
     let m = &scene.model;
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
@@ -265,10 +364,21 @@ fn write_model_description(scene: &Scene, scene_text: &str) -> io::Result<Vec<u8
         ("modelName", m.name.as_str()),
         ("guid", guid.as_str()),
     ];
-    if !m.description.is_empty() {
-        root.push(("description", m.description.as_str()));
+    for (key, value) in [
+        ("description", &m.description),
+        ("author", &m.author),
+        ("version", &m.version),
+        ("copyright", &m.copyright),
+        ("license", &m.license),
+    ] {
+        if !value.is_empty() {
+            root.push((key, value.as_str()));
+        }
     }
     root.push(("generationTool", tool.as_str()));
+    if let Some(date) = generated {
+        root.push(("generationDateAndTime", date));
+    }
     root.push(("variableNamingConvention", "structured"));
     w.create_element("fmiModelDescription")
         .with_attributes(attrs(root))
@@ -290,23 +400,25 @@ fn write_model_description(scene: &Scene, scene_text: &str) -> io::Result<Vec<u8
             let units = used_units(&table);
             if !units.is_empty() {
                 w.create_element("UnitDefinitions").write_inner_content(|w| {
-                    for (name, [kg, metre, s]) in units {
+                    for unit in units {
                         let mut base: Vec<(&str, String)> = Vec::new();
-                        for (attr, e) in [("kg", kg), ("m", metre), ("s", s)] {
+                        for (attr, e) in ["kg", "m", "s", "rad"].into_iter().zip(unit.base) {
                             if e != 0 {
                                 base.push((attr, e.to_string()));
                             }
                         }
-                        // Angular units: radian is FMI's base unit "rad" (dimensionless in UNITS).
-                        if name.starts_with("rad") {
-                            base.push(("rad", "1".into()));
-                        }
                         w.create_element("Unit")
-                            .with_attributes(attrs([("name", name)]))
+                            .with_attributes(attrs([("name", unit.name)]))
                             .write_inner_content(|w| {
                                 w.create_element("BaseUnit")
                                     .with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str()))))
                                     .write_empty()?;
+                                for (name, factor) in unit.display {
+                                    let factor = format_real(*factor);
+                                    w.create_element("DisplayUnit")
+                                        .with_attributes(attrs([("name", *name), ("factor", factor.as_str())]))
+                                        .write_empty()?;
+                                }
                                 Ok(())
                             })?;
                     }
@@ -368,10 +480,20 @@ fn write_model_description(scene: &Scene, scene_text: &str) -> io::Result<Vec<u8
                         continue;
                     }
                     w.create_element(tag).write_inner_content(|w| {
-                        for i in list {
-                            let i = i.to_string();
+                        for &i in list {
+                            let index = i.to_string();
+                            let mut a = vec![("index", index)];
+                            // Outputs state their direct dependencies (often none); initial
+                            // unknowns keep FMI's default (they may depend on every parameter).
+                            if tag == "Outputs" {
+                                let deps: Vec<String> = output_dependencies(&table, i - 1)
+                                    .iter()
+                                    .map(|d| d.to_string())
+                                    .collect();
+                                a.push(("dependencies", deps.join(" ")));
+                            }
                             w.create_element("Unknown")
-                                .with_attributes(attrs([("index", i.as_str())]))
+                                .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
                                 .write_empty()?;
                         }
                         Ok(())
@@ -409,6 +531,9 @@ fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Resul
                     if let Some(u) = v.unit {
                         a.push(("unit", u.to_string()));
                     }
+                    if let Some(d) = v.display_unit {
+                        a.push(("displayUnit", d.to_string()));
+                    }
                     if v.causality == Causality::Parameter {
                         a.extend(range_attributes(v.range));
                     }
@@ -418,6 +543,9 @@ fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Resul
                     "Real"
                 }
                 VarType::Integer => {
+                    if v.causality == Causality::Parameter {
+                        a.extend(range_attributes(v.range));
+                    }
                     if let Some(s) = start {
                         a.push(("start", format!("{}", s.round() as i64)));
                     }
@@ -468,6 +596,13 @@ pub fn documentation_html(scene: &Scene) -> String {
         format_real(m.interval),
         format_real(scene.solver.rtol)
     ));
+    h.push_str(&format!(
+        "<p>Version {}; author: {}; {}; license: {}.</p>\n",
+        escape_html(&m.version),
+        escape_html(&m.author),
+        escape_html(&m.copyright),
+        escape_html(&m.license)
+    ));
     h.push_str("<table>\n<tr><th>value reference</th><th>name</th><th>causality</th><th>type</th><th>unit</th><th>start</th><th>description</th></tr>\n");
     for (vr, v) in table.vars.iter().enumerate() {
         let vtype = match v.vtype {
@@ -514,7 +649,8 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
         message: e.to_string(),
     })?;
     let binary = std::fs::read(library).map_err(io_error(library))?;
-    let xml = model_description_xml(&scene, &text);
+    let epoch = generation_epoch()?;
+    let xml = model_description_xml_dated(&scene, &text, Some(&format_utc(epoch)));
     let html = documentation_html(&scene);
     let name = &scene.model.name;
     let entries: Vec<(String, &[u8], u32)> = vec![
@@ -532,7 +668,7 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
     }
     // Write next to the target and rename, so a failed export never leaves half an FMU.
     let tmp = out.with_extension("fmu.partial");
-    write_zip(&tmp, &entries).map_err(io_error(&tmp))?;
+    write_zip(&tmp, &entries, epoch).map_err(io_error(&tmp))?;
     std::fs::rename(&tmp, out).map_err(io_error(out))?;
     Ok(ExportedFmu {
         path: out.to_path_buf(),
@@ -542,14 +678,22 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
     })
 }
 
-fn write_zip(path: &Path, entries: &[(String, &[u8], u32)]) -> io::Result<()> {
+/// Writes the zip; every entry carries the time `epoch` (zip times are local times without a
+/// zone: the UTC time is written; before 1980 or after 2107, which zip cannot hold,
+/// 1980-01-01).
+fn write_zip(path: &Path, entries: &[(String, &[u8], u32)], epoch: u64) -> io::Result<()> {
     use zip::write::SimpleFileOptions;
     use zip::{CompressionMethod, DateTime, ZipWriter};
+    let (y, mo, d, h, mi, s) = utc_time(epoch);
+    let time = u16::try_from(y)
+        .ok()
+        .and_then(|y| DateTime::from_date_and_time(y, mo as u8, d as u8, h as u8, mi as u8, s as u8).ok())
+        .unwrap_or_default();
     let file = std::fs::File::create(path)?;
     let mut zip = ZipWriter::new(io::BufWriter::new(file));
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
-        .last_modified_time(DateTime::default());
+        .last_modified_time(time);
     let mut dirs: Vec<String> = Vec::new();
     for (name, _, _) in entries {
         let mut prefix = String::new();
@@ -581,14 +725,97 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)]) -> io::Result<()> {
     Ok(())
 }
 
-/// Locates this crate's shared library next to the running executable: in the executable's
-/// own folder (`target/release/contact-fmu` → `target/release/libcontact_fmu.so`), its
-/// `deps/` (where cargo rebuilds it) or its parent (test binaries live in
-/// `target/<profile>/deps/`); the newest of those found.
-pub fn find_library() -> Result<PathBuf, ExportError> {
+/// The cargo profile of the library packed into FMUs (`[profile.dist]` in `Cargo.toml`).
+pub const DIST_PROFILE: &str = "dist";
+
+/// The newest glibc symbol version the packed library may need: (2, 17), the floor of the
+/// portable build (`x86_64-unknown-linux-gnu.2.17` through cargo-zigbuild).
+pub const GLIBC_FLOOR: (u32, u32) = (2, 17);
+
+/// The folder, under the target directory, of the portable build of this platform (cargo
+/// puts a `--target` build into `target/<triple>/<profile>/`).
+const DIST_TRIPLE: &str = if cfg!(all(target_os = "linux", target_arch = "x86_64", target_env = "gnu")) {
+    "x86_64-unknown-linux-gnu"
+} else {
+    ""
+};
+
+/// The library an export packs, and what the exporter has to tell about it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Library {
+    /// The file to pack.
+    pub path: PathBuf,
+    /// Notes for the user: why this file, what it needs (printed by [`export_command`]).
+    pub notes: Vec<String>,
+}
+
+fn modified(path: &Path) -> Option<std::time::SystemTime> {
+    std::fs::metadata(path).ok().filter(|m| m.is_file())?.modified().ok()
+}
+
+/// The newest existing file among `candidates`, with its time.
+fn newest(candidates: &[PathBuf]) -> Option<(std::time::SystemTime, PathBuf)> {
+    candidates
+        .iter()
+        .filter_map(|c| Some((modified(c)?, c.clone())))
+        .max_by_key(|(time, _)| *time)
+}
+
+/// Chooses the shared library to pack:
+///
+/// 1. `CONTACT_FMU_LIBRARY`, when set, names it;
+/// 2. else the library of the cargo profile [`DIST_PROFILE`] in the target directory of the
+///    running executable (`target/x86_64-unknown-linux-gnu/dist/`, where
+///    `scripts/build_fmu_library.sh` builds it, or `target/dist/`), when it is not older than
+///    the development library of step 3 (or, without one, the executable): an older one may
+///    lack the latest changes of the sources;
+/// 3. else the development build beside the executable (`target/release/`: with debug
+///    information, several times larger), with a note saying so.
+///
+/// On Linux the chosen library's glibc symbol versions are read: one newer than
+/// [`GLIBC_FLOOR`] gets a note (the FMU then does not load on older systems).
+pub fn find_library() -> Result<Library, ExportError> {
+    let mut notes = Vec::new();
+    let path = match std::env::var_os("CONTACT_FMU_LIBRARY").filter(|p| !p.is_empty()) {
+        Some(p) => {
+            let p = PathBuf::from(p);
+            if modified(&p).is_none() {
+                return Err(ExportError::Library(format!(
+                    "CONTACT_FMU_LIBRARY = {}: no such file",
+                    p.display()
+                )));
+            }
+            p
+        }
+        None => search_library(&mut notes)?,
+    };
+    if cfg!(target_os = "linux") {
+        match std::fs::read(&path).ok().and_then(|bytes| glibc_needed(&bytes)) {
+            Some((major, minor)) if (major, minor) > GLIBC_FLOOR => notes.push(format!(
+                "{} needs glibc {major}.{minor}: the FMU will not load where glibc is older (the portable build needs at most {}.{}; scripts/build_fmu_library.sh makes it where cargo-zigbuild can be installed)",
+                path.display(),
+                GLIBC_FLOOR.0,
+                GLIBC_FLOOR.1
+            )),
+            _ => {}
+        }
+    }
+    Ok(Library { path, notes })
+}
+
+/// Steps 2 and 3 of [`find_library`].
+fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
     let exe = std::env::current_exe()
         .map_err(|e| ExportError::Library(format!("cannot locate the running executable: {e}")))?;
     let dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
+    // The executable is `target/<profile>/contact-fmu` (test binaries: `.../deps/`).
+    let mut dist = Vec::new();
+    for target in dir.ancestors().skip(1).take(3) {
+        if !DIST_TRIPLE.is_empty() {
+            dist.push(target.join(DIST_TRIPLE).join(DIST_PROFILE).join(LIBRARY_FILE));
+        }
+        dist.push(target.join(DIST_PROFILE).join(LIBRARY_FILE));
+    }
     let candidates = [
         dir.join(LIBRARY_FILE),
         dir.join("deps").join(LIBRARY_FILE),
@@ -596,37 +823,108 @@ pub fn find_library() -> Result<PathBuf, ExportError> {
     ];
     // `cargo run` and `cargo test` rebuild the library in `deps/` without copying it up to
     // `target/<profile>/`, so the copy next to the executable can be stale: take the newest.
-    let newest = candidates
-        .iter()
-        .filter_map(|c| Some((std::fs::metadata(c).ok().filter(|m| m.is_file())?.modified().ok()?, c)))
-        .max_by_key(|(modified, _)| *modified);
-    if let Some((_, path)) = newest {
-        return Ok(path.clone());
+    let development = newest(&candidates);
+    // The development library is rebuilt whenever the library's sources change (the
+    // executable also when only its own do): a `dist` library older than it may lack changes.
+    let reference = development.as_ref().map(|(time, _)| *time).or_else(|| modified(&exe));
+    match newest(&dist) {
+        Some((time, path)) if reference.is_none_or(|r| time >= r) => return Ok(path),
+        Some((_, path)) => notes.push(format!(
+            "{} is older than the development build and may lack changes of the sources (scripts/build_fmu_library.sh rebuilds it): packing the development build",
+            path.display()
+        )),
+        None => notes.push(format!(
+            "no library of the cargo profile `{DIST_PROFILE}` (small, portable; scripts/build_fmu_library.sh builds it): packing the development build"
+        )),
+    }
+    if let Some((_, path)) = development {
+        return Ok(path);
     }
     Err(ExportError::Library(format!(
-        "cannot find the FMU library {LIBRARY_FILE} (looked in {}); build it with `cargo build --release`",
-        candidates
-            .iter()
+        "cannot find the FMU library {LIBRARY_FILE} (looked in {}); build it with scripts/build_fmu_library.sh or `cargo build --release`",
+        dist.iter()
+            .chain(&candidates)
             .map(|c| c.display().to_string())
             .collect::<Vec<_>>()
-            .join(" and ")
+            .join(", ")
     )))
 }
 
-/// The CLI's `export` command: the library from [`find_library`], and when no output is
-/// given, `target/fmu/<model name>.fmu` (where the main job puts the bundled FMUs).
+/// The newest `GLIBC_x.y` version an ELF64 little-endian shared library requires (from its
+/// `.gnu.version_r` section, which the dynamic loader checks); `None` for anything else or a
+/// library that requires no glibc version.
+pub fn glibc_needed(elf: &[u8]) -> Option<(u32, u32)> {
+    let u16_at = |o: usize| Some(u16::from_le_bytes(elf.get(o..o + 2)?.try_into().ok()?));
+    let u32_at = |o: usize| Some(u32::from_le_bytes(elf.get(o..o + 4)?.try_into().ok()?));
+    let u64_at = |o: usize| Some(u64::from_le_bytes(elf.get(o..o + 8)?.try_into().ok()?));
+    // ELF magic, 64-bit class, little-endian data.
+    if elf.get(..6)? != b"\x7fELF\x02\x01" {
+        return None;
+    }
+    let shoff = usize::try_from(u64_at(0x28)?).ok()?;
+    let shentsize = usize::from(u16_at(0x3a)?);
+    let shnum = usize::from(u16_at(0x3c)?);
+    let section = |i: usize| -> Option<(u32, usize, usize, usize, usize)> {
+        let h = shoff.checked_add(i.checked_mul(shentsize)?)?;
+        Some((
+            u32_at(h + 4)?,                         // sh_type
+            usize::try_from(u64_at(h + 24)?).ok()?, // sh_offset
+            usize::try_from(u64_at(h + 32)?).ok()?, // sh_size
+            usize::try_from(u32_at(h + 40)?).ok()?, // sh_link
+            usize::try_from(u32_at(h + 44)?).ok()?, // sh_info
+        ))
+    };
+    const SHT_GNU_VERNEED: u32 = 0x6fff_fffe;
+    let mut newest: Option<(u32, u32)> = None;
+    for i in 0..shnum {
+        let (kind, offset, _, link, count) = section(i)?;
+        if kind != SHT_GNU_VERNEED {
+            continue;
+        }
+        let (_, strings, string_size, _, _) = section(link)?;
+        let name = |o: usize| -> Option<&[u8]> {
+            let bytes = elf.get(strings..strings.checked_add(string_size)?)?.get(o..)?;
+            Some(&bytes[..bytes.iter().position(|&b| b == 0)?])
+        };
+        // Verneed entries (one per library), each with its Vernaux entries (one per version).
+        let mut need = offset;
+        for _ in 0..count {
+            let aux_count = u16_at(need + 2)?;
+            let mut aux = need.checked_add(usize::try_from(u32_at(need + 8)?).ok()?)?;
+            for _ in 0..aux_count {
+                let version = name(usize::try_from(u32_at(aux + 8)?).ok()?)?;
+                if let Some(v) = version.strip_prefix(b"GLIBC_") {
+                    let text = std::str::from_utf8(v).ok()?;
+                    let mut parts = text.split('.').map(|p| p.parse::<u32>());
+                    if let (Some(Ok(major)), Some(Ok(minor))) = (parts.next(), parts.next()) {
+                        newest = newest.max(Some((major, minor)));
+                    }
+                }
+                aux = aux.checked_add(usize::try_from(u32_at(aux + 12)?).ok()?)?;
+            }
+            need = need.checked_add(usize::try_from(u32_at(need + 12)?).ok()?)?;
+        }
+    }
+    newest
+}
+
+/// The CLI's `export` command: the library from [`find_library`] (its notes go to standard
+/// error), and when no output is given, `target/fmu/<model name>.fmu` (where the main job
+/// puts the bundled FMUs).
 pub fn export_command(scene_path: &Path, out: Option<&Path>) -> Result<ExportedFmu, ExportError> {
+    // a scene that does not parse or validate gets its one message before anything else
+    let scene = Scene::from_file(scene_path)?;
     let library = find_library()?;
+    for note in &library.notes {
+        eprintln!("note: {note}");
+    }
     let out = match out {
         Some(o) => o.to_path_buf(),
-        None => {
-            let scene = Scene::from_file(scene_path)?;
-            Path::new("target")
-                .join("fmu")
-                .join(format!("{}.fmu", scene.model.name))
-        }
+        None => Path::new("target")
+            .join("fmu")
+            .join(format!("{}.fmu", scene.model.name)),
     };
-    export_fmu(scene_path, &out, &library)
+    export_fmu(scene_path, &out, &library.path)
 }
 
 #[cfg(test)]
@@ -642,5 +940,27 @@ mod tests {
         assert_eq!(format_real(1e-8), "1e-8");
         assert_eq!(format_real(2.0), "2");
         assert_eq!(format_real(0.33), "0.33");
+    }
+
+    #[test]
+    fn generation_times_are_utc_calendar_times() {
+        assert_eq!(format_utc(0), "1970-01-01T00:00:00Z");
+        assert_eq!(format_utc(DEFAULT_EPOCH), "1980-01-01T00:00:00Z");
+        assert_eq!(format_utc(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(format_utc(1_700_000_000), "2023-11-14T22:13:20Z");
+        assert_eq!(format_utc(4_107_542_399), "2100-02-28T23:59:59Z");
+        assert_eq!(format_utc(MAX_EPOCH), "9999-12-31T23:59:59Z");
+    }
+
+    #[test]
+    fn glibc_versions_are_read_from_elf_files_only() {
+        assert_eq!(glibc_needed(b"not an ELF file"), None);
+        assert_eq!(glibc_needed(b"\x7fELF\x02\x01"), None);
+        if cfg!(all(target_os = "linux", target_env = "gnu")) {
+            // This test binary links glibc dynamically.
+            let me = std::fs::read(std::env::current_exe().unwrap()).unwrap();
+            let (major, minor) = glibc_needed(&me).expect("a glibc version");
+            assert!(major == 2 && minor >= 2, "{major}.{minor}");
+        }
     }
 }

@@ -82,6 +82,33 @@ pub struct ModelSection {
     /// Default communication step [s].
     #[serde(default = "default_interval")]
     pub interval: f64,
+    /// Metadata of the FMU: `version` of the model description.
+    #[serde(default = "default_version")]
+    pub version: String,
+    /// Metadata of the FMU: `author` of the model description.
+    #[serde(default = "default_author")]
+    pub author: String,
+    /// Metadata of the FMU: `copyright` of the model description.
+    #[serde(default = "default_copyright")]
+    pub copyright: String,
+    /// Metadata of the FMU: `license` of the model description.
+    #[serde(default = "default_license")]
+    pub license: String,
+}
+
+// The metadata defaults describe what contact-fmu puts into an FMU whose scene names no
+// author: the bundled scenes use them; docs/scene.md asks authors of their own scenes to set them.
+fn default_version() -> String {
+    "1.0".into()
+}
+fn default_author() -> String {
+    "contact-fmu".into()
+}
+fn default_copyright() -> String {
+    "Copyright (c) contact-fmu contributors".into()
+}
+fn default_license() -> String {
+    "MIT".into()
 }
 
 impl ModelSection {
@@ -93,6 +120,10 @@ impl ModelSection {
             gravity: default_gravity(),
             stop_time: default_stop_time(),
             interval: default_interval(),
+            version: default_version(),
+            author: default_author(),
+            copyright: default_copyright(),
+            license: default_license(),
         }
     }
 }

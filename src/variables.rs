@@ -5,7 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{JointType, Law, Method, Scene, ATOL_RANGE, MIN_MAX_STEP, RTOL_RANGE};
+use crate::scene::{InputType, JointType, Law, Method, Scene, ATOL_RANGE, MIN_MAX_STEP, RTOL_RANGE};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -79,7 +79,7 @@ pub enum VarRef {
     PoissonRatio(usize),
     /// body index (scene order): mass
     Mass(usize),
-    /// contact index: law
+    /// contact index: law (`<contact>.law` and its Integer twin `<contact>.law_index`)
     ContactLaw(usize),
     /// contact index: e
     Restitution(usize),
@@ -93,7 +93,7 @@ pub enum VarRef {
     MinImpactVelocity(usize),
     /// contact index: K (parameter or calculated)
     Stiffness(usize),
-    /// solver.method
+    /// solver.method (and its Integer twin solver.method_index)
     SolverMethod,
     /// solver.rtol
     SolverRtol,
@@ -157,6 +157,9 @@ pub struct Variable {
     pub start: Option<f64>,
     /// Unit name (declared in UnitDefinitions), if any.
     pub unit: Option<&'static str>,
+    /// The display unit a host shows by default (one of the unit's display units in
+    /// [`UNITS`]), if any.
+    pub display_unit: Option<&'static str>,
     /// Description.
     pub description: String,
     /// Allowed range of a parameter, checked when initialisation ends (inclusive unless the
@@ -164,6 +167,10 @@ pub struct Variable {
     pub range: Option<Range>,
     /// What it refers to.
     pub target: VarRef,
+    /// Outputs: true when the value at a communication point is an algebraic function of the
+    /// inputs set at that point (listed in `ModelStructure/Outputs` as `dependencies`); false
+    /// when it follows from the state alone (`dependencies=""`). See docs/fmi.md.
+    pub depends_on_inputs: bool,
 }
 
 /// A parameter's allowed range.
@@ -231,19 +238,92 @@ impl Range {
     }
 }
 
-/// The units used by variables, for UnitDefinitions: (name, SI base-unit exponents
-/// kg, m, s in that order).
-pub const UNITS: &[(&str, [i32; 3])] = &[
-    ("m", [0, 1, 0]),
-    ("m/s", [0, 1, -1]),
-    ("rad/s", [0, 0, -1]),
-    ("kg", [1, 0, 0]),
-    ("N", [1, 1, -2]),
-    ("J", [1, 2, -2]),
-    ("Pa", [1, -1, -2]),
-    ("s", [0, 0, 1]),
-    ("N.s/m", [1, 0, -1]),
+/// A unit of UnitDefinitions (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    /// Name, as the variables' `unit` attribute gives it.
+    pub name: &'static str,
+    /// Exponents of the base units kg, m, s and rad, in that order.
+    pub base: [i32; 4],
+    /// Display units: (name, factor), value in the display unit = factor × value in the unit.
+    pub display: &'static [(&'static str, f64)],
+}
+
+/// The units the variables use, for UnitDefinitions, with the display units engineers read
+/// (mm, km/h, deg, rpm).
+pub const UNITS: &[Unit] = &[
+    Unit {
+        name: "m",
+        base: [0, 1, 0, 0],
+        display: &[("mm", 1e3)],
+    },
+    Unit {
+        name: "m/s",
+        base: [0, 1, -1, 0],
+        display: &[("km/h", 3.6), ("mm/s", 1e3)],
+    },
+    Unit {
+        name: "rad",
+        base: [0, 0, 0, 1],
+        display: &[("deg", 180.0 / std::f64::consts::PI)],
+    },
+    Unit {
+        name: "rad/s",
+        base: [0, 0, -1, 1],
+        display: &[
+            ("deg/s", 180.0 / std::f64::consts::PI),
+            ("rpm", 30.0 / std::f64::consts::PI),
+        ],
+    },
+    Unit {
+        name: "kg",
+        base: [1, 0, 0, 0],
+        display: &[],
+    },
+    Unit {
+        name: "N",
+        base: [1, 1, -2, 0],
+        display: &[("kN", 1e-3)],
+    },
+    Unit {
+        name: "N.m",
+        base: [1, 2, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "J",
+        base: [1, 2, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "Pa",
+        base: [1, -1, -2, 0],
+        display: &[("GPa", 1e-9)],
+    },
+    Unit {
+        name: "s",
+        base: [0, 0, 1, 0],
+        display: &[("ms", 1e3)],
+    },
+    Unit {
+        name: "N.s/m",
+        base: [1, 0, -1, 0],
+        display: &[],
+    },
 ];
+
+/// The unit of a 1-DOF joint's coordinate and of its rate: rad and rad/s (revolute), m and
+/// m/s (prismatic).
+fn joint_units(kind: JointType) -> (&'static str, &'static str) {
+    if kind == JointType::Revolute {
+        ("rad", "rad/s")
+    } else {
+        ("m", "m/s")
+    }
+}
+
+/// `x`, `y`, `z` for the components 0, 1, 2 of a world vector.
+const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// All variables of a scene, in value-reference order.
 #[derive(Debug, Clone)]
@@ -263,9 +343,11 @@ impl VariableTable {
             variability: Variability::Fixed,
             start: Some(start),
             unit,
+            display_unit: None,
             description: description.to_string(),
             range: Some(range),
             target,
+            depends_on_inputs: false,
         };
         let pos = Range::open_above(0.0, true);
         let nonneg = Range::open_above(0.0, false);
@@ -299,7 +381,7 @@ impl VariableTable {
                 Some("kg"),
                 pos,
                 VarRef::Mass(i),
-                "mass",
+                "mass of the body",
             ));
         }
         for (i, c) in scene.contact.iter().enumerate() {
@@ -310,7 +392,8 @@ impl VariableTable {
                 variability: Variability::Fixed,
                 start: Some(c.law as i64 as f64),
                 unit: None,
-                description: "contact law".into(),
+                display_unit: None,
+                description: "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
                 range: Some(Range {
                     min: 1.0,
                     min_exclusive: false,
@@ -318,6 +401,7 @@ impl VariableTable {
                     max_exclusive: false,
                 }),
                 target: VarRef::ContactLaw(i),
+                depends_on_inputs: false,
             });
             v.push(param(
                 format!("{}.restitution", c.name),
@@ -330,7 +414,7 @@ impl VariableTable {
                     max_exclusive: false,
                 },
                 VarRef::Restitution(i),
-                "coefficient of restitution",
+                "coefficient of restitution e",
             ));
             v.push(param(
                 format!("{}.exponent", c.name),
@@ -338,7 +422,7 @@ impl VariableTable {
                 None,
                 Range::open_above(1.0, false),
                 VarRef::Exponent(i),
-                "force exponent n",
+                "force exponent n of the penetration (1.5 for Hertz)",
             ));
             v.push(param(
                 format!("{}.damping", c.name),
@@ -346,7 +430,7 @@ impl VariableTable {
                 Some("N.s/m"),
                 nonneg,
                 VarRef::Damping(i),
-                "Kelvin-Voigt damping [N s/m]",
+                "Kelvin-Voigt damping coefficient",
             ));
             v.push(param(
                 format!("{}.max_penetration", c.name),
@@ -354,7 +438,7 @@ impl VariableTable {
                 Some("m"),
                 pos,
                 VarRef::MaxPenetration(i),
-                "largest admissible penetration",
+                "largest admissible penetration (a deeper one fails the step)",
             ));
             v.push(param(
                 format!("{}.min_impact_velocity", c.name),
@@ -374,10 +458,17 @@ impl VariableTable {
                 },
                 variability: Variability::Fixed,
                 start: c.stiffness,
+                // N/m^n: the unit depends on the exponent n, so it is stated in the description.
                 unit: None,
-                description: "contact stiffness K [N/m^n]".into(),
+                display_unit: None,
+                description: if c.stiffness.is_some() {
+                    "contact stiffness K of F = K delta^n [N/m^n]".into()
+                } else {
+                    "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)".into()
+                },
                 range: c.stiffness.map(|_| pos),
                 target: VarRef::Stiffness(i),
+                depends_on_inputs: false,
             };
             v.push(k);
         }
@@ -389,7 +480,8 @@ impl VariableTable {
             variability: Variability::Fixed,
             start: Some(s.method as i64 as f64),
             unit: None,
-            description: "integration method".into(),
+            display_unit: None,
+            description: "integration method: dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
             range: Some(Range {
                 min: 1.0,
                 min_exclusive: false,
@@ -397,6 +489,7 @@ impl VariableTable {
                 max_exclusive: false,
             }),
             target: VarRef::SolverMethod,
+            depends_on_inputs: false,
         });
         v.push(param(
             "solver.rtol".into(),
@@ -404,7 +497,7 @@ impl VariableTable {
             None,
             Range::closed(RTOL_RANGE),
             VarRef::SolverRtol,
-            "relative tolerance",
+            "relative tolerance of the adaptive methods",
         ));
         v.push(param(
             "solver.atol".into(),
@@ -412,7 +505,7 @@ impl VariableTable {
             None,
             Range::closed(ATOL_RANGE),
             VarRef::SolverAtol,
-            "absolute tolerance",
+            "absolute tolerance of the adaptive methods (in the unit of each state component)",
         ));
         v.push(param(
             "solver.max_step".into(),
@@ -420,22 +513,55 @@ impl VariableTable {
             Some("s"),
             Range::open_above(MIN_MAX_STEP, false),
             VarRef::SolverMaxStep,
-            "largest internal step",
+            "largest internal step (rk4: its step)",
         ));
         for (i, inp) in scene.input.iter().enumerate() {
+            let direction = inp.direction.unwrap_or([1.0, 0.0, 0.0]);
+            let direction = format!("({}, {}, {})", direction[0], direction[1], direction[2]);
+            let on = |key: &Option<String>| key.clone().unwrap_or_default();
+            let (unit, description) = match inp.kind {
+                InputType::Force => (
+                    "N",
+                    format!(
+                        "force on body '{}' at its centre of mass along the world direction {direction}",
+                        on(&inp.body)
+                    ),
+                ),
+                InputType::Torque => (
+                    "N.m",
+                    format!(
+                        "torque on body '{}' about the world direction {direction}",
+                        on(&inp.body)
+                    ),
+                ),
+                InputType::JointForce => {
+                    let joint = on(&inp.joint);
+                    let revolute = scene
+                        .joint
+                        .iter()
+                        .any(|j| j.name == joint && j.kind == JointType::Revolute);
+                    if revolute {
+                        ("N.m", format!("torque on joint '{joint}' about its axis"))
+                    } else {
+                        ("N", format!("force on joint '{joint}' along its axis"))
+                    }
+                }
+            };
             v.push(Variable {
                 name: inp.name.clone(),
                 vtype: VarType::Real,
                 causality: Causality::Input,
                 variability: Variability::Continuous,
                 start: Some(inp.start),
-                unit: None,
-                description: format!("{:?} input", inp.kind).to_lowercase(),
+                unit: Some(unit),
+                display_unit: None,
+                description: format!("{description}; held constant over a communication step"),
                 range: None,
                 target: VarRef::Input(i),
+                depends_on_inputs: false,
             });
         }
-        let out = |name: String, vtype: VarType, unit, target, description: &str| Variable {
+        let out = |name: String, vtype: VarType, unit, target, description: String| Variable {
             name,
             vtype,
             causality: Causality::Output,
@@ -446,101 +572,130 @@ impl VariableTable {
             },
             start: None,
             unit,
-            description: description.to_string(),
+            display_unit: None,
+            description,
             range: None,
             target,
+            depends_on_inputs: false,
+        };
+        let with_display = |mut var: Variable, display: &'static str| {
+            var.display_unit = Some(display);
+            var
         };
         for (i, b) in scene.body.iter().enumerate() {
-            for k in 0..3 {
-                v.push(out(
-                    format!("{}.r[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m"),
-                    VarRef::BodyPosition(i, k),
-                    "centre-of-mass position",
+            for (k, axis) in AXES.iter().enumerate() {
+                v.push(with_display(
+                    out(
+                        format!("{}.r[{}]", b.name, k + 1),
+                        VarType::Real,
+                        Some("m"),
+                        VarRef::BodyPosition(i, k),
+                        format!("centre-of-mass position, world {axis}"),
+                    ),
+                    "mm",
                 ));
             }
-            for k in 0..3 {
-                v.push(out(
-                    format!("{}.v[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m/s"),
-                    VarRef::BodyVelocity(i, k),
-                    "centre-of-mass velocity",
+            for (k, axis) in AXES.iter().enumerate() {
+                v.push(with_display(
+                    out(
+                        format!("{}.v[{}]", b.name, k + 1),
+                        VarType::Real,
+                        Some("m/s"),
+                        VarRef::BodyVelocity(i, k),
+                        format!("centre-of-mass velocity, world {axis}"),
+                    ),
+                    "km/h",
                 ));
             }
-            for k in 0..3 {
+            for (k, axis) in AXES.iter().enumerate() {
                 v.push(out(
                     format!("{}.w[{}]", b.name, k + 1),
                     VarType::Real,
                     Some("rad/s"),
                     VarRef::BodyAngularVelocity(i, k),
-                    "angular velocity (world)",
+                    format!("angular velocity, world {axis}"),
                 ));
             }
-            for k in 0..4 {
+            for (k, part) in ["w (scalar part)", "x", "y", "z"].iter().enumerate() {
                 v.push(out(
                     format!("{}.q[{}]", b.name, k + 1),
                     VarType::Real,
                     None,
                     VarRef::BodyQuaternion(i, k),
-                    "orientation quaternion (w, x, y, z)",
+                    format!("orientation quaternion (principal axes to world), {part}"),
                 ));
             }
         }
         for (i, j) in scene.joint.iter().enumerate() {
             if matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
-                v.push(out(
-                    format!("{}.q", j.name),
-                    VarType::Real,
-                    None,
-                    VarRef::JointQ(i),
-                    "joint coordinate [m or rad]",
+                let (unit, rate_unit) = joint_units(j.kind);
+                let (what, display) = if j.kind == JointType::Revolute {
+                    ("angle about", "deg")
+                } else {
+                    ("displacement along", "mm")
+                };
+                v.push(with_display(
+                    out(
+                        format!("{}.q", j.name),
+                        VarType::Real,
+                        Some(unit),
+                        VarRef::JointQ(i),
+                        format!("joint {what} its axis, 0 at the initial configuration"),
+                    ),
+                    display,
                 ));
                 v.push(out(
                     format!("{}.qd", j.name),
                     VarType::Real,
-                    None,
+                    Some(rate_unit),
                     VarRef::JointQd(i),
-                    "joint rate [m/s or rad/s]",
+                    format!("joint rate, time derivative of {}.q", j.name),
                 ));
             }
         }
+        let has_inputs = !scene.input.is_empty();
         for (i, c) in scene.contact.iter().enumerate() {
-            v.push(out(
-                format!("{}.delta", c.name),
-                VarType::Real,
-                Some("m"),
-                VarRef::ContactDelta(i),
-                "penetration (0 when apart)",
+            v.push(with_display(
+                out(
+                    format!("{}.delta", c.name),
+                    VarType::Real,
+                    Some("m"),
+                    VarRef::ContactDelta(i),
+                    "penetration (0 when apart)".into(),
+                ),
+                "mm",
             ));
             v.push(out(
                 format!("{}.delta_dot", c.name),
                 VarType::Real,
                 Some("m/s"),
                 VarRef::ContactDeltaDot(i),
-                "penetration rate",
+                "penetration rate (0 when apart)".into(),
             ));
-            v.push(out(
+            // A resting impulse-law contact carries a constraint force, solved together with
+            // the applied forces, which include the inputs (docs/fmi.md, "Dependencies").
+            let mut force = out(
                 format!("{}.force", c.name),
                 VarType::Real,
                 Some("N"),
                 VarRef::ContactForce(i),
-                "normal force magnitude",
-            ));
+                "normal force magnitude".into(),
+            );
+            force.depends_on_inputs = has_inputs;
+            v.push(force);
             v.push(out(
                 format!("{}.active", c.name),
                 VarType::Boolean,
                 None,
                 VarRef::ContactActive(i),
-                "in contact",
+                "in contact (continuous laws: penetrating; impulse law: resting)".into(),
             ));
             v.push(out(
                 format!("{}.impacts", c.name),
                 VarType::Integer,
                 None,
                 VarRef::ContactImpacts(i),
-                "impacts resolved so far (impulse law)",
+                "impacts resolved so far (impulse law)".into(),
             ));
         }
         for (name, t, d) in [
@@ -555,28 +710,50 @@ impl VariableTable {
                 VarRef::EnergyContact,
                 "elastic energy stored in the contacts",
             ),
-            ("energy.total", VarRef::EnergyTotal, "kinetic + potential + contact"),
+            (
+                "energy.total",
+                VarRef::EnergyTotal,
+                "kinetic + potential + contact energy",
+            ),
             (
                 "energy.dissipated",
                 VarRef::EnergyDissipated,
-                "work removed since initialisation",
+                "work removed by dampers, contact damping and impacts since initialisation",
             ),
         ] {
-            v.push(out(name.into(), VarType::Real, Some("J"), t, d));
+            v.push(out(name.into(), VarType::Real, Some("J"), t, d.into()));
         }
         v.push(out(
             "solver.steps".into(),
             VarType::Integer,
             None,
             VarRef::SolverSteps,
-            "accepted integration steps since initialisation",
+            "accepted integration steps since initialisation".into(),
         ));
         v.push(out(
             "solver.rhs_evals".into(),
             VarType::Integer,
             None,
             VarRef::SolverRhsEvals,
-            "right-hand-side evaluations since initialisation",
+            "right-hand-side evaluations since initialisation".into(),
+        ));
+        // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
+        // come last, so the value references above do not move. 0 (the start) leaves the
+        // enumeration in charge; any other value overrides it (`set_parameter` writes the
+        // table in order, and 0 is no item).
+        for (i, c) in scene.contact.iter().enumerate() {
+            v.push(integer_twin(
+                format!("{}.law_index", c.name),
+                EnumType::ContactLaw,
+                &format!("{}.law", c.name),
+                VarRef::ContactLaw(i),
+            ));
+        }
+        v.push(integer_twin(
+            "solver.method_index".into(),
+            EnumType::SolverMethod,
+            "solver.method",
+            VarRef::SolverMethod,
         ));
         VariableTable { vars: v }
     }
@@ -587,8 +764,37 @@ impl VariableTable {
     }
 }
 
+/// An Integer parameter that sets the enumeration `enum_name` (of type `e`): 0 leaves it, an
+/// item's value overrides it.
+fn integer_twin(name: String, e: EnumType, enum_name: &str, target: VarRef) -> Variable {
+    let items: Vec<String> = e.items().iter().map(|(n, i)| format!("{i} = {n}")).collect();
+    Variable {
+        name,
+        vtype: VarType::Integer,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(0.0),
+        unit: None,
+        display_unit: None,
+        description: format!(
+            "{enum_name} as a plain Integer, for hosts without Enumeration variables: 0 = as {enum_name}; {} (overrides {enum_name})",
+            items.join(", ")
+        ),
+        range: Some(Range {
+            min: 0.0,
+            min_exclusive: false,
+            max: e.items().len() as f64,
+            max_exclusive: false,
+        }),
+        target,
+        depends_on_inputs: false,
+    }
+}
+
 /// Writes the value `x` of the parameter (or input start value) `target` into `params`;
-/// every other variable is not a parameter and changes nothing.
+/// every other variable is not a parameter and changes nothing. A law or method value that
+/// is no item (0, the start of the Integer twins `<contact>.law_index` and
+/// `solver.method_index`) changes nothing either.
 pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
     match target {
         VarRef::YoungsModulus(i) => params.materials[i].youngs_modulus = x,

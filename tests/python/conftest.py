@@ -2,8 +2,9 @@
 
 The FMUs under test are the real exported files `target/fmu/<name>.fmu` (one per
 `fmu/<name>/scene.toml`). `./run_tests.sh` builds and exports them before pytest runs; when
-pytest is run on its own, the session fixture builds and (re-)exports whatever is missing or
-older than the library or the scene.
+pytest is run on its own, the session fixture builds (the command line, and the library the
+FMUs ship with, by `scripts/build_fmu_library.sh`) and (re-)exports whatever is missing or
+older than the libraries or the scene.
 """
 
 import ctypes
@@ -27,6 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 TARGET = ROOT / "target" / "release"
 BINARY = TARGET / "contact-fmu"
 LIBRARY = TARGET / "libcontact_fmu.so"
+# The library packed into the FMUs (cargo profile `dist`, built by scripts/build_fmu_library.sh).
+DIST_LIBRARY = ROOT / "target" / "x86_64-unknown-linux-gnu" / "dist" / "libcontact_fmu.so"
 FMU_DIR = ROOT / "target" / "fmu"
 SCENES = sorted(p.parent.name for p in (ROOT / "fmu").glob("*/scene.toml"))
 
@@ -38,6 +41,7 @@ def scene_path(name):
 def _build():
     if os.environ.get("CONTACT_FMU_SKIP_BUILD") != "1":
         subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+        subprocess.run([str(ROOT / "scripts" / "build_fmu_library.sh")], cwd=ROOT, check=True)
 
 
 def export(scene, out):
@@ -56,7 +60,8 @@ def fmus():
     paths = {}
     for name in SCENES:
         fmu = FMU_DIR / f"{name}.fmu"
-        newest_input = max(LIBRARY.stat().st_mtime, scene_path(name).stat().st_mtime)
+        libraries = [p.stat().st_mtime for p in (LIBRARY, DIST_LIBRARY) if p.exists()]
+        newest_input = max(*libraries, scene_path(name).stat().st_mtime)
         if not fmu.exists() or fmu.stat().st_mtime < newest_input:
             export(scene_path(name), fmu)
         paths[name] = fmu
@@ -162,6 +167,16 @@ class Instance:
             self.slave.setInteger([v.valueReference], [int(value)])
         else:
             self.slave.setBoolean([v.valueReference], [bool(value)])
+
+    def get(self, name):
+        """One variable's value as a Python number (Integer and Enumeration as int, Boolean
+        as bool)."""
+        v = self.vars[name]
+        if v.type == "Real":
+            return self.slave.getReal([v.valueReference])[0]
+        if v.type in ("Integer", "Enumeration"):
+            return self.slave.getInteger([v.valueReference])[0]
+        return bool(self.slave.getBoolean([v.valueReference])[0])
 
     def outputs(self):
         """Every output as Python numbers: Reals, then Integers, then Booleans. Reals are

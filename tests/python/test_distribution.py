@@ -1,0 +1,105 @@
+"""What is shipped: each bundled FMU is small, its library is the stripped release build that
+needs glibc 2.17 at most (read with `objdump -T`, as a user checking portability would), and
+it loads and runs in fmpy.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import zipfile
+
+import fmpy
+import numpy as np
+import pytest
+
+from conftest import BINARY, LIBRARY, ROOT, SCENES, scene_path
+
+MAX_FMU_BYTES = 2_000_000
+GLIBC_FLOOR = (2, 17)
+
+
+def packed_library(fmu, name, tmp_path):
+    """Extracts binaries/linux64/<name>.so of the FMU and returns its path."""
+    entry = f"binaries/linux64/{name}.so"
+    with zipfile.ZipFile(fmu) as z:
+        assert entry in z.namelist(), z.namelist()
+        z.extract(entry, tmp_path)
+    return tmp_path / entry
+
+
+def glibc_versions(symbols):
+    """The (major, minor) of every GLIBC_x.y[.z] symbol version in `objdump -T` output."""
+    return {(int(a), int(b)) for a, b in re.findall(r"\bGLIBC_(\d+)\.(\d+)(?:\.\d+)?\b", symbols)}
+
+
+def objdump(*args):
+    tool = shutil.which("objdump")
+    if tool is None:
+        pytest.skip("objdump (binutils) is not installed")
+    result = subprocess.run([tool, *args], capture_output=True, text=True, check=True)
+    return result.stdout
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_fmu_is_smaller_than_2_mb(fmus, name):
+    size = fmus[name].stat().st_size
+    assert size < MAX_FMU_BYTES, f"{fmus[name]}: {size} bytes"
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_packed_library_needs_glibc_2_17_at_most(fmus, name, tmp_path):
+    library = packed_library(fmus[name], name, tmp_path)
+    symbols = objdump("-T", str(library))
+    versions = glibc_versions(symbols)
+    assert versions, "no GLIBC symbol version found: is this a glibc shared library?"
+    too_new = sorted(v for v in versions if v > GLIBC_FLOOR)
+    lines = [line for line in symbols.splitlines() if any(f"GLIBC_{a}.{b}" in line for a, b in too_new)]
+    assert not too_new, "symbols newer than glibc 2.17:\n" + "\n".join(lines[:20])
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_packed_library_is_stripped_without_debug_information(fmus, name, tmp_path):
+    library = packed_library(fmus[name], name, tmp_path)
+    sections = set(re.findall(r"^\s*\d+\s+(\S+)", objdump("-h", str(library)), re.MULTILINE))
+    assert ".dynsym" in sections
+    assert not {".symtab", ".debug_info", ".debug_line"} & sections, sorted(sections)
+    # The FMI functions are exported.
+    assert re.search(r"\bfmi2DoStep\b", objdump("-T", str(library)))
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_shipped_fmu_loads_and_runs_in_fmpy(fmus, name):
+    md = fmpy.read_model_description(str(fmus[name]))
+    stop = min(0.1, float(md.defaultExperiment.stopTime))
+    result = fmpy.simulate_fmu(str(fmus[name]), stop_time=stop, output_interval=stop / 20)
+    assert result["time"][-1] == pytest.approx(stop)
+    assert np.all(np.isfinite(result["energy.total"]))
+
+
+def export_with_library(library, out):
+    return subprocess.run(
+        [str(BINARY), "export", str(scene_path("bouncing_ball")), "-o", str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "CONTACT_FMU_LIBRARY": str(library)},
+    )
+
+
+def test_exporter_says_when_the_library_it_packs_needs_a_newer_glibc(tmp_path):
+    newest = max(glibc_versions(objdump("-T", str(LIBRARY))))
+    if newest <= GLIBC_FLOOR:
+        pytest.skip(f"the development build of this machine needs glibc {newest[0]}.{newest[1]} only")
+    result = export_with_library(LIBRARY, tmp_path / "native.fmu")
+    assert result.returncode == 0, result.stderr
+    assert f"needs glibc {newest[0]}.{newest[1]}" in result.stderr
+    with zipfile.ZipFile(tmp_path / "native.fmu") as z:
+        assert z.read("binaries/linux64/bouncing_ball.so") == LIBRARY.read_bytes()
+
+
+def test_exporter_refuses_a_missing_library(tmp_path):
+    result = export_with_library(tmp_path / "nothing.so", tmp_path / "none.fmu")
+    assert result.returncode != 0
+    assert "CONTACT_FMU_LIBRARY" in result.stderr and "no such file" in result.stderr
+    assert not (tmp_path / "none.fmu").exists()
