@@ -37,6 +37,20 @@ fn first(ev: &[ContactEvent], kind: ContactEventKind) -> ContactEvent {
         .unwrap_or_else(|| panic!("no {kind:?} event in {ev:?}"))
 }
 
+/// Runs `scene` for 1 ms with peak events logged: its touch, peak and separation events.
+fn one_impact(scene: impl Into<contact_fmu::scene::Scene>) -> (Simulation, [ContactEvent; 3]) {
+    let mut s = start(scene);
+    s.set_peak_events(true);
+    s.step_to(1e-3).unwrap();
+    let ev = events(&s);
+    let kinds = [
+        ContactEventKind::Touch,
+        ContactEventKind::Peak,
+        ContactEventKind::Separation,
+    ];
+    (s, kinds.map(|k| first(&ev, k)))
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -124,13 +138,7 @@ fn hertz_closed_form(m: f64, k: f64, v0: f64) -> (f64, f64, f64) {
 #[test]
 fn hertz_sphere_plane_matches_closed_form() {
     let v0 = 1.0;
-    let mut s = start(ball_on_floor(Law::Hertz, |c| c, v0, 0.0, 1e-4));
-    s.set_peak_events(true);
-    s.step_to(1e-3).unwrap();
-    let ev = events(&s);
-    let touch = first(&ev, ContactEventKind::Touch);
-    let peak = first(&ev, ContactEventKind::Peak);
-    let sep = first(&ev, ContactEventKind::Separation);
+    let (mut s, [touch, peak, sep]) = one_impact(ball_on_floor(Law::Hertz, |c| c, v0, 0.0, 1e-4));
     let (dmax, fmax, tc) = hertz_closed_form(M, hertz_k(R), v0);
     let rebound = get(&mut s, "ball.v[3]");
     println!(
@@ -171,13 +179,7 @@ fn hertz_sphere_sphere_matches_closed_form() {
         .body(small)
         .body(large)
         .contact(c.materials("steel", "steel"));
-    let mut s = start(scene);
-    s.set_peak_events(true);
-    s.step_to(1e-3).unwrap();
-    let ev = events(&s);
-    let touch = first(&ev, ContactEventKind::Touch);
-    let peak = first(&ev, ContactEventKind::Peak);
-    let sep = first(&ev, ContactEventKind::Separation);
+    let (mut s, [touch, peak, sep]) = one_impact(scene);
     let mstar = m1 * m2 / (m1 + m2);
     let (dmax, fmax, tc) = hertz_closed_form(mstar, hertz_k(r1 * r2 / (r1 + r2)), v0);
     let (u1, u2) = (get(&mut s, "small.v[1]"), get(&mut s, "large.v[1]"));

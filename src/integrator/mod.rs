@@ -803,31 +803,6 @@ mod tests {
                 // arrival after them (which evaluates the Jacobian: a fresh one is saved)
                 let mut prefixes: Vec<Vec<Limit>> = ks.iter().map(|&k| lim[..k].to_vec()).collect();
                 prefixes.extend(stale.map(|k| [&lim[..k], &[Limit::Here][..]].concat()));
-                let mut stale = None;
-                if is_implicit(method) {
-                    let o = newton_offset(n);
-                    stale = first(&|k| states[k][o + 3] == 1.0);
-                    ks.extend(stale);
-                    ks.extend(first(&|k| states[k][o + 5] == 1.0));
-                }
-                ks.sort_unstable();
-                ks.dedup();
-                // save points: the first k limits, and with a stale Jacobian also a zero-length
-                // arrival after them (which evaluates the Jacobian: a fresh one is saved)
-                let mut prefixes: Vec<Vec<Limit>> = ks.iter().map(|&k| lim[..k].to_vec()).collect();
-                prefixes.extend(stale.map(|k| [&lim[..k], &[Limit::Here][..]].concat()));
-                if std::env::var("DIAG").is_ok() && is_implicit(method) {
-                    let o = newton_offset(n);
-                    eprintln!(
-                        "{method:?} {}: stale {} fresh {} valid {} t {} {:?}",
-                        c.name,
-                        states.iter().filter(|w| w[o + 3] == 1.0).count(),
-                        states.iter().filter(|w| w[o + 5] == 1.0).count(),
-                        states.iter().filter(|w| w[o + 4] == 1.0).count(),
-                        scout.t(),
-                        scout.stats()
-                    );
-                }
                 for prefix in prefixes {
                     let k = prefix.len();
                     let what = format!("{method:?} on {} saved after {k} steps", c.name);
