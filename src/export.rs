@@ -55,13 +55,10 @@ pub const LIBRARY_EXTENSION: &str = if cfg!(target_os = "windows") {
 };
 
 /// The file name cargo gives this crate's shared library.
-pub const LIBRARY_FILE: &str = if cfg!(target_os = "windows") {
-    "contact_fmu.dll"
-} else if cfg!(target_os = "macos") {
-    "libcontact_fmu.dylib"
-} else {
-    "libcontact_fmu.so"
-};
+pub fn library_file() -> String {
+    let prefix = if cfg!(target_os = "windows") { "" } else { "lib" };
+    format!("{prefix}contact_fmu.{LIBRARY_EXTENSION}")
+}
 
 /// An export that did not succeed; the message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -812,14 +809,14 @@ fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
     let mut dist = Vec::new();
     for target in dir.ancestors().skip(1).take(3) {
         if !DIST_TRIPLE.is_empty() {
-            dist.push(target.join(DIST_TRIPLE).join(DIST_PROFILE).join(LIBRARY_FILE));
+            dist.push(target.join(DIST_TRIPLE).join(DIST_PROFILE).join(library_file()));
         }
-        dist.push(target.join(DIST_PROFILE).join(LIBRARY_FILE));
+        dist.push(target.join(DIST_PROFILE).join(library_file()));
     }
     let candidates = [
-        dir.join(LIBRARY_FILE),
-        dir.join("deps").join(LIBRARY_FILE),
-        dir.join("..").join(LIBRARY_FILE),
+        dir.join(library_file()),
+        dir.join("deps").join(library_file()),
+        dir.join("..").join(library_file()),
     ];
     // `cargo run` and `cargo test` rebuild the library in `deps/` without copying it up to
     // `target/<profile>/`, so the copy next to the executable can be stale: take the newest.
@@ -841,7 +838,8 @@ fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
         return Ok(path);
     }
     Err(ExportError::Library(format!(
-        "cannot find the FMU library {LIBRARY_FILE} (looked in {}); build it with scripts/build_fmu_library.sh or `cargo build --release`",
+        "cannot find the FMU library {} (looked in {}); build it with scripts/build_fmu_library.sh or `cargo build --release`",
+        library_file(),
         dist.iter()
             .chain(&candidates)
             .map(|c| c.display().to_string())

@@ -400,30 +400,39 @@ impl ContactSpec {
 
     /// Sphere `a` against sphere `b`.
     pub fn sphere_sphere(name: &str, law: Law, a: Sphere, b: Sphere) -> ContactSpec {
-        let mut c = ContactSpec::with_sphere(name, ContactType::SphereSphere, law, a, &b.body);
-        c.other_center = Some(b.center);
-        c.other_radius = Some(b.radius);
-        c
+        ContactSpec {
+            other_center: Some(b.center),
+            other_radius: Some(b.radius),
+            ..ContactSpec::with_sphere(name, ContactType::SphereSphere, law, a, &b.body)
+        }
     }
 
     /// Sphere `s` against the rectangle `p` on `body`.
     pub fn sphere_plane(name: &str, law: Law, s: Sphere, body: &str, p: Plane) -> ContactSpec {
-        let mut c = ContactSpec::with_sphere(name, ContactType::SpherePlane, law, s, body);
-        c.origin = Some(p.origin);
-        c.normal = Some(p.normal);
-        c.u_axis = Some(p.u_axis);
-        c.size = Some(p.size);
-        c
+        let Plane {
+            origin,
+            normal,
+            u_axis,
+            size,
+        } = p;
+        ContactSpec {
+            origin: Some(origin),
+            normal: Some(normal),
+            u_axis: Some(u_axis),
+            size: Some(size),
+            ..ContactSpec::with_sphere(name, ContactType::SpherePlane, law, s, body)
+        }
     }
 
     /// Sphere `s` against the cylinder `cyl` on `body`.
     pub fn sphere_cylinder(name: &str, law: Law, s: Sphere, body: &str, cyl: Cylinder) -> ContactSpec {
-        let mut c = ContactSpec::with_sphere(name, ContactType::SphereCylinder, law, s, body);
-        c.axis_point = Some(cyl.axis_point);
-        c.axis = Some(cyl.axis);
-        c.cylinder_radius = Some(cyl.radius);
-        c.length = Some(cyl.length);
-        c
+        ContactSpec {
+            axis_point: Some(cyl.axis_point),
+            axis: Some(cyl.axis),
+            cylinder_radius: Some(cyl.radius),
+            length: Some(cyl.length),
+            ..ContactSpec::with_sphere(name, ContactType::SphereCylinder, law, s, body)
+        }
     }
 
     /// `restitution` e.
