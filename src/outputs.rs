@@ -79,6 +79,7 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         | VarRef::SolverRtol
         | VarRef::SolverAtol
         | VarRef::SolverMaxStep
+        | VarRef::SolverMaxSteps
         | VarRef::Input(_) => return None,
         VarRef::Stiffness(i) => m.contacts[i].stiffness,
         VarRef::BodyPosition(b, k) => d.body_pos[b][k],

@@ -189,6 +189,11 @@ pub struct SolverSection {
     /// Largest internal step [s] (the fixed step of `rk4`).
     #[serde(default = "default_max_step")]
     pub max_step: f64,
+    /// Most integrator steps one communication step (`fmi2DoStep`, one `--interval`) may
+    /// take; beyond them the step stops at the last time reached and is reported (the FMU
+    /// returns `fmi2Discard`), so that no call runs unbounded.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u64,
     /// Continue the integrator across communication points (it may step past one; the
     /// outputs there come from its dense output) instead of restarting it at each.
     #[serde(default)]
@@ -201,6 +206,9 @@ fn default_rtol() -> f64 {
 fn default_atol() -> f64 {
     1e-10
 }
+fn default_max_steps() -> u64 {
+    5_000
+}
 fn default_max_step() -> f64 {
     1e-3
 }
@@ -212,6 +220,7 @@ impl Default for SolverSection {
             rtol: default_rtol(),
             atol: default_atol(),
             max_step: default_max_step(),
+            max_steps: default_max_steps(),
             continuation: false,
         }
     }

@@ -29,6 +29,15 @@ pub enum SimError {
         /// What went wrong.
         message: String,
     },
+    /// The step stopped at `solver.max_steps` integrator steps, at `time`: the state there
+    /// is valid and the simulation can go on from it.
+    #[error("at t = {time}: {message}")]
+    StepLimit {
+        /// Time reached [s].
+        time: f64,
+        /// What happened.
+        message: String,
+    },
     /// Call before `initialize`.
     #[error("not initialised")]
     NotInitialized,
@@ -259,8 +268,19 @@ impl Simulation {
     /// the error carries its time.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), SimError> {
         let c = self.running()?;
-        engine::advance(&c.model, &mut c.data, t_end)
-            .map_err(|EngineError { time, message }| SimError::Step { time, message })
+        engine::advance(&c.model, &mut c.data, t_end).map_err(
+            |EngineError {
+                 time,
+                 message,
+                 step_limit,
+             }| {
+                if step_limit {
+                    SimError::StepLimit { time, message }
+                } else {
+                    SimError::Step { time, message }
+                }
+            },
+        )
     }
 
     /// Runs from the current state over the communication points (the multiples of

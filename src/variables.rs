@@ -101,6 +101,8 @@ pub enum VarRef {
     SolverAtol,
     /// solver.max_step
     SolverMaxStep,
+    /// solver.max_steps
+    SolverMaxSteps,
     /// input index
     Input(usize),
     /// body index, component 0..3 of the centre-of-mass position
@@ -755,6 +757,26 @@ impl VariableTable {
             "solver.method",
             VarRef::SolverMethod,
         ));
+        v.push(Variable {
+            name: "solver.max_steps".into(),
+            vtype: VarType::Integer,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(s.max_steps as f64),
+            unit: None,
+            display_unit: None,
+            description: "most integrator steps one communication step may take; beyond them fmi2DoStep returns \
+                          fmi2Discard at the last time reached (fmi2LastSuccessfulTime)"
+                .into(),
+            range: Some(Range {
+                min: 1.0,
+                min_exclusive: false,
+                max: 1e12,
+                max_exclusive: false,
+            }),
+            target: VarRef::SolverMaxSteps,
+            depends_on_inputs: false,
+        });
         VariableTable { vars: v }
     }
 
@@ -819,6 +841,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::SolverRtol => params.solver.rtol = x,
         VarRef::SolverAtol => params.solver.atol = x,
         VarRef::SolverMaxStep => params.solver.max_step = x,
+        VarRef::SolverMaxSteps => params.solver.max_steps = x as u64,
         VarRef::Input(i) => params.input_start[i] = x,
         VarRef::BodyPosition(..)
         | VarRef::BodyVelocity(..)

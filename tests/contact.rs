@@ -745,12 +745,13 @@ fn ball_settles_at_the_bottom_of_a_groove() {
     let len = rho - R;
     let c = Vector3::new(len * th0.sin(), 0.0, -len * th0.cos() + 1e-3);
     let drag = SpringDamperSpec::new("drag", GROUND, [-100.0, 0.0, c.z], "ball", c, 0.0).damping(0.5);
-    let mut s = start(
-        header(g, 1e-8, 1e-12, 1e-3)
-            .body(BodySpec::sphere("ball", M, R, c))
-            .contact(cylinder_contact(Law::HuntCrossley, 0.5, c, rho, Side::Inside))
-            .spring_damper(drag),
-    );
+    let mut scene: contact_fmu::scene::Scene = header(g, 1e-8, 1e-12, 1e-3)
+        .body(BodySpec::sphere("ball", M, R, c))
+        .contact(cylinder_contact(Law::HuntCrossley, 0.5, c, rho, Side::Inside))
+        .spring_damper(drag)
+        .into();
+    scene.solver.max_steps = 100_000; // 4 s in one step
+    let mut s = start(scene);
     s.step_to(4.0).unwrap();
     let (x, z) = (get(&mut s, "ball.r[1]"), get(&mut s, "ball.r[3]"));
     // concave: circumferential relative radius 1/(1/R − 1/ρ), axial R; K from their geometric mean

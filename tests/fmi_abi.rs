@@ -41,7 +41,12 @@ struct Unpacked {
 
 impl Unpacked {
     fn new(tag: &str) -> Unpacked {
-        let text = std::fs::read_to_string(common::bundled("bouncing_ball")).unwrap();
+        Unpacked::of("bouncing_ball", tag)
+    }
+
+    /// The bundled scene `name`, unpacked as an FMU's resources.
+    fn of(name: &str, tag: &str) -> Unpacked {
+        let text = std::fs::read_to_string(common::bundled(name)).unwrap();
         let root = std::env::temp_dir().join(format!("contact fmu abi {} {tag}", std::process::id()));
         std::fs::create_dir_all(root.join("resources")).unwrap();
         std::fs::write(root.join("resources/scene.toml"), &text).unwrap();
@@ -564,4 +569,63 @@ fn eight_instances_step_in_parallel_on_eight_threads() {
             assert_eq!(t.join().unwrap(), expected);
         }
     });
+}
+
+/// A communication step far too long for the integrator (the fuzzed hosts' `fmi2DoStep(0,
+/// 1e300)`, `(0, 1e9)`, `(0, 1e3)` without a stop time) stops after `solver.max_steps`
+/// integrator steps with `fmi2Discard` at a valid last successful time; the instance then
+/// goes on from a saved state as before. A step of no finite length is an error.
+#[test]
+fn overlong_communication_steps_are_discarded_after_max_steps() {
+    let _handles = shared();
+    for (name, _) in common::bundled_scenes() {
+        let u = Unpacked::of(&name, &format!("long {name}"));
+        let sim = u.simulation();
+        let vr = |n: &str| sim.table().index_of(n).unwrap() as u32;
+        let max_steps = sim.scene().solver.max_steps as f64;
+        let a = u.instantiate();
+        a.init();
+        let mut saved: fmi2FMUstate = ptr::null_mut();
+        // SAFETY: a live instance and a state slot.
+        unsafe { assert_eq!(fmi2GetFMUstate(a.0, &mut saved), OK) };
+        for h in [f64::MAX, 1e300, 1e9, 1e3] {
+            let started = std::time::Instant::now();
+            let status = a.step(0.0, h);
+            let seconds = started.elapsed().as_secs_f64();
+            let mut last = f64::NAN;
+            // SAFETY: a live instance and an out value.
+            unsafe { assert_eq!(fmi2GetRealStatus(a.0, 2, &mut last), OK) };
+            let mut steps: fmi2Integer = -1;
+            // SAFETY: one value reference, one out value.
+            unsafe { assert_eq!(fmi2GetInteger(a.0, &vr("solver.steps"), 1, &mut steps), OK) };
+            let steps = f64::from(steps);
+            println!(
+                "{name}: fmi2DoStep(0, {h:e}) -> {status:?} after {steps} steps at t = {last:e} in {seconds:.3} s"
+            );
+            assert_eq!(status, fmi2Status::fmi2Discard, "{name}, h = {h:e}");
+            assert_eq!(a.state(), LifeState::StepFailed);
+            assert!(
+                last.is_finite() && (0.0..h).contains(&last),
+                "{name}: last successful time {last}"
+            );
+            assert!(
+                steps <= max_steps,
+                "{name}: {steps} steps, solver.max_steps = {max_steps}"
+            );
+            assert!(
+                a.reals(&real_outputs(&sim)).iter().all(|x| x.is_finite()),
+                "{name}: NaN output"
+            );
+            // SAFETY: the state saved above, on its own instance.
+            unsafe { assert_eq!(fmi2SetFMUstate(a.0, saved), OK) };
+            assert_eq!(a.state(), LifeState::StepComplete);
+            assert_eq!(a.step(0.0, 1e-3), OK, "{name}: steps normally after the restore");
+            // SAFETY: as above.
+            unsafe { assert_eq!(fmi2SetFMUstate(a.0, saved), OK) };
+        }
+        assert_eq!(a.step(0.0, f64::INFINITY), ERROR, "{name}: a step to no finite time");
+        assert_eq!(a.state(), LifeState::Error);
+        // SAFETY: the state saved above, freed once.
+        unsafe { assert_eq!(fmi2FreeFMUstate(a.0, &mut saved), OK) };
+    }
 }

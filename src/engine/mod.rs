@@ -33,6 +33,9 @@ pub struct EngineError {
     pub time: f64,
     /// What went wrong.
     pub message: String,
+    /// True when the advance stopped at `solver.max_steps` steps: the state at `time` is
+    /// valid and the simulation can go on from there.
+    pub step_limit: bool,
 }
 
 /// Consecutive integrator steps cut short by an event after which the advance fails (an
@@ -43,6 +46,7 @@ fn fail(d: &Data, message: impl Into<String>) -> EngineError {
     EngineError {
         time: d.time,
         message: message.into(),
+        step_limit: false,
     }
 }
 
@@ -117,6 +121,7 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     // t_end) is not a step any method can take.
     let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
     let mut interrupted = 0usize;
+    let mut steps = 0u64;
     loop {
         if d.solver.ahead_of(d.time) {
             let t_step = d.solver.method().map_or(d.time, |i| i.t());
@@ -138,6 +143,11 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
             d.time = t_end;
             break;
         } else {
+            if steps == m.solver.max_steps {
+                sync_counters(d);
+                return Err(step_limit(d, m.solver.max_steps, t_end));
+            }
+            steps += 1;
             let limit = if continuation {
                 d.solver.horizon.max(t_end)
             } else {
@@ -149,6 +159,19 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     }
     sync_counters(d);
     Ok(())
+}
+
+/// The advance stopped after `max_steps` steps short of `t_end`.
+fn step_limit(d: &Data, max_steps: u64, t_end: f64) -> EngineError {
+    EngineError {
+        time: d.time,
+        message: format!(
+            "solver.max_steps = {max_steps} integrator steps did not reach t = {t_end} (stopped at t = {}); \
+             take shorter communication steps or raise solver.max_steps",
+            d.time
+        ),
+        step_limit: true,
+    }
 }
 
 fn event_storm() -> String {

@@ -273,6 +273,7 @@ impl Instance {
     pub fn fail(&mut self, func: &str, failure: Failure) -> fmi2Status {
         self.log(failure.status, &format!("{func}: {}", failure.message));
         match failure.status {
+            fmi2Status::fmi2Discard => self.state = LifeState::StepFailed,
             fmi2Status::fmi2Error if self.state != LifeState::Fatal => self.state = LifeState::Error,
             fmi2Status::fmi2Fatal => self.state = LifeState::Fatal,
             _ => {}
@@ -455,6 +456,11 @@ impl Instance {
             )));
         }
         let t_end = current + h;
+        if !t_end.is_finite() {
+            return Err(Failure::error(format!(
+                "the step from {current} by {h} ends at a time that is not a finite number"
+            )));
+        }
         if t_end <= now {
             return Err(Failure::error(format!(
                 "the step from {current} by {h} does not advance past the current time {now}"
@@ -472,6 +478,12 @@ impl Instance {
             Err(SimError::Step { time, message }) => Err(Failure::error(format!(
                 "the step from t = {current} to {t_end} failed at t = {time}: {message}"
             ))),
+            Err(SimError::StepLimit { time, message }) => Err(Failure {
+                status: fmi2Status::fmi2Discard,
+                message: format!(
+                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}"
+                ),
+            }),
             Err(e) => Err(e.into()),
         }
     }
