@@ -330,7 +330,15 @@ impl Instance {
             if !(tol.is_finite() && tol > 0.0) {
                 return Err(Failure::error(format!("tolerance = {tol} must be > 0")));
             }
+            let vr = self.sim.table().index_of("solver.rtol").unwrap_or(usize::MAX);
+            let scene_rtol = self.sim.get(vr)?;
             self.sim.set_by_name("solver.rtol", tol)?;
+            if tol != scene_rtol {
+                self.log_event(&format!(
+                    "fmi2SetupExperiment: the host's tolerance {tol:e} replaces solver.rtol = {scene_rtol:e} of \
+                         the scene (set solver.rtol after fmi2SetupExperiment to keep another value)"
+                ));
+            }
         }
         self.start_time = start_time;
         self.stop_time = stop_time;

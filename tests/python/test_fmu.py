@@ -508,3 +508,13 @@ def test_failed_step_is_an_error_with_the_last_successful_time(unzipped, make_in
     inst.slave.freeFMUstate(saved)
     inst.time = 100 * step
     inst.step(step)
+
+
+def test_a_host_tolerance_that_replaces_solver_rtol_is_logged(unzipped, make_instance, log):
+    a = make_instance(unzipped[SCENES[0]], "a", callbacks=log.callbacks)
+    a.slave.setDebugLogging(True, [])
+    a.slave.setupExperiment(tolerance=1e-4, startTime=0.0)
+    assert "replaces solver.rtol" in log.text()
+    a.slave.enterInitializationMode()
+    a.slave.exitInitializationMode()
+    assert a.slave.getReal([a.vr("solver.rtol")]) == [1e-4]
