@@ -739,6 +739,27 @@ impl VariableTable {
             VarRef::SolverRhsEvals,
             "right-hand-side evaluations since initialisation".into(),
         ));
+        // added after the variables above: their value references do not move
+        v.push(Variable {
+            name: "solver.max_steps".into(),
+            vtype: VarType::Integer,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(s.max_steps as f64),
+            unit: None,
+            display_unit: None,
+            description: "most integrator steps one communication step may take; beyond them fmi2DoStep returns \
+                          fmi2Discard at the last time reached (fmi2LastSuccessfulTime)"
+                .into(),
+            range: Some(Range {
+                min: 1.0,
+                min_exclusive: false,
+                max: i32::MAX as f64,
+                max_exclusive: false,
+            }),
+            target: VarRef::SolverMaxSteps,
+            depends_on_inputs: false,
+        });
         // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
         // come last, so the value references above do not move. 0 (the start) leaves the
         // enumeration in charge; any other value overrides it (`set_parameter` writes the
@@ -757,26 +778,6 @@ impl VariableTable {
             "solver.method",
             VarRef::SolverMethod,
         ));
-        v.push(Variable {
-            name: "solver.max_steps".into(),
-            vtype: VarType::Integer,
-            causality: Causality::Parameter,
-            variability: Variability::Fixed,
-            start: Some(s.max_steps as f64),
-            unit: None,
-            display_unit: None,
-            description: "most integrator steps one communication step may take; beyond them fmi2DoStep returns \
-                          fmi2Discard at the last time reached (fmi2LastSuccessfulTime)"
-                .into(),
-            range: Some(Range {
-                min: 1.0,
-                min_exclusive: false,
-                max: 1e12,
-                max_exclusive: false,
-            }),
-            target: VarRef::SolverMaxSteps,
-            depends_on_inputs: false,
-        });
         VariableTable { vars: v }
     }
 
