@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Runs every bundled scene with every method (and the impulse-law variants) through two
+# builds of contact-fmu and compares the CSV trajectories value by value (bit for bit after
+# parsing; the number notation may differ between builds).
+#
+#   scripts/compare_trajectories.sh OLD_BINARY NEW_BINARY
+set -euo pipefail
+old=$1; new=$2
+out=$(mktemp -d)
+run() {  # binary dir
+    local bin=$1 dir=$2
+    mkdir -p "$dir"
+    for scene in fmu/*/scene.toml; do
+        name=$(basename "$(dirname "$scene")")
+        for method in dopri5 sdirk radau5 rk4; do
+            "$bin" simulate "$scene" --quiet --set "solver.method=$method" --csv "$dir/$name.$method.csv" \
+                > /dev/null 2>&1 || echo "failed: $name $method" > "$dir/$name.$method.csv"
+        done
+    done
+    "$bin" simulate fmu/bouncing_ball/scene.toml --quiet --set ball_floor.law=impulse --csv "$dir/bb.impulse.csv" > /dev/null
+    "$bin" simulate fmu/slider_crank/scene.toml --quiet --set impact.law=impulse --csv "$dir/sc.impulse.csv" > /dev/null
+}
+run "$old" "$out/old"
+run "$new" "$out/new"
+python3 - "$out" <<'PY'
+import glob, os, struct, sys
+out = sys.argv[1]
+same = differ = values = 0
+for f in sorted(glob.glob(f"{out}/old/*.csv")):
+    a = open(f).read().splitlines()
+    b = open(f.replace("/old/", "/new/")).read().splitlines()
+    ok = len(a) == len(b) and a[:1] == b[:1]
+    for la, lb in zip(a[1:], b[1:]):
+        for x, y in zip(la.split(","), lb.split(",")):
+            values += 1
+            if struct.pack("<d", float(x)) != struct.pack("<d", float(y)):
+                ok = False
+    same += ok
+    differ += not ok
+    if not ok:
+        print("differs:", os.path.basename(f))
+print(f"{same} trajectories bit-identical, {differ} differ ({values} values compared)")
+PY
+rm -rf "$out"
