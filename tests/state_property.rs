@@ -1,6 +1,7 @@
 //! The saved state is the whole future: for random scenes, methods, contact laws and save
-//! points, get → serialise → deserialise → set into a fresh simulation and continue equals
-//! the uninterrupted run bit for bit. A corrupted or truncated serialised state is refused
+//! points, with the integrator restarting at communication points or continuing across them,
+//! get → serialise → deserialise → set into a fresh simulation and continue equals the
+//! uninterrupted run bit for bit. A corrupted or truncated serialised state is refused
 //! with a message, and the simulation it was meant for stays as it was (no NaN reaches an
 //! output).
 
@@ -70,8 +71,11 @@ fn outputs(sim: &mut Simulation) -> Vec<u64> {
     idx.iter().map(|&i| sim.get(i).unwrap().to_bits()).collect()
 }
 
-fn configured(text: &str, method: Method, contact: &str, law: Law) -> Simulation {
-    let mut s = Simulation::from_scene_str(text, "scene.toml").unwrap();
+/// A simulation of `text` with `method` and `law`; `continuation`: the integrator continues
+/// across communication points (its state then includes a step reaching past the save point).
+fn configured(text: &str, method: Method, contact: &str, law: Law, continuation: bool) -> Simulation {
+    let text = text.replacen("[solver]", &format!("[solver]\ncontinuation = {continuation}"), 1);
+    let mut s = Simulation::from_scene_str(&text, "scene.toml").unwrap();
     s.set_by_name("solver.method", method as i64 as f64).unwrap();
     if !contact.is_empty() {
         s.set_by_name(&format!("{contact}.law"), law as i64 as f64).unwrap();
@@ -84,11 +88,18 @@ fn configured(text: &str, method: Method, contact: &str, law: Law) -> Simulation
 /// another method, so the state's parameter values must rule) and checks that both continue
 /// bit for bit; then that damaged bytes are refused without harm. Returns the number of
 /// points compared.
-fn check(k: usize, method: Method, law: Law, split_fraction: f64, damage: usize) -> Result<usize, TestCaseError> {
+fn check(
+    k: usize,
+    method: Method,
+    law: Law,
+    continuation: bool,
+    split_fraction: f64,
+    damage: usize,
+) -> Result<usize, TestCaseError> {
     let (text, contact, span) = scene(k);
     let n = 24;
     let h = span / n as f64;
-    let mut a = configured(&text, method, contact, law);
+    let mut a = configured(&text, method, contact, law, continuation);
     a.initialize(0.0).unwrap();
     let split = ((split_fraction * n as f64) as usize).clamp(1, n - 1);
     for i in 1..=split {
@@ -103,7 +114,7 @@ fn check(k: usize, method: Method, law: Law, split_fraction: f64, damage: usize)
     } else {
         Method::Dopri5
     };
-    let mut b = configured(&text, other, "", law);
+    let mut b = configured(&text, other, "", law, continuation);
     b.initialize(0.0).unwrap();
     // Damaged bytes first: refused with a message, and `b` stays usable with finite outputs.
     let mut flipped = bytes.clone();
@@ -139,14 +150,16 @@ const METHODS: [Method; 4] = Method::ALL;
 
 #[test]
 fn every_method_and_law_continues_bit_for_bit_after_a_serialised_restore() {
-    let mut compared = 0;
-    for (mi, method) in METHODS.into_iter().enumerate() {
-        for (li, law) in Law::ALL.into_iter().enumerate() {
-            let split = 0.2 + 0.1 * ((mi * 6 + li) % 7) as f64;
-            compared += check(0, method, law, split, 13 * (mi * 6 + li) + 5).unwrap();
+    for continuation in [false, true] {
+        let mut compared = 0;
+        for (mi, method) in METHODS.into_iter().enumerate() {
+            for (li, law) in Law::ALL.into_iter().enumerate() {
+                let split = 0.2 + 0.1 * ((mi * 6 + li) % 7) as f64;
+                compared += check(0, method, law, continuation, split, 13 * (mi * 6 + li) + 5).unwrap();
+            }
         }
+        assert!(compared > 24 * 5);
     }
-    assert!(compared > 24 * 5);
 }
 
 proptest! {
@@ -157,12 +170,13 @@ proptest! {
         k in 0usize..5,
         method in prop::sample::select(METHODS.to_vec()),
         law in prop::sample::select(Law::ALL.to_vec()),
+        continuation in any::<bool>(),
         split in 0.05f64..0.95,
         damage in 0usize..100_000,
     ) {
         // Kelvin-Voigt needs a given stiffness: only the ball scene has one.
         let law = if k > 0 && law == Law::KelvinVoigt { Law::Hertz } else { law };
-        check(k, method, law, split, damage)?;
+        check(k, method, law, continuation, split, damage)?;
     }
 }
 
