@@ -80,6 +80,11 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         | VarRef::SolverAtol
         | VarRef::SolverMaxStep
         | VarRef::SolverMaxSteps
+        | VarRef::SpringStiffness(_)
+        | VarRef::SpringDamping(_)
+        | VarRef::SpringFreeLength(_)
+        | VarRef::InitialVelocity(..)
+        | VarRef::InitialAngularVelocity(..)
         | VarRef::Input(_) => return None,
         VarRef::Stiffness(i) => m.contacts[i].stiffness,
         VarRef::BodyPosition(b, k) => d.body_pos[b][k],

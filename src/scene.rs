@@ -625,6 +625,15 @@ pub fn check_law(
 /// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
 pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
 
+impl SpringDamperSpec {
+    /// `free_length`, by default the initial distance of the two points.
+    pub fn free_length_or_default(&self) -> f64 {
+        let v = |a: [f64; 3]| nalgebra::Vector3::new(a[0], a[1], a[2]);
+        self.free_length
+            .unwrap_or_else(|| (v(self.point_b) - v(self.point_a)).norm())
+    }
+}
+
 impl ContactSpec {
     /// `max_penetration`, by default the sphere radius (a deeper overlap is not a contact the
     /// model can describe).

@@ -103,6 +103,16 @@ pub enum VarRef {
     SolverMaxStep,
     /// solver.max_steps
     SolverMaxSteps,
+    /// spring-damper index: stiffness
+    SpringStiffness(usize),
+    /// spring-damper index: damping
+    SpringDamping(usize),
+    /// spring-damper index: free length
+    SpringFreeLength(usize),
+    /// body index, component: initial centre-of-mass velocity
+    InitialVelocity(usize, usize),
+    /// body index, component: initial angular velocity
+    InitialAngularVelocity(usize, usize),
     /// input index
     Input(usize),
     /// body index, component 0..3 of the centre-of-mass position
@@ -310,6 +320,11 @@ pub const UNITS: &[Unit] = &[
     Unit {
         name: "N.s/m",
         base: [1, 0, -1, 0],
+        display: &[],
+    },
+    Unit {
+        name: "N/m",
+        base: [1, 0, -2, 0],
         display: &[],
     },
 ];
@@ -760,6 +775,58 @@ impl VariableTable {
             target: VarRef::SolverMaxSteps,
             depends_on_inputs: false,
         });
+        // Spring-dampers and initial velocities as parameters (after the variables above, so
+        // their value references do not move).
+        let finite = Range::closed([-1e12, 1e12]);
+        for (i, sd) in scene.spring_damper.iter().enumerate() {
+            let free = sd.free_length_or_default();
+            v.push(param(
+                format!("{}.stiffness", sd.name),
+                sd.stiffness,
+                Some("N/m"),
+                nonneg,
+                VarRef::SpringStiffness(i),
+                "spring stiffness",
+            ));
+            v.push(param(
+                format!("{}.damping", sd.name),
+                sd.damping,
+                Some("N.s/m"),
+                nonneg,
+                VarRef::SpringDamping(i),
+                "damping coefficient",
+            ));
+            v.push(param(
+                format!("{}.free_length", sd.name),
+                free,
+                Some("m"),
+                nonneg,
+                VarRef::SpringFreeLength(i),
+                "length at which the spring force is zero (default: the initial distance)",
+            ));
+        }
+        for (i, b) in scene.body.iter().enumerate() {
+            for k in 0..3 {
+                v.push(param(
+                    format!("{}.velocity[{}]", b.name, k + 1),
+                    b.velocity[k],
+                    Some("m/s"),
+                    finite,
+                    VarRef::InitialVelocity(i, k),
+                    "initial centre-of-mass velocity, world frame (projected onto the joints)",
+                ));
+            }
+            for k in 0..3 {
+                v.push(param(
+                    format!("{}.angular_velocity[{}]", b.name, k + 1),
+                    b.angular_velocity[k],
+                    Some("rad/s"),
+                    finite,
+                    VarRef::InitialAngularVelocity(i, k),
+                    "initial angular velocity, world frame (projected onto the joints)",
+                ));
+            }
+        }
         // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
         // come last, so the value references above do not move. 0 (the start) leaves the
         // enumeration in charge; any other value overrides it (`set_parameter` writes the
@@ -843,6 +910,11 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::SolverAtol => params.solver.atol = x,
         VarRef::SolverMaxStep => params.solver.max_step = x,
         VarRef::SolverMaxSteps => params.solver.max_steps = x as u64,
+        VarRef::SpringStiffness(i) => params.springs[i].stiffness = x,
+        VarRef::SpringDamping(i) => params.springs[i].damping = x,
+        VarRef::SpringFreeLength(i) => params.springs[i].free_length = x,
+        VarRef::InitialVelocity(b, k) => params.velocities[b][k] = x,
+        VarRef::InitialAngularVelocity(b, k) => params.angular_velocities[b][k] = x,
         VarRef::Input(i) => params.input_start[i] = x,
         VarRef::BodyPosition(..)
         | VarRef::BodyVelocity(..)

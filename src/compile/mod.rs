@@ -277,7 +277,8 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     let springs = scene
         .spring_damper
         .iter()
-        .map(|s| {
+        .zip(&params.springs)
+        .map(|(s, p)| {
             let (a, b) = (to_body(&s.body_a), to_body(&s.body_b));
             SpringDamper {
                 name: s.name.clone(),
@@ -285,11 +286,9 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
                 point_a: local_point(a, to_v(s.point_a)),
                 body_b: b,
                 point_b: local_point(b, to_v(s.point_b)),
-                stiffness: s.stiffness,
-                damping: s.damping,
-                free_length: s
-                    .free_length
-                    .unwrap_or_else(|| (to_v(s.point_b) - to_v(s.point_a)).norm()),
+                stiffness: p.stiffness,
+                damping: p.damping,
+                free_length: p.free_length,
             }
         })
         .collect();
@@ -388,7 +387,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         }
     }
     let mut data = Data::new(&model);
-    let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, scene);
+    let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, params);
     model.warnings.extend(warnings);
     data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
     data.eval_state.copy_from_slice(&data.state);

@@ -33,6 +33,17 @@ pub struct ContactValues {
     pub stiffness: Option<f64>,
 }
 
+/// The settable constants of a spring-damper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpringValues {
+    /// Stiffness [N/m].
+    pub stiffness: f64,
+    /// Damping [N s/m].
+    pub damping: f64,
+    /// Free length [m].
+    pub free_length: f64,
+}
+
 /// Every parameter value of a scene, by item (scene order).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameters {
@@ -40,6 +51,12 @@ pub struct Parameters {
     pub materials: Vec<MaterialValues>,
     /// Per body: mass [kg].
     pub masses: Vec<f64>,
+    /// Per body: initial centre-of-mass velocity, world frame [m/s].
+    pub velocities: Vec<[f64; 3]>,
+    /// Per body: initial angular velocity, world frame [rad/s].
+    pub angular_velocities: Vec<[f64; 3]>,
+    /// Per spring-damper.
+    pub springs: Vec<SpringValues>,
     /// Per contact.
     pub contacts: Vec<ContactValues>,
     /// Solver settings.
@@ -61,6 +78,17 @@ impl Parameters {
                 })
                 .collect(),
             masses: scene.body.iter().map(|b| b.mass).collect(),
+            velocities: scene.body.iter().map(|b| b.velocity).collect(),
+            angular_velocities: scene.body.iter().map(|b| b.angular_velocity).collect(),
+            springs: scene
+                .spring_damper
+                .iter()
+                .map(|s| SpringValues {
+                    stiffness: s.stiffness,
+                    damping: s.damping,
+                    free_length: s.free_length_or_default(),
+                })
+                .collect(),
             contacts: scene
                 .contact
                 .iter()

@@ -2,17 +2,17 @@
 //! projected onto the joint coordinates by least squares (docs/physics.md (35)-(37)) and onto
 //! the loop constraints.
 
+use super::parameters::Parameters;
 use crate::contact::resting_rows;
 use crate::dynamics::constraints;
 use crate::kinematics::{for_each_path_dof, kinematics};
 use crate::model::{Data, Model};
-use crate::scene::Scene;
 use nalgebra::{DMatrix, DVector};
 
 /// Initial joint rates from the scene's body velocities by least squares, per tree
 /// (docs/physics.md (35)-(37)), then projected onto the loop constraints (28). Returns them
 /// with a warning for each inconsistency. Uses `d` as workspace.
-pub(super) fn initial_velocities(m: &Model, d: &mut Data, scene: &Scene) -> (Vec<f64>, Vec<String>) {
+pub(super) fn initial_velocities(m: &Model, d: &mut Data, params: &Parameters) -> (Vec<f64>, Vec<String>) {
     let mut warnings = Vec::new();
     d.eval_state.copy_from_slice(&d.state);
     d.eval_state[m.nq..].iter_mut().for_each(|x| *x = 0.0);
@@ -30,10 +30,9 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, scene: &Scene) -> (Vec
         let bodies = &tree_bodies[t];
         let mut y = DVector::<f64>::zeros(6 * bodies.len());
         for (i, &b) in bodies.iter().enumerate() {
-            let spec = &scene.body[b];
             for k in 0..3 {
-                y[6 * i + k] = spec.velocity[k];
-                y[6 * i + 3 + k] = spec.angular_velocity[k];
+                y[6 * i + k] = params.velocities[b][k];
+                y[6 * i + 3 + k] = params.angular_velocities[b][k];
             }
         }
         // A tree at rest has zero rates: no matrix to build (it is dense, 6 bodies × dofs).
