@@ -1,40 +1,28 @@
 //! Spring-damper constants and initial body velocities are FMU parameters: set before
 //! initialisation, they change the model as the same scene keys would (closed forms).
 
+use contact_fmu::scene::{BodySpec, JointSpec, Scene, SpringDamperSpec, GROUND};
+use contact_fmu::scene_builder::SceneBuilder;
 use contact_fmu::simulation::Simulation;
 
-const OSCILLATOR: &str = r#"
-[model]
-name = "oscillator"
-gravity = [0.0, 0.0, 0.0]
-
-[solver]
-rtol = 1e-10
-atol = 1e-12
-
-[[body]]
-name = "mass"
-mass = 2.0
-inertia = [0.01, 0.01, 0.01]
-position = [0.0, 0.0, 0.0]
-
-[[joint]]
-name = "slide"
-type = "prismatic"
-parent = "ground"
-child = "mass"
-anchor = [0.0, 0.0, 0.0]
-axis = [1.0, 0.0, 0.0]
-
-[[spring_damper]]
-name = "spring"
-body_a = "ground"
-point_a = [-1.0, 0.0, 0.0]
-body_b = "mass"
-point_b = [0.0, 0.0, 0.0]
-stiffness = 200.0
-damping = 0.0
-"#;
+/// A 2 kg mass on a slide along x, tied to the ground by a spring (200 N/m, no damping, free
+/// length the initial distance of 1 m), without gravity.
+fn oscillator() -> Scene {
+    SceneBuilder::new("oscillator")
+        .gravity([0.0, 0.0, 0.0])
+        .tolerances(1e-10, 1e-12)
+        .body(BodySpec::new("mass", 2.0, [0.01; 3], [0.0; 3]))
+        .joint(JointSpec::prismatic("slide", GROUND, "mass", [0.0; 3], [1.0, 0.0, 0.0]))
+        .spring_damper(SpringDamperSpec::new(
+            "spring",
+            GROUND,
+            [-1.0, 0.0, 0.0],
+            "mass",
+            [0.0; 3],
+            200.0,
+        ))
+        .build()
+}
 
 fn get(s: &mut Simulation, name: &str) -> f64 {
     let vr = s.table().index_of(name).unwrap_or_else(|| panic!("no variable {name}"));
@@ -43,7 +31,7 @@ fn get(s: &mut Simulation, name: &str) -> f64 {
 
 /// Position of the mass at `t` after initialisation with the parameters `set`.
 fn position_at(set: &[(&str, f64)], t: f64) -> (Simulation, f64) {
-    let mut s = Simulation::from_scene_str(OSCILLATOR, "oscillator.toml").unwrap();
+    let mut s = Simulation::new(oscillator(), "oscillator");
     for (name, value) in set {
         s.set_by_name(name, *value).unwrap();
     }
@@ -79,7 +67,7 @@ fn initial_velocity_parameters_are_projected_onto_the_joints() {
     let (mut s, x) = position_at(&[("spring.stiffness", 0.0), ("mass.velocity[1]", 0.5)], 2.0);
     assert!((x - 1.0).abs() < 1e-9, "x = {x}");
     assert!((get(&mut s, "mass.v[1]") - 0.5).abs() < 1e-12);
-    let mut s = Simulation::from_scene_str(OSCILLATOR, "oscillator.toml").unwrap();
+    let mut s = Simulation::new(oscillator(), "oscillator");
     s.set_by_name("mass.velocity[2]", 0.3).unwrap();
     s.set_by_name("mass.angular_velocity[3]", 1.0).unwrap();
     assert!(
