@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command: build, Rust tests, build the library the FMUs ship with, export
 # the bundled FMUs, then test the exported .fmu files through real FMI hosts (fmpy in a Python
-# venv, and the FMU Compliance Checker from ../shared/tools/ where it is present).
+# venv, and the FMU Compliance Checker where present: FMU_CHECK, see docs/fmi.md).
 #
 #   ./run_tests.sh            everything
 #   ./run_tests.sh -k guid    extra arguments go to pytest

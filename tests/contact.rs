@@ -1,5 +1,5 @@
 //! Contact module checked against physics: detection geometry against hand computations and
-//! finite differences, Hertz closed forms (PHYSICS.md §6), effective restitution of the
+//! finite differences, Hertz closed forms (docs/physics.md §6), effective restitution of the
 //! damped laws against an independent integration of the scalar law, energy balance,
 //! impulse laws against (14)-(16), the paper's effective mass (17)-(19) against the exact
 //! solve, resting contact, cylinders, Newton's cradle, and scene validation.
@@ -125,7 +125,7 @@ fn gamma(x: f64) -> f64 {
     (2.0 * PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * a
 }
 
-/// Closed forms of PHYSICS.md §6: (δ_max, F_max, t_c).
+/// Closed forms of docs/physics.md §6: (δ_max, F_max, t_c).
 fn hertz_closed_form(m: f64, k: f64, v0: f64) -> (f64, f64, f64) {
     let dmax = (5.0 * m * v0 * v0 / (4.0 * k)).powf(0.4);
     let c = 4.0 * PI.sqrt() * gamma(0.4) / (5.0 * gamma(0.9));
