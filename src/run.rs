@@ -3,7 +3,7 @@
 
 use crate::checkpoint::Snapshot;
 use crate::simulation::{RunError, SimError, Simulation};
-use crate::variables::{Causality, VarType};
+use crate::variables::VarType;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -162,13 +162,7 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
     apply_settings(&mut sim, &o.experiment.set)?;
     let stop = o.experiment.stop_time.unwrap_or(sim.scene().model.stop_time);
     let interval = o.experiment.interval.unwrap_or(sim.scene().model.interval);
-    let outputs: Vec<usize> = sim
-        .variables()
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output)
-        .map(|(i, _)| i)
-        .collect();
+    let outputs = sim.output_indices();
     let mut writer = match &o.csv {
         Some(p) => {
             if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {

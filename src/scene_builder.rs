@@ -246,9 +246,13 @@ impl JointSpec {
         anchor: impl Into<[f64; 3]>,
         axis: impl Into<[f64; 3]>,
     ) -> JointSpec {
-        JointSpec::new(name, JointType::Prismatic, parent, child)
-            .anchor(anchor)
-            .axis(axis)
+        JointSpec::revolute(name, parent, child, anchor, axis).kind(JointType::Prismatic)
+    }
+
+    /// The same joint with another type.
+    fn kind(mut self, kind: JointType) -> JointSpec {
+        self.kind = kind;
+        self
     }
 
     /// A spherical joint about `anchor`.

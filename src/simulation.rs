@@ -106,6 +106,14 @@ impl Simulation {
         &self.table.vars
     }
 
+    /// Value references of the outputs, in table order.
+    pub fn output_indices(&self) -> Vec<usize> {
+        let vars = self.variables();
+        (0..vars.len())
+            .filter(|&i| vars[i].causality == Causality::Output)
+            .collect()
+    }
+
     /// The variable table.
     pub fn table(&self) -> &VariableTable {
         &self.table

@@ -5,7 +5,6 @@
 
 mod common;
 
-use contact_fmu::bench::output_indices;
 use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::Method;
 use contact_fmu::simulation::Simulation;
@@ -13,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 /// Every output, as bits.
 fn outputs(sim: &mut Simulation) -> Vec<u64> {
-    output_indices(sim)
+    sim.output_indices()
         .into_iter()
         .map(|i| sim.get(i).unwrap().to_bits())
         .collect()

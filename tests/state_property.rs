@@ -8,7 +8,6 @@
 use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::{Law, Method};
 use contact_fmu::simulation::Simulation;
-use contact_fmu::variables::Causality;
 use proptest::prelude::*;
 
 /// A ball dropped on a floor with a given stiffness and damping, so that every law
@@ -65,10 +64,10 @@ fn scene(k: usize) -> (String, &'static str, f64) {
 }
 
 fn outputs(sim: &mut Simulation) -> Vec<u64> {
-    let idx: Vec<usize> = (0..sim.variables().len())
-        .filter(|&i| sim.variables()[i].causality == Causality::Output)
-        .collect();
-    idx.iter().map(|&i| sim.get(i).unwrap().to_bits()).collect()
+    sim.output_indices()
+        .iter()
+        .map(|&i| sim.get(i).unwrap().to_bits())
+        .collect()
 }
 
 /// A simulation of `text` with `method` and `law`; `continuation`: the integrator continues

@@ -26,7 +26,7 @@ use crate::model::Counters;
 use crate::outputs::Energies;
 use crate::scene::{Method, Scene};
 use crate::simulation::{RunError, SimError, Simulation};
-use crate::variables::{Causality, VarRef};
+use crate::variables::VarRef;
 use clap::Subcommand;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -310,14 +310,6 @@ fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&mut 
     }
 }
 
-/// Value references of the outputs of `sim`, in table order.
-pub fn output_indices(sim: &Simulation) -> Vec<usize> {
-    let vars = sim.variables();
-    (0..vars.len())
-        .filter(|&i| vars[i].causality == Causality::Output)
-        .collect()
-}
-
 /// Times `repeats` runs (setup excluded). Returns (median wall [s], median thread CPU [s],
 /// counters of the last run, failure of the last run).
 pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, Option<String>), String> {
@@ -341,7 +333,8 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
 /// communication point, with the energy balance, penetrations and loop residuals.
 pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
     let mut sim = setup(spec)?;
-    let vars: Vec<(usize, String)> = output_indices(&sim)
+    let vars: Vec<(usize, String)> = sim
+        .output_indices()
         .into_iter()
         .map(|i| (i, sim.variables()[i].name.clone()))
         .filter(|(_, name)| outputs.is_empty() || outputs.contains(&name.as_str()))

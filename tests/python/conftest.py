@@ -217,6 +217,19 @@ def make_instance():
         inst.free()
 
 
+def refused_at_exit_initialization(inst, variable, value):
+    """Sets `variable` to `value` in initialization mode; exiting it must fail. Returns the
+    raised exception."""
+    from fmpy.fmi1 import FMICallException
+
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.set(variable, value)
+    with pytest.raises(FMICallException) as raised:
+        inst.slave.exitInitializationMode()
+    return raised.value
+
+
 def copy_tree_with_space(src, tmp_path):
     dst = tmp_path / "dir with space" / "my fmu"
     shutil.copytree(src, dst)

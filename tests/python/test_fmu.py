@@ -17,7 +17,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2LastSuccessfulTime, fmi2Terminated
 from fmpy.validation import validate_fmu
 
-from conftest import BINARY, ROOT, SCENES, copy_tree_with_space, scene_path
+from conftest import BINARY, ROOT, SCENES, copy_tree_with_space, refused_at_exit_initialization, scene_path
 
 FMI2_ERROR = 3
 DECLARED_CATEGORIES = {
@@ -331,12 +331,7 @@ OUT_OF_RANGE = [
 def test_out_of_range_parameter_is_refused_at_exit_initialization(export_scene, make_instance, log, variable, value):
     _, unzipdir = export_scene(bouncing_ball_with_stiffness(), "stiff_ball")
     inst = make_instance(unzipdir, "range", callbacks=log.callbacks)
-    inst.slave.setupExperiment(startTime=0.0)
-    inst.slave.enterInitializationMode()
-    inst.set(variable, value)
-    with pytest.raises(FMICallException) as raised:
-        inst.slave.exitInitializationMode()
-    assert raised.value.status == FMI2_ERROR
+    assert refused_at_exit_initialization(inst, variable, value).status == FMI2_ERROR
     assert variable in log.text()
     # The instance is in the error state, and fmi2Reset makes it usable again.
     with pytest.raises(FMICallException):
