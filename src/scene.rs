@@ -195,8 +195,8 @@ pub struct SolverSection {
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
     /// Continue the integrator across communication points (it may step past one; the
-    /// outputs there come from its dense output) instead of restarting it at each.
-    #[serde(default)]
+    /// outputs there come from its dense output) instead of restarting it at each (default).
+    #[serde(default = "default_continuation")]
     pub continuation: bool,
 }
 
@@ -205,6 +205,9 @@ fn default_rtol() -> f64 {
 }
 fn default_atol() -> f64 {
     1e-10
+}
+fn default_continuation() -> bool {
+    true
 }
 fn default_max_steps() -> u64 {
     5_000
@@ -221,7 +224,7 @@ impl Default for SolverSection {
             atol: default_atol(),
             max_step: default_max_step(),
             max_steps: default_max_steps(),
-            continuation: false,
+            continuation: default_continuation(),
         }
     }
 }

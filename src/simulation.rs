@@ -55,8 +55,6 @@ pub struct Simulation {
     /// True when `compiled` was compiled with the current parameter values.
     compiled_fresh: bool,
     initialized: bool,
-    /// The integrator may step up to here (beyond it the host will not ask).
-    horizon: f64,
     /// Log contact peaks (a diagnostic).
     log_peaks: bool,
 }
@@ -80,7 +78,6 @@ impl Simulation {
             compiled: None,
             compiled_fresh: false,
             initialized: false,
-            horizon: f64::INFINITY,
             log_peaks: false,
         }
     }
@@ -241,7 +238,6 @@ impl Simulation {
                     format!("at the initial state: {}", err.message),
                 )
             })?;
-            data.solver.horizon = self.horizon;
             data.log_peaks = self.log_peaks;
             self.compiled = Some(Compiled { model, data });
             self.compiled_fresh = true;
@@ -309,7 +305,6 @@ impl Simulation {
                 self.time()
             )));
         }
-        self.set_stop_time(Some(stop_time));
         for t in communication_points(self.time(), stop_time, interval) {
             self.step_to(t).map_err(RunError::Step)?;
             each(self).map_err(RunError::Setup)?;
@@ -427,16 +422,6 @@ impl Simulation {
     pub fn clear_contact_events(&mut self) {
         if let Some(c) = self.compiled.as_mut() {
             c.data.event_log.clear();
-        }
-    }
-
-    /// The time beyond which no step will be asked for (the stop time; None: open-ended). The
-    /// integrator continues across communication points and may step past one; it never
-    /// steps past this.
-    pub fn set_stop_time(&mut self, stop: Option<f64>) {
-        self.horizon = stop.unwrap_or(f64::INFINITY);
-        if let Some(c) = self.compiled.as_mut() {
-            c.data.solver.horizon = self.horizon;
         }
     }
 

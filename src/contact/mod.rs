@@ -141,7 +141,11 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             continue;
         }
         let g = gap(m, d, i);
-        let delta = g.delta.max(0.0);
+        // Kelvin-Voigt's elastic part continues linearly through δ = 0 while the contact is
+        // active (its total force is cut to zero there already): the right-hand side stays
+        // smooth up to the separation event, so the dense output that locates it is accurate
+        // (with δ floored at zero the dissipated power has a kink there).
+        let delta = if c.law == Law::KelvinVoigt { g.delta } else { g.delta.max(0.0) };
         let f = laws::force(c, delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let force = g.normal * f.total;
@@ -152,7 +156,7 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-force), &g.point));
         }
         d.contact_out[i] = ContactOutput {
-            delta,
+            delta: delta.max(0.0),
             delta_dot: g.delta_dot,
             force: f.total,
             elastic_energy: f.energy,

@@ -102,7 +102,9 @@ pub fn resync(m: &Model, d: &mut Data) {
 
 /// Integrates to `t_end`, locating and handling contact events. The method continues its last
 /// step when nothing changed since the previous advance; it may step past `t_end` (up to
-/// `d.solver.horizon`), and the state at `t_end` then comes from its dense output.
+/// and the state at `t_end` then comes from its dense output (projected onto the loop
+/// constraints). Its steps do not depend on `t_end` nor on the stop time, so the results do
+/// not depend on the communication grid beyond the tolerance.
 pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     if t_end.is_nan() || t_end < d.time {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
@@ -136,7 +138,7 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
                 interrupted = 0;
                 accept_step(m, d)?;
             } else {
-                interpolate_to(d, t_end);
+                interpolate_to(m, d, t_end);
                 break;
             }
         } else if t_end - d.time <= t_close {
@@ -148,11 +150,7 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
                 return Err(step_limit(d, m.solver.max_steps, t_end));
             }
             steps += 1;
-            let limit = if continuation {
-                d.solver.horizon.max(t_end)
-            } else {
-                t_end
-            };
+            let limit = if continuation { f64::INFINITY } else { t_end };
             take_step(m, d, limit)?;
             d.solver.pending_event = events::first_event(m, d).unwrap_or(f64::INFINITY);
         }
@@ -182,12 +180,16 @@ fn event_storm() -> String {
     )
 }
 
-/// The state at `t` inside the method's last step, from its dense output.
-fn interpolate_to(d: &mut Data, t: f64) {
+/// The state at `t` inside the method's last step, from its dense output, projected onto the
+/// loop constraints (and unit quaternions) when the interpolation left them by more than
+/// [`dynamics::PROJECTION_TOL`]: the outputs at a communication point satisfy the constraints
+/// as well as a step's end does. The method's step is not changed.
+fn interpolate_to(m: &Model, d: &mut Data, t: f64) {
     if let Some(method) = d.solver.method() {
         method.interpolate(t, &mut d.state);
     }
     d.time = t;
+    dynamics::project_state(m, d, dynamics::PROJECTION_TOL, contact::resting_rows);
 }
 
 /// Runs `f` with the integrator taken out of the data (so that the right-hand side can

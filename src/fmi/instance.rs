@@ -342,7 +342,6 @@ impl Instance {
         }
         self.start_time = start_time;
         self.stop_time = stop_time;
-        self.sim.set_stop_time(stop_time);
         Ok(())
     }
 
@@ -547,7 +546,6 @@ impl Instance {
         self.state = saved.lifecycle;
         self.start_time = saved.start_time;
         self.stop_time = saved.stop_time;
-        self.sim.set_stop_time(saved.stop_time);
         self.log_event(&format!(
             "fmi2SetFMUstate: restored a state at t = {} ({})",
             self.time(),

@@ -91,8 +91,6 @@ pub struct Solver {
     /// The earliest located event inside the method's last step after `Data::time`
     /// (infinite: none). Handled once the simulation reaches it.
     pub pending_event: f64,
-    /// The method may step up to here (the stop time, when the host gave one).
-    pub horizon: f64,
     /// Step size to try at the next restart when the method has not run since a restore.
     pub next_h: f64,
     /// The method's counters at initialisation (the reported counters are since then).
@@ -274,7 +272,6 @@ impl Data {
                 }),
                 started: false,
                 pending_event: f64::INFINITY,
-                horizon: f64::INFINITY,
                 next_h: 0.0,
                 base: Stats::default(),
             },
