@@ -750,7 +750,7 @@ fn carriage_arm(arm_drive: &str) -> Scene {
         "joint_force" => InputSpec::joint_force("motor", "hinge"),
         _ => InputSpec::torque("motor", "arm", [0.0, 0.0, 1.0]),
     };
-    header("carriage_arm", [0.0, 0.0, -G], Method::Dopri5, 1e-10, 1e-12, 0.05)
+    header("carriage_arm", [0.0, 0.0, -G], Method::Dopri5, 1e-11, 1e-13, 0.05)
         .body(body("carriage", 3.0, [0.05, 0.06, 0.07], Vector3::zeros(), ident()))
         .body(body(
             "arm",

@@ -145,7 +145,11 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
         // active (its total force is cut to zero there already): the right-hand side stays
         // smooth up to the separation event, so the dense output that locates it is accurate
         // (with δ floored at zero the dissipated power has a kink there).
-        let delta = if c.law == Law::KelvinVoigt { g.delta } else { g.delta.max(0.0) };
+        let delta = if c.law == Law::KelvinVoigt {
+            g.delta
+        } else {
+            g.delta.max(0.0)
+        };
         let f = laws::force(c, delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let force = g.normal * f.total;
