@@ -186,8 +186,10 @@ pub struct SolverSection {
     /// Absolute tolerance.
     #[serde(default = "default_atol")]
     pub atol: f64,
-    /// Largest internal step [s] (the fixed step of `rk4`).
-    #[serde(default = "default_max_step")]
+    /// Largest internal step [s] (the fixed step of `rk4`); 0 (the default): none, the steps
+    /// of the adaptive methods are bounded only by their error control and by the time to
+    /// contact of the approaching contacts.
+    #[serde(default)]
     pub max_step: f64,
     /// Most integrator steps one communication step (`fmi2DoStep`, one `--interval`) may
     /// take; beyond them the step stops at the last time reached and is reported (the FMU
@@ -212,9 +214,6 @@ fn default_continuation() -> bool {
 fn default_max_steps() -> u64 {
     5_000
 }
-fn default_max_step() -> f64 {
-    1e-3
-}
 
 impl Default for SolverSection {
     fn default() -> Self {
@@ -222,7 +221,7 @@ impl Default for SolverSection {
             method: Method::default(),
             rtol: default_rtol(),
             atol: default_atol(),
-            max_step: default_max_step(),
+            max_step: 0.0,
             max_steps: default_max_steps(),
             continuation: default_continuation(),
         }
@@ -727,15 +726,8 @@ impl Scene {
                 ));
             }
         }
-        if !(s.max_step >= MIN_MAX_STEP && s.max_step.is_finite()) {
-            return Err(err(
-                "[solver]".into(),
-                "max_step",
-                format!(
-                    "must be finite and >= {MIN_MAX_STEP:e} s (got {}): a smaller step never ends a simulation",
-                    short(s.max_step)
-                ),
-            ));
+        if let Err((field, msg)) = check_max_step(s) {
+            return Err(err("[solver]".into(), field, msg));
         }
         // every name is valid and unique across the scene
         let mut names: HashSet<&str> = HashSet::new();
@@ -1064,6 +1056,25 @@ pub const RTOL_RANGE: [f64; 2] = [1e-14, 1e-2];
 /// fail on components that stay near zero (at 1e-30 the bundled slider-crank fails). The FMU
 /// parameter has the same range.
 pub const ATOL_RANGE: [f64; 2] = [1e-20, 1e-2];
+
+/// `solver.max_step`: 0 (none; `rk4` then steps by [`RK4_DEFAULT_STEP`]) or at least
+/// [`MIN_MAX_STEP`], finite. Returns the field and the message.
+pub fn check_max_step(s: &SolverSection) -> Result<(), (&'static str, String)> {
+    let h = s.max_step;
+    if !(h == 0.0 || (h >= MIN_MAX_STEP && h.is_finite())) {
+        return Err((
+            "max_step",
+            format!(
+                "must be 0 (none) or finite and >= {MIN_MAX_STEP:e} s (got {}): a smaller step never ends a simulation",
+                short(h)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The fixed step of `rk4` [s] when `solver.max_step` is 0 (none).
+pub const RK4_DEFAULT_STEP: f64 = 1e-3;
 
 /// Smallest `solver.max_step` [s]: the step of `rk4`, and a cap on every method's step;
 /// a smaller one makes any simulation practically endless (and below the rounding of the

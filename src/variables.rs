@@ -5,7 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{InputType, JointType, Law, Method, Scene, ATOL_RANGE, MIN_MAX_STEP, RTOL_RANGE};
+use crate::scene::{InputType, JointType, Law, Method, Scene, ATOL_RANGE, RTOL_RANGE};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -528,9 +528,9 @@ impl VariableTable {
             "solver.max_step".into(),
             s.max_step,
             Some("s"),
-            Range::open_above(MIN_MAX_STEP, false),
+            Range::open_above(0.0, false),
             VarRef::SolverMaxStep,
-            "largest internal step (rk4: its step)",
+            "largest internal step; 0: none (rk4: its fixed step; 0: 1 ms)",
         ));
         for (i, inp) in scene.input.iter().enumerate() {
             let direction = inp.direction.unwrap_or([1.0, 0.0, 0.0]);

@@ -1495,3 +1495,89 @@ fn resting_ball_leaves_an_accelerating_platform() {
     let plate_z = -a * (w * release.time).cos();
     assert!(plate_z > 0.0);
 }
+
+// ---------------------------------------------------------------------------------------------
+// No contact stepped over without a largest step
+
+/// A glancing blow in weightless free flight, with no `max_step`: the steel sphere passes
+/// its neighbour at 10 m/s with an overlap of 1 mm (a tenth of a radius) at closest approach,
+/// which dopri5 alone, seeing exact straight-line motion, would cross in one step. The time
+/// to contact bounds the steps, the touch is located, and the outcome equals a run held to
+/// 1 µs steps; momentum and (elastic Hertz) kinetic energy are conserved.
+#[test]
+fn glancing_blow_is_found_without_a_largest_step() {
+    let run = |max_step: f64| {
+        let a = BodySpec::sphere("a", M, R, [-1.0, 1.9 * R, 0.0]).velocity([10.0, 0.0, 0.0]);
+        let b = BodySpec::sphere("b", M, R, [0.0, 0.0, 0.0]);
+        let c = ContactSpec::sphere_sphere("c", Law::Hertz, Sphere::of(&a, R), Sphere::of(&b, R));
+        let scene = header(0.0, 1e-10, 1e-14, max_step)
+            .experiment(0.2, 0.2)
+            .body(a)
+            .body(b)
+            .contact(c.materials("steel", "steel"));
+        let mut s = start(scene);
+        for k in 1..=200 {
+            s.step_to(k as f64 * 1e-3).unwrap();
+        }
+        let touches = events(&s).iter().filter(|e| e.kind == ContactEventKind::Touch).count();
+        let v = ["a.v[1]", "a.v[2]", "b.v[1]", "b.v[2]"].map(|n| get(&mut s, n));
+        (touches, v, s.counters().steps)
+    };
+    let (touches, v, steps) = run(0.0);
+    let (ref_touches, v_ref, ref_steps) = run(1e-6);
+    println!(
+        "glancing blow: {touches} touch, {steps} steps (held to 1 µs: {ref_steps}); velocities {v:?}, held {v_ref:?}"
+    );
+    assert_eq!((touches, ref_touches), (1, 1));
+    assert!(
+        v[3] < -0.1,
+        "the struck sphere moves off along the line of centres: {v:?}"
+    );
+    for k in 0..4 {
+        assert!(
+            (v[k] - v_ref[k]).abs() < 1e-7 * 10.0,
+            "component {k}: {} vs {}",
+            v[k],
+            v_ref[k]
+        );
+    }
+    assert!(
+        (v[0] + v[2] - 10.0).abs() < 1e-9 && (v[1] + v[3]).abs() < 1e-9,
+        "momentum {v:?}"
+    );
+    let ke = v.iter().map(|x| x * x).sum::<f64>();
+    assert!((ke - 100.0).abs() < 1e-7 * 100.0, "kinetic energy ratio {}", ke / 100.0);
+    assert!(steps < 1_000, "free flight takes few steps: {steps}");
+}
+
+/// A ball dropped from 0.5 m on the floor with the `impulse` law (e = 0.8) and no `max_step`:
+/// every impact at its closed-form time `t_k = t_1 + 2 v_1 e (1 − e^(k−1)) / ((1 − e) g)`,
+/// no flight through the floor after an apex, in a few dozen steps.
+#[test]
+fn bouncing_ball_impacts_at_closed_form_times_without_a_largest_step() {
+    let (h, e, g) = (0.5, 0.8, 9.81);
+    let scene = ball_on_floor(Law::Impulse, |c| c.restitution(e), 0.0, g, h)
+        .solver(Method::Dopri5, 1e-10, 1e-14, 0.0)
+        .experiment(2.0, 0.01);
+    let mut s = start(scene);
+    s.step_to(2.0).unwrap();
+    let impacts: Vec<f64> = events(&s)
+        .iter()
+        .filter(|ev| ev.kind == ContactEventKind::Impact)
+        .map(|ev| ev.time)
+        .collect();
+    let (t1, v1) = ((2.0 * h / g).sqrt(), (2.0 * g * h).sqrt());
+    let steps = s.counters().steps;
+    println!("impulse bouncing ball: {} impacts in 2 s, {steps} steps", impacts.len());
+    assert!(impacts.len() >= 5, "{impacts:?}");
+    for (k, t) in impacts.iter().take(5).enumerate() {
+        let expected = t1 + 2.0 * v1 * e * (1.0 - e.powi(k as i32)) / ((1.0 - e) * g);
+        assert!(
+            rel(*t, expected) < 1e-9,
+            "impact {}: {t} s, closed form {expected} s",
+            k + 1
+        );
+    }
+    assert!(get(&mut s, "ball.r[3]") > 0.0, "the ball is above the floor");
+    assert!(steps < 500, "{steps} steps");
+}

@@ -3,7 +3,7 @@
 //! scene gives their defaults; [`super::compile`] reads them from here, so that changing a
 //! parameter never edits the scene.
 
-use crate::scene::{check_law, item_name, Law, Scene, SceneError, SolverSection};
+use crate::scene::{check_law, check_max_step, item_name, Law, Scene, SceneError, SolverSection};
 
 /// Elastic constants of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,6 +113,9 @@ impl Parameters {
     /// and the field; when a host's parameter value (`<contact>.law`, `<contact>.restitution`)
     /// makes the combination impossible, it names that parameter and says what to do.
     pub fn check(&self, scene: &Scene, origin: &str) -> Result<(), SceneError> {
+        if let Err((field, msg)) = check_max_step(&self.solver) {
+            return Err(SceneError::new(origin, "parameter \"solver.max_step\"", field, msg));
+        }
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
             let materials = c.sphere_material.is_some() && c.material.is_some();
             let has_stiffness = v.stiffness.is_some();

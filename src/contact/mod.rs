@@ -48,9 +48,10 @@ pub fn event_function(c: &ContactElement, g: &Gap) -> f64 {
 /// Broad phase: when the sphere centre is farther from the other shape's bounding sphere than
 /// `radius + max_penetration`, no part of the admissible region can be reached (δ < 0, or the
 /// projection is off the patch, or δ > δ_max) and the exact detection is skipped. Returns
-/// then a negative stand-in for the event function (minus the clearance [m]); `None` when
-/// the exact detection is needed.
-pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<f64> {
+/// then a negative stand-in for the event function (minus the clearance [m]) and the rate at
+/// which the clearance closes [m/s] (the stand-in for δ̇); `None` when the exact detection is
+/// needed.
+pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<(f64, f64)> {
     if !c.bound_radius.is_finite() {
         return None;
     }
@@ -58,9 +59,12 @@ pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<f64> {
     let fo = frame(d, c.body);
     let center = fs.pos + fs.rot * c.center;
     let other = fo.pos + fo.rot * geometry::bound_center(&c.shape);
-    let clearance = (center - other).norm() - (c.bound_radius + c.radius + c.max_penetration);
+    let apart = center - other;
+    let distance = apart.norm();
+    let clearance = distance - (c.bound_radius + c.radius + c.max_penetration);
     if clearance > 0.0 {
-        Some(-clearance)
+        let relative = fs.vel.point_velocity(&center) - fo.vel.point_velocity(&other);
+        Some((-clearance, -apart.dot(&relative) / distance))
     } else {
         None
     }
@@ -71,7 +75,7 @@ pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<f64> {
 pub fn gap_event(m: &Model, d: &Data, i: usize) -> f64 {
     let c = &m.contacts[i];
     match broad_phase(c, d) {
-        Some(v) => v,
+        Some((v, _)) => v,
         None => event_function(c, &gap(m, d, i)),
     }
 }

@@ -23,8 +23,8 @@ pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64,
         let g = gap(m, d, i);
         return (resting_force(m, d, i).min(g.margin), 1.0, (g.delta, g.delta_dot));
     }
-    if let Some(v) = broad_phase(c, d) {
-        return (v, 1.0, (v, 0.0));
+    if let Some((v, closing)) = broad_phase(c, d) {
+        return (v, 1.0, (v, closing));
     }
     let g = gap(m, d, i);
     let clamp_value = if clamp && mem.active && c.law != Law::Impulse && laws::can_clamp(c) {

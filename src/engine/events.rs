@@ -123,6 +123,42 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
     b
 }
 
+/// Largest step [s] from the current state before an inactive contact could close its gap and
+/// one sphere radius more (and, for active contacts that close, the time to penetrate half of
+/// `max_penetration` further): per contact the time `t` in which `v t + a t²/2 = gap + R`, with
+/// `v` the closing speed (0 when it opens), `a` the magnitude of gravity (the acceleration
+/// that turns a ball round in free flight) and `R` the sphere's radius; the least of them.
+/// Gap and speed come from `d.events.aux` (those of the bounding spheres when the broad phase
+/// skipped the exact detection). So no step carries a sphere through a shape, and each touch
+/// shows as a sign change at a step's end; a contact touched and left inside one step (a
+/// graze) is found by [`first_event`]. Infinite in weightless flight apart: free flight needs
+/// no largest step.
+pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
+    let a = m.gravity.norm();
+    let mut bound = f64::INFINITY;
+    for (i, c) in m.contacts.iter().enumerate() {
+        let (delta, closing) = d.events.aux[i];
+        if d.contact_memory[i].active {
+            // An active continuous contact that still closes: the time to penetrate half of
+            // max_penetration further at the present speed, so that the first step after a
+            // touch (which restarts with the step of free flight) cannot carry the bodies
+            // past each other with every stage outside the contact (a glancing blow). (Not
+            // the time to reach max_penetration: that would shrink toward it without end.)
+            if c.law != Law::Impulse && closing > 0.0 {
+                bound = bound.min(0.5 * c.max_penetration / closing);
+            }
+            continue;
+        }
+        // (an inactive contact may overlap a hair: an impulse contact right after its impact)
+        let reach = c.radius + (-delta).max(0.0);
+        let v = closing.max(0.0);
+        // the positive root of a t²/2 + v t − reach = 0, in a form exact for a = 0
+        let t = 2.0 * reach / (v + (v * v + 2.0 * a * reach).sqrt());
+        bound = bound.min(t);
+    }
+    bound
+}
+
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
 /// its end go to `d.events.g_new`, and the earliest relevant event inside it is returned
 /// (None: the step can be accepted whole). Peaks of continuous contacts before that event
@@ -164,6 +200,34 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0 {
             any = true;
             t_first = t;
+        }
+    }
+    // A visit inside the step: an inactive contact that closed at the step's start and opens
+    // at its end, with no sign change of its event function, passed a largest δ in between
+    // (δ̇ = 0); if the contact holds there, it touched and left within the step: locate the
+    // touch between the start and that instant.
+    for i in 0..n_contacts {
+        let (r0, r1) = (d.events.aux[i].1, d.events.aux_new[i].1);
+        let (g0, g1) = (d.events.g[i], d.events.g_new[i]);
+        if d.contact_memory[i].active || !(r0 > 0.0 && r1 < 0.0) || g0 > 0.0 || g1 > 0.0 {
+            continue;
+        }
+        // the exact rates (the broad phase's are those of the bounding spheres)
+        let r0 = probe_at(m, d, Probe::Rate(i), t0);
+        let r1 = probe_at(m, d, Probe::Rate(i), t1);
+        if !(r0 > 0.0 && r1 <= 0.0) {
+            continue;
+        }
+        let t_peak = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t_first);
+        if t_peak >= t_first {
+            continue;
+        }
+        let g_peak = probe_at(m, d, Probe::Event(i), t_peak);
+        if g_peak > 0.0 {
+            let g_start = probe_at(m, d, Probe::Event(i), t0);
+            let t = locate(m, d, Probe::Event(i), t0, t_peak, g_start, g_peak, t_first);
+            any = true;
+            t_first = t_first.min(t);
         }
     }
     // Peaks of continuous contacts inside the accepted part of the step (a diagnostic, when

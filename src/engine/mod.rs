@@ -151,6 +151,7 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
             }
             steps += 1;
             let limit = if continuation { f64::INFINITY } else { t_end };
+            let limit = limit.min(d.time + events::time_to_contact(m, d));
             take_step(m, d, limit)?;
             d.solver.pending_event = events::first_event(m, d).unwrap_or(f64::INFINITY);
         }

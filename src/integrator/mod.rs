@@ -19,7 +19,7 @@ pub mod rk4;
 pub mod sdirk;
 
 pub use self::core::{StateReader, StepCore};
-use crate::scene::{Method, SolverSection};
+use crate::scene::{Method, SolverSection, RK4_DEFAULT_STEP};
 
 /// A first-order system `y' = f(t, y)`.
 pub trait OdeSystem {
@@ -148,12 +148,17 @@ pub fn error_norm(err: &[f64], y0: &[f64], y1: &[f64], rtol: f64, atol: f64) -> 
 }
 
 /// Creates the integrator named by the solver settings for a system of size `n`.
+/// `solver.max_step` 0 means no largest step.
 pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
+    let hmax = if s.max_step > 0.0 { s.max_step } else { f64::INFINITY };
     match s.method {
-        Method::Dopri5 => Box::new(dopri5::Dopri5::new(n, s.rtol, s.atol, s.max_step)),
-        Method::Rk4 => Box::new(rk4::Rk4::new(n, s.max_step)),
-        Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, s.max_step)),
-        Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, s.max_step)),
+        Method::Dopri5 => Box::new(dopri5::Dopri5::new(n, s.rtol, s.atol, hmax)),
+        Method::Rk4 => Box::new(rk4::Rk4::new(
+            n,
+            if s.max_step > 0.0 { s.max_step } else { RK4_DEFAULT_STEP },
+        )),
+        Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, hmax)),
+        Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
     }
 }
 

@@ -125,7 +125,8 @@ pub struct EventWork {
     pub g: Vec<f64>,
     /// The same at the end of the step being checked.
     pub g_new: Vec<f64>,
-    /// Per contact (δ, δ̇) at the current state (δ is the broad-phase stand-in when skipped).
+    /// Per contact (δ, δ̇) at the current state (when the broad phase skipped the exact
+    /// detection: minus the clearance of the bounding spheres and the rate at which it closes).
     pub aux: Vec<(f64, f64)>,
     /// The same at the end of the step being checked.
     pub aux_new: Vec<(f64, f64)>,
