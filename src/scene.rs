@@ -509,6 +509,21 @@ pub struct ContactSpec {
     /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
     #[serde(default)]
     pub impulse_method: ImpulseMethod,
+    /// Coulomb (sliding) friction coefficient μ (default 0: no friction).
+    #[serde(default)]
+    pub friction: Option<f64>,
+    /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
+    #[serde(default)]
+    pub static_friction: Option<f64>,
+    /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
+    #[serde(default)]
+    pub stribeck_velocity: Option<f64>,
+    /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
+    #[serde(default)]
+    pub viscous_friction: Option<f64>,
+    /// Regularisation velocity v_s [m/s] of the continuous friction law.
+    #[serde(default)]
+    pub stiction_velocity: Option<f64>,
 }
 
 impl ContactSpec {
@@ -553,6 +568,11 @@ impl ContactSpec {
             max_penetration: None,
             min_impact_velocity: None,
             impulse_method: ImpulseMethod::default(),
+            friction: None,
+            static_friction: None,
+            stribeck_velocity: None,
+            viscous_friction: None,
+            stiction_velocity: None,
         }
     }
 }
@@ -625,6 +645,13 @@ pub fn check_law(
 /// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
 pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
 
+/// Default Stribeck velocity [m/s] (`stribeck_velocity`).
+pub const DEFAULT_STRIBECK_VELOCITY: f64 = 1e-2;
+
+/// Default regularisation velocity of the continuous friction law [m/s]
+/// (`stiction_velocity`; docs/friction.md gives the measurements behind it).
+pub const DEFAULT_STICTION_VELOCITY: f64 = 1e-4;
+
 impl SpringDamperSpec {
     /// `free_length`, by default the initial distance of the two points.
     pub fn free_length_or_default(&self) -> f64 {
@@ -644,6 +671,19 @@ impl ContactSpec {
     /// `min_impact_velocity`, by default [`DEFAULT_MIN_IMPACT_VELOCITY`].
     pub fn min_impact_velocity_or_default(&self) -> f64 {
         self.min_impact_velocity.unwrap_or(DEFAULT_MIN_IMPACT_VELOCITY)
+    }
+
+    /// The friction constants with their defaults: μ = 0, μ_s = μ, Stribeck velocity
+    /// [`DEFAULT_STRIBECK_VELOCITY`], σ = 0, v_s = [`DEFAULT_STICTION_VELOCITY`].
+    pub fn friction_or_default(&self) -> [f64; 5] {
+        let mu = self.friction.unwrap_or(0.0);
+        [
+            mu,
+            self.static_friction.unwrap_or(mu),
+            self.stribeck_velocity.unwrap_or(DEFAULT_STRIBECK_VELOCITY),
+            self.viscous_friction.unwrap_or(0.0),
+            self.stiction_velocity.unwrap_or(DEFAULT_STICTION_VELOCITY),
+        ]
     }
 }
 
@@ -1036,9 +1076,24 @@ impl Scene {
             }
             magnitude(origin, item, "max_penetration", v)?;
         }
-        for (f, v) in [("damping", c.damping), ("min_impact_velocity", c.min_impact_velocity)] {
+        for (f, v) in [
+            ("damping", c.damping),
+            ("min_impact_velocity", c.min_impact_velocity),
+            ("friction", c.friction),
+            ("static_friction", c.static_friction),
+            ("viscous_friction", c.viscous_friction),
+        ] {
             if let Some(v) = v {
                 nonnegative(origin, item, f, v)?;
+            }
+        }
+        for (f, v) in [
+            ("stribeck_velocity", c.stribeck_velocity),
+            ("stiction_velocity", c.stiction_velocity),
+        ] {
+            if let Some(v) = v {
+                positive(origin, item, f, v)?;
+                magnitude(origin, item, f, v)?;
             }
         }
         if let Some(n) = c.exponent {

@@ -463,6 +463,16 @@ impl ContactSpec {
         max_penetration: f64,
         /// `min_impact_velocity` [m/s].
         min_impact_velocity: f64,
+        /// `friction`: Coulomb coefficient μ.
+        friction: f64,
+        /// `static_friction` μ_s.
+        static_friction: f64,
+        /// `stribeck_velocity` [m/s].
+        stribeck_velocity: f64,
+        /// `viscous_friction` σ [s/m].
+        viscous_friction: f64,
+        /// `stiction_velocity` v_s [m/s] (regularisation).
+        stiction_velocity: f64,
     }
 
     /// `impulse_method` (impulse law).

@@ -979,6 +979,7 @@ fn element(shape: Shape, center: Vector3<f64>, radius: f64) -> ContactElement {
         impulse_method: ImpulseMethod::Exact,
         constraint_row: None,
         hysteresis: 0.0,
+        friction: Default::default(),
     }
 }
 
@@ -1203,6 +1204,122 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
             "{name}: {bias} vs {}",
             -acc_fd
         );
+    }
+}
+
+#[test]
+fn slip_velocity_matches_finite_differences_of_the_material_points() {
+    // Both bodies translate and rotate; the slip velocity at the contact point (friction) is
+    // checked against central differences of the positions of the two material points that
+    // coincide with the contact point at t = 0, projected on the tangent plane. The rotation
+    // of both bodies enters (ω × r of each): a sphere spinning about the normal slips along
+    // nothing, one rolling at ω = v/R slips not at all; here everything moves.
+    let q1 = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5);
+    let q2 = UnitQuaternion::from_euler_angles(-0.4, 0.1, 0.2);
+    let fs = frame(
+        Vector3::new(0.1, 0.2, 0.3),
+        q1,
+        Vector3::new(0.3, -0.7, 0.2),
+        Vector3::new(1.5, -2.0, 0.7),
+    );
+    let fo = frame(
+        Vector3::new(0.05, 0.1, -0.2),
+        q2,
+        Vector3::new(-0.2, 0.4, 0.1),
+        Vector3::new(-0.8, 1.1, 2.3),
+    );
+    let center = Vector3::new(0.02, -0.03, 0.01);
+    let cw = fs.pos + fs.rot * center;
+    let local = |p: Vector3<f64>| fo.rot.transpose() * (p - fo.pos);
+    let ldir = |d: Vector3<f64>| fo.rot.transpose() * d;
+    let shapes = vec![
+        Shape::Sphere {
+            center: local(cw - Vector3::new(0.03, 0.02, 0.27)),
+            radius: 0.2,
+        },
+        Shape::Plane {
+            origin: local(cw - Vector3::new(0.01, 0.02, 0.08)),
+            normal: ldir(Vector3::new(0.1, 0.2, 1.0).normalize()),
+            u: ldir(Vector3::new(1.0, 0.0, -0.1).normalize()),
+            v: ldir(
+                Vector3::new(0.1, 0.2, 1.0)
+                    .normalize()
+                    .cross(&Vector3::new(1.0, 0.0, -0.1).normalize()),
+            ),
+            half: [0.5, 0.5],
+        },
+        Shape::Cylinder {
+            point: local(cw - Vector3::new(0.0, 0.0, 0.58)),
+            axis: ldir(Vector3::new(1.0, 0.2, 0.0).normalize()),
+            reference: ldir(Vector3::z()),
+            radius: 0.5,
+            half_length: 1.0,
+            theta_range: None,
+            inside: false,
+        },
+        Shape::Cylinder {
+            point: local(cw + Vector3::new(0.0, 0.0, 0.42)),
+            axis: ldir(Vector3::new(1.0, -0.3, 0.1).normalize()),
+            reference: ldir(Vector3::z()),
+            radius: 0.5,
+            half_length: 1.0,
+            theta_range: None,
+            inside: true,
+        },
+    ];
+    for shape in shapes {
+        let c = element(shape, center, 0.1);
+        let g = geometry::detect(&c, &fs, &fo);
+        let slip = contact::friction::slip_velocity(&fs, &fo, &g);
+        // the material points at g.point, followed along the two screw motions
+        let ps = fs.rot.transpose() * (g.point - fs.pos);
+        let po = fo.rot.transpose() * (g.point - fo.pos);
+        let rel = |t: f64| {
+            let (a, b) = (advance(&fs, t), advance(&fo, t));
+            (a.pos + a.rot * ps) - (b.pos + b.rot * po)
+        };
+        let h = 1e-4;
+        let u = (rel(h) - rel(-h)) / (2.0 * h);
+        let fd = u - g.normal * u.dot(&g.normal);
+        let (t1, t2) = contact::friction::tangents(&g.normal);
+        println!("{:?}: slip {:.12?}, fd {:.12?}", c.kind, slip.as_slice(), fd.as_slice());
+        assert!(slip.dot(&g.normal).abs() < 1e-14, "{:?}: slip is tangential", c.kind);
+        assert!((slip - fd).norm() < 1e-7 * fd.norm(), "{:?}: {slip} vs {fd}", c.kind);
+        assert!((t1.dot(&g.normal)).abs() < 1e-15 && (t2.dot(&g.normal)).abs() < 1e-15);
+        assert!(
+            (t1.cross(&t2) - g.normal).norm() < 1e-15,
+            "right-handed triad (n, t1, t2)"
+        );
+        assert!(fd.norm() > 0.1, "the test moves the contact point tangentially");
+    }
+}
+
+#[test]
+fn tangent_jacobian_rows_give_the_slip_of_a_spinning_ball() {
+    // A free ball touching the floor, moving and spinning: the Jacobian rows of the two
+    // tangent directions times q̇ equal the slip components, and the slip is the hand
+    // computation v + ω × (−R n) of the contact point (the rotation enters as radius × ω).
+    let v = Vector3::new(0.7, -0.3, 0.0);
+    let w = Vector3::new(2.0, 5.0, -3.0);
+    let scene = ball_on_floor(Law::Hertz, |c| c.friction(0.3), 0.0, 9.81, 0.0);
+    let mut scene = scene.build();
+    scene.body[0].velocity = v.into();
+    scene.body[0].angular_velocity = w.into();
+    let (m, mut d) = compile(scene);
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics::kinematics(&m, &mut d);
+    let g = contact::gap(&m, &d, 0);
+    let fs = kinematics::frame(&d, m.contacts[0].sphere_body);
+    let slip = contact::friction::slip_velocity(&fs, &kinematics::frame(&d, None), &g);
+    let by_hand = v + w.cross(&Vector3::new(0.0, 0.0, -R));
+    let by_hand = by_hand - Vector3::z() * by_hand.z;
+    assert!((slip - by_hand).norm() < 1e-14, "{slip} vs {by_hand}");
+    let (t1, t2) = contact::friction::tangents(&g.normal);
+    for t in [t1, t2] {
+        let mut row = vec![0.0; m.nv];
+        contact::friction::add_tangent_row(&m, &d.dof_s, &m.contacts[0], &g, &t, &mut row);
+        let rate: f64 = row.iter().zip(&d.state[m.nq..m.nq + m.nv]).map(|(a, b)| a * b).sum();
+        assert!((rate - slip.dot(&t)).abs() < 1e-14, "{rate} vs {}", slip.dot(&t));
     }
 }
 

@@ -17,6 +17,7 @@
 //! holds it until its normal force would become tensile, or the sphere leaves the patch.
 
 pub mod element;
+pub mod friction;
 pub mod geometry;
 pub mod impulse;
 pub mod laws;
@@ -28,7 +29,7 @@ use crate::model::{Data, Model};
 use crate::scene::Law;
 use crate::spatial::Spatial;
 
-pub use element::{ContactElement, ContactMemory, ContactOutput, Shape};
+pub use element::{ContactElement, ContactMemory, ContactOutput, Friction, Shape};
 pub use geometry::Gap;
 
 /// Evaluates the geometry of contact `i` at the current kinematics.
@@ -124,13 +125,14 @@ pub fn resting_outputs(m: &Model, d: &mut Data) {
                 delta_dot: g.delta_dot,
                 force: resting_force(m, d, i),
                 elastic_energy: 0.0,
+                ..ContactOutput::default()
             };
         }
     }
 }
 
-/// Adds the forces of the active continuous contacts to the bodies, updates the contact
-/// outputs and returns the dissipated power [W].
+/// Adds the forces of the active continuous contacts to the bodies (normal force and
+/// friction), updates the contact outputs and returns the dissipated power [W].
 pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
     let mut power = 0.0;
     for i in 0..m.contacts.len() {
@@ -140,23 +142,35 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        let g = gap(m, d, i);
+        let fs = frame(d, c.sphere_body);
+        let fo = frame(d, c.body);
+        let g = geometry::detect(c, &fs, &fo);
         let delta = g.delta.max(0.0);
         let f = laws::force(c, delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
-        let force = g.normal * f.total;
+        let mut force = g.normal * f.total;
+        let mut out = ContactOutput {
+            delta,
+            delta_dot: g.delta_dot,
+            force: f.total,
+            elastic_energy: f.energy,
+            ..ContactOutput::default()
+        };
+        if c.friction.is_on() {
+            let slip = friction::slip_velocity(&fs, &fo, &g);
+            let ft = friction::force(&c.friction, f.total, &slip);
+            power -= ft.dot(&slip);
+            force += ft;
+            out.friction_force = ft;
+            out.slip_speed = slip.norm();
+        }
         if let Some(b) = c.sphere_body {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&force, &g.point));
         }
         if let Some(b) = c.body {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-force), &g.point));
         }
-        d.contact_out[i] = ContactOutput {
-            delta,
-            delta_dot: g.delta_dot,
-            force: f.total,
-            elastic_energy: f.energy,
-        };
+        d.contact_out[i] = out;
     }
     power
 }

@@ -2,7 +2,9 @@
 //! [`crate::contact::modes`]) are compared between the step's start and end; a relevant sign
 //! change is located by root finding on the integrator's dense output. Also checked:
 //! tunnelling (δ crossed zero although the mode function did not turn positive at the end
-//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0).
+//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0). Each contact
+//! has three event functions: its mode, the cut of its force at zero, and (with friction) its
+//! slip speed against the stiction velocity.
 
 use crate::contact::{self, modes};
 use crate::forward::{any_resting, evaluate};
@@ -43,6 +45,13 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
         g[i] = mode;
         g[n_contacts + i] = clamp_value;
         aux[i] = a;
+        let slip = modes::slip_event_value(m, d, i);
+        let g = if at_step_end {
+            &mut d.events.g_new
+        } else {
+            &mut d.events.g
+        };
+        g[2 * n_contacts + i] = slip;
     }
 }
 
@@ -81,7 +90,8 @@ fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
     }
     match probe {
         Probe::Event(k) if k < n_contacts => modes::contact_event_values(m, d, k, d.clamp_events).0,
-        Probe::Event(k) => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
+        Probe::Event(k) if k < 2 * n_contacts => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
+        Probe::Event(k) => modes::slip_event_value(m, d, k - 2 * n_contacts),
         Probe::Delta(i) => contact::gap(m, d, i).delta,
         Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
     }
@@ -139,7 +149,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     // Earliest relevant crossing.
     let mut t_first = t1;
     let mut any = false;
-    for k in 0..2 * n_contacts {
+    for k in 0..3 * n_contacts {
         let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % n_contacts].0);
         if modes::relevant_crossing(m, d, k, g0, g1, delta1) {
             let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);

@@ -46,6 +46,11 @@ pub enum ContactEventKind {
     /// Largest penetration of a continuous-law contact (δ̇ = 0), located on the dense output
     /// without interrupting the integration.
     Peak,
+    /// The slip speed of a contact with friction falls below the stiction velocity (the
+    /// friction force leaves its Coulomb value: sticking, rolling).
+    Stick,
+    /// The slip speed rises above the stiction velocity (sliding at the Coulomb value).
+    Slip,
 }
 
 /// One located contact event, with the contact's state at that instant. A diagnostic log
@@ -283,8 +288,8 @@ impl Data {
             event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
             outputs_valid: false,
             events: EventWork {
-                g: vec![0.0; 2 * ncontacts],
-                g_new: vec![0.0; 2 * ncontacts],
+                g: vec![0.0; 3 * ncontacts],
+                g_new: vec![0.0; 3 * ncontacts],
                 aux: vec![(0.0, 0.0); ncontacts],
                 aux_new: vec![(0.0, 0.0); ncontacts],
             },
