@@ -1114,11 +1114,10 @@ fn detection_by_hand() {
     assert!((g.delta + 0.4).abs() < 1e-14);
 }
 
-#[test]
-fn detection_rates_on_moving_bodies_match_finite_differences() {
-    // Both bodies translate and rotate (constant twists). δ̇ from detection and the
-    // velocity-product part of the separation's second derivative (resting rows) against
-    // central differences of δ along the motion.
+/// Two bodies that translate and rotate (constant twists), a sphere (r = 0.1, offset
+/// `center` in the first body) and the four shapes on the second body placed near contact
+/// with it: (sphere frame, other frame, centre, named shapes).
+fn moving_pair() -> (Frame, Frame, Vector3<f64>, Vec<(&'static str, Shape)>) {
     let q1 = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5);
     let q2 = UnitQuaternion::from_euler_angles(-0.4, 0.1, 0.2);
     let fs = frame(
@@ -1133,7 +1132,6 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
         Vector3::new(-0.2, 0.4, 0.1),
         Vector3::new(-0.8, 1.1, 2.3),
     );
-    // shapes placed so that the sphere (r = 0.1, offset in its body) is near contact
     let center = Vector3::new(0.02, -0.03, 0.01);
     let cw = fs.pos + fs.rot * center;
     let local = |p: Vector3<f64>| fo.rot.transpose() * (p - fo.pos);
@@ -1181,6 +1179,15 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
             },
         ),
     ];
+    (fs, fo, center, shapes)
+}
+
+#[test]
+fn detection_rates_on_moving_bodies_match_finite_differences() {
+    // Both bodies translate and rotate (constant twists). δ̇ from detection and the
+    // velocity-product part of the separation's second derivative (resting rows) against
+    // central differences of δ along the motion.
+    let (fs, fo, center, shapes) = moving_pair();
     let h = 1e-3;
     for (name, shape) in shapes {
         let c = element(shape, center, 0.1);
@@ -1214,60 +1221,8 @@ fn slip_velocity_matches_finite_differences_of_the_material_points() {
     // coincide with the contact point at t = 0, projected on the tangent plane. The rotation
     // of both bodies enters (ω × r of each): a sphere spinning about the normal slips along
     // nothing, one rolling at ω = v/R slips not at all; here everything moves.
-    let q1 = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5);
-    let q2 = UnitQuaternion::from_euler_angles(-0.4, 0.1, 0.2);
-    let fs = frame(
-        Vector3::new(0.1, 0.2, 0.3),
-        q1,
-        Vector3::new(0.3, -0.7, 0.2),
-        Vector3::new(1.5, -2.0, 0.7),
-    );
-    let fo = frame(
-        Vector3::new(0.05, 0.1, -0.2),
-        q2,
-        Vector3::new(-0.2, 0.4, 0.1),
-        Vector3::new(-0.8, 1.1, 2.3),
-    );
-    let center = Vector3::new(0.02, -0.03, 0.01);
-    let cw = fs.pos + fs.rot * center;
-    let local = |p: Vector3<f64>| fo.rot.transpose() * (p - fo.pos);
-    let ldir = |d: Vector3<f64>| fo.rot.transpose() * d;
-    let shapes = vec![
-        Shape::Sphere {
-            center: local(cw - Vector3::new(0.03, 0.02, 0.27)),
-            radius: 0.2,
-        },
-        Shape::Plane {
-            origin: local(cw - Vector3::new(0.01, 0.02, 0.08)),
-            normal: ldir(Vector3::new(0.1, 0.2, 1.0).normalize()),
-            u: ldir(Vector3::new(1.0, 0.0, -0.1).normalize()),
-            v: ldir(
-                Vector3::new(0.1, 0.2, 1.0)
-                    .normalize()
-                    .cross(&Vector3::new(1.0, 0.0, -0.1).normalize()),
-            ),
-            half: [0.5, 0.5],
-        },
-        Shape::Cylinder {
-            point: local(cw - Vector3::new(0.0, 0.0, 0.58)),
-            axis: ldir(Vector3::new(1.0, 0.2, 0.0).normalize()),
-            reference: ldir(Vector3::z()),
-            radius: 0.5,
-            half_length: 1.0,
-            theta_range: None,
-            inside: false,
-        },
-        Shape::Cylinder {
-            point: local(cw + Vector3::new(0.0, 0.0, 0.42)),
-            axis: ldir(Vector3::new(1.0, -0.3, 0.1).normalize()),
-            reference: ldir(Vector3::z()),
-            radius: 0.5,
-            half_length: 1.0,
-            theta_range: None,
-            inside: true,
-        },
-    ];
-    for shape in shapes {
+    let (fs, fo, center, shapes) = moving_pair();
+    for (_, shape) in shapes {
         let c = element(shape, center, 0.1);
         let g = geometry::detect(&c, &fs, &fo);
         let slip = contact::friction::slip_velocity(&fs, &fo, &g);

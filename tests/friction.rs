@@ -1,0 +1,240 @@
+//! Friction checked against closed forms (docs/friction.md): a block on an incline (sticking
+//! below tan θ = μ_s with a bounded creep, sliding with a = g (sin θ − μ cos θ) above), a
+//! sphere launched sliding without spin (rolling from t = 2 v0/(7 μ g) at 5/7 v0, (1/7) m v0²
+//! dissipated), the energy balance with friction.
+//!
+//! Run: `cargo test --release --test friction -- --nocapture --test-threads 1` (the measured
+//! numbers are printed; docs/friction.md quotes them).
+
+mod common;
+
+use common::{energy_balance, get, start, vec_out};
+use contact_fmu::model::ContactEventKind;
+use contact_fmu::scene::{BodySpec, ContactSpec, Law, Method, Scene, GROUND};
+use contact_fmu::scene_builder::{Plane, SceneBuilder, Sphere};
+use contact_fmu::simulation::Simulation;
+
+const G: f64 = 9.81;
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// A scene "t" with gravity `g` (world vector) and the given solver.
+fn header(g: [f64; 3], method: Method, rtol: f64, atol: f64, max_step: f64) -> SceneBuilder {
+    SceneBuilder::new("t")
+        .gravity(g)
+        .experiment(1.0, 1e-2)
+        .solver(method, rtol, atol, max_step)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Block on an incline
+
+/// Block mass [kg], Hertz stiffness of each foot [N/m^1.5], foot radius [m].
+const BLOCK_M: f64 = 2.0;
+const FOOT_K: f64 = 1e9;
+const FOOT_R: f64 = 0.01;
+
+/// A block on an incline of angle `theta` (gravity tilted by θ about y, so the incline is the
+/// plane z = 0 and "down the slope" is +x), standing on four spherical feet (Hertz,
+/// `FOOT_K`) with friction `friction(contact)`, sliding down at `v0`. The feet are placed
+/// at the static penetration, and the centre of mass lies in the contact plane, so friction
+/// has no moment about it: the four normal forces stay m g cos θ / 4 each (a block whose
+/// centre of mass is higher would pitch and make the normal forces oscillate).
+fn block_on_incline(
+    theta: f64,
+    v0: f64,
+    method: Method,
+    friction: impl Fn(ContactSpec) -> ContactSpec,
+) -> (Scene, f64) {
+    let (s, c) = theta.sin_cos();
+    let delta0 = (BLOCK_M * G * c / (4.0 * FOOT_K)).powf(2.0 / 3.0);
+    let block = BodySpec::new("block", BLOCK_M, [0.02, 0.02, 0.03], [0.0, 0.0, 0.0]).velocity([v0, 0.0, 0.0]);
+    let mut b = header([G * s, 0.0, -G * c], method, 1e-10, 1e-14, 1e-2).body(block);
+    for (k, (x, y)) in [(0.1, 0.1), (0.1, -0.1), (-0.1, 0.1), (-0.1, -0.1)]
+        .into_iter()
+        .enumerate()
+    {
+        let foot = Sphere::new("block", [x, y, FOOT_R - delta0], FOOT_R);
+        let floor = Plane::horizontal([0.0; 3], [100.0, 100.0]);
+        b = b.contact(friction(
+            ContactSpec::sphere_plane(&format!("foot{k}"), Law::Hertz, foot, GROUND, floor).stiffness(FOOT_K),
+        ));
+    }
+    let mut scene = b.build();
+    scene.solver.max_steps = 10_000_000;
+    (scene, delta0)
+}
+
+#[test]
+fn block_slides_down_an_incline_with_the_coulomb_acceleration() {
+    // tan θ > μ: a = g (sin θ − μ cos θ), constant, whatever μ_s and the stiction velocity
+    // (the slip stays far above it). Measured from the velocity after 1 s (and the distance).
+    for (theta, mu, mu_s) in [(0.5, 0.3, 0.3), (0.5, 0.3, 0.5), (0.3, 0.05, 0.05), (1.2, 1.5, 1.5)] {
+        let v0 = 0.5;
+        let (scene, _) = block_on_incline(theta, v0, Method::Dopri5, |c| {
+            c.friction(mu).static_friction(mu_s).stribeck_velocity(1e-3)
+        });
+        let mut s = start(scene);
+        let e0 = energy_balance(&mut s);
+        let t = 1.0;
+        s.step_to(t).unwrap();
+        let a = G * (theta.sin() - mu * theta.cos());
+        let v = get(&mut s, "block.v[1]");
+        let x = get(&mut s, "block.r[1]");
+        let a_v = (v - v0) / t;
+        let a_x = 2.0 * (x - v0 * t) / (t * t);
+        let drift = (energy_balance(&mut s) - e0).abs() / (0.5 * BLOCK_M * v * v);
+        let f = get(&mut s, "foot0.friction_force[1]");
+        println!(
+            "θ = {theta}, μ = {mu}, μ_s = {mu_s}: a = {a:.9}, from v {a_v:.9} (rel {:.1e}), from x {a_x:.9} \
+             (rel {:.1e}); friction on a foot {f:.6} N (μ m g cos θ / 4 = {:.6}); energy balance {drift:.1e}",
+            rel(a_v, a),
+            rel(a_x, a),
+            mu * BLOCK_M * G * theta.cos() / 4.0
+        );
+        assert!(a > 0.0, "the block slides");
+        assert!(rel(a_v, a) < 1e-6, "acceleration from the velocity {a_v} vs {a}");
+        assert!(rel(a_x, a) < 1e-6, "acceleration from the distance {a_x} vs {a}");
+        assert!(rel(-f, mu * BLOCK_M * G * theta.cos() / 4.0) < 1e-6, "Coulomb force");
+        assert!(drift < 1e-6, "energy balance {drift}");
+    }
+}
+
+#[test]
+fn block_sticks_on_an_incline_below_the_static_coefficient() {
+    // tan θ < μ_s: the block holds, creeping at most at the regularised law's speed
+    // v_s tan θ / μ_s (the regularisation r(x) = x (2 − x) ≥ x gives at least the force of
+    // the linear one): over 10 s at most 10 s · v_s tan θ/μ_s. The friction force carries the
+    // weight's slope component, m g sin θ.
+    let theta: f64 = 0.4; // tan θ = 0.423
+    let (mu, mu_s) = (0.4, 0.6);
+    for (v_s, method) in [(1e-4, Method::Radau5), (1e-3, Method::Dopri5)] {
+        let (scene, _) = block_on_incline(theta, 0.0, method, |c| {
+            c.friction(mu)
+                .static_friction(mu_s)
+                .stribeck_velocity(1e-2)
+                .stiction_velocity(v_s)
+        });
+        let mut s = start(scene);
+        let t0 = std::time::Instant::now();
+        s.step_to(10.0).unwrap();
+        let x = get(&mut s, "block.r[1]");
+        let v = get(&mut s, "block.v[1]");
+        let bound = 10.0 * v_s * theta.tan() / mu_s;
+        let f: f64 = (0..4).map(|k| get(&mut s, &format!("foot{k}.friction_force[1]"))).sum();
+        let weight = BLOCK_M * G * theta.sin();
+        let steps = get(&mut s, "solver.steps");
+        let rhs = get(&mut s, "solver.rhs_evals");
+        println!(
+            "v_s = {v_s:e} ({method:?}): creep {x:.3e} m in 10 s (bound {bound:.3e}), speed {v:.3e} m/s, friction \
+             {f:.9} N vs m g sin θ = {weight:.9} (rel {:.1e}); {steps} steps, {rhs} RHS, {:.2} s",
+            rel(-f, weight),
+            t0.elapsed().as_secs_f64()
+        );
+        // the creep speed where the law's coefficient φ(v) equals tan θ (bisection, written here)
+        let phi = |v: f64| {
+            let x = v / v_s;
+            let r = if x >= 1.0 { 1.0 } else { x * (2.0 - x) };
+            (mu + (mu_s - mu) * (-(v / 1e-2) * (v / 1e-2)).exp()) * r
+        };
+        let (mut lo, mut hi) = (0.0, v_s);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if phi(mid) < theta.tan() {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        println!("  creep speed of the law {lo:.6e} m/s (rel {:.1e})", rel(v, lo));
+        assert!(rel(v, lo) < 1e-6, "creep speed {v} vs {lo}");
+        assert!(x > 0.0 && x < bound, "creep {x} within (0, {bound})");
+        assert!(v.abs() < v_s * theta.tan() / mu_s, "creep speed {v}");
+        assert!(rel(-f, weight) < 1e-6, "friction holds the weight: {f} vs {weight}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sphere launched sliding
+
+#[test]
+fn sliding_sphere_starts_rolling_at_the_closed_form() {
+    // A solid sphere (I = 2/5 m R²) launched at v0 without spin: friction μ m g decelerates
+    // it and spins it up until the contact point stops slipping at t = 2 v0/(7 μ g), speed
+    // 5/7 v0 (angular momentum about the contact point is conserved); (1/7) m v0² is
+    // dissipated. The rolling onset is the Stick event (slip speed reaching v_s): later than
+    // the rigid closed form by v_s/(7/2 μ g), i.e. relatively by v_s/v0. The contact is stiff
+    // (K = 1e13) so that the lever arm R − δ differs from R by 2e-7 R.
+    let (m, r, v0, mu) = (1.0, 0.05, 1.0, 0.3);
+    let k = 1e13;
+    let delta0 = (m * G / k).powf(2.0 / 3.0);
+    for (method, v_s) in [(Method::Dopri5, 1e-6), (Method::Dopri5, 1e-7)] {
+        let ball = BodySpec::sphere("ball", m, r, [0.0, 0.0, r - delta0]).velocity([v0, 0.0, 0.0]);
+        let floor = Plane::horizontal([0.0; 3], [100.0, 100.0]);
+        let contact = ContactSpec::sphere_plane("floor", Law::Hertz, Sphere::of(&ball, r), GROUND, floor)
+            .stiffness(k)
+            .friction(mu)
+            .stiction_velocity(v_s);
+        let mut scene = header([0.0, 0.0, -G], method, 1e-11, 1e-15, 1e-2)
+            .body(ball)
+            .contact(contact)
+            .build();
+        scene.solver.max_steps = 10_000_000;
+        let mut s: Simulation = start(scene);
+        let e0 = energy_balance(&mut s);
+        let t_roll = 2.0 * v0 / (7.0 * mu * G);
+        // The same closed forms with the lever arm h = R − δ0 of the contact point: the slip
+        // speed falls at μ g (1 + m h²/I), the rolling speed is v0/(1 + I/(m h²)).
+        let (h, inertia) = (r - delta0, 0.4 * m * r * r);
+        let slip_rate = mu * G * (1.0 + m * h * h / inertia);
+        let v_roll = v0 / (1.0 + inertia / (m * h * h));
+        // while sliding: slip speed v0 − (7/2) μ g t
+        let t1 = 0.5 * t_roll;
+        s.step_to(t1).unwrap();
+        let slip1 = get(&mut s, "floor.slip_velocity");
+        let expected = v0 - slip_rate * t1;
+        s.step_to(t_roll * 1.02).unwrap();
+        let stick = s
+            .contact_events()
+            .iter()
+            .find(|e| e.kind == ContactEventKind::Stick)
+            .copied()
+            .expect("a Stick event");
+        let v = vec_out(&mut s, "ball.v");
+        let w = vec_out(&mut s, "ball.w");
+        let dissipated = get(&mut s, "energy.dissipated");
+        let drift = (energy_balance(&mut s) - e0).abs();
+        println!(
+            "{method:?}, v_s = {v_s:e}: slip at t/2 {slip1:.12} (closed form {expected:.12}, rel {:.1e}); Stick at \
+             {:.9} s (closed form {t_roll:.9}, rel {:.1e}); speed {:.12} (5/7 v0 rel {:.1e}), ω R/v {:.12}; \
+             dissipated {dissipated:.12} J (m v0²/7 rel {:.1e}); energy balance {drift:.1e} J; {} steps",
+            rel(slip1, expected),
+            stick.time,
+            rel(stick.time, t_roll),
+            v.x,
+            rel(v.x, 5.0 / 7.0 * v0),
+            w.y * r / v.x,
+            rel(dissipated, m * v0 * v0 / 7.0),
+            get(&mut s, "solver.steps"),
+        );
+        println!(
+            "  with the lever arm R − δ0: Stick at (v0 − v_s)/rate rel {:.1e}, speed v0/(1 + I/(m h²)) rel {:.1e}",
+            rel(stick.time, (v0 - v_s) / slip_rate),
+            rel(v.x, v_roll)
+        );
+        assert!(rel(slip1, expected) < 1e-9, "sliding phase");
+        assert!(rel(stick.time, (v0 - v_s) / slip_rate) < 1e-9, "Stick event");
+        assert!(rel(v.x, v_roll) < 1e-9, "rolling speed");
+        assert!(
+            rel(stick.time, t_roll) < 1e-5,
+            "rolling onset {} vs {t_roll}",
+            stick.time
+        );
+        assert!(rel(v.x, 5.0 / 7.0 * v0) < 1e-5, "rolling speed {}", v.x);
+        assert!(rel(w.y * r, v.x) < 1e-5, "rolls: ω R = v");
+        assert!(rel(dissipated, m * v0 * v0 / 7.0) < 1e-6, "dissipated {dissipated}");
+        assert!(drift < 1e-9, "energy balance {drift}");
+    }
+}
