@@ -4,25 +4,39 @@
 # parsing; the number notation may differ between builds). Columns are matched by name, so
 # outputs that the new build adds are listed and not compared.
 #
-#   scripts/compare_trajectories.sh OLD_BINARY NEW_BINARY
+#   scripts/compare_trajectories.sh [--zero-friction] OLD_BINARY NEW_BINARY
+#
+# --zero-friction: the new binary runs every contact that has a `friction` key in its scene
+# with <contact>.friction = <contact>.static_friction = 0 (to compare a build with friction against one from before it).
+# OLD_SCENES=DIR: the old binary reads the bundled scenes from DIR/<name>/scene.toml (the
+# checkout it was built from, when the scene files gained keys it does not know); default fmu.
 set -euo pipefail
+zero=0
+if [ "${1:-}" = "--zero-friction" ]; then zero=1; shift; fi
 old=$1; new=$2
 out=$(mktemp -d)
-run() {  # binary dir
-    local bin=$1 dir=$2
+frictionless() {  # scene: --set arguments that switch its friction off
+    awk '/^\[\[contact\]\]/ {name=""} /^name *=/ {gsub(/[" ]/, "", $3); name=$3}
+         /^friction *=/ {print "--set " name ".friction=0 --set " name ".static_friction=0"}' "$1"
+}
+run() {  # binary dir zero scenes
+    local bin=$1 dir=$2 zero=$3 scenes=$4
     mkdir -p "$dir"
-    for scene in fmu/*/scene.toml; do
+    for scene in "$scenes"/*/scene.toml; do
         name=$(basename "$(dirname "$scene")")
+        extra=""
+        if [ "$zero" = 1 ]; then extra=$(frictionless "$scene"); fi
         for method in dopri5 sdirk radau5 rk4; do
-            "$bin" simulate "$scene" --quiet --set "solver.method=$method" --csv "$dir/$name.$method.csv" \
+            # shellcheck disable=SC2086
+            "$bin" simulate "$scene" --quiet --set "solver.method=$method" $extra --csv "$dir/$name.$method.csv" \
                 > /dev/null 2>&1 || echo "failed: $name $method" > "$dir/$name.$method.csv"
         done
     done
-    "$bin" simulate fmu/bouncing_ball/scene.toml --quiet --set ball_floor.law=impulse --csv "$dir/bb.impulse.csv" > /dev/null
-    "$bin" simulate fmu/slider_crank/scene.toml --quiet --set impact.law=impulse --csv "$dir/sc.impulse.csv" > /dev/null
+    "$bin" simulate "$scenes"/bouncing_ball/scene.toml --quiet --set ball_floor.law=impulse --csv "$dir/bb.impulse.csv" > /dev/null
+    "$bin" simulate "$scenes"/slider_crank/scene.toml --quiet --set impact.law=impulse --csv "$dir/sc.impulse.csv" > /dev/null
 }
-run "$old" "$out/old"
-run "$new" "$out/new"
+run "$old" "$out/old" 0 "${OLD_SCENES:-fmu}"
+run "$new" "$out/new" "$zero" fmu
 python3 - "$out" <<'PY'
 import glob, os, struct, sys
 out = sys.argv[1]

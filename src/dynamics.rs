@@ -60,7 +60,11 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
             Input::Torque { body, direction } => {
                 d.body_force[*body].ang += direction * u;
             }
-            Input::JointForce { qvel } => d.tau[*qvel] += u,
+            Input::JointForce { qvels } => {
+                for &k in qvels {
+                    d.tau[k] += u;
+                }
+            }
         }
     }
     power

@@ -608,6 +608,10 @@ pub struct InputSpec {
     /// Joint (joint_force).
     #[serde(default)]
     pub joint: Option<String>,
+    /// Several joints (joint_force): the same generalised force on each (e.g. a brake torque
+    /// on every wheel).
+    #[serde(default)]
+    pub joints: Option<Vec<String>>,
     /// World direction (force, torque).
     #[serde(default)]
     pub direction: Option<[f64; 3]>,
@@ -916,14 +920,32 @@ impl Scene {
                     }
                 }
                 InputType::JointForce => {
-                    let Some(jn) = &i.joint else {
-                        return Err(err(item, "joint", "required for joint_force inputs".into()));
+                    let names: Vec<&String> = match (&i.joint, &i.joints) {
+                        (Some(j), None) => vec![j],
+                        (None, Some(js)) if !js.is_empty() => js.iter().collect(),
+                        (Some(_), Some(_)) => {
+                            return Err(err(item, "joints", "give joint or joints, not both".into()));
+                        }
+                        _ => return Err(err(item, "joint", "required for joint_force inputs (or joints)".into())),
                     };
-                    let Some(j) = joints.get(jn.as_str()) else {
-                        return Err(err(item, "joint", format!("unknown joint {}", quote(jn))));
-                    };
-                    if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
-                        return Err(err(item, "joint", format!("joint {} is not a 1-DOF joint", quote(jn))));
+                    let field = if i.joint.is_some() { "joint" } else { "joints" };
+                    let mut kinds = names.iter().filter_map(|n| joints.get(n.as_str()).map(|j| j.kind));
+                    if let Some(first) = kinds.next() {
+                        if kinds.any(|k| k != first) {
+                            return Err(err(
+                                item,
+                                field,
+                                "mixes revolute and prismatic joints (a torque and a force in one input)".into(),
+                            ));
+                        }
+                    }
+                    for jn in names {
+                        let Some(j) = joints.get(jn.as_str()) else {
+                            return Err(err(item, field, format!("unknown joint {}", quote(jn))));
+                        };
+                        if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
+                            return Err(err(item, field, format!("joint {} is not a 1-DOF joint", quote(jn))));
+                        }
                     }
                 }
             }

@@ -508,6 +508,7 @@ impl InputSpec {
             kind,
             body: body.map(str::to_string),
             joint: joint.map(str::to_string),
+            joints: None,
             direction,
             start: 0.0,
         }
@@ -526,6 +527,14 @@ impl InputSpec {
     /// A generalised force on the 1-DOF `joint` [N or N m].
     pub fn joint_force(name: &str, joint: &str) -> InputSpec {
         InputSpec::on(name, InputType::JointForce, None, Some(joint), None)
+    }
+
+    /// The same generalised force on each of the 1-DOF `joints` [N or N m].
+    pub fn joint_forces(name: &str, joints: &[&str]) -> InputSpec {
+        InputSpec {
+            joints: Some(joints.iter().map(|j| j.to_string()).collect()),
+            ..InputSpec::on(name, InputType::JointForce, None, None, None)
+        }
     }
 
     /// `start` value.

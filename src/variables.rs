@@ -571,15 +571,22 @@ impl VariableTable {
                     ),
                 ),
                 InputType::JointForce => {
-                    let joint = on(&inp.joint);
+                    let names: Vec<String> = inp.joint.iter().chain(inp.joints.iter().flatten()).cloned().collect();
                     let revolute = scene
                         .joint
                         .iter()
-                        .any(|j| j.name == joint && j.kind == JointType::Revolute);
-                    if revolute {
-                        ("N.m", format!("torque on joint '{joint}' about its axis"))
+                        .any(|j| names.first() == Some(&j.name) && j.kind == JointType::Revolute);
+                    let (what, unit, along) = if revolute {
+                        ("torque", "N.m", "about its axis")
                     } else {
-                        ("N", format!("force on joint '{joint}' along its axis"))
+                        ("force", "N", "along its axis")
+                    };
+                    match names.as_slice() {
+                        [joint] => (unit, format!("{what} on joint '{joint}' {along}")),
+                        _ => (
+                            unit,
+                            format!("{what} on each of the joints '{}', {along}", names.join("', '")),
+                        ),
                     }
                 }
             };

@@ -422,3 +422,76 @@ fn impacts_with_friction_never_create_energy() {
     assert!(impacts >= 10_000, "enough impacts tested: {impacts}");
     assert!(sticks > 100 && impacts - sticks > 100, "both regimes");
 }
+
+// ---------------------------------------------------------------------------------------------
+// The rail vehicle brakes through its wheels
+
+/// Total mass of the bundled rail vehicle [kg], wheel spin inertia [kg m²], wheel radius [m],
+/// number of wheels, wheel-rail μ (fmu/rail_vehicle/scene.toml).
+const TRAIN_M: f64 = 32000.0 + 4.0 * 1400.0 + 8.0 * 750.0;
+const WHEEL_J: f64 = 55.0;
+const WHEEL_R: f64 = 0.46;
+const WHEELS: f64 = 8.0;
+const RAIL_MU: f64 = 0.3;
+
+/// The bundled rail vehicle at 80 km/h, settled for 3 s, then braked by `torque` on every axle
+/// (`axle_torque` = −torque); the deceleration measured over [3.5 s, t_end] from the car
+/// body's speed, the mean wheel-rail penetration, the energy balance (total + dissipated
+/// energy against the work of the brake torques, relative to the initial energy) and the
+/// number of wheels sliding at the end.
+fn brake(torque: f64, t_end: f64) -> (f64, f64, f64, usize) {
+    let mut s = Simulation::from_file(&common::bundled("rail_vehicle")).unwrap();
+    s.initialize(0.0).unwrap();
+    let e0 = energy_balance(&mut s);
+    // in communication steps of the scene's interval (10 ms)
+    let advance = |s: &mut Simulation, t: f64| {
+        while s.time() < t - 1e-9 {
+            s.step_to((s.time() + 1e-2).min(t)).unwrap();
+        }
+    };
+    advance(&mut s, 3.0);
+    let contacts = ["fl1", "fl2", "fr1", "fr2", "rl1", "rl2", "rr1", "rr2"];
+    let turned = |s: &mut Simulation| contacts.iter().map(|c| get(s, &format!("axle_{c}.q"))).sum::<f64>();
+    let (e3, turned3) = (energy_balance(&mut s), turned(&mut s));
+    s.set_by_name("axle_torque", -torque).unwrap();
+    advance(&mut s, 3.5);
+    let v1 = get(&mut s, "car.v[1]");
+    advance(&mut s, t_end);
+    let v2 = get(&mut s, "car.v[1]");
+    let delta = contacts.iter().map(|c| get(&mut s, &format!("contact_{c}.delta"))).sum::<f64>() / WHEELS;
+    let sliding = contacts
+        .iter()
+        .filter(|c| get(&mut s, &format!("contact_{c}.slip_velocity")) > 0.02)
+        .count();
+    // the brakes' work −T Σ Δθ is what total + dissipated energy changes by
+    let work = -torque * (turned(&mut s) - turned3);
+    let drift = (energy_balance(&mut s) - e3 - work).abs() / e0.abs();
+    ((v1 - v2) / (t_end - 3.5), delta, drift, sliding)
+}
+
+#[test]
+fn braking_rail_vehicle_decelerates_by_the_torque_or_by_mu_g() {
+    // Rolling wheels (3 kN m per wheel, within adhesion): a = 8 T/R_e / (M + 8 J/R_e²), R_e
+    // the rolling radius R − δ. Sliding wheels (20 kN m, beyond adhesion): a = μ g.
+    let torque = 3000.0;
+    let (a, delta, drift, sliding) = brake(torque, 6.0);
+    let r_e = WHEEL_R - delta;
+    let a_cf = WHEELS * torque / r_e / (TRAIN_M + WHEELS * WHEEL_J / (r_e * r_e));
+    println!(
+        "rolling, {torque} N m per wheel: deceleration {a:.6} m/s² (closed form {a_cf:.6}, rel {:.1e}); \
+         energy balance {drift:.1e}; {sliding} wheels sliding",
+        rel(a, a_cf)
+    );
+    assert_eq!(sliding, 0, "the wheels roll");
+    assert!(rel(a, a_cf) < 1e-4, "rolling deceleration {a} vs {a_cf}");
+    assert!(drift < 1e-8, "energy balance {drift}");
+    let (a, _, drift, sliding) = brake(20000.0, 6.0);
+    println!(
+        "sliding, 20 kN m per wheel: deceleration {a:.6} m/s² (μ g = {:.6}, rel {:.1e}); energy balance {drift:.1e}",
+        RAIL_MU * G,
+        rel(a, RAIL_MU * G)
+    );
+    assert_eq!(sliding, 8, "every wheel slides");
+    assert!(rel(a, RAIL_MU * G) < 1e-4, "sliding deceleration {a} vs μ g");
+    assert!(drift < 1e-8, "energy balance {drift}");
+}
