@@ -761,7 +761,7 @@ impl VariableTable {
             (
                 "energy.dissipated",
                 VarRef::EnergyDissipated,
-                "work removed by dampers, contact damping and impacts since initialisation",
+                "work removed by dampers, contact damping, friction and impacts since initialisation",
             ),
         ] {
             v.push(out(name.into(), VarType::Real, Some("J"), t, d.into()));
@@ -886,15 +886,14 @@ impl VariableTable {
         }
         for (i, c) in scene.contact.iter().enumerate() {
             for (k, axis) in AXES.iter().enumerate() {
-                let mut f = out(
+                // a function of the state (continuous laws only): no input dependency
+                v.push(out(
                     format!("{}.friction_force[{}]", c.name, k + 1),
                     VarType::Real,
                     Some("N"),
                     VarRef::ContactFrictionForce(i, k),
                     format!("friction force on the sphere, world {axis}"),
-                );
-                f.depends_on_inputs = has_inputs;
-                v.push(f);
+                ));
             }
             v.push(out(
                 format!("{}.slip_velocity", c.name),

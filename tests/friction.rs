@@ -458,7 +458,11 @@ fn brake(torque: f64, t_end: f64) -> (f64, f64, f64, usize) {
     let v1 = get(&mut s, "car.v[1]");
     advance(&mut s, t_end);
     let v2 = get(&mut s, "car.v[1]");
-    let delta = contacts.iter().map(|c| get(&mut s, &format!("contact_{c}.delta"))).sum::<f64>() / WHEELS;
+    let delta = contacts
+        .iter()
+        .map(|c| get(&mut s, &format!("contact_{c}.delta")))
+        .sum::<f64>()
+        / WHEELS;
     let sliding = contacts
         .iter()
         .filter(|c| get(&mut s, &format!("contact_{c}.slip_velocity")) > 0.02)

@@ -343,10 +343,12 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
             InputType::JointForce => {
                 let names = i.joint.iter().chain(i.joints.iter().flatten());
                 let qvels = names
-                    .map(|n| match scene_joint[joint_index.get(n.as_str()).copied().unwrap_or(0)] {
-                        Ok(t) => joints[t].qvel,
-                        Err(_) => usize::MAX,
-                    })
+                    .map(
+                        |n| match scene_joint[joint_index.get(n.as_str()).copied().unwrap_or(0)] {
+                            Ok(t) => joints[t].qvel,
+                            Err(_) => usize::MAX,
+                        },
+                    )
                     .collect();
                 Input::JointForce { qvels }
             }
