@@ -903,6 +903,15 @@ fn bad_contact_definitions_are_clear_errors() {
             "unknown material",
         ),
         (bad(|c| c.max_penetration = Some(0.0)), "max_penetration", "> 0"),
+        (bad(|c| c.friction = Some(-0.1)), "friction", ">= 0"),
+        (bad(|c| c.static_friction = Some(-1.0)), "static_friction", ">= 0"),
+        (
+            bad(|c| c.viscous_friction = Some(f64::NAN)),
+            "viscous_friction",
+            "finite",
+        ),
+        (bad(|c| c.stiction_velocity = Some(0.0)), "stiction_velocity", "> 0"),
+        (bad(|c| c.stribeck_velocity = Some(-1e-3)), "stribeck_velocity", "> 0"),
         // names the scene format does not know: errors in the text itself
         (
             text.replace("law = \"hertz_ln\"", "law = \"hertz_lm\""),
