@@ -303,6 +303,25 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
     }
 }
 
+/// The response of the constrained system to an extra generalised force `x` (after
+/// [`solve_constrained`], with the Schur complement factorised): `x ← G x` (the change of the
+/// accelerations) and `dl ← (Φ_q M̄⁻¹ Φ_qᵀ)⁻¹ Φ_q M̄⁻¹ x` (the change of the multipliers).
+pub fn constrained_response(m: &Model, d: &mut Data, x: &mut [f64], dl: &mut [f64]) {
+    let (nv, nc) = (m.nv, m.nc);
+    solve_mass(m, &d.mass_blocks, x);
+    for (r, l) in dl.iter_mut().enumerate().take(nc) {
+        *l = linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], x);
+    }
+    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, dl, &mut d.work[..nc]);
+    for (r, &l) in dl.iter().enumerate().take(nc) {
+        if l != 0.0 {
+            for (a, b) in x.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
+                *a -= l * b;
+            }
+        }
+    }
+}
+
 /// Solves `(Φ_q M̄⁻¹ Φ_qᵀ) λ = λ` in place with the factorised Schur complement (dependent
 /// rows dropped).
 fn solve_schur(d: &mut Data, nc: usize) {

@@ -46,10 +46,15 @@ fn block_on_incline(
     theta: f64,
     v0: f64,
     method: Method,
+    law: Law,
     friction: impl Fn(ContactSpec) -> ContactSpec,
 ) -> (Scene, f64) {
     let (s, c) = theta.sin_cos();
-    let delta0 = (BLOCK_M * G * c / (4.0 * FOOT_K)).powf(2.0 / 3.0);
+    let delta0 = if law == Law::Impulse {
+        0.0 // resting contact: touching, no penetration
+    } else {
+        (BLOCK_M * G * c / (4.0 * FOOT_K)).powf(2.0 / 3.0)
+    };
     let block = BodySpec::new("block", BLOCK_M, [0.02, 0.02, 0.03], [0.0, 0.0, 0.0]).velocity([v0, 0.0, 0.0]);
     let mut b = header([G * s, 0.0, -G * c], method, 1e-10, 1e-14, 1e-2).body(block);
     for (k, (x, y)) in [(0.1, 0.1), (0.1, -0.1), (-0.1, 0.1), (-0.1, -0.1)]
@@ -59,7 +64,7 @@ fn block_on_incline(
         let foot = Sphere::new("block", [x, y, FOOT_R - delta0], FOOT_R);
         let floor = Plane::horizontal([0.0; 3], [100.0, 100.0]);
         b = b.contact(friction(
-            ContactSpec::sphere_plane(&format!("foot{k}"), Law::Hertz, foot, GROUND, floor).stiffness(FOOT_K),
+            ContactSpec::sphere_plane(&format!("foot{k}"), law, foot, GROUND, floor).stiffness(FOOT_K),
         ));
     }
     let mut scene = b.build();
@@ -73,7 +78,7 @@ fn block_slides_down_an_incline_with_the_coulomb_acceleration() {
     // (the slip stays far above it). Measured from the velocity after 1 s (and the distance).
     for (theta, mu, mu_s) in [(0.5, 0.3, 0.3), (0.5, 0.3, 0.5), (0.3, 0.05, 0.05), (1.2, 1.5, 1.5)] {
         let v0 = 0.5;
-        let (scene, _) = block_on_incline(theta, v0, Method::Dopri5, |c| {
+        let (scene, _) = block_on_incline(theta, v0, Method::Dopri5, Law::Hertz, |c| {
             c.friction(mu).static_friction(mu_s).stribeck_velocity(1e-3)
         });
         let mut s = start(scene);
@@ -111,7 +116,7 @@ fn block_sticks_on_an_incline_below_the_static_coefficient() {
     let theta: f64 = 0.4; // tan θ = 0.423
     let (mu, mu_s) = (0.4, 0.6);
     for (v_s, method) in [(1e-4, Method::Radau5), (1e-3, Method::Dopri5)] {
-        let (scene, _) = block_on_incline(theta, 0.0, method, |c| {
+        let (scene, _) = block_on_incline(theta, 0.0, method, Law::Hertz, |c| {
             c.friction(mu)
                 .static_friction(mu_s)
                 .stribeck_velocity(1e-2)
@@ -159,6 +164,14 @@ fn block_sticks_on_an_incline_below_the_static_coefficient() {
 // ---------------------------------------------------------------------------------------------
 // Sphere launched sliding
 
+/// The first Stick event (the slip speed falling below the stiction velocity: rolling).
+fn first_stick(s: &Simulation) -> contact_fmu::model::ContactEvent {
+    *s.contact_events()
+        .iter()
+        .find(|e| e.kind == ContactEventKind::Stick)
+        .expect("a Stick event")
+}
+
 #[test]
 fn sliding_sphere_starts_rolling_at_the_closed_form() {
     // A solid sphere (I = 2/5 m R²) launched at v0 without spin: friction μ m g decelerates
@@ -196,12 +209,7 @@ fn sliding_sphere_starts_rolling_at_the_closed_form() {
         let slip1 = get(&mut s, "floor.slip_velocity");
         let expected = v0 - slip_rate * t1;
         s.step_to(t_roll * 1.02).unwrap();
-        let stick = s
-            .contact_events()
-            .iter()
-            .find(|e| e.kind == ContactEventKind::Stick)
-            .copied()
-            .expect("a Stick event");
+        let stick = first_stick(&s);
         let v = vec_out(&mut s, "ball.v");
         let w = vec_out(&mut s, "ball.w");
         let dissipated = get(&mut s, "energy.dissipated");
@@ -498,4 +506,83 @@ fn braking_rail_vehicle_decelerates_by_the_torque_or_by_mu_g() {
     assert_eq!(sliding, 8, "every wheel slides");
     assert!(rel(a, RAIL_MU * G) < 1e-4, "sliding deceleration {a} vs μ g");
     assert!(drift < 1e-8, "energy balance {drift}");
+}
+
+#[test]
+fn resting_impulse_contacts_have_friction_too() {
+    // The impulse law's resting contact (a constraint row whose multiplier is the normal
+    // force) with the same friction law: the friction force follows the multiplier. The
+    // sliding sphere rolls at t = 2 v0/(7 μ g) with 5/7 v0 — here the lever arm is exactly R
+    // (no penetration), so the closed forms hold without correction; and the block on the
+    // incline (four resting feet, redundant rows) slides at g (sin θ − μ cos θ) and sticks
+    // with the law's creep.
+    let (m, r, v0, mu, v_s) = (1.0, 0.05, 1.0, 0.3, 1e-7);
+    let ball = BodySpec::sphere("ball", m, r, [0.0, 0.0, r]).velocity([v0, 0.0, 0.0]);
+    let floor = Plane::horizontal([0.0; 3], [100.0, 100.0]);
+    let contact = ContactSpec::sphere_plane("floor", Law::Impulse, Sphere::of(&ball, r), GROUND, floor)
+        .friction(mu)
+        .stiction_velocity(v_s);
+    let mut scene = header([0.0, 0.0, -G], Method::Dopri5, 1e-11, 1e-15, 1e-2)
+        .body(ball)
+        .contact(contact)
+        .build();
+    scene.solver.max_steps = 10_000_000;
+    let mut s = start(scene);
+    assert_eq!(get(&mut s, "floor.active"), 1.0, "the ball rests on the floor");
+    let e0 = energy_balance(&mut s);
+    let t_roll = 2.0 * v0 / (7.0 * mu * G);
+    s.step_to(0.5 * t_roll).unwrap();
+    let slip1 = get(&mut s, "floor.slip_velocity");
+    let f = vec_out(&mut s, "floor.friction_force");
+    s.step_to(t_roll * 1.02).unwrap();
+    let stick = first_stick(&s);
+    let v = vec_out(&mut s, "ball.v");
+    let dissipated = get(&mut s, "energy.dissipated");
+    let drift = (energy_balance(&mut s) - e0).abs();
+    println!(
+        "impulse law, resting: slip at t/2 {slip1:.12} (closed form {:.12}), friction {:.9} N (μ m g {:.9}); Stick at \
+         {:.9} s ((v0 − v_s)/(7/2 μ g) rel {:.1e}, rigid closed form rel {:.1e}); speed rel {:.1e}; dissipated rel \
+         {:.1e}; energy balance {drift:.1e} J",
+        0.5 * v0,
+        -f.x,
+        mu * m * G,
+        stick.time,
+        rel(stick.time, (v0 - v_s) / (3.5 * mu * G)),
+        rel(stick.time, t_roll),
+        rel(v.x, 5.0 / 7.0 * v0),
+        rel(dissipated, m * v0 * v0 / 7.0),
+    );
+    assert!(rel(slip1, 0.5 * v0) < 1e-10, "sliding phase");
+    assert!(
+        rel(-f.x, mu * m * G) < 1e-12 && f.y.abs() < 1e-12 && f.z.abs() < 1e-12,
+        "Coulomb force {f}"
+    );
+    assert!(rel(stick.time, (v0 - v_s) / (3.5 * mu * G)) < 1e-9, "Stick event");
+    assert!(rel(stick.time, t_roll) < 1e-5, "rolling onset");
+    assert!(rel(v.x, 5.0 / 7.0 * v0) < 1e-9, "rolling speed {}", v.x);
+    assert!(rel(dissipated, m * v0 * v0 / 7.0) < 1e-9, "dissipated {dissipated}");
+    assert!(drift < 1e-9, "energy balance {drift}");
+
+    // the block on four resting feet (four rows for three constrained motions: redundant)
+    let (theta, mu_k, v0) = (0.5_f64, 0.3, 0.5);
+    let (scene, _) = block_on_incline(theta, v0, Method::Dopri5, Law::Impulse, |c| c.friction(mu_k));
+    let mut s = start(scene);
+    let e0 = energy_balance(&mut s);
+    s.step_to(1.0).unwrap();
+    let a = G * (theta.sin() - mu_k * theta.cos());
+    let a_v = get(&mut s, "block.v[1]") - v0;
+    let total: f64 = (0..4).map(|k| get(&mut s, &format!("foot{k}.friction_force[1]"))).sum();
+    let drift = (energy_balance(&mut s) - e0).abs();
+    println!(
+        "impulse law, block on four resting feet: a {a_v:.12} (closed form {a:.12}, rel {:.1e}); friction {total:.9} N \
+         (μ m g cos θ {:.9}); energy balance {drift:.1e} J",
+        rel(a_v, a),
+        mu_k * BLOCK_M * G * theta.cos()
+    );
+    assert!(rel(a_v, a) < 1e-6, "slide acceleration {a_v} vs {a}");
+    assert!(
+        rel(-total, mu_k * BLOCK_M * G * theta.cos()) < 1e-9,
+        "Coulomb force {total}"
+    );
+    assert!(drift < 1e-9, "energy balance {drift}");
 }

@@ -273,6 +273,15 @@ fn impulse_law_impacts_and_resting_do_not_allocate() {
         assert!(r.log_len <= 4096);
         assert_eq!(r.allocations, 0, "bouncing_ball impulse {}: allocations", method.name());
     }
+    // With friction: the resting contact's friction follows its multiplier (fixed-point
+    // iteration on preallocated buffers).
+    let r = impulse_run("bouncing_ball", "ball_floor", 0.3, Method::Dopri5, 10, 1500);
+    println!(
+        "bouncing_ball impulse dopri5, friction 0.3: {} allocations in {} advances, {} impacts, resting {}",
+        r.allocations, r.advances, r.impacts, r.resting
+    );
+    assert!(r.resting, "the ball comes to rest");
+    assert_eq!(r.allocations, 0, "bouncing_ball impulse with friction: allocations");
     // The slider-crank struck by the block, the impact resolved through the closed loop
     // (projection onto the loop rows, exact LCP), without and with friction (the tangential
     // impulses on the Coulomb disc).

@@ -44,11 +44,13 @@ pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64,
 }
 
 /// The friction event function of contact `i` at the evaluated kinematics: slip speed minus
-/// stiction velocity for an active continuous-law contact with friction (its sign change is
+/// stiction velocity for an active contact with friction (continuous law in contact, or
+/// impulse law resting) (its sign change is
 /// a stick or slip transition, where the regularised law changes its formula), else 1.
 pub fn slip_event_value(m: &Model, d: &Data, i: usize) -> f64 {
     let c = &m.contacts[i];
-    if !c.friction.is_on() || c.law == Law::Impulse || !d.contact_memory[i].active {
+    // active: in contact under a continuous law, resting under the impulse law
+    if !c.friction.is_on() || !d.contact_memory[i].active {
         return 1.0;
     }
     let fs = frame(d, c.sphere_body);
@@ -115,6 +117,17 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 c.name, gap.delta, c.max_penetration
             ));
         }
+        // stick and slip (friction)
+        let (slip_before, slip_now) = (d.events.g[2 * n_contacts + i], d.events.g_new[2 * n_contacts + i]);
+        if relevant_crossing(m, d, 2 * n_contacts + i, slip_before, slip_now, gap.delta) {
+            let kind = if slip_now <= 0.0 {
+                ContactEventKind::Stick
+            } else {
+                ContactEventKind::Slip
+            };
+            let f = d.contact_out[i].friction_force.norm();
+            d.log_event(i, kind, gap.delta, gap.delta_dot, f);
+        }
         if c.law == Law::Impulse {
             impulse_work |= crossed;
             continue;
@@ -142,16 +155,6 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 ContactEventKind::Unclamp
             };
             let f = d.contact_out[i].force;
-            d.log_event(i, kind, gap.delta, gap.delta_dot, f);
-        }
-        let (before, now) = (d.events.g[2 * n_contacts + i], d.events.g_new[2 * n_contacts + i]);
-        if relevant_crossing(m, d, 2 * n_contacts + i, before, now, gap.delta) {
-            let kind = if now <= 0.0 {
-                ContactEventKind::Stick
-            } else {
-                ContactEventKind::Slip
-            };
-            let f = d.contact_out[i].friction_force.norm();
             d.log_event(i, kind, gap.delta, gap.delta_dot, f);
         }
     }

@@ -246,6 +246,11 @@ pub struct Data {
     pub work: Vec<f64>,
     /// Work vector of size nv.
     pub work2: Vec<f64>,
+    /// Friction of resting impulse-law contacts: the generalised friction force applied so
+    /// far (nv), the next correction (nv) and its change of the multipliers (nc).
+    pub friction_applied: Vec<f64>,
+    pub friction_step: Vec<f64>,
+    pub friction_dlambda: Vec<f64>,
     /// Dissipated power at the last RHS evaluation [W].
     pub dissipation: f64,
     /// Per-contact outputs of the last evaluation.
@@ -327,6 +332,9 @@ impl Data {
             lambda: vec![0.0; nc],
             work: vec![0.0; nv.max(nc)],
             work2: vec![0.0; nv],
+            friction_applied: vec![0.0; nv],
+            friction_step: vec![0.0; nv],
+            friction_dlambda: vec![0.0; nc],
             dissipation: 0.0,
             contact_out: vec![ContactOutput::default(); ncontacts],
         }
