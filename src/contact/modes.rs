@@ -117,17 +117,6 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 c.name, gap.delta, c.max_penetration
             ));
         }
-        // stick and slip (friction)
-        let (slip_before, slip_now) = (d.events.g[2 * n_contacts + i], d.events.g_new[2 * n_contacts + i]);
-        if relevant_crossing(m, d, 2 * n_contacts + i, slip_before, slip_now, gap.delta) {
-            let kind = if slip_now <= 0.0 {
-                ContactEventKind::Stick
-            } else {
-                ContactEventKind::Slip
-            };
-            let f = d.contact_out[i].friction_force.norm();
-            d.log_event(i, kind, gap.delta, gap.delta_dot, f);
-        }
         if c.law == Law::Impulse {
             impulse_work |= crossed;
             continue;

@@ -2,9 +2,10 @@
 //! [`crate::contact::modes`]) are compared between the step's start and end; a relevant sign
 //! change is located by root finding on the integrator's dense output. Also checked:
 //! tunnelling (δ crossed zero although the mode function did not turn positive at the end
-//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0). Each contact
-//! has three event functions: its mode, the cut of its force at zero, and (with friction) its
-//! slip speed against the stiction velocity.
+//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0) and the stick
+//! and slip transitions of contacts with friction. Each contact has three event functions: its
+//! mode, the cut of its force at zero (both interrupt the step), and (with friction) its slip
+//! speed against the stiction velocity (located and logged only).
 
 use crate::contact::{self, modes};
 use crate::forward::{any_resting, evaluate};
@@ -149,7 +150,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     // Earliest relevant crossing.
     let mut t_first = t1;
     let mut any = false;
-    for k in 0..3 * n_contacts {
+    for k in 0..2 * n_contacts {
         let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % n_contacts].0);
         if modes::relevant_crossing(m, d, k, g0, g1, delta1) {
             let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);
@@ -174,6 +175,29 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0 {
             any = true;
             t_first = t;
+        }
+    }
+    // Stick and slip of contacts with friction inside the accepted part of the step: the
+    // friction law is C¹ across the stiction velocity, so the crossing is located and logged
+    // without interrupting the integration (a restart there would cost, not gain: a wheel
+    // rolling near the stiction velocity crosses it often).
+    for i in 0..n_contacts {
+        let k = 2 * n_contacts + i;
+        let (g0, g1) = (d.events.g[k], d.events.g_new[k]);
+        if !modes::relevant_crossing(m, d, k, g0, g1, d.events.aux_new[i].0) {
+            continue;
+        }
+        let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t1);
+        if t <= t_first {
+            interpolate(d, t);
+            contact_kinematics(m, d, i);
+            let g = contact::gap(m, d, i);
+            let kind = if g1 <= 0.0 {
+                ContactEventKind::Stick
+            } else {
+                ContactEventKind::Slip
+            };
+            d.log_event_at(t, i, kind, g.delta, g.delta_dot, 0.0);
         }
     }
     // Peaks of continuous contacts inside the accepted part of the step (a diagnostic, when
