@@ -886,14 +886,18 @@ impl VariableTable {
         }
         for (i, c) in scene.contact.iter().enumerate() {
             for (k, axis) in AXES.iter().enumerate() {
-                // a function of the state (continuous laws only): no input dependency
-                v.push(out(
+                // A resting impulse-law contact's friction follows its normal force, a
+                // constraint force solved with the applied forces (inputs included), like
+                // `<contact>.force`.
+                let mut f = out(
                     format!("{}.friction_force[{}]", c.name, k + 1),
                     VarType::Real,
                     Some("N"),
                     VarRef::ContactFrictionForce(i, k),
                     format!("friction force on the sphere, world {axis}"),
-                ));
+                );
+                f.depends_on_inputs = has_inputs;
+                v.push(f);
             }
             v.push(out(
                 format!("{}.slip_velocity", c.name),
