@@ -60,7 +60,11 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
             Input::Torque { body, direction } => {
                 d.body_force[*body].ang += direction * u;
             }
-            Input::JointForce { qvel } => d.tau[*qvel] += u,
+            Input::JointForce { qvels } => {
+                for &k in qvels {
+                    d.tau[k] += u;
+                }
+            }
         }
     }
     power
@@ -293,6 +297,25 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
         let l = d.lambda[r];
         if l != 0.0 {
             for (a, b) in d.qacc.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
+                *a -= l * b;
+            }
+        }
+    }
+}
+
+/// The response of the constrained system to an extra generalised force `x` (after
+/// [`solve_constrained`], with the Schur complement factorised): `x ← G x` (the change of the
+/// accelerations) and `dl ← (Φ_q M̄⁻¹ Φ_qᵀ)⁻¹ Φ_q M̄⁻¹ x` (the change of the multipliers).
+pub fn constrained_response(m: &Model, d: &mut Data, x: &mut [f64], dl: &mut [f64]) {
+    let (nv, nc) = (m.nv, m.nc);
+    solve_mass(m, &d.mass_blocks, x);
+    for (r, l) in dl.iter_mut().enumerate().take(nc) {
+        *l = linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], x);
+    }
+    linalg::pivoted_cholesky_solve(&d.schur, nc, &d.schur_perm, d.schur_rank, dl, &mut d.work[..nc]);
+    for (r, &l) in dl.iter().enumerate().take(nc) {
+        if l != 0.0 {
+            for (a, b) in x.iter_mut().zip(&d.minv_phit[r * nv..(r + 1) * nv]) {
                 *a -= l * b;
             }
         }

@@ -39,6 +39,10 @@ pub fn evaluate(m: &Model, d: &mut Data) -> bool {
             dynamics::constraints(m, d, contact::resting_rows);
             dynamics::solve_constrained(m, d);
             if resting {
+                let friction = contact::resting_friction(m, d);
+                if friction != 0.0 {
+                    d.dissipation += friction;
+                }
                 contact::resting_outputs(m, d);
             }
         } else {

@@ -75,6 +75,11 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         | VarRef::Damping(_)
         | VarRef::MaxPenetration(_)
         | VarRef::MinImpactVelocity(_)
+        | VarRef::Friction(_)
+        | VarRef::StaticFriction(_)
+        | VarRef::StribeckVelocity(_)
+        | VarRef::ViscousFriction(_)
+        | VarRef::StictionVelocity(_)
         | VarRef::SolverMethod
         | VarRef::SolverRtol
         | VarRef::SolverAtol
@@ -119,6 +124,8 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         VarRef::ContactForce(i) => d.contact_out[i].force,
         VarRef::ContactActive(i) => d.contact_memory[i].active as u8 as f64,
         VarRef::ContactImpacts(i) => d.contact_memory[i].impacts as f64,
+        VarRef::ContactFrictionForce(i, k) => d.contact_out[i].friction_force[k],
+        VarRef::ContactSlipVelocity(i) => d.contact_out[i].slip_speed,
         VarRef::EnergyKinetic => energies(m, d).kinetic,
         VarRef::EnergyPotential => energies(m, d).potential,
         VarRef::EnergyContact => energies(m, d).contact,

@@ -511,6 +511,21 @@ pub struct ContactSpec {
     /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
     #[serde(default)]
     pub impulse_method: ImpulseMethod,
+    /// Coulomb (sliding) friction coefficient μ (default 0: no friction).
+    #[serde(default)]
+    pub friction: Option<f64>,
+    /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
+    #[serde(default)]
+    pub static_friction: Option<f64>,
+    /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
+    #[serde(default)]
+    pub stribeck_velocity: Option<f64>,
+    /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
+    #[serde(default)]
+    pub viscous_friction: Option<f64>,
+    /// Regularisation velocity v_s [m/s] of the continuous friction law.
+    #[serde(default)]
+    pub stiction_velocity: Option<f64>,
 }
 
 impl ContactSpec {
@@ -555,6 +570,11 @@ impl ContactSpec {
             max_penetration: None,
             min_impact_velocity: None,
             impulse_method: ImpulseMethod::default(),
+            friction: None,
+            static_friction: None,
+            stribeck_velocity: None,
+            viscous_friction: None,
+            stiction_velocity: None,
         }
     }
 }
@@ -590,6 +610,10 @@ pub struct InputSpec {
     /// Joint (joint_force).
     #[serde(default)]
     pub joint: Option<String>,
+    /// Several joints (joint_force): the same generalised force on each (e.g. a brake torque
+    /// on every wheel).
+    #[serde(default)]
+    pub joints: Option<Vec<String>>,
     /// World direction (force, torque).
     #[serde(default)]
     pub direction: Option<[f64; 3]>,
@@ -627,6 +651,13 @@ pub fn check_law(
 /// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
 pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
 
+/// Default Stribeck velocity [m/s] (`stribeck_velocity`).
+pub const DEFAULT_STRIBECK_VELOCITY: f64 = 1e-2;
+
+/// Default regularisation velocity of the continuous friction law [m/s]
+/// (`stiction_velocity`; docs/friction.md gives the measurements behind it).
+pub const DEFAULT_STICTION_VELOCITY: f64 = 1e-4;
+
 impl SpringDamperSpec {
     /// `free_length`, by default the initial distance of the two points.
     pub fn free_length_or_default(&self) -> f64 {
@@ -646,6 +677,19 @@ impl ContactSpec {
     /// `min_impact_velocity`, by default [`DEFAULT_MIN_IMPACT_VELOCITY`].
     pub fn min_impact_velocity_or_default(&self) -> f64 {
         self.min_impact_velocity.unwrap_or(DEFAULT_MIN_IMPACT_VELOCITY)
+    }
+
+    /// The friction constants with their defaults: μ = 0, μ_s = μ, Stribeck velocity
+    /// [`DEFAULT_STRIBECK_VELOCITY`], σ = 0, v_s = [`DEFAULT_STICTION_VELOCITY`].
+    pub fn friction_or_default(&self) -> [f64; 5] {
+        let mu = self.friction.unwrap_or(0.0);
+        [
+            mu,
+            self.static_friction.unwrap_or(mu),
+            self.stribeck_velocity.unwrap_or(DEFAULT_STRIBECK_VELOCITY),
+            self.viscous_friction.unwrap_or(0.0),
+            self.stiction_velocity.unwrap_or(DEFAULT_STICTION_VELOCITY),
+        ]
     }
 }
 
@@ -871,14 +915,32 @@ impl Scene {
                     }
                 }
                 InputType::JointForce => {
-                    let Some(jn) = &i.joint else {
-                        return Err(err(item, "joint", "required for joint_force inputs".into()));
+                    let names: Vec<&String> = match (&i.joint, &i.joints) {
+                        (Some(j), None) => vec![j],
+                        (None, Some(js)) if !js.is_empty() => js.iter().collect(),
+                        (Some(_), Some(_)) => {
+                            return Err(err(item, "joints", "give joint or joints, not both".into()));
+                        }
+                        _ => return Err(err(item, "joint", "required for joint_force inputs (or joints)".into())),
                     };
-                    let Some(j) = joints.get(jn.as_str()) else {
-                        return Err(err(item, "joint", format!("unknown joint {}", quote(jn))));
-                    };
-                    if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
-                        return Err(err(item, "joint", format!("joint {} is not a 1-DOF joint", quote(jn))));
+                    let field = if i.joint.is_some() { "joint" } else { "joints" };
+                    let mut kinds = names.iter().filter_map(|n| joints.get(n.as_str()).map(|j| j.kind));
+                    if let Some(first) = kinds.next() {
+                        if kinds.any(|k| k != first) {
+                            return Err(err(
+                                item,
+                                field,
+                                "mixes revolute and prismatic joints (a torque and a force in one input)".into(),
+                            ));
+                        }
+                    }
+                    for jn in names {
+                        let Some(j) = joints.get(jn.as_str()) else {
+                            return Err(err(item, field, format!("unknown joint {}", quote(jn))));
+                        };
+                        if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
+                            return Err(err(item, field, format!("joint {} is not a 1-DOF joint", quote(jn))));
+                        }
                     }
                 }
             }
@@ -1031,9 +1093,24 @@ impl Scene {
             }
             magnitude(origin, item, "max_penetration", v)?;
         }
-        for (f, v) in [("damping", c.damping), ("min_impact_velocity", c.min_impact_velocity)] {
+        for (f, v) in [
+            ("damping", c.damping),
+            ("min_impact_velocity", c.min_impact_velocity),
+            ("friction", c.friction),
+            ("static_friction", c.static_friction),
+            ("viscous_friction", c.viscous_friction),
+        ] {
             if let Some(v) = v {
                 nonnegative(origin, item, f, v)?;
+            }
+        }
+        for (f, v) in [
+            ("stribeck_velocity", c.stribeck_velocity),
+            ("stiction_velocity", c.stiction_velocity),
+        ] {
+            if let Some(v) = v {
+                positive(origin, item, f, v)?;
+                magnitude(origin, item, f, v)?;
             }
         }
         if let Some(n) = c.exponent {

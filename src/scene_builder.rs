@@ -463,6 +463,16 @@ impl ContactSpec {
         max_penetration: f64,
         /// `min_impact_velocity` [m/s].
         min_impact_velocity: f64,
+        /// `friction`: Coulomb coefficient μ.
+        friction: f64,
+        /// `static_friction` μ_s.
+        static_friction: f64,
+        /// `stribeck_velocity` [m/s].
+        stribeck_velocity: f64,
+        /// `viscous_friction` σ [s/m].
+        viscous_friction: f64,
+        /// `stiction_velocity` v_s [m/s] (regularisation).
+        stiction_velocity: f64,
     }
 
     /// `impulse_method` (impulse law).
@@ -498,6 +508,7 @@ impl InputSpec {
             kind,
             body: body.map(str::to_string),
             joint: joint.map(str::to_string),
+            joints: None,
             direction,
             start: 0.0,
         }
@@ -516,6 +527,14 @@ impl InputSpec {
     /// A generalised force on the 1-DOF `joint` [N or N m].
     pub fn joint_force(name: &str, joint: &str) -> InputSpec {
         InputSpec::on(name, InputType::JointForce, None, Some(joint), None)
+    }
+
+    /// The same generalised force on each of the 1-DOF `joints` [N or N m].
+    pub fn joint_forces(name: &str, joints: &[&str]) -> InputSpec {
+        InputSpec {
+            joints: Some(joints.iter().map(|j| j.to_string()).collect()),
+            ..InputSpec::on(name, InputType::JointForce, None, None, None)
+        }
     }
 
     /// `start` value.

@@ -93,6 +93,16 @@ pub enum VarRef {
     MinImpactVelocity(usize),
     /// contact index: K (parameter or calculated)
     Stiffness(usize),
+    /// contact index: Coulomb friction coefficient μ
+    Friction(usize),
+    /// contact index: static friction coefficient μ_s
+    StaticFriction(usize),
+    /// contact index: Stribeck velocity
+    StribeckVelocity(usize),
+    /// contact index: viscous friction coefficient σ
+    ViscousFriction(usize),
+    /// contact index: regularisation (stiction) velocity
+    StictionVelocity(usize),
     /// solver.method (and its Integer twin solver.method_index)
     SolverMethod,
     /// solver.rtol
@@ -137,6 +147,10 @@ pub enum VarRef {
     ContactActive(usize),
     /// contact index: Integer impacts resolved
     ContactImpacts(usize),
+    /// contact index, component: friction force on the sphere, world frame
+    ContactFrictionForce(usize, usize),
+    /// contact index: slip speed
+    ContactSlipVelocity(usize),
     /// energy.kinetic
     EnergyKinetic,
     /// energy.potential
@@ -325,6 +339,11 @@ pub const UNITS: &[Unit] = &[
     Unit {
         name: "N/m",
         base: [1, 0, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "s/m",
+        base: [0, -1, 1, 0],
         display: &[],
     },
 ];
@@ -552,15 +571,22 @@ impl VariableTable {
                     ),
                 ),
                 InputType::JointForce => {
-                    let joint = on(&inp.joint);
+                    let names: Vec<String> = inp.joint.iter().chain(inp.joints.iter().flatten()).cloned().collect();
                     let revolute = scene
                         .joint
                         .iter()
-                        .any(|j| j.name == joint && j.kind == JointType::Revolute);
-                    if revolute {
-                        ("N.m", format!("torque on joint '{joint}' about its axis"))
+                        .any(|j| names.first() == Some(&j.name) && j.kind == JointType::Revolute);
+                    let (what, unit, along) = if revolute {
+                        ("torque", "N.m", "about its axis")
                     } else {
-                        ("N", format!("force on joint '{joint}' along its axis"))
+                        ("force", "N", "along its axis")
+                    };
+                    match names.as_slice() {
+                        [joint] => (unit, format!("{what} on joint '{joint}' {along}")),
+                        _ => (
+                            unit,
+                            format!("{what} on each of the joints '{}', {along}", names.join("', '")),
+                        ),
                     }
                 }
             };
@@ -735,7 +761,7 @@ impl VariableTable {
             (
                 "energy.dissipated",
                 VarRef::EnergyDissipated,
-                "work removed by dampers, contact damping and impacts since initialisation",
+                "work removed by dampers, contact damping, friction and impacts since initialisation",
             ),
         ] {
             v.push(out(name.into(), VarType::Real, Some("J"), t, d.into()));
@@ -845,6 +871,42 @@ impl VariableTable {
             "solver.method",
             VarRef::SolverMethod,
         ));
+        // Friction (after everything above, so that no value reference moves).
+        for (i, c) in scene.contact.iter().enumerate() {
+            let [mu, mu_s, v_st, sigma, v_s] = c.friction_or_default();
+            for (key, value, unit, range, target, description) in [
+                ("friction", mu, None, nonneg, VarRef::Friction(i), "Coulomb (sliding) friction coefficient mu (0: frictionless)"),
+                ("static_friction", mu_s, None, nonneg, VarRef::StaticFriction(i), "static friction coefficient mu_s, the peak of the Stribeck curve at zero slip"),
+                ("stribeck_velocity", v_st, Some("m/s"), pos, VarRef::StribeckVelocity(i), "Stribeck velocity: the coefficient falls from mu_s to mu as exp(-(slip/v_st)^2)"),
+                ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::ViscousFriction(i), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
+                ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::StictionVelocity(i), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
+            ] {
+                v.push(param(format!("{}.{key}", c.name), value, unit, range, target, description));
+            }
+        }
+        for (i, c) in scene.contact.iter().enumerate() {
+            for (k, axis) in AXES.iter().enumerate() {
+                // A resting impulse-law contact's friction follows its normal force, a
+                // constraint force solved with the applied forces (inputs included), like
+                // `<contact>.force`.
+                let mut f = out(
+                    format!("{}.friction_force[{}]", c.name, k + 1),
+                    VarType::Real,
+                    Some("N"),
+                    VarRef::ContactFrictionForce(i, k),
+                    format!("friction force on the sphere, world {axis}"),
+                );
+                f.depends_on_inputs = has_inputs;
+                v.push(f);
+            }
+            v.push(out(
+                format!("{}.slip_velocity", c.name),
+                VarType::Real,
+                Some("m/s"),
+                VarRef::ContactSlipVelocity(i),
+                "slip speed: tangential velocity of the sphere's contact point relative to the other body's".into(),
+            ));
+        }
         VariableTable { vars: v }
     }
 
@@ -901,6 +963,11 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::MaxPenetration(i) => params.contacts[i].max_penetration = x,
         VarRef::MinImpactVelocity(i) => params.contacts[i].min_impact_velocity = x,
         VarRef::Stiffness(i) => params.contacts[i].stiffness = Some(x),
+        VarRef::Friction(i) => params.contacts[i].friction.mu = x,
+        VarRef::StaticFriction(i) => params.contacts[i].friction.mu_static = x,
+        VarRef::StribeckVelocity(i) => params.contacts[i].friction.stribeck_velocity = x,
+        VarRef::ViscousFriction(i) => params.contacts[i].friction.viscous = x,
+        VarRef::StictionVelocity(i) => params.contacts[i].friction.stiction_velocity = x,
         VarRef::SolverMethod => {
             if let Some(m) = Method::from_index(x as i64) {
                 params.solver.method = m;
@@ -927,6 +994,8 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::ContactForce(_)
         | VarRef::ContactActive(_)
         | VarRef::ContactImpacts(_)
+        | VarRef::ContactFrictionForce(..)
+        | VarRef::ContactSlipVelocity(_)
         | VarRef::EnergyKinetic
         | VarRef::EnergyPotential
         | VarRef::EnergyContact

@@ -903,6 +903,15 @@ fn bad_contact_definitions_are_clear_errors() {
             "unknown material",
         ),
         (bad(|c| c.max_penetration = Some(0.0)), "max_penetration", "> 0"),
+        (bad(|c| c.friction = Some(-0.1)), "friction", ">= 0"),
+        (bad(|c| c.static_friction = Some(-1.0)), "static_friction", ">= 0"),
+        (
+            bad(|c| c.viscous_friction = Some(f64::NAN)),
+            "viscous_friction",
+            "finite",
+        ),
+        (bad(|c| c.stiction_velocity = Some(0.0)), "stiction_velocity", "> 0"),
+        (bad(|c| c.stribeck_velocity = Some(-1e-3)), "stribeck_velocity", "> 0"),
         // names the scene format does not know: errors in the text itself
         (
             text.replace("law = \"hertz_ln\"", "law = \"hertz_lm\""),
@@ -979,6 +988,7 @@ fn element(shape: Shape, center: Vector3<f64>, radius: f64) -> ContactElement {
         impulse_method: ImpulseMethod::Exact,
         constraint_row: None,
         hysteresis: 0.0,
+        friction: Default::default(),
     }
 }
 
@@ -1113,11 +1123,10 @@ fn detection_by_hand() {
     assert!((g.delta + 0.4).abs() < 1e-14);
 }
 
-#[test]
-fn detection_rates_on_moving_bodies_match_finite_differences() {
-    // Both bodies translate and rotate (constant twists). δ̇ from detection and the
-    // velocity-product part of the separation's second derivative (resting rows) against
-    // central differences of δ along the motion.
+/// Two bodies that translate and rotate (constant twists), a sphere (r = 0.1, offset
+/// `center` in the first body) and the four shapes on the second body placed near contact
+/// with it: (sphere frame, other frame, centre, named shapes).
+fn moving_pair() -> (Frame, Frame, Vector3<f64>, Vec<(&'static str, Shape)>) {
     let q1 = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5);
     let q2 = UnitQuaternion::from_euler_angles(-0.4, 0.1, 0.2);
     let fs = frame(
@@ -1132,7 +1141,6 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
         Vector3::new(-0.2, 0.4, 0.1),
         Vector3::new(-0.8, 1.1, 2.3),
     );
-    // shapes placed so that the sphere (r = 0.1, offset in its body) is near contact
     let center = Vector3::new(0.02, -0.03, 0.01);
     let cw = fs.pos + fs.rot * center;
     let local = |p: Vector3<f64>| fo.rot.transpose() * (p - fo.pos);
@@ -1180,6 +1188,15 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
             },
         ),
     ];
+    (fs, fo, center, shapes)
+}
+
+#[test]
+fn detection_rates_on_moving_bodies_match_finite_differences() {
+    // Both bodies translate and rotate (constant twists). δ̇ from detection and the
+    // velocity-product part of the separation's second derivative (resting rows) against
+    // central differences of δ along the motion.
+    let (fs, fo, center, shapes) = moving_pair();
     let h = 1e-3;
     for (name, shape) in shapes {
         let c = element(shape, center, 0.1);
@@ -1203,6 +1220,70 @@ fn detection_rates_on_moving_bodies_match_finite_differences() {
             "{name}: {bias} vs {}",
             -acc_fd
         );
+    }
+}
+
+#[test]
+fn slip_velocity_matches_finite_differences_of_the_material_points() {
+    // Both bodies translate and rotate; the slip velocity at the contact point (friction) is
+    // checked against central differences of the positions of the two material points that
+    // coincide with the contact point at t = 0, projected on the tangent plane. The rotation
+    // of both bodies enters (ω × r of each): a sphere spinning about the normal slips along
+    // nothing, one rolling at ω = v/R slips not at all; here everything moves.
+    let (fs, fo, center, shapes) = moving_pair();
+    for (_, shape) in shapes {
+        let c = element(shape, center, 0.1);
+        let g = geometry::detect(&c, &fs, &fo);
+        let slip = contact::friction::slip_velocity(&fs, &fo, &g);
+        // the material points at g.point, followed along the two screw motions
+        let ps = fs.rot.transpose() * (g.point - fs.pos);
+        let po = fo.rot.transpose() * (g.point - fo.pos);
+        let rel = |t: f64| {
+            let (a, b) = (advance(&fs, t), advance(&fo, t));
+            (a.pos + a.rot * ps) - (b.pos + b.rot * po)
+        };
+        let h = 1e-4;
+        let u = (rel(h) - rel(-h)) / (2.0 * h);
+        let fd = u - g.normal * u.dot(&g.normal);
+        let (t1, t2) = contact::friction::tangents(&g.normal);
+        println!("{:?}: slip {:.12?}, fd {:.12?}", c.kind, slip.as_slice(), fd.as_slice());
+        assert!(slip.dot(&g.normal).abs() < 1e-14, "{:?}: slip is tangential", c.kind);
+        assert!((slip - fd).norm() < 1e-7 * fd.norm(), "{:?}: {slip} vs {fd}", c.kind);
+        assert!((t1.dot(&g.normal)).abs() < 1e-15 && (t2.dot(&g.normal)).abs() < 1e-15);
+        assert!(
+            (t1.cross(&t2) - g.normal).norm() < 1e-15,
+            "right-handed triad (n, t1, t2)"
+        );
+        assert!(fd.norm() > 0.1, "the test moves the contact point tangentially");
+    }
+}
+
+#[test]
+fn tangent_jacobian_rows_give_the_slip_of_a_spinning_ball() {
+    // A free ball touching the floor, moving and spinning: the Jacobian rows of the two
+    // tangent directions times q̇ equal the slip components, and the slip is the hand
+    // computation v + ω × (−R n) of the contact point (the rotation enters as radius × ω).
+    let v = Vector3::new(0.7, -0.3, 0.0);
+    let w = Vector3::new(2.0, 5.0, -3.0);
+    let scene = ball_on_floor(Law::Hertz, |c| c.friction(0.3), 0.0, 9.81, 0.0);
+    let mut scene = scene.build();
+    scene.body[0].velocity = v.into();
+    scene.body[0].angular_velocity = w.into();
+    let (m, mut d) = compile(scene);
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics::kinematics(&m, &mut d);
+    let g = contact::gap(&m, &d, 0);
+    let fs = kinematics::frame(&d, m.contacts[0].sphere_body);
+    let slip = contact::friction::slip_velocity(&fs, &kinematics::frame(&d, None), &g);
+    let by_hand = v + w.cross(&Vector3::new(0.0, 0.0, -R));
+    let by_hand = by_hand - Vector3::z() * by_hand.z;
+    assert!((slip - by_hand).norm() < 1e-14, "{slip} vs {by_hand}");
+    let (t1, t2) = contact::friction::tangents(&g.normal);
+    for t in [t1, t2] {
+        let mut row = vec![0.0; m.nv];
+        contact::friction::add_tangent_row(&m, &d.dof_s, &m.contacts[0], &g, &t, &mut row);
+        let rate: f64 = row.iter().zip(&d.state[m.nq..m.nq + m.nv]).map(|(a, b)| a * b).sum();
+        assert!((rate - slip.dot(&t)).abs() < 1e-14, "{rate} vs {}", slip.dot(&t));
     }
 }
 

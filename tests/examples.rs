@@ -14,6 +14,20 @@ fn load(name: &str) -> Simulation {
     Simulation::from_file(&common::bundled(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
+/// The bundled rail vehicle with its wheel-rail friction switched off (the paper's example is
+/// frictionless; with friction the wheels' spin exchanges momentum with the translation:
+/// tests/friction.rs checks the vehicle with friction, braking through its wheels).
+fn frictionless_rail_vehicle() -> Simulation {
+    let mut sim = load("rail_vehicle");
+    let contacts: Vec<String> = sim.scene().contact.iter().map(|c| c.name.clone()).collect();
+    for c in contacts {
+        for key in ["friction", "static_friction"] {
+            sim.set_by_name(&format!("{c}.{key}"), 0.0).expect("friction parameter");
+        }
+    }
+    sim
+}
+
 /// Hertz stiffness of a sphere on a plane, eq. (22) with the square-root radius term.
 fn hertz_sphere_plane(e1: f64, nu1: f64, e2: f64, nu2: f64, radius: f64) -> f64 {
     let h = |e: f64, nu: f64| (1.0 - nu * nu) / (std::f64::consts::PI * e);
@@ -37,7 +51,7 @@ fn material(scene: &Scene, name: &Option<String>) -> (f64, f64) {
 /// equilibrium implied by the scene data, and the vehicle's forward momentum throughout.
 #[test]
 fn rail_vehicle_settles_to_static_equilibrium_at_constant_speed() {
-    let mut sim = load("rail_vehicle");
+    let mut sim = frictionless_rail_vehicle();
     let scene = sim.scene().clone();
     let g = -scene.model.gravity[2];
     assert_eq!(scene.model.gravity[0], 0.0);
@@ -253,7 +267,7 @@ fn slider_crank_continuous_converges_to_piecewise_as_stiffness_grows() {
 /// (the normal wheel-rail forces and gravity have no X component, the suspension is internal).
 #[test]
 fn rail_vehicle_traction_accelerates_the_centre_of_mass() {
-    let mut sim = load("rail_vehicle");
+    let mut sim = frictionless_rail_vehicle();
     let bodies: Vec<(String, f64)> = sim.scene().body.iter().map(|b| (b.name.clone(), b.mass)).collect();
     let total_mass: f64 = bodies.iter().map(|(_, m)| m).sum();
     let v0 = 80.0 / 3.6;

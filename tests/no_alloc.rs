@@ -168,11 +168,21 @@ struct ImpulseRun {
 
 /// Runs `scene` with contact `contact` switched to the impulse law (a parameter set before
 /// `initialize`, like an FMU host would), warms up over `warmup` communication intervals and
-/// counts the allocations of the next `advances` ones.
-fn impulse_run(scene: &str, contact: &str, method: Method, warmup: usize, advances: usize) -> ImpulseRun {
+/// counts the allocations of the next `advances` ones. `friction`: the contact's Coulomb
+/// coefficient.
+fn impulse_run(
+    scene: &str,
+    contact: &str,
+    friction: f64,
+    method: Method,
+    warmup: usize,
+    advances: usize,
+) -> ImpulseRun {
     let mut sim = load(scene, method);
     sim.set_by_name(&format!("{contact}.law"), Law::Impulse as i64 as f64)
         .expect("law");
+    sim.set_by_name(&format!("{contact}.friction"), friction)
+        .expect("friction");
     sim.initialize(0.0).expect("initialises");
     let (h, mut t) = warm_up(&mut sim, warmup);
     let ci = sim
@@ -226,7 +236,7 @@ fn impulse_law_impacts_and_resting_do_not_allocate() {
     // method steps at max_step (1 ms) in free flight, so the step counts coincide; each
     // locates the impacts on its own dense output.
     for method in [Method::Dopri5, Method::Rk4, Method::Sdirk, Method::Radau5] {
-        let r = impulse_run("bouncing_ball", "ball_floor", method, 10, 1500);
+        let r = impulse_run("bouncing_ball", "ball_floor", 0.0, method, 10, 1500);
         println!(
             "bouncing_ball impulse {}: {} allocations in {} advances, {} steps, {} impacts, {} rests, log {}",
             method.name(),
@@ -266,16 +276,29 @@ fn impulse_law_impacts_and_resting_do_not_allocate() {
         assert!(r.log_len <= 4096);
         assert_eq!(r.allocations, 0, "bouncing_ball impulse {}: allocations", method.name());
     }
-    // The slider-crank struck by the block, the impact resolved through the closed loop
-    // (projection onto the loop rows, exact LCP).
-    let r = impulse_run("slider_crank", "impact", Method::Dopri5, 10, 4000);
+    // With friction: the resting contact's friction follows its multiplier (fixed-point
+    // iteration on preallocated buffers).
+    let r = impulse_run("bouncing_ball", "ball_floor", 0.3, Method::Dopri5, 10, 1500);
     println!(
-        "slider_crank impulse dopri5: {} allocations in {} advances, {} steps, {} impacts, {} rests, log {}",
-        r.allocations, r.advances, r.steps, r.impacts, r.logged_rests, r.log_len
+        "bouncing_ball impulse dopri5, friction 0.3: {} allocations in {} advances, {} impacts, resting {}",
+        r.allocations, r.advances, r.impacts, r.resting
     );
-    assert!(r.impacts >= 1, "the block strikes the slider");
-    assert_eq!(r.logged_impacts as u64, r.impacts, "every impact is logged once");
-    assert_eq!(r.allocations, 0, "slider_crank impulse: allocations");
+    assert!(r.resting, "the ball comes to rest");
+    assert_eq!(r.allocations, 0, "bouncing_ball impulse with friction: allocations");
+    // The slider-crank struck by the block, the impact resolved through the closed loop
+    // (projection onto the loop rows, exact LCP), without and with friction (the tangential
+    // impulses on the Coulomb disc).
+    for friction in [0.0, 0.3] {
+        let r = impulse_run("slider_crank", "impact", friction, Method::Dopri5, 10, 4000);
+        println!(
+            "slider_crank impulse dopri5, friction {friction}: {} allocations in {} advances, {} steps, {} impacts, \
+             {} rests, log {}",
+            r.allocations, r.advances, r.steps, r.impacts, r.logged_rests, r.log_len
+        );
+        assert!(r.impacts >= 1, "the block strikes the slider");
+        assert_eq!(r.logged_impacts as u64, r.impacts, "every impact is logged once");
+        assert_eq!(r.allocations, 0, "slider_crank impulse: allocations");
+    }
 }
 
 #[test]

@@ -240,6 +240,18 @@ fn other_mistakes_are_reported_without_panicking() {
             &["input \"u\"", "joint", "1-DOF"],
         ),
         (
+            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = [\"pivot\", \"nothing\"]\n", good()),
+            &["input \"u\"", "joints", "unknown joint \"nothing\""],
+        ),
+        (
+            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"pivot\"\njoints = [\"pivot\"]\n", good()),
+            &["input \"u\"", "joints", "not both"],
+        ),
+        (
+            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = []\n", good()),
+            &["input \"u\"", "joint", "required"],
+        ),
+        (
             format!("{}\n[[spring_damper]]\nname = \"s\"\nbody_a = \"arm\"\npoint_a = [0.0, 0.0, 0.0]\nbody_b = \"nobody\"\npoint_b = [0.0, 0.0, 1.0]\nstiffness = 1.0\n", good()),
             &["spring_damper \"s\"", "body_b", "unknown body"],
         ),

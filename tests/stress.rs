@@ -234,3 +234,31 @@ fn resting_bar_with_redundant_loop() {
     finished(&out, "dopri5");
     assert!(out.constraint_residual < 1e-9, "|Φ| = {}", out.constraint_residual);
 }
+
+/// Friction from 1 mm/s to 10 m/s of sliding, μ from 0.05 to 1.5 (the corners of the
+/// `friction` group of `contact-fmu bench stress`): the steel ball launched sliding without
+/// spin finishes rolling at 5/7 v0 (angular momentum about the contact point), whatever the
+/// regularisation (v_s = 1e-4 m/s, above the slowest slip) does around the transition; the
+/// energy balance holds.
+#[test]
+fn sliding_ball_rolls_at_five_sevenths_from_slow_to_fast_slip() {
+    for v0 in [1e-3, 10.0] {
+        for mu in [0.05, 1.5] {
+            let t_roll = 2.0 * v0 / (7.0 * mu * 9.81);
+            let stop = 1.5 * t_roll;
+            let scene = scenes::sliding_ball(v0, mu, 1e-4, stop, stop / 100.0);
+            for m in [Method::Dopri5, Method::Sdirk] {
+                let what = format!("v0 = {v0:e}, μ = {mu}, {}", m.name());
+                let out = record(&spec(&scene, m, stop, stop / 100.0), &["ball.v[1]"]).unwrap();
+                finished(&out, &what);
+                let ratio = last(&out, "ball.v[1]") / (5.0 / 7.0 * v0);
+                println!(
+                    "{what}: v/(5/7 v0) = {ratio:.9}, energy error {:.1e}, {} steps, {} events",
+                    out.energy_error, out.counters.steps, out.counters.events
+                );
+                assert!((ratio - 1.0).abs() < 1e-5, "{what}: {ratio}");
+                balanced(&out, 1e-6, &what);
+            }
+        }
+    }
+}

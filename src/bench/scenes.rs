@@ -49,6 +49,22 @@ pub fn ball_plane(
         .build()
 }
 
+/// The steel ball of [`ball_plane`] resting on the plane at its static Hertz penetration
+/// under gravity (`hertz_ln`, e = 0.8), launched sliding along x at `speed` [m/s] without
+/// spin, with friction `mu` (stiction velocity `stiction_velocity` [m/s]): it rolls from
+/// t = 2 v0/(7 μ g) at 5/7 of `speed`.
+pub fn sliding_ball(speed: f64, mu: f64, stiction_velocity: f64, stop_time: f64, interval: f64) -> Scene {
+    let k = crate::bench::stress::steel_ball_plane_stiffness();
+    let delta0 = (BALL_MASS * 9.81 / k).powf(2.0 / 3.0);
+    let mut scene = ball_plane("sliding", Law::HertzLn, 0.8, 0.0, -delta0, true, stop_time, interval);
+    scene.body[0].velocity = [speed, 0.0, 0.0];
+    let c = &mut scene.contact[0];
+    c.friction = Some(mu);
+    c.stiction_velocity = Some(stiction_velocity);
+    c.size = Some([1e3, 1e3]);
+    scene
+}
+
 /// The ball of [`ball_plane`] (`hertz_ln`, e = 0.8) touching the plane at `speed` [m/s] from
 /// a gap of `speed` × 0.1 ms, under gravity, for 0.1 s in 1 ms steps; δ̇⁻ floored at
 /// `min_impact_velocity` [m/s].

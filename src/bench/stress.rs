@@ -1,6 +1,7 @@
 //! Stability stress cases: each one finishes, or fails with a clear error; for each the
 //! energy-balance error and the largest penetration against `max_penetration` are reported,
-//! with a case-specific check (effective restitution, drift, chatter, momentum).
+//! with a case-specific check (effective restitution, drift, chatter, momentum, the rolling
+//! speed reached by a sliding ball with friction).
 
 use super::scenes::{self, BALL_MASS};
 use super::{f, record, Csv, Outcome, RunSpec};
@@ -292,6 +293,31 @@ pub fn run(resting_time: f64, csv_path: &Path) -> Result<(), String> {
         }
     }
 
+    // 8. Friction: the ball launched sliding at 1 mm/s … 10 m/s with μ = 0.05 … 1.5 (stiction
+    // velocity 1e-4 m/s): sliding, the stick transition (rolling), rolling. Whatever the
+    // regularisation does around the transition, the angular momentum about the contact point
+    // is kept, so the final speed is 5/7 v0 (to the lever arm R − δ of the contact point).
+    for v0 in [1e-3, 1e-2, 1e-1, 1.0, 10.0] {
+        for mu in [0.05, 0.3, 1.5] {
+            let t_roll = 2.0 * v0 / (7.0 * mu * 9.81);
+            let stop = 1.5 * t_roll;
+            let scene = scenes::sliding_ball(v0, mu, 1e-4, stop, stop / 100.0);
+            for m in [Method::Dopri5, Method::Sdirk] {
+                let out = record(&spec(&scene, "friction", m, stop, stop / 100.0), &["ball.v[1]"])?;
+                let v = last(&out, "ball.v[1]");
+                push(Row {
+                    group: "friction",
+                    case: format!("v0={v0:.0e} mu={mu}: v/(5/7 v0)"),
+                    method: m,
+                    out,
+                    check: "v_roll/v0",
+                    value: v / (5.0 / 7.0 * v0),
+                    expected: 1.0,
+                });
+            }
+        }
+    }
+
     let mut csv = Csv::new(&[
         "group",
         "case",
@@ -361,6 +387,7 @@ pub fn write_scenes(dir: &Path, resting_time: f64) -> Result<(), String> {
             "newtons_cradle.toml",
             scenes::newtons_cradle(5, 0.1, 1e-5, Law::Hertz, 1.0, 3e-3),
         ),
+        ("sliding_ball.toml", scenes::sliding_ball(1.0, 0.3, 1e-4, 0.15, 1e-3)),
     ];
     for (name, scene) in files {
         let p = dir.join(name);

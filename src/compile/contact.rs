@@ -132,6 +132,7 @@ pub(super) fn compile_contact(
         impulse_method: c.impulse_method,
         constraint_row: None,
         hysteresis: hysteresis_factor(p.law, p.restitution),
+        friction: p.friction,
     })
 }
 

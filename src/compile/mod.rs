@@ -341,15 +341,16 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
                 direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
             },
             InputType::JointForce => {
-                let ji = i
-                    .joint
-                    .as_deref()
-                    .and_then(|n| joint_index.get(n).copied())
-                    .unwrap_or(0);
-                match scene_joint[ji] {
-                    Ok(t) => Input::JointForce { qvel: joints[t].qvel },
-                    Err(_) => Input::JointForce { qvel: usize::MAX },
-                }
+                let names = i.joint.iter().chain(i.joints.iter().flatten());
+                let qvels = names
+                    .map(
+                        |n| match scene_joint[joint_index.get(n.as_str()).copied().unwrap_or(0)] {
+                            Ok(t) => joints[t].qvel,
+                            Err(_) => usize::MAX,
+                        },
+                    )
+                    .collect();
+                Input::JointForce { qvels }
             }
         })
         .collect();
@@ -377,7 +378,10 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         warnings,
     };
     for (i, inp) in scene.input.iter().enumerate() {
-        if let (InputType::JointForce, Input::JointForce { qvel: usize::MAX }) = (inp.kind, &model.inputs[i]) {
+        if let (InputType::JointForce, Input::JointForce { qvels }) = (inp.kind, &model.inputs[i]) {
+            if !qvels.contains(&usize::MAX) {
+                continue;
+            }
             return Err(SceneError::new(
                 origin,
                 item_name("input", &inp.name),

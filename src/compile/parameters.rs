@@ -3,6 +3,7 @@
 //! scene gives their defaults; [`super::compile`] reads them from here, so that changing a
 //! parameter never edits the scene.
 
+use crate::contact::Friction;
 use crate::scene::{check_law, check_max_step, item_name, Law, Scene, SceneError, SolverSection};
 
 /// Elastic constants of a material.
@@ -31,6 +32,8 @@ pub struct ContactValues {
     pub min_impact_velocity: f64,
     /// Stiffness, when the scene gives one (else derived from the materials).
     pub stiffness: Option<f64>,
+    /// Friction constants.
+    pub friction: Friction,
 }
 
 /// The settable constants of a spring-damper.
@@ -100,6 +103,7 @@ impl Parameters {
                     max_penetration: c.max_penetration_or_default(),
                     min_impact_velocity: c.min_impact_velocity_or_default(),
                     stiffness: c.stiffness,
+                    friction: Friction::from_values(c.friction_or_default()),
                 })
                 .collect(),
             solver: scene.solver.clone(),

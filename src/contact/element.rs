@@ -92,6 +92,42 @@ pub struct ContactElement {
     /// Damping factor of the hysteresis laws from the restitution
     /// ([`crate::contact::laws::hysteresis_factor`]), computed once at compilation.
     pub hysteresis: f64,
+    /// Friction constants (all zero: frictionless).
+    pub friction: Friction,
+}
+
+/// The friction constants of a contact (docs/friction.md).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Friction {
+    /// Coulomb (sliding) coefficient μ.
+    pub mu: f64,
+    /// Static coefficient μ_s (peak of the Stribeck curve at zero slip).
+    pub mu_static: f64,
+    /// Stribeck velocity [m/s].
+    pub stribeck_velocity: f64,
+    /// Viscous coefficient σ [s/m]: the coefficient grows by σ·|slip|.
+    pub viscous: f64,
+    /// Regularisation (stiction) velocity v_s [m/s] of the continuous law.
+    pub stiction_velocity: f64,
+}
+
+impl Friction {
+    /// From the scene's (or a host's) values `[μ, μ_s, Stribeck velocity, σ, v_s]`.
+    pub fn from_values([mu, mu_static, stribeck_velocity, viscous, stiction_velocity]: [f64; 5]) -> Friction {
+        Friction {
+            mu,
+            mu_static,
+            stribeck_velocity,
+            viscous,
+            stiction_velocity,
+        }
+    }
+
+    /// True when the contact has any friction (otherwise it is skipped entirely, so a
+    /// frictionless contact computes exactly what it did before friction existed).
+    pub fn is_on(&self) -> bool {
+        self.mu > 0.0 || self.mu_static > 0.0 || self.viscous > 0.0
+    }
 }
 
 /// Per-contact memory carried from touch to separation (part of the state).
@@ -116,4 +152,8 @@ pub struct ContactOutput {
     pub force: f64,
     /// Elastic energy stored [J].
     pub elastic_energy: f64,
+    /// Friction force on the sphere, world frame [N].
+    pub friction_force: Vector3<f64>,
+    /// Slip speed at the contact point (tangential relative velocity magnitude) [m/s].
+    pub slip_speed: f64,
 }

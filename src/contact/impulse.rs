@@ -26,7 +26,7 @@
 //! Simultaneous contacts are treated pair by pair.
 
 use super::element::ContactElement;
-use super::work::{ImpulseWork, LcpWork, Projection};
+use super::work::{FrictionWork, ImpulseWork, LcpWork, Projection};
 use crate::dynamics;
 use crate::kinematics::{self, for_each_path_dof};
 use crate::linalg;
@@ -109,6 +109,7 @@ pub fn resolve_with(
         row,
         free,
         x,
+        friction,
         ..
     } = work;
     proj.factor(m, d);
@@ -196,6 +197,7 @@ pub fn resolve_with(
             impulses[ra] = p[a];
         }
     }
+    friction_impulses(m, d, proj, contacts, impulses, gj, qvel, friction);
     {
         let v = &mut d.state[m.nq..m.nq + nv];
         for (r, &ci) in contacts.iter().enumerate() {
@@ -204,6 +206,12 @@ pub fn resolve_with(
                     *x += impulses[r] * g;
                 }
                 d.contact_memory[ci].impacts += 1;
+            }
+        }
+        for i in 0..2 * friction.fric.len() {
+            let p = friction.pt[i];
+            for (x, g) in v.iter_mut().zip(&friction.gt[i * nv..(i + 1) * nv]) {
+                *x += p * g;
             }
         }
     }
@@ -226,6 +234,156 @@ pub fn resolve_with(
     }
     work.last = k;
     Ok(ke_before - dynamics::kinetic_energy(m, d))
+}
+
+/// The tangential impulses of the contacts with friction of a round, the normal impulses
+/// `pn` given (their images `G Jᵀ` in `gj`, the velocities before the round in `qvel`): the
+/// impulses `P_t` (two per contact, along [`super::friction::tangents`]) that minimise the
+/// kinetic energy after the impact, `½ P_tᵀ W_tt P_t + P_tᵀ u_t`, over the Coulomb discs
+/// `|P_t,c| ≤ μ_c P_n,c` (`W_tt = T G Tᵀ`, `u_t` the tangential velocities after the normal
+/// impulses). Inside its disc a contact sticks (its tangential velocity after the impact is
+/// zero); on the rim it slips with the largest impulse the cone allows. Solved by block
+/// Gauss-Seidel over the contacts, each block (a 2 × 2 problem on a disc) exactly; every
+/// sweep lowers the energy from `P_t = 0`, so friction never adds kinetic energy to what the
+/// normal impulses leave. Results in `w.pt` (2 per contact in `w.fric`).
+#[allow(clippy::too_many_arguments)]
+fn friction_impulses(
+    m: &Model,
+    d: &Data,
+    proj: &mut Projection,
+    contacts: &[usize],
+    pn: &[f64],
+    gj: &[f64],
+    qvel: &[f64],
+    w: &mut FrictionWork,
+) {
+    let nv = m.nv;
+    w.fric.clear();
+    for (r, &ci) in contacts.iter().enumerate() {
+        if m.contacts[ci].friction.mu > 0.0 && pn[r] > 0.0 {
+            w.fric.push(r);
+        }
+    }
+    let nf = w.fric.len();
+    if nf == 0 {
+        return;
+    }
+    let nt = 2 * nf;
+    for (a, &r) in w.fric.iter().enumerate() {
+        let ci = contacts[r];
+        let g = super::gap(m, d, ci);
+        let (t1, t2) = super::friction::tangents(&g.normal);
+        for (k, t) in [t1, t2].iter().enumerate() {
+            let i = 2 * a + k;
+            let row = &mut w.trows[i * nv..(i + 1) * nv];
+            row.iter_mut().for_each(|v| *v = 0.0);
+            super::friction::add_tangent_row(m, &d.dof_s, &m.contacts[ci], &g, t, row);
+            let col = &mut w.gt[i * nv..(i + 1) * nv];
+            col.copy_from_slice(row);
+            proj.apply(m, d, col);
+        }
+    }
+    for i in 0..nt {
+        let row = &w.trows[i * nv..(i + 1) * nv];
+        let mut u = linalg::dot(row, qvel);
+        for (r, p) in pn.iter().enumerate() {
+            if *p != 0.0 {
+                u += p * linalg::dot(row, &gj[r * nv..(r + 1) * nv]);
+            }
+        }
+        w.bt[i] = u;
+        for j in 0..nt {
+            w.wtt[i * nt + j] = linalg::dot(row, &w.gt[j * nv..(j + 1) * nv]);
+        }
+    }
+    let pt = &mut w.pt[..nt];
+    pt.iter_mut().for_each(|p| *p = 0.0);
+    let scale = w.bt[..nt].iter().fold(0.0_f64, |a, b| a.max(b.abs()));
+    for _sweep in 0..200 {
+        let mut change = 0.0_f64;
+        for (a, &r) in w.fric.iter().enumerate() {
+            let (i, j) = (2 * a, 2 * a + 1);
+            let mut b = [w.bt[i], w.bt[j]];
+            for (k, p) in pt.iter().enumerate() {
+                if k != i && k != j {
+                    b[0] += w.wtt[i * nt + k] * p;
+                    b[1] += w.wtt[j * nt + k] * p;
+                }
+            }
+            let block = [w.wtt[i * nt + i], w.wtt[i * nt + j], w.wtt[j * nt + j]];
+            let radius = m.contacts[contacts[r]].friction.mu * pn[r];
+            let p = disc_minimum(block, b, radius);
+            change = change.max((p[0] - pt[i]).abs()).max((p[1] - pt[j]).abs());
+            pt[i] = p[0];
+            pt[j] = p[1];
+        }
+        if nf == 1 || change * block_scale(&w.wtt[..nt * nt], nt) <= 1e-15 * scale.max(1e-300) {
+            break;
+        }
+    }
+}
+
+/// Largest diagonal entry of the `n × n` matrix `a` (for a convergence test in velocity
+/// units).
+fn block_scale(a: &[f64], n: usize) -> f64 {
+    (0..n).fold(0.0_f64, |s, i| s.max(a[i * n + i].abs()))
+}
+
+/// The minimiser of `½ pᵀ A p + pᵀ b` over the disc `|p| ≤ radius`, `A = [[a0, a1], [a1, a2]]`
+/// symmetric positive semi-definite. In the eigenbasis of `A` (eigenvalues `λ_i`, `b̃ = Eᵀ b`):
+/// the unconstrained minimiser `p̃_i = −b̃_i/λ_i` (the least-norm one when `A` is singular and
+/// `b` in its range) when it lies in the disc (stick), else `p̃_i = −b̃_i/(λ_i + κ)` with the
+/// `κ > 0` that puts it on the rim (slip; `|p|` falls monotonically with κ, found by
+/// bisection in `(0, |b|/radius]`).
+pub fn disc_minimum([a0, a1, a2]: [f64; 3], b: [f64; 2], radius: f64) -> [f64; 2] {
+    let bn = b[0].hypot(b[1]);
+    if radius <= 0.0 || bn == 0.0 || !radius.is_finite() {
+        return [0.0; 2];
+    }
+    // eigen decomposition of the symmetric 2 × 2 matrix
+    let (mean, half_diff) = (0.5 * (a0 + a2), 0.5 * (a0 - a2));
+    let root = half_diff.hypot(a1);
+    let lambda = [(mean + root).max(0.0), (mean - root).max(0.0)];
+    let angle = 0.5 * a1.atan2(half_diff);
+    let (sn, cs) = angle.sin_cos();
+    let e = [[cs, sn], [-sn, cs]];
+    let bt = [e[0][0] * b[0] + e[0][1] * b[1], e[1][0] * b[0] + e[1][1] * b[1]];
+    let small = 1e-12 * lambda[0].max(1e-300);
+    let at = |k: f64| {
+        let mut p = [0.0; 2];
+        for i in 0..2 {
+            let l = lambda[i] + k;
+            p[i] = if l > small { -bt[i] / l } else { 0.0 };
+        }
+        p
+    };
+    let back = |p: [f64; 2]| [e[0][0] * p[0] + e[1][0] * p[1], e[0][1] * p[0] + e[1][1] * p[1]];
+    let unbounded = (0..2).any(|i| lambda[i] <= small && bt[i].abs() > 1e-12 * bn);
+    if !unbounded {
+        let p = at(0.0);
+        if p[0].hypot(p[1]) <= radius {
+            return back(p);
+        }
+    }
+    let (mut lo, mut hi) = (0.0, bn / radius);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        let p = at(mid);
+        if p[0].hypot(p[1]) > radius {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let p = at(hi);
+    let norm = p[0].hypot(p[1]);
+    if norm == 0.0 {
+        return [0.0; 2];
+    }
+    back([p[0] * radius / norm, p[1] * radius / norm])
 }
 
 /// The nv-long buffers of [`effective_mass`].

@@ -17,6 +17,7 @@
 //! holds it until its normal force would become tensile, or the sphere leaves the patch.
 
 pub mod element;
+pub mod friction;
 pub mod geometry;
 pub mod impulse;
 pub mod laws;
@@ -28,7 +29,7 @@ use crate::model::{Data, Model};
 use crate::scene::Law;
 use crate::spatial::Spatial;
 
-pub use element::{ContactElement, ContactMemory, ContactOutput, Shape};
+pub use element::{ContactElement, ContactMemory, ContactOutput, Friction, Shape};
 pub use geometry::Gap;
 
 /// Evaluates the geometry of contact `i` at the current kinematics.
@@ -118,23 +119,95 @@ pub fn resting_force(m: &Model, d: &Data, i: usize) -> f64 {
     }
 }
 
-/// Writes the outputs of the resting impulse contacts after a constrained solve.
+/// Writes the outputs of the resting impulse contacts after a constrained solve (the
+/// friction fields are [`resting_friction`]'s).
 pub fn resting_outputs(m: &Model, d: &mut Data) {
     for i in 0..m.contacts.len() {
         if m.contacts[i].constraint_row.is_some() && d.contact_memory[i].active {
             let g = gap(m, d, i);
-            d.contact_out[i] = ContactOutput {
-                delta: g.delta.max(0.0),
-                delta_dot: g.delta_dot,
-                force: resting_force(m, d, i),
-                elastic_energy: 0.0,
-            };
+            let force = resting_force(m, d, i);
+            let out = &mut d.contact_out[i];
+            out.delta = g.delta.max(0.0);
+            out.delta_dot = g.delta_dot;
+            out.force = force;
+            out.elastic_energy = 0.0;
         }
     }
 }
 
-/// Adds the forces of the active continuous contacts to the bodies, updates the contact
-/// outputs and returns the dissipated power [W].
+/// Most fixed-point iterations of [`resting_friction`].
+const RESTING_FRICTION_ITERATIONS: usize = 50;
+
+/// Friction of the resting impulse-law contacts (after the constrained solve, docs/friction.md):
+/// the continuous friction law with the normal force of each resting contact, its constraint
+/// multiplier. The friction force changes the multipliers, so the two are solved together by
+/// fixed-point iteration: the generalised friction force is applied through the constrained
+/// response `G` (accelerations and multipliers updated), and recomputed from the new normal
+/// forces, until its change is at rounding level (a sphere on a plane: two rounds, its
+/// normal force does not depend on friction). Returns the dissipated power [W]; 0 and
+/// nothing done when no resting contact has friction.
+pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
+    let any = m
+        .contacts
+        .iter()
+        .zip(&d.contact_memory)
+        .any(|(c, mem)| mem.active && c.law == Law::Impulse && c.friction.is_on());
+    if !any {
+        return 0.0;
+    }
+    let mut applied = std::mem::take(&mut d.friction_applied);
+    let mut step = std::mem::take(&mut d.friction_step);
+    let mut dl = std::mem::take(&mut d.friction_dlambda);
+    applied.iter_mut().for_each(|x| *x = 0.0);
+    let mut power = 0.0;
+    for _ in 0..RESTING_FRICTION_ITERATIONS {
+        step.iter_mut().for_each(|x| *x = 0.0);
+        power = 0.0;
+        for i in 0..m.contacts.len() {
+            let c = &m.contacts[i];
+            if !(d.contact_memory[i].active && c.law == Law::Impulse && c.friction.is_on()) {
+                continue;
+            }
+            let fs = frame(d, c.sphere_body);
+            let fo = frame(d, c.body);
+            let g = geometry::detect(c, &fs, &fo);
+            let slip = friction::slip_velocity(&fs, &fo, &g);
+            let ft = friction::force(&c.friction, resting_force(m, d, i), &slip);
+            power -= ft.dot(&slip);
+            let coef = Spatial::force_at(&ft, &g.point);
+            add_jacobian_row(m, &d.dof_s, c.sphere_body, &coef, 1.0, &mut step);
+            add_jacobian_row(m, &d.dof_s, c.body, &coef, -1.0, &mut step);
+            d.contact_out[i].friction_force = ft;
+            d.contact_out[i].slip_speed = slip.norm();
+        }
+        // the correction: what friction is now, less what was applied
+        let mut change = 0.0_f64;
+        let mut size = 0.0_f64;
+        for (s, a) in step.iter_mut().zip(applied.iter_mut()) {
+            *s -= *a;
+            *a += *s;
+            change = change.max(s.abs());
+            size = size.max(a.abs());
+        }
+        if change <= 1e-15 * size {
+            break;
+        }
+        crate::dynamics::constrained_response(m, d, &mut step, &mut dl);
+        for (a, s) in d.qacc.iter_mut().zip(&step) {
+            *a += s;
+        }
+        for (l, x) in d.lambda.iter_mut().zip(&dl) {
+            *l += x;
+        }
+    }
+    d.friction_applied = applied;
+    d.friction_step = step;
+    d.friction_dlambda = dl;
+    power
+}
+
+/// Adds the forces of the active continuous contacts to the bodies (normal force and
+/// friction), updates the contact outputs and returns the dissipated power [W].
 pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
     let mut power = 0.0;
     for i in 0..m.contacts.len() {
@@ -144,7 +217,9 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        let g = gap(m, d, i);
+        let fs = frame(d, c.sphere_body);
+        let fo = frame(d, c.body);
+        let g = geometry::detect(c, &fs, &fo);
         // Kelvin-Voigt's elastic part continues linearly through δ = 0 while the contact is
         // active (its total force is cut to zero there already): the right-hand side stays
         // smooth up to the separation event, so the dense output that locates it is accurate
@@ -156,19 +231,29 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
         };
         let f = laws::force(c, delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
-        let force = g.normal * f.total;
+        let mut force = g.normal * f.total;
+        let mut out = ContactOutput {
+            delta: delta.max(0.0),
+            delta_dot: g.delta_dot,
+            force: f.total,
+            elastic_energy: f.energy,
+            ..ContactOutput::default()
+        };
+        if c.friction.is_on() {
+            let slip = friction::slip_velocity(&fs, &fo, &g);
+            let ft = friction::force(&c.friction, f.total, &slip);
+            power -= ft.dot(&slip);
+            force += ft;
+            out.friction_force = ft;
+            out.slip_speed = slip.norm();
+        }
         if let Some(b) = c.sphere_body {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&force, &g.point));
         }
         if let Some(b) = c.body {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-force), &g.point));
         }
-        d.contact_out[i] = ContactOutput {
-            delta: delta.max(0.0),
-            delta_dot: g.delta_dot,
-            force: f.total,
-            elastic_energy: f.energy,
-        };
+        d.contact_out[i] = out;
     }
     power
 }

@@ -8,8 +8,9 @@
 //!   impulse-law contacts are settled by [`settle_impulse_contacts`] (rounds of impacts, then
 //!   the resting set).
 
-use super::{broad_phase, event_function, gap, impulse, laws, resting_force, ContactElement, Gap};
+use super::{broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap};
 use crate::forward::{evaluate, evaluate_current};
+use crate::kinematics::frame;
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 
@@ -42,7 +43,24 @@ pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64,
     (mode, clamp_value, (g.delta, g.delta_dot))
 }
 
-/// True when the crossing of event function `k` (mode functions first, then clamp functions)
+/// The friction event function of contact `i` at the evaluated kinematics: slip speed minus
+/// stiction velocity for an active contact with friction (continuous law in contact, or
+/// impulse law resting) (its sign change is
+/// a stick or slip transition, where the regularised law changes its formula), else 1.
+pub fn slip_event_value(m: &Model, d: &Data, i: usize) -> f64 {
+    let c = &m.contacts[i];
+    // active: in contact under a continuous law, resting under the impulse law
+    if !c.friction.is_on() || !d.contact_memory[i].active {
+        return 1.0;
+    }
+    let fs = frame(d, c.sphere_body);
+    let fo = frame(d, c.body);
+    let g = geometry::detect(c, &fs, &fo);
+    friction::slip_function(&c.friction, friction::slip_velocity(&fs, &fo, &g).norm())
+}
+
+/// True when the crossing of event function `k` (mode functions first, then clamp functions,
+/// then friction functions)
 /// from `g0` to `g1` needs handling (an impulse contact leaving its zone after an impact does
 /// not; a cut of the force only matters while the contact is active).
 pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
@@ -51,6 +69,10 @@ pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1
         return false;
     }
     let n_contacts = m.contacts.len();
+    if k >= 2 * n_contacts {
+        let i = k - 2 * n_contacts;
+        return d.contact_memory[i].active && m.contacts[i].friction.is_on();
+    }
     if k >= n_contacts {
         return d.contact_memory[k - n_contacts].active;
     }

@@ -64,6 +64,35 @@ impl LcpWork {
     }
 }
 
+/// Work arrays of the friction impulses of a round of up to `k` contacts (see
+/// `impulse::friction_impulses`).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct FrictionWork {
+    /// The contacts of the round that have friction (positions in the round).
+    pub(crate) fric: Vec<usize>,
+    /// Their tangent rows `T` (two per contact, 2k × nv) and images `G Tᵀ` (2k × nv).
+    pub(crate) trows: Vec<f64>,
+    pub(crate) gt: Vec<f64>,
+    /// `W_tt = T G Tᵀ` (2k × 2k), the tangential velocities after the normal impulses (2k),
+    /// the tangential impulses (2k).
+    pub(crate) wtt: Vec<f64>,
+    pub(crate) bt: Vec<f64>,
+    pub(crate) pt: Vec<f64>,
+}
+
+impl FrictionWork {
+    fn new(nv: usize, k: usize) -> FrictionWork {
+        FrictionWork {
+            fric: Vec::with_capacity(k),
+            trows: vec![0.0; 2 * k * nv],
+            gt: vec![0.0; 2 * k * nv],
+            wtt: vec![0.0; 4 * k * k],
+            bt: vec![0.0; 2 * k],
+            pt: vec![0.0; 2 * k],
+        }
+    }
+}
+
 /// Preallocated work arrays of the impulse law: everything [`resolve_with`] needs for rounds
 /// of up to `k` simultaneous impacts of a model with `nv` velocities (and its loop rows), so
 /// that resolving an impact allocates nothing. Sized when the engine is compiled.
@@ -85,6 +114,8 @@ pub struct ImpulseWork {
     pub(crate) q: Vec<f64>,
     pub(crate) p: Vec<f64>,
     pub(crate) lcp: LcpWork,
+    /// Friction impulses.
+    pub(crate) friction: FrictionWork,
     /// Effective-mass buffers (nv each).
     pub(crate) row: Vec<f64>,
     pub(crate) free: Vec<f64>,
@@ -111,6 +142,7 @@ impl ImpulseWork {
             q: vec![0.0; k],
             p: vec![0.0; k],
             lcp: LcpWork::new(k),
+            friction: FrictionWork::new(nv, k),
             row: vec![0.0; nv],
             free: vec![0.0; nv],
             x: vec![0.0; nv],
@@ -122,6 +154,17 @@ impl ImpulseWork {
     /// [N s].
     pub fn impulses(&self) -> &[f64] {
         &self.impulses[..self.last]
+    }
+
+    /// Tangential (friction) impulse of each contact of the last round, along its two tangent
+    /// directions ([`crate::contact::friction::tangents`] of the normal) [N s]; zero for a
+    /// contact without friction.
+    pub fn friction_impulse(&self, k: usize) -> [f64; 2] {
+        let f = &self.friction;
+        match f.fric.iter().position(|&r| r == k) {
+            Some(a) if k < self.last => [f.pt[2 * a], f.pt[2 * a + 1]],
+            _ => [0.0; 2],
+        }
     }
 
     /// Makes the buffers fit `k` contacts of a model with `nv` velocities and `nl` loop rows

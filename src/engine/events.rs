@@ -2,7 +2,10 @@
 //! [`crate::contact::modes`]) are compared between the step's start and end; a relevant sign
 //! change is located by root finding on the integrator's dense output. Also checked:
 //! tunnelling (δ crossed zero although the mode function did not turn positive at the end
-//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0).
+//! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0) and the stick
+//! and slip transitions of contacts with friction. Each contact has three event functions: its
+//! mode, the cut of its force at zero (both interrupt the step), and (with friction) its slip
+//! speed against the stiction velocity (located and logged only).
 
 use crate::contact::{self, modes};
 use crate::forward::{any_resting, evaluate};
@@ -43,6 +46,13 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
         g[i] = mode;
         g[n_contacts + i] = clamp_value;
         aux[i] = a;
+        let slip = modes::slip_event_value(m, d, i);
+        let g = if at_step_end {
+            &mut d.events.g_new
+        } else {
+            &mut d.events.g
+        };
+        g[2 * n_contacts + i] = slip;
     }
 }
 
@@ -81,7 +91,8 @@ fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
     }
     match probe {
         Probe::Event(k) if k < n_contacts => modes::contact_event_values(m, d, k, d.clamp_events).0,
-        Probe::Event(k) => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
+        Probe::Event(k) if k < 2 * n_contacts => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
+        Probe::Event(k) => modes::slip_event_value(m, d, k - 2 * n_contacts),
         Probe::Delta(i) => contact::gap(m, d, i).delta,
         Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
     }
@@ -228,6 +239,29 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
             let t = locate(m, d, Probe::Event(i), t0, t_peak, g_start, g_peak, t_first);
             any = true;
             t_first = t_first.min(t);
+        }
+    }
+    // Stick and slip of contacts with friction inside the accepted part of the step: the
+    // friction law is C¹ across the stiction velocity, so the crossing is located and logged
+    // without interrupting the integration (a restart there would cost, not gain: a wheel
+    // rolling near the stiction velocity crosses it often).
+    for i in 0..n_contacts {
+        let k = 2 * n_contacts + i;
+        let (g0, g1) = (d.events.g[k], d.events.g_new[k]);
+        if !modes::relevant_crossing(m, d, k, g0, g1, d.events.aux_new[i].0) {
+            continue;
+        }
+        let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t1);
+        if t <= t_first {
+            interpolate(d, t);
+            contact_kinematics(m, d, i);
+            let g = contact::gap(m, d, i);
+            let kind = if g1 <= 0.0 {
+                ContactEventKind::Stick
+            } else {
+                ContactEventKind::Slip
+            };
+            d.log_event_at(t, i, kind, g.delta, g.delta_dot, 0.0);
         }
     }
     // Peaks of continuous contacts inside the accepted part of the step (a diagnostic, when

@@ -160,10 +160,10 @@ pub enum Input {
         /// Unit direction.
         direction: Vector3<f64>,
     },
-    /// Generalised force on a 1-DOF tree joint's coordinate, or on a loop joint (ignored).
+    /// Generalised force on the coordinates of 1-DOF tree joints (the same on each).
     JointForce {
-        /// Velocity index.
-        qvel: usize,
+        /// Velocity indices.
+        qvels: Vec<usize>,
     },
 }
 

@@ -46,6 +46,11 @@ pub enum ContactEventKind {
     /// Largest penetration of a continuous-law contact (δ̇ = 0), located on the dense output
     /// without interrupting the integration.
     Peak,
+    /// The slip speed of a contact with friction falls below the stiction velocity (the
+    /// friction force leaves its Coulomb value: sticking, rolling).
+    Stick,
+    /// The slip speed rises above the stiction velocity (sliding at the Coulomb value).
+    Slip,
 }
 
 /// One located contact event, with the contact's state at that instant. A diagnostic log
@@ -240,6 +245,11 @@ pub struct Data {
     pub work: Vec<f64>,
     /// Work vector of size nv.
     pub work2: Vec<f64>,
+    /// Friction of resting impulse-law contacts: the generalised friction force applied so
+    /// far (nv), the next correction (nv) and its change of the multipliers (nc).
+    pub friction_applied: Vec<f64>,
+    pub friction_step: Vec<f64>,
+    pub friction_dlambda: Vec<f64>,
     /// Dissipated power at the last RHS evaluation [W].
     pub dissipation: f64,
     /// Per-contact outputs of the last evaluation.
@@ -281,8 +291,8 @@ impl Data {
             event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
             outputs_valid: false,
             events: EventWork {
-                g: vec![0.0; 2 * ncontacts],
-                g_new: vec![0.0; 2 * ncontacts],
+                g: vec![0.0; 3 * ncontacts],
+                g_new: vec![0.0; 3 * ncontacts],
                 aux: vec![(0.0, 0.0); ncontacts],
                 aux_new: vec![(0.0, 0.0); ncontacts],
             },
@@ -320,6 +330,9 @@ impl Data {
             lambda: vec![0.0; nc],
             work: vec![0.0; nv.max(nc)],
             work2: vec![0.0; nv],
+            friction_applied: vec![0.0; nv],
+            friction_step: vec![0.0; nv],
+            friction_dlambda: vec![0.0; nc],
             dissipation: 0.0,
             contact_out: vec![ContactOutput::default(); ncontacts],
         }

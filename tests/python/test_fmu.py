@@ -61,6 +61,29 @@ def test_default_experiment_runs(fmus, name):
     assert np.max(np.abs(balance - balance[0])) < 1e-4 * scale
 
 
+@pytest.mark.parametrize("law", ["hertz_ln", "impulse"])
+def test_friction_set_by_a_host_makes_a_sliding_ball_roll(fmus, law):
+    # The bouncing ball thrown sideways at 1 m/s with wheel-floor friction set as FMU
+    # parameters: friction at the contact point keeps the angular momentum about it (gravity
+    # and the normal force act through the centre), so the ball ends rolling at 5/7 of its
+    # horizontal speed (docs/friction.md); exactly under the impulse law (no penetration),
+    # to the lever arm R - delta under the Hertz law. The friction work is dissipated.
+    laws = {"hertz_ln": 3, "impulse": 6}
+    result = fmpy.simulate_fmu(
+        str(fmus["bouncing_ball"]),
+        stop_time=1.5,
+        output_interval=1e-3,
+        start_values={"ball_floor.friction": 0.3, "ball.velocity[1]": 1.0, "ball_floor.law": laws[law]},
+        output=["ball.v[1]", "ball.w[2]", "ball_floor.slip_velocity", "energy.total", "energy.dissipated"],
+    )
+    v = result["ball.v[1]"][-1]
+    tolerance = 1e-9 if law == "impulse" else 2e-3
+    assert v == pytest.approx(5.0 / 7.0, rel=tolerance)
+    assert result["ball_floor.slip_velocity"][-1] < 1e-3
+    balance = result["energy.total"] + result["energy.dissipated"]
+    assert np.max(np.abs(balance - balance[0])) < 1e-6 * abs(balance[0])
+
+
 # --------------------------------------------------------------------------------------
 # FMU states
 # --------------------------------------------------------------------------------------

@@ -128,10 +128,13 @@ def test_every_variable_has_a_description_and_physical_reals_have_si_units(fmus,
         assert v.description, f"{v.name}: no description"
         if v.type != "Real":
             continue
-        # Dimensionless: quaternions, ratios, exponents, tolerances; K has the unit N/m^n.
+        # Dimensionless: quaternions, ratios, exponents, friction coefficients, tolerances; K has
+        # the unit N/m^n.
         dimensionless = (
             ".q[" in v.name
-            or v.name.endswith((".poisson_ratio", ".restitution", ".exponent", ".stiffness"))
+            or v.name.endswith(
+                (".poisson_ratio", ".restitution", ".exponent", ".stiffness", ".friction", ".static_friction")
+            )
             or v.name in ("solver.rtol", "solver.atol")
         )
         if dimensionless:
@@ -189,8 +192,9 @@ def test_every_output_declares_its_dependencies(fmus, name):
         variable = variables[int(u.get("index")) - 1]
         deps = u.get("dependencies")
         assert deps is not None, f"{variable.get('name')}: no dependencies attribute"
-        if variable.get("name").endswith(".force"):
-            # A resting impulse-law contact's force is solved with the applied forces.
+        if variable.get("name").endswith(".force") or ".friction_force[" in variable.get("name"):
+            # A resting impulse-law contact's force (and the friction that follows it) is
+            # solved with the applied forces.
             assert set(deps.split()) == inputs, variable.get("name")
         else:
             assert deps == "", variable.get("name")
@@ -284,8 +288,14 @@ def test_every_enumeration_has_an_integer_twin(fmus, name):
         twin = by_name[f"{e.name}_index"]
         assert (twin.type, twin.causality, twin.variability, twin.start) == ("Integer", "parameter", "fixed", "0")
         assert (twin.min, twin.max) == ("0", str(len(e.declaredType.items)))
-        # The twins come after every other variable, so no value reference moved.
-        assert twin.valueReference > max(v.valueReference for v in md.modelVariables if not v.name.endswith("_index"))
+        # The twins come after every variable that existed before them, so no value reference
+        # moved; the friction variables, added later, come after the twins.
+        friction = (".friction", ".static_friction", ".stribeck_velocity", ".viscous_friction",
+                    ".stiction_velocity", ".slip_velocity")
+        later = [v for v in md.modelVariables if v.name.endswith(friction) or ".friction_force[" in v.name]
+        earlier = [v for v in md.modelVariables if not v.name.endswith("_index") and v not in later]
+        assert twin.valueReference > max(v.valueReference for v in earlier)
+        assert all(v.valueReference > twin.valueReference for v in later)
 
 
 def run_steps(make_instance, unzipdir, start_values, steps=200, h=1e-3):
