@@ -254,7 +254,9 @@ impl Simulation {
         let c = self.running()?;
         c.model = model;
         c.data.outputs_valid = false;
-        // the right-hand side changed: the method restarts at the current state
+        // the right-hand side changed: the method restarts at the current state, with the
+        // step size it would have tried next
+        c.data.solver.next_h = c.data.solver.pending_step();
         c.data.solver.started = false;
         let after = self.balance()?;
         self.watch.reference += after - before;
