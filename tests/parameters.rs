@@ -6,8 +6,8 @@
 mod common;
 
 use contact_fmu::contact::laws::hertz_stiffness;
-use contact_fmu::scene::{BodySpec, ContactType, JointSpec, Scene, SpringDamperSpec, GROUND};
-use contact_fmu::scene_builder::SceneBuilder;
+use contact_fmu::scene::{BodySpec, ContactSpec, ContactType, JointSpec, Law, Scene, Side, SpringDamperSpec, GROUND};
+use contact_fmu::scene_builder::{Cylinder, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 
 /// A 2 kg mass on a slide along x, tied to the ground by a spring (200 N/m, no damping, free
@@ -87,47 +87,24 @@ fn initial_velocity_parameters_are_projected_onto_the_joints() {
     );
 }
 
-/// A steel ball dropped into a horizontal steel trough (inside of a cylinder, ρ = 0.1 m):
-/// the sphere_cylinder element.
-const TROUGH: &str = r#"
-[model]
-name = "trough"
-stop_time = 0.3
-interval = 1e-3
-
-[solver]
-rtol = 1e-9
-atol = 1e-12
-
-[[material]]
-name = "steel"
-youngs_modulus = 210e9
-poisson_ratio = 0.3
-
-[[body]]
-name = "ball"
-mass = 0.0329
-inertia = [1.316e-6, 1.316e-6, 1.316e-6]
-position = [0.0, 0.02, -0.05]
-velocity = [0.1, 0.3, 0.0]
-
-[[contact]]
-name = "ball_trough"
-type = "sphere_cylinder"
-law = "hertz_ln"
-restitution = 0.7
-sphere_body = "ball"
-center = [0.0, 0.02, -0.05]
-radius = 0.01
-sphere_material = "steel"
-body = "ground"
-material = "steel"
-axis_point = [0.0, 0.0, 0.0]
-axis = [1.0, 0.0, 0.0]
-cylinder_radius = 0.1
-length = 0.5
-side = "inside"
-"#;
+/// A steel ball (R = 10 mm) thrown into a horizontal steel trough (inside of a cylinder,
+/// ρ = 0.1 m, 0.5 m long): the sphere_cylinder element.
+fn trough() -> Scene {
+    let ball = BodySpec::sphere("ball", 0.0329, 0.01, [0.0, 0.02, -0.05]).velocity([0.1, 0.3, 0.0]);
+    let cylinder = Cylinder::new([0.0; 3], [1.0, 0.0, 0.0], 0.1, 0.5);
+    SceneBuilder::new("trough")
+        .experiment(0.3, 1e-3)
+        .tolerances(1e-9, 1e-12)
+        .steel()
+        .contact(
+            ContactSpec::sphere_cylinder("ball_trough", Law::HertzLn, Sphere::of(&ball, 0.01), GROUND, cylinder)
+                .restitution(0.7)
+                .materials("steel", "steel")
+                .side(Side::Inside),
+        )
+        .body(ball)
+        .build()
+}
 
 /// The bundled scenes and the trough: (name, scene, stop time).
 fn scenes() -> Vec<(String, Scene, f64)> {
@@ -139,8 +116,7 @@ fn scenes() -> Vec<(String, Scene, f64)> {
             (name, scene, stop)
         })
         .collect();
-    let trough = Scene::from_str(TROUGH, "trough.toml").unwrap_or_else(|e| panic!("{e}"));
-    all.push(("trough".into(), trough, 0.3));
+    all.push(("trough".into(), common::checked(trough()), 0.3));
     all
 }
 
@@ -307,7 +283,7 @@ fn invalid_inertia_radius_and_size_are_refused_naming_the_variable() {
             && e.contains("triangle inequality"),
         "{e}"
     );
-    let trough = Scene::from_str(TROUGH, "trough.toml").unwrap();
+    let trough = common::checked(trough());
     // an inside cylinder must be larger than its sphere
     for set in [
         vec![("ball_trough.cylinder_radius", 0.01)],

@@ -428,9 +428,13 @@ impl Instance {
             match var.causality {
                 Causality::Input => {}
                 Causality::Parameter => {
-                    let before_init = matches!(self.state, LifeState::Instantiated | LifeState::InitializationMode);
                     let tunable = var.variability == Variability::Tunable;
-                    if !before_init && !(tunable && self.state == LifeState::StepComplete) {
+                    let allowed = match self.state {
+                        LifeState::Instantiated | LifeState::InitializationMode => true,
+                        LifeState::StepComplete => tunable,
+                        _ => false,
+                    };
+                    if !allowed {
                         return Err(Failure::error(if tunable {
                             format!(
                                 "{} is a tunable parameter: it can be set before fmi2ExitInitializationMode or between \
