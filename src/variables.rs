@@ -482,7 +482,12 @@ impl VariableTable {
                 Some("m"),
                 pos,
                 VarRef::MaxPenetration(i),
-                "largest admissible penetration (a deeper one fails the step)",
+                if c.max_penetration.is_some() {
+                    "largest admissible penetration (a deeper one fails the step)"
+                } else {
+                    "largest admissible penetration (a deeper one fails the step); by default the sphere radius, \
+                     following its parameter while this one keeps its start value"
+                },
             ));
             v.push(param(
                 format!("{}.min_impact_velocity", c.name),
