@@ -65,8 +65,8 @@ pub struct Simulation {
     max_penetration_follows: Vec<(usize, usize)>,
     /// The energy balance, watched at communication points.
     watch: EnergyWatch,
-    /// Warnings of the run not yet taken by the host ([`Simulation::take_warnings`]).
-    warnings: Vec<String>,
+    /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
+    drift: Option<Drift>,
 }
 
 /// The energy-balance watch: `energy.total + energy.dissipated` against its value at
@@ -82,6 +82,38 @@ struct EnergyWatch {
     checked_at: u64,
     /// The warning was given (once per run).
     warned: bool,
+}
+
+/// The energy balance found drifted at a communication point.
+#[derive(Debug, Clone, Copy)]
+struct Drift {
+    /// Time [s].
+    time: f64,
+    /// `energy.total + energy.dissipated` then [J].
+    balance: f64,
+    /// Its reference [J].
+    reference: f64,
+    /// The drift relative to `scale`.
+    drift: f64,
+    /// The scale [J].
+    scale: f64,
+}
+
+impl std::fmt::Display for Drift {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "at t = {}: the energy balance energy.total + energy.dissipated = {:.6e} J has drifted from {:.6e} J \
+             by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is inaccurate; tighten \
+             solver.rtol and solver.atol or, with rk4, shorten solver.max_step (warned once per run)",
+            self.time,
+            self.balance,
+            self.reference,
+            100.0 * self.drift,
+            self.scale,
+            100.0 * ENERGY_DRIFT_WARNING
+        )
+    }
 }
 
 /// Relative drift of the energy balance beyond which the run warns (once).
@@ -125,7 +157,7 @@ impl Simulation {
             log_peaks: false,
             max_penetration_follows,
             watch: EnergyWatch::default(),
-            warnings: Vec::new(),
+            drift: None,
         }
     }
 
@@ -417,24 +449,21 @@ impl Simulation {
         let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
         if drift > ENERGY_DRIFT_WARNING {
             w.warned = true;
-            self.warnings.push(format!(
-                "at t = {}: the energy balance energy.total + energy.dissipated = {balance:.6e} J has drifted \
-                 from {:.6e} J by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is \
-                 inaccurate; tighten solver.rtol and solver.atol or, with rk4, shorten solver.max_step \
-                 (warned once per run)",
+            // kept as numbers: a step allocates nothing; the text is made when it is taken
+            self.drift = Some(Drift {
                 time,
-                w.reference,
-                100.0 * drift,
-                w.scale,
-                100.0 * ENERGY_DRIFT_WARNING
-            ));
+                balance,
+                reference: w.reference,
+                drift,
+                scale: w.scale,
+            });
         }
         Ok(())
     }
 
     /// The warnings of the run since the last call (the energy-balance drift), oldest first.
     pub fn take_warnings(&mut self) -> Vec<String> {
-        std::mem::take(&mut self.warnings)
+        self.drift.take().map(|d| d.to_string()).into_iter().collect()
     }
 
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
