@@ -59,10 +59,10 @@ pub struct Simulation {
     horizon: f64,
     /// Log contact peaks (a diagnostic).
     log_peaks: bool,
-    /// Per contact whose scene has no `max_penetration` key: (value reference of
-    /// `<contact>.max_penetration`, of `<contact>.radius`). While the former keeps its start
-    /// value, it follows the latter (the scene's default is the sphere radius).
-    max_penetration_follows: Vec<(usize, usize)>,
+    /// By value reference: for `<contact>.max_penetration` of a contact whose scene has no
+    /// `max_penetration` key, the value reference of `<contact>.radius`, which it follows while
+    /// it keeps its start value (the scene's default is the sphere radius).
+    max_penetration_follows: Vec<Option<usize>>,
     /// The energy balance, watched at communication points.
     watch: EnergyWatch,
     /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
@@ -135,16 +135,7 @@ impl Simulation {
     pub fn new(scene: Scene, origin: &str) -> Simulation {
         let table = VariableTable::from_scene(&scene);
         let values = table.vars.iter().map(|v| v.start.unwrap_or(0.0)).collect();
-        let max_penetration_follows = scene
-            .contact
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.max_penetration.is_none())
-            .filter_map(|(i, _)| {
-                let of = |t: VarRef| table.vars.iter().position(|v| v.target == t);
-                Some((of(VarRef::MaxPenetration(i))?, of(VarRef::SphereRadius(i))?))
-            })
-            .collect();
+        let max_penetration_follows = max_penetration_follows(&scene, &table);
         Simulation {
             scene,
             origin: origin.to_string(),
@@ -322,8 +313,8 @@ impl Simulation {
     /// `<contact>.max_penetration` that keeps its start value (the scene gives none) is the
     /// current `<contact>.radius`.
     fn value(&self, vr: usize) -> f64 {
-        match self.max_penetration_follows.iter().find(|(mp, _)| *mp == vr) {
-            Some(&(mp, radius)) if self.values[mp].to_bits() == self.start(mp).to_bits() => self.values[radius],
+        match self.max_penetration_follows[vr] {
+            Some(radius) if self.values[vr].to_bits() == self.start(vr).to_bits() => self.values[radius],
             _ => self.values[vr],
         }
     }
@@ -663,6 +654,28 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
     let first = first.min(n);
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
+}
+
+/// By value reference: the value reference of `<contact>.radius` for the
+/// `<contact>.max_penetration` of each contact whose scene gives no `max_penetration` (one pass
+/// over the table).
+fn max_penetration_follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
+    let n = scene.contact.len();
+    let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
+    for (vr, var) in table.vars.iter().enumerate() {
+        match var.target {
+            VarRef::MaxPenetration(i) => max_penetration[i] = Some(vr),
+            VarRef::SphereRadius(i) => radius[i] = Some(vr),
+            _ => {}
+        }
+    }
+    let mut follows = vec![None; table.vars.len()];
+    for (i, c) in scene.contact.iter().enumerate() {
+        if let (None, Some(m), Some(r)) = (c.max_penetration, max_penetration[i], radius[i]) {
+            follows[m] = Some(r);
+        }
+    }
+    follows
 }
 
 /// True when data sized for model `b` serves model `a` as well: the same coordinates,
