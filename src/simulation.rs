@@ -71,9 +71,12 @@ pub struct Simulation {
 
 /// The energy-balance watch: `energy.total + energy.dissipated` against its value at
 /// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
-/// and the largest kinetic energy seen (the scale of the command line's energy error).
+/// and the largest kinetic energy seen (the scale of the command line's energy error). It
+/// starts at the first step (initialising evaluates nothing that a step would not).
 #[derive(Debug, Clone, Copy, Default)]
 struct EnergyWatch {
+    /// The reference was taken.
+    started: bool,
     /// The balance at the start [J].
     reference: f64,
     /// The scale of the relative drift [J].
@@ -254,7 +257,7 @@ impl Simulation {
         if self.values[vr] == value {
             return Ok(());
         }
-        let before = self.balance()?;
+        let before = if self.watch.started { self.balance()? } else { 0.0 };
         let old = std::mem::replace(&mut self.values[vr], value);
         let compiled = self
             .check_parameter(vr)
@@ -281,8 +284,10 @@ impl Simulation {
         // step size it would have tried next
         c.data.solver.next_h = c.data.solver.pending_step();
         c.data.solver.started = false;
-        let after = self.balance()?;
-        self.watch.reference += after - before;
+        if self.watch.started {
+            let after = self.balance()?;
+            self.watch.reference += after - before;
+        }
         Ok(())
     }
 
@@ -402,7 +407,8 @@ impl Simulation {
         let c = self.ensure_compiled()?;
         engine::set_start_time(&mut c.data, start_time);
         self.initialized = true;
-        self.start_watch()
+        self.watch = EnergyWatch::default();
+        Ok(())
     }
 
     /// `energy.total + energy.dissipated` at the current state.
@@ -411,10 +417,12 @@ impl Simulation {
         Ok(e.total() + e.dissipated)
     }
 
-    /// Starts watching the energy balance from the current state (initialisation, restore).
+    /// Starts watching the energy balance from the current state (the first step after
+    /// initialisation or a restore).
     fn start_watch(&mut self) -> Result<(), SimError> {
         let e = self.energies()?;
         self.watch = EnergyWatch {
+            started: true,
             reference: e.total() + e.dissipated,
             scale: e.total().abs().max(e.kinetic),
             checked_at: self.counters().rhs_evals,
@@ -460,6 +468,12 @@ impl Simulation {
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
     /// the error carries its time.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), SimError> {
+        if !self.initialized {
+            return Err(SimError::NotInitialized);
+        }
+        if !self.watch.started {
+            self.start_watch()?;
+        }
         let c = self.running()?;
         engine::advance(&c.model, &mut c.data, t_end).map_err(
             |EngineError {
@@ -561,7 +575,8 @@ impl Simulation {
             return Err(e);
         }
         self.initialized = true;
-        self.start_watch()
+        self.watch = EnergyWatch::default();
+        Ok(())
     }
 
     /// The value of an output or calculated parameter at the current state (`None` for
