@@ -152,6 +152,7 @@ fn causality_name(c: Causality) -> &'static str {
 fn variability_name(v: Variability) -> &'static str {
     match v {
         Variability::Fixed => "fixed",
+        Variability::Tunable => "tunable",
         Variability::Discrete => "discrete",
         Variability::Continuous => "continuous",
     }

@@ -116,14 +116,17 @@ pub fn run_simulation(
     let mut scale = e0.total().abs().max(e0.kinetic);
     each(sim)?;
     let start = Instant::now();
-    sim.run(stop_time, interval, |sim| {
+    let result = sim.run(stop_time, interval, |sim| {
         each(sim)?;
         let e = sim.energies().map_err(|e| e.to_string())?;
         scale = scale.max(e.kinetic);
         progress(sim.time());
         Ok(())
-    })
-    .map_err(|e| match e {
+    });
+    for w in sim.take_warnings() {
+        eprintln!("warning: {w}");
+    }
+    result.map_err(|e| match e {
         RunError::Step(SimError::Step { time, message }) => format!("simulation failed at t = {time}: {message}"),
         other => other.to_string(),
     })?;

@@ -622,6 +622,13 @@ pub struct InputSpec {
     pub start: f64,
 }
 
+/// True when positive principal moments of inertia satisfy the triangle inequality
+/// (I1 + I2 ≥ I3 and its permutations, to a relative 1e-9): the moments of a physical body.
+pub fn inertia_is_physical([a, b, c]: [f64; 3]) -> bool {
+    let tol = 1e-9 * (a + b + c);
+    a + b >= c - tol && b + c >= a - tol && a + c >= b - tol
+}
+
 /// The reserved name of the fixed world.
 pub const GROUND: &str = "ground";
 
@@ -818,8 +825,7 @@ impl Scene {
                     "principal moments must be > 0 (positive definite)".into(),
                 ));
             }
-            let tol = 1e-9 * (a + bb + c);
-            if a + bb < c - tol || bb + c < a - tol || a + c < bb - tol {
+            if !inertia_is_physical(b.inertia) {
                 return Err(err(
                     item,
                     "inertia",

@@ -9,7 +9,7 @@ use crate::engine::{self, EngineError};
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
-use crate::variables::{set_parameter, Causality, VarRef, VarType, Variable, VariableTable};
+use crate::variables::{set_parameter, Causality, VarRef, VarType, Variability, Variable, VariableTable};
 use std::path::Path;
 
 /// An error from the simulation facade, with a message for the user.
@@ -57,7 +57,73 @@ pub struct Simulation {
     initialized: bool,
     /// Log contact peaks (a diagnostic).
     log_peaks: bool,
+    /// By value reference: for `<contact>.max_penetration` of a contact whose scene has no
+    /// `max_penetration` key, the value reference of `<contact>.radius`, which it follows while
+    /// it keeps its start value (the scene's default is the sphere radius).
+    max_penetration_follows: Vec<Option<usize>>,
+    /// The energy balance, watched at communication points.
+    watch: EnergyWatch,
+    /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
+    drift: Option<Drift>,
 }
+
+/// The energy-balance watch: `energy.total + energy.dissipated` against its value at
+/// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
+/// and the largest kinetic energy seen (the scale of the command line's energy error). It
+/// starts at the first step (initialising evaluates nothing that a step would not).
+#[derive(Debug, Clone, Copy, Default)]
+struct EnergyWatch {
+    /// The reference was taken.
+    started: bool,
+    /// The balance at the start [J].
+    reference: f64,
+    /// The scale of the relative drift [J].
+    scale: f64,
+    /// RHS evaluations (since initialisation) at the last check.
+    checked_at: u64,
+    /// The warning was given (once per run).
+    warned: bool,
+}
+
+/// The energy balance found drifted at a communication point.
+#[derive(Debug, Clone, Copy)]
+struct Drift {
+    /// Time [s].
+    time: f64,
+    /// `energy.total + energy.dissipated` then [J].
+    balance: f64,
+    /// Its reference [J].
+    reference: f64,
+    /// The drift relative to `scale`.
+    drift: f64,
+    /// The scale [J].
+    scale: f64,
+}
+
+impl std::fmt::Display for Drift {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "at t = {}: the energy balance energy.total + energy.dissipated = {:.6e} J has drifted from {:.6e} J \
+             by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is inaccurate; tighten \
+             solver.rtol and solver.atol or, with rk4, shorten solver.max_step (warned once per run)",
+            self.time,
+            self.balance,
+            self.reference,
+            100.0 * self.drift,
+            self.scale,
+            100.0 * ENERGY_DRIFT_WARNING
+        )
+    }
+}
+
+/// Relative drift of the energy balance beyond which the run warns (once).
+pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
+
+/// The energy balance is checked at a communication point when at least this many RHS
+/// evaluations were made since the last check (a check costs one evaluation: at most 1 %
+/// more work).
+const ENERGY_CHECK_EVALS: u64 = 100;
 
 /// A compiled model and its data.
 struct Compiled {
@@ -70,6 +136,7 @@ impl Simulation {
     pub fn new(scene: Scene, origin: &str) -> Simulation {
         let table = VariableTable::from_scene(&scene);
         let values = table.vars.iter().map(|v| v.start.unwrap_or(0.0)).collect();
+        let max_penetration_follows = max_penetration_follows(&scene, &table);
         Simulation {
             scene,
             origin: origin.to_string(),
@@ -79,6 +146,9 @@ impl Simulation {
             compiled_fresh: false,
             initialized: false,
             log_peaks: false,
+            max_penetration_follows,
+            watch: EnergyWatch::default(),
+            drift: None,
         }
     }
 
@@ -130,16 +200,21 @@ impl Simulation {
         }
     }
 
-    /// Sets a parameter (before initialisation only) or an input (at any time). The range of a
-    /// parameter is checked by [`Simulation::initialize`], so that a host may set values in
-    /// any order.
+    /// Sets a parameter (before initialisation; a tunable one also after it) or an input (at
+    /// any time). The range of a parameter set before initialisation is checked by
+    /// [`Simulation::initialize`], so that a host may set values in any order; a tunable one
+    /// set after it is checked at once (see [`Simulation::retune`]).
     pub fn set(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
         let var = variable(&self.table, vr)?;
         match var.causality {
             Causality::Parameter => {
                 if self.initialized {
+                    if var.variability == Variability::Tunable {
+                        return self.retune(vr, value);
+                    }
                     return Err(SimError::Variable(format!(
-                        "{} is a fixed parameter and cannot change after initialisation",
+                        "{} is a fixed parameter and cannot change after initialisation (only the tunable \
+                         contact-law constants can)",
                         var.name
                     )));
                 }
@@ -169,6 +244,50 @@ impl Simulation {
         }
     }
 
+    /// Changes the tunable parameter `vr` of an initialised simulation: checks the value
+    /// against its range and together with the others, recompiles the model with it and keeps
+    /// the data (state, contact memory, counters, time); the integrator restarts at the
+    /// current state, so the value acts from the next step on. A refused value changes
+    /// nothing. The energy watch's reference moves by the change of the balance the new
+    /// value makes at this instant (a stiffer law stores more energy in a loaded contact).
+    fn retune(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
+        if self.values[vr] == value {
+            return Ok(());
+        }
+        let before = if self.watch.started { self.balance()? } else { 0.0 };
+        let old = std::mem::replace(&mut self.values[vr], value);
+        let compiled = self
+            .check_parameter(vr)
+            .and_then(|()| Ok(compile_with(&self.scene, &self.parameters(), &self.origin)?));
+        let kept = self.running()?;
+        let model = match compiled {
+            Ok((model, _)) if same_layout(&model, &kept.model) => model,
+            Ok(_) => {
+                self.values[vr] = old;
+                return Err(SimError::Variable(format!(
+                    "{} cannot change after initialisation: it changes the size of the state",
+                    self.table.vars[vr].name
+                )));
+            }
+            Err(e) => {
+                self.values[vr] = old;
+                return Err(e);
+            }
+        };
+        let c = self.running()?;
+        c.model = model;
+        c.data.outputs_valid = false;
+        // the right-hand side changed: the method restarts at the current state, with the
+        // step size it would have tried next
+        c.data.solver.next_h = c.data.solver.pending_step();
+        c.data.solver.started = false;
+        if self.watch.started {
+            let after = self.balance()?;
+            self.watch.reference += after - before;
+        }
+        Ok(())
+    }
+
     /// Sets a variable by name (CLI `--set NAME=VALUE`).
     pub fn set_by_name(&mut self, name: &str, value: f64) -> Result<(), SimError> {
         let vr = self
@@ -183,7 +302,7 @@ impl Simulation {
     pub fn get(&mut self, vr: usize) -> Result<f64, SimError> {
         let var = variable(&self.table, vr)?;
         match var.causality {
-            Causality::Parameter | Causality::Input => Ok(self.values[vr]),
+            Causality::Parameter | Causality::Input => Ok(self.value(vr)),
             _ => {
                 let target = var.target;
                 let c = self.ensure_compiled()?;
@@ -192,12 +311,27 @@ impl Simulation {
         }
     }
 
+    /// The value of parameter or input `vr`: the value set, except that a
+    /// `<contact>.max_penetration` that keeps its start value (the scene gives none) is the
+    /// current `<contact>.radius`.
+    fn value(&self, vr: usize) -> f64 {
+        match self.max_penetration_follows[vr] {
+            Some(radius) if self.values[vr].to_bits() == self.start(vr).to_bits() => self.values[radius],
+            _ => self.values[vr],
+        }
+    }
+
+    /// The start value of variable `vr` (0 for outputs).
+    fn start(&self, vr: usize) -> f64 {
+        self.table.vars[vr].start.unwrap_or(0.0)
+    }
+
     /// The current parameter values (and input start values), as the compiler reads them.
     pub fn parameters(&self) -> Parameters {
         let mut p = Parameters::of_scene(&self.scene);
-        for (var, &x) in self.table.vars.iter().zip(&self.values) {
+        for (vr, var) in self.table.vars.iter().enumerate() {
             if matches!(var.causality, Causality::Parameter | Causality::Input) {
-                set_parameter(&mut p, var.target, x);
+                set_parameter(&mut p, var.target, self.value(vr));
             }
         }
         p
@@ -205,21 +339,25 @@ impl Simulation {
 
     /// Checks every parameter against its range; the message names the variable and range.
     pub fn check_parameters(&self) -> Result<(), SimError> {
-        for (vr, var) in self.table.vars.iter().enumerate() {
-            if var.causality != Causality::Parameter {
-                continue;
-            }
-            let x = self.values[vr];
-            if let Some(r) = var.range {
-                let integral = matches!(var.vtype, VarType::Integer | VarType::Enumeration(_));
-                if !r.contains(x) || (integral && x.fract() != 0.0) {
-                    return Err(SimError::Variable(format!(
-                        "parameter {} = {} is out of its allowed range {}",
-                        var.name,
-                        x,
-                        r.describe()
-                    )));
-                }
+        (0..self.table.vars.len()).try_for_each(|vr| self.check_parameter(vr))
+    }
+
+    /// Checks parameter `vr` against its range (other variables pass).
+    fn check_parameter(&self, vr: usize) -> Result<(), SimError> {
+        let var = &self.table.vars[vr];
+        if var.causality != Causality::Parameter {
+            return Ok(());
+        }
+        let x = self.values[vr];
+        if let Some(r) = var.range {
+            let integral = matches!(var.vtype, VarType::Integer | VarType::Enumeration(_));
+            if !r.contains(x) || (integral && x.fract() != 0.0) {
+                return Err(SimError::Variable(format!(
+                    "parameter {} = {} is out of its allowed range {}",
+                    var.name,
+                    x,
+                    r.describe()
+                )));
             }
         }
         Ok(())
@@ -265,12 +403,73 @@ impl Simulation {
         let c = self.ensure_compiled()?;
         engine::set_start_time(&mut c.data, start_time);
         self.initialized = true;
+        self.watch = EnergyWatch::default();
         Ok(())
+    }
+
+    /// `energy.total + energy.dissipated` at the current state.
+    fn balance(&mut self) -> Result<f64, SimError> {
+        let e = self.energies()?;
+        Ok(e.total() + e.dissipated)
+    }
+
+    /// Starts watching the energy balance from the current state (the first step after
+    /// initialisation or a restore).
+    fn start_watch(&mut self) -> Result<(), SimError> {
+        let e = self.energies()?;
+        self.watch = EnergyWatch {
+            started: true,
+            reference: e.total() + e.dissipated,
+            scale: e.total().abs().max(e.kinetic),
+            checked_at: self.counters().rhs_evals,
+            warned: false,
+        };
+        Ok(())
+    }
+
+    /// At a communication point: when enough work was done since the last check, compares the
+    /// energy balance with its reference and warns, once, when it drifted by more than
+    /// [`ENERGY_DRIFT_WARNING`] of its scale.
+    fn watch_energy(&mut self) -> Result<(), SimError> {
+        let evals = self.counters().rhs_evals;
+        if self.watch.warned || evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
+            return Ok(());
+        }
+        self.watch.checked_at = evals;
+        let e = self.energies()?;
+        let time = self.time();
+        let w = &mut self.watch;
+        w.scale = w.scale.max(e.kinetic);
+        let balance = e.total() + e.dissipated;
+        let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
+        if drift > ENERGY_DRIFT_WARNING {
+            w.warned = true;
+            // kept as numbers: a step allocates nothing; the text is made when it is taken
+            self.drift = Some(Drift {
+                time,
+                balance,
+                reference: w.reference,
+                drift,
+                scale: w.scale,
+            });
+        }
+        Ok(())
+    }
+
+    /// The warnings of the run since the last call (the energy-balance drift), oldest first.
+    pub fn take_warnings(&mut self) -> Vec<String> {
+        self.drift.take().map(|d| d.to_string()).into_iter().collect()
     }
 
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
     /// the error carries its time.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), SimError> {
+        if !self.initialized {
+            return Err(SimError::NotInitialized);
+        }
+        if !self.watch.started {
+            self.start_watch()?;
+        }
         let c = self.running()?;
         engine::advance(&c.model, &mut c.data, t_end).map_err(
             |EngineError {
@@ -284,7 +483,8 @@ impl Simulation {
                     SimError::Step { time, message }
                 }
             },
-        )
+        )?;
+        self.watch_energy()
     }
 
     /// Runs from the current state over the communication points (the multiples of
@@ -370,6 +570,7 @@ impl Simulation {
             return Err(e);
         }
         self.initialized = true;
+        self.watch = EnergyWatch::default();
         Ok(())
     }
 
@@ -453,6 +654,38 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
     let first = first.min(n);
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
+}
+
+/// By value reference: the value reference of `<contact>.radius` for the
+/// `<contact>.max_penetration` of each contact whose scene gives no `max_penetration` (one pass
+/// over the table).
+fn max_penetration_follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
+    let n = scene.contact.len();
+    let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
+    for (vr, var) in table.vars.iter().enumerate() {
+        match var.target {
+            VarRef::MaxPenetration(i) => max_penetration[i] = Some(vr),
+            VarRef::SphereRadius(i) => radius[i] = Some(vr),
+            _ => {}
+        }
+    }
+    let mut follows = vec![None; table.vars.len()];
+    for (i, c) in scene.contact.iter().enumerate() {
+        if let (None, Some(m), Some(r)) = (c.max_penetration, max_penetration[i], radius[i]) {
+            follows[m] = Some(r);
+        }
+    }
+    follows
+}
+
+/// True when data sized for model `b` serves model `a` as well: the same coordinates,
+/// constraint rows and contacts with the same laws (what a tunable parameter may not change).
+fn same_layout(a: &Model, b: &Model) -> bool {
+    a.nq == b.nq
+        && a.nv == b.nv
+        && a.nc == b.nc
+        && a.contacts.len() == b.contacts.len()
+        && a.contacts.iter().zip(&b.contacts).all(|(x, y)| x.law == y.law)
 }
 
 /// The variable with value reference `vr`.

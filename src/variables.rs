@@ -5,7 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{InputType, JointType, Law, Method, Scene, ATOL_RANGE, RTOL_RANGE};
+use crate::scene::{ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, RTOL_RANGE};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,6 +64,9 @@ pub enum Causality {
 pub enum Variability {
     /// Fixed after initialisation.
     Fixed,
+    /// A parameter that may also change between communication points after initialisation
+    /// (it takes effect from the next step on).
+    Tunable,
     /// Changes at events only (Integer/Boolean outputs).
     Discrete,
     /// Real inputs and outputs.
@@ -79,6 +82,8 @@ pub enum VarRef {
     PoissonRatio(usize),
     /// body index (scene order): mass
     Mass(usize),
+    /// body index, component 0..3: principal moment of inertia
+    Inertia(usize, usize),
     /// contact index: law (`<contact>.law` and its Integer twin `<contact>.law_index`)
     ContactLaw(usize),
     /// contact index: e
@@ -103,6 +108,16 @@ pub enum VarRef {
     ViscousFriction(usize),
     /// contact index: regularisation (stiction) velocity
     StictionVelocity(usize),
+    /// contact index: radius of the sphere
+    SphereRadius(usize),
+    /// contact index: radius of the other sphere (sphere_sphere)
+    OtherRadius(usize),
+    /// contact index, component 0..2: side length of the rectangle (sphere_plane)
+    PlaneSize(usize, usize),
+    /// contact index: radius of the cylinder (sphere_cylinder)
+    CylinderRadius(usize),
+    /// contact index: length of the cylinder patch (sphere_cylinder)
+    CylinderLength(usize),
     /// solver.method (and its Integer twin solver.method_index)
     SolverMethod,
     /// solver.rtol
@@ -346,6 +361,11 @@ pub const UNITS: &[Unit] = &[
         base: [0, -1, 1, 0],
         display: &[],
     },
+    Unit {
+        name: "kg.m2",
+        base: [1, 2, 0, 0],
+        display: &[],
+    },
 ];
 
 /// The unit of a 1-DOF joint's coordinate and of its rate: rad and rad/s (revolute), m and
@@ -384,6 +404,11 @@ impl VariableTable {
             range: Some(range),
             target,
             depends_on_inputs: false,
+        };
+        // Contact-law constants may change between communication points (docs/fmi.md).
+        let tunable = |mut var: Variable| {
+            var.variability = Variability::Tunable;
+            var
         };
         let pos = Range::open_above(0.0, true);
         let nonneg = Range::open_above(0.0, false);
@@ -439,7 +464,7 @@ impl VariableTable {
                 target: VarRef::ContactLaw(i),
                 depends_on_inputs: false,
             });
-            v.push(param(
+            v.push(tunable(param(
                 format!("{}.restitution", c.name),
                 c.restitution,
                 None,
@@ -451,30 +476,35 @@ impl VariableTable {
                 },
                 VarRef::Restitution(i),
                 "coefficient of restitution e",
-            ));
-            v.push(param(
+            )));
+            v.push(tunable(param(
                 format!("{}.exponent", c.name),
                 c.exponent.unwrap_or(1.5),
                 None,
                 Range::open_above(1.0, false),
                 VarRef::Exponent(i),
                 "force exponent n of the penetration (1.5 for Hertz)",
-            ));
-            v.push(param(
+            )));
+            v.push(tunable(param(
                 format!("{}.damping", c.name),
                 c.damping.unwrap_or(0.0),
                 Some("N.s/m"),
                 nonneg,
                 VarRef::Damping(i),
                 "Kelvin-Voigt damping coefficient",
-            ));
+            )));
             v.push(param(
                 format!("{}.max_penetration", c.name),
                 c.max_penetration_or_default(),
                 Some("m"),
                 pos,
                 VarRef::MaxPenetration(i),
-                "largest admissible penetration (a deeper one fails the step)",
+                if c.max_penetration.is_some() {
+                    "largest admissible penetration (a deeper one fails the step)"
+                } else {
+                    "largest admissible penetration (a deeper one fails the step); by default the sphere radius, \
+                     following its parameter while this one keeps its start value"
+                },
             ));
             v.push(param(
                 format!("{}.min_impact_velocity", c.name),
@@ -492,7 +522,11 @@ impl VariableTable {
                 } else {
                     Causality::CalculatedParameter
                 },
-                variability: Variability::Fixed,
+                variability: if c.stiffness.is_some() {
+                    Variability::Tunable
+                } else {
+                    Variability::Fixed
+                },
                 start: c.stiffness,
                 // N/m^n: the unit depends on the exponent n, so it is stated in the description.
                 unit: None,
@@ -854,7 +888,7 @@ impl VariableTable {
             }
         }
         // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
-        // come last, so the value references above do not move. 0 (the start) leaves the
+        // come after the variables above, so those value references do not move. 0 (the start) leaves the
         // enumeration in charge; any other value overrides it (`set_parameter` writes the
         // table in order, and 0 is no item).
         for (i, c) in scene.contact.iter().enumerate() {
@@ -881,7 +915,7 @@ impl VariableTable {
                 ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::ViscousFriction(i), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
                 ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::StictionVelocity(i), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
             ] {
-                v.push(param(format!("{}.{key}", c.name), value, unit, range, target, description));
+                v.push(tunable(param(format!("{}.{key}", c.name), value, unit, range, target, description)));
             }
         }
         for (i, c) in scene.contact.iter().enumerate() {
@@ -906,6 +940,77 @@ impl VariableTable {
                 VarRef::ContactSlipVelocity(i),
                 "slip speed: tangential velocity of the sphere's contact point relative to the other body's".into(),
             ));
+        }
+        // Inertias and contact geometry, after the twins (no value reference above moves).
+        // Lengths have the range of the scene's lengths: > 0 and at most MAX_MAGNITUDE.
+        let length = Range {
+            min: 0.0,
+            min_exclusive: true,
+            max: MAX_MAGNITUDE,
+            max_exclusive: false,
+        };
+        for (i, b) in scene.body.iter().enumerate() {
+            for k in 0..3 {
+                v.push(param(
+                    format!("{}.inertia[{}]", b.name, k + 1),
+                    b.inertia[k],
+                    Some("kg.m2"),
+                    pos,
+                    VarRef::Inertia(i, k),
+                    "principal moment of inertia about the centre of mass (the three satisfy the triangle inequality)",
+                ));
+            }
+        }
+        for (i, c) in scene.contact.iter().enumerate() {
+            v.push(param(
+                format!("{}.radius", c.name),
+                c.radius,
+                Some("m"),
+                length,
+                VarRef::SphereRadius(i),
+                "radius of the sphere (the Hertz stiffness derived from the materials follows it)",
+            ));
+            match c.kind {
+                ContactType::SphereSphere => v.push(param(
+                    format!("{}.other_radius", c.name),
+                    c.other_radius.unwrap_or(1.0),
+                    Some("m"),
+                    length,
+                    VarRef::OtherRadius(i),
+                    "radius of the other sphere",
+                )),
+                ContactType::SpherePlane => {
+                    let size = c.size.unwrap_or([1.0, 1.0]);
+                    for (k, axis) in ["u_axis", "normal x u_axis"].iter().enumerate() {
+                        v.push(param(
+                            format!("{}.size[{}]", c.name, k + 1),
+                            size[k],
+                            Some("m"),
+                            length,
+                            VarRef::PlaneSize(i, k),
+                            &format!("side length of the rectangle along {axis}"),
+                        ));
+                    }
+                }
+                ContactType::SphereCylinder => {
+                    v.push(param(
+                        format!("{}.cylinder_radius", c.name),
+                        c.cylinder_radius.unwrap_or(1.0),
+                        Some("m"),
+                        length,
+                        VarRef::CylinderRadius(i),
+                        "radius of the cylinder (inside contact: larger than the sphere's)",
+                    ));
+                    v.push(param(
+                        format!("{}.length", c.name),
+                        c.length.unwrap_or(1.0),
+                        Some("m"),
+                        length,
+                        VarRef::CylinderLength(i),
+                        "length of the cylinder patch along its axis",
+                    ));
+                }
+            }
         }
         VariableTable { vars: v }
     }
@@ -952,6 +1057,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::YoungsModulus(i) => params.materials[i].youngs_modulus = x,
         VarRef::PoissonRatio(i) => params.materials[i].poisson_ratio = x,
         VarRef::Mass(i) => params.masses[i] = x,
+        VarRef::Inertia(b, k) => params.inertias[b][k] = x,
         VarRef::ContactLaw(i) => {
             if let Some(l) = Law::from_index(x as i64) {
                 params.contacts[i].law = l;
@@ -968,6 +1074,11 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::StribeckVelocity(i) => params.contacts[i].friction.stribeck_velocity = x,
         VarRef::ViscousFriction(i) => params.contacts[i].friction.viscous = x,
         VarRef::StictionVelocity(i) => params.contacts[i].friction.stiction_velocity = x,
+        VarRef::SphereRadius(i) => params.contacts[i].radius = x,
+        VarRef::OtherRadius(i) => params.contacts[i].other_radius = x,
+        VarRef::PlaneSize(i, k) => params.contacts[i].size[k] = x,
+        VarRef::CylinderRadius(i) => params.contacts[i].cylinder_radius = x,
+        VarRef::CylinderLength(i) => params.contacts[i].length = x,
         VarRef::SolverMethod => {
             if let Some(m) = Method::from_index(x as i64) {
                 params.solver.method = m;

@@ -1,5 +1,6 @@
-//! One contact element from its scene entry: the shape in its body's frame, the stiffness
-//! (given, or Hertz's from the materials), the law constants.
+//! One contact element from its scene entry and parameter values: the shape in its body's
+//! frame (radii and sizes from the parameters), the stiffness (given, or Hertz's from the
+//! materials and the radii), the law constants.
 
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::element::{ContactElement, Shape};
@@ -27,15 +28,16 @@ pub(super) fn compile_contact(
     let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
     let sphere_body = body_of(&c.sphere_body);
     let body = body_of(&c.body);
+    let radius = p.radius;
     let (shape, r_eff, bound_radius) = match c.kind {
         ContactType::SphereSphere => {
-            let r2 = c.other_radius.unwrap_or(1.0);
+            let r2 = p.other_radius;
             (
                 Shape::Sphere {
                     center: local_point(body, v(c.other_center.unwrap_or_default())),
                     radius: r2,
                 },
-                c.radius * r2 / (c.radius + r2),
+                radius * r2 / (radius + r2),
                 r2,
             )
         }
@@ -43,7 +45,7 @@ pub(super) fn compile_contact(
             let n = v(c.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
             let u = v(c.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
             let w = n.cross(&u);
-            let [lu, lv] = c.size.unwrap_or([1.0, 1.0]);
+            let [lu, lv] = p.size;
             (
                 Shape::Plane {
                     origin: local_point(body, v(c.origin.unwrap_or_default())),
@@ -52,14 +54,13 @@ pub(super) fn compile_contact(
                     v: local_dir(body, w),
                     half: [lu / 2.0, lv / 2.0],
                 },
-                c.radius,
+                radius,
                 0.5 * (lu * lu + lv * lv).sqrt(),
             )
         }
         ContactType::SphereCylinder => {
             let k = v(c.axis.unwrap_or([0.0, 0.0, 1.0])).normalize();
-            let rho = c.cylinder_radius.unwrap_or(1.0);
-            let len = c.length.unwrap_or(1.0);
+            let (rho, len) = (p.cylinder_radius, p.length);
             let reference = match c.ref_axis {
                 Some(r) => v(r).normalize(),
                 None => triad(&k).column(1).into_owned(),
@@ -68,9 +69,9 @@ pub(super) fn compile_contact(
             // Effective radius of the elliptical contact: geometric mean of the principal
             // relative radii (axial: R; circumferential: 1/(1/R ± 1/ρ)).
             let circ = if inside {
-                1.0 / (1.0 / c.radius - 1.0 / rho)
+                1.0 / (1.0 / radius - 1.0 / rho)
             } else {
-                1.0 / (1.0 / c.radius + 1.0 / rho)
+                1.0 / (1.0 / radius + 1.0 / rho)
             };
             (
                 Shape::Cylinder {
@@ -82,7 +83,7 @@ pub(super) fn compile_contact(
                     theta_range: c.theta_range,
                     inside,
                 },
-                (c.radius * circ).sqrt(),
+                (radius * circ).sqrt(),
                 (rho * rho + len * len / 4.0).sqrt(),
             )
         }
@@ -119,7 +120,7 @@ pub(super) fn compile_contact(
         restitution: p.restitution,
         sphere_body,
         center: local_point(sphere_body, v(c.center)),
-        radius: c.radius,
+        radius,
         body,
         shape,
         stiffness,

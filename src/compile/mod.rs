@@ -105,11 +105,11 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     let mut bodies: Vec<Body> = scene
         .body
         .iter()
-        .zip(&params.masses)
-        .map(|(b, &mass)| Body {
+        .zip(params.masses.iter().zip(&params.inertias))
+        .map(|(b, (&mass, &inertia))| Body {
             name: b.name.clone(),
             mass,
-            inertia: to_v(b.inertia),
+            inertia: to_v(inertia),
             joint: 0,
         })
         .collect();

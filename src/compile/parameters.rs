@@ -1,10 +1,14 @@
 //! Parameter values: the numbers of a scene that a host may set before initialisation
-//! (materials, masses, contact-law constants, solver settings, input start values). The
+//! (materials, masses and inertias, contact geometry and law constants, springs, initial
+//! velocities, solver settings, input start values; the contact-law constants also after it,
+//! see `Simulation::set`). The
 //! scene gives their defaults; [`super::compile`] reads them from here, so that changing a
 //! parameter never edits the scene.
 
 use crate::contact::Friction;
-use crate::scene::{check_law, check_max_step, item_name, Law, Scene, SceneError, SolverSection};
+use crate::scene::{
+    check_law, check_max_step, inertia_is_physical, item_name, ContactType, Law, Scene, SceneError, Side, SolverSection,
+};
 
 /// Elastic constants of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +38,16 @@ pub struct ContactValues {
     pub stiffness: Option<f64>,
     /// Friction constants.
     pub friction: Friction,
+    /// Sphere radius [m].
+    pub radius: f64,
+    /// sphere_sphere: radius of the other sphere [m].
+    pub other_radius: f64,
+    /// sphere_plane: side lengths of the rectangle [m].
+    pub size: [f64; 2],
+    /// sphere_cylinder: cylinder radius [m].
+    pub cylinder_radius: f64,
+    /// sphere_cylinder: length of the patch [m].
+    pub length: f64,
 }
 
 /// The settable constants of a spring-damper.
@@ -54,6 +68,8 @@ pub struct Parameters {
     pub materials: Vec<MaterialValues>,
     /// Per body: mass [kg].
     pub masses: Vec<f64>,
+    /// Per body: principal moments of inertia about the centre of mass [kg m²].
+    pub inertias: Vec<[f64; 3]>,
     /// Per body: initial centre-of-mass velocity, world frame [m/s].
     pub velocities: Vec<[f64; 3]>,
     /// Per body: initial angular velocity, world frame [rad/s].
@@ -81,6 +97,7 @@ impl Parameters {
                 })
                 .collect(),
             masses: scene.body.iter().map(|b| b.mass).collect(),
+            inertias: scene.body.iter().map(|b| b.inertia).collect(),
             velocities: scene.body.iter().map(|b| b.velocity).collect(),
             angular_velocities: scene.body.iter().map(|b| b.angular_velocity).collect(),
             springs: scene
@@ -104,6 +121,11 @@ impl Parameters {
                     min_impact_velocity: c.min_impact_velocity_or_default(),
                     stiffness: c.stiffness,
                     friction: Friction::from_values(c.friction_or_default()),
+                    radius: c.radius,
+                    other_radius: c.other_radius.unwrap_or(1.0),
+                    size: c.size.unwrap_or([1.0, 1.0]),
+                    cylinder_radius: c.cylinder_radius.unwrap_or(1.0),
+                    length: c.length.unwrap_or(1.0),
                 })
                 .collect(),
             solver: scene.solver.clone(),
@@ -120,6 +142,7 @@ impl Parameters {
         if let Err((field, msg)) = check_max_step(&self.solver) {
             return Err(SceneError::new(origin, "parameter \"solver.max_step\"", field, msg));
         }
+        self.check_geometry(scene, origin)?;
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
             let materials = c.sphere_material.is_some() && c.material.is_some();
             let has_stiffness = v.stiffness.is_some();
@@ -171,6 +194,43 @@ impl Parameters {
                 _ => (field, msg),
             };
             return Err(SceneError::new(origin, item, field, msg));
+        }
+        Ok(())
+    }
+
+    /// What the scene checks of several numbers at once, for the values a host may set: the
+    /// principal moments of a body satisfy the triangle inequality, and an inside cylinder is
+    /// larger than its sphere. The message names the parameters.
+    fn check_geometry(&self, scene: &Scene, origin: &str) -> Result<(), SceneError> {
+        for (b, &[i1, i2, i3]) in scene.body.iter().zip(&self.inertias) {
+            if !inertia_is_physical([i1, i2, i3]) {
+                return Err(SceneError::new(
+                    origin,
+                    item_name("body", &b.name),
+                    "inertia",
+                    format!(
+                        "parameters \"{n}.inertia[1]\", \"{n}.inertia[2]\", \"{n}.inertia[3]\" = [{i1}, {i2}, {i3}] \
+                         violate the triangle inequality (no physical body has these moments)",
+                        n = b.name
+                    ),
+                ));
+            }
+        }
+        for (c, v) in scene.contact.iter().zip(&self.contacts) {
+            if c.kind == ContactType::SphereCylinder && c.side == Side::Inside && v.cylinder_radius <= v.radius {
+                return Err(SceneError::new(
+                    origin,
+                    item_name("contact", &c.name),
+                    "cylinder_radius",
+                    format!(
+                        "parameters \"{n}.cylinder_radius\" = {} and \"{n}.radius\" = {}: the cylinder radius must \
+                         exceed the sphere radius for an inside contact",
+                        v.cylinder_radius,
+                        v.radius,
+                        n = c.name
+                    ),
+                ));
+            }
         }
         Ok(())
     }

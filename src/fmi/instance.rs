@@ -7,7 +7,7 @@ use super::saved::SavedState;
 use super::types::*;
 use super::uri::resource_dir;
 use crate::simulation::{SimError, Simulation};
-use crate::variables::{Causality, VarType, Variable};
+use crate::variables::{Causality, VarType, Variability, Variable};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_int;
 
@@ -427,12 +427,27 @@ impl Instance {
             match var.causality {
                 Causality::Input => {}
                 Causality::Parameter => {
-                    if !matches!(self.state, LifeState::Instantiated | LifeState::InitializationMode) {
-                        return Err(Failure::error(format!(
-                            "{} is a fixed parameter: it can be set only before fmi2ExitInitializationMode (state is {})",
-                            var.name,
-                            self.state.name()
-                        )));
+                    let tunable = var.variability == Variability::Tunable;
+                    let allowed = match self.state {
+                        LifeState::Instantiated | LifeState::InitializationMode => true,
+                        LifeState::StepComplete => tunable,
+                        _ => false,
+                    };
+                    if !allowed {
+                        return Err(Failure::error(if tunable {
+                            format!(
+                                "{} is a tunable parameter: it can be set before fmi2ExitInitializationMode or between \
+                                 steps (state is {})",
+                                var.name,
+                                self.state.name()
+                            )
+                        } else {
+                            format!(
+                                "{} is a fixed parameter: it can be set only before fmi2ExitInitializationMode (state is {})",
+                                var.name,
+                                self.state.name()
+                            )
+                        }));
                     }
                 }
                 Causality::CalculatedParameter => {
@@ -480,7 +495,11 @@ impl Instance {
                 )));
             }
         }
-        match self.sim.step_to(t_end) {
+        let result = self.sim.step_to(t_end);
+        for warning in self.sim.take_warnings() {
+            self.log(fmi2Status::fmi2Warning, &format!("fmi2DoStep: {warning}"));
+        }
+        match result {
             Ok(()) => Ok(()),
             Err(SimError::Step { time, message }) => Err(Failure::error(format!(
                 "the step from t = {current} to {t_end} failed at t = {time}: {message}"

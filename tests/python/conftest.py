@@ -96,6 +96,13 @@ def export_scene(tmp_path):
     return _export
 
 
+# fmpy's native logger proxy keeps the Python logger of the last `addLoggerProxy` call in one
+# global slot, which every instance created with fmpy's default callbacks calls too. A capture
+# that the garbage collector freed would leave that slot dangling (a crash at the next message
+# of any instance, e.g. an energy-drift warning), so every capture stays alive for the session.
+_CAPTURES = []
+
+
 class LogCapture:
     """Collects the FMU's log messages as (status, category, text).
 
@@ -117,6 +124,7 @@ class LogCapture:
         from fmpy.logging import addLoggerProxy
 
         addLoggerProxy(ctypes.byref(self.callbacks))
+        _CAPTURES.append(self)
 
     def text(self):
         return "\n".join(m[2] for m in self.messages)

@@ -19,6 +19,7 @@ from fmpy.validation import validate_fmu
 
 from conftest import BINARY, ROOT, SCENES, copy_tree_with_space, refused_at_exit_initialization, scene_path
 
+FMI2_WARNING = 1
 FMI2_ERROR = 3
 DECLARED_CATEGORIES = {
     "logEvents",
@@ -347,6 +348,9 @@ OUT_OF_RANGE = [
     ("solver.rtol", 0.0),
     ("solver.rtol", -1e-6),
     ("solver.method", 99),
+    ("ball.inertia[2]", -1e-6),
+    ("ball_floor.radius", 0.0),
+    ("ball_floor.size[1]", -1.0),
 ]
 
 
@@ -380,6 +384,160 @@ def test_setting_a_fixed_parameter_after_initialization_is_an_error(unzipped, ma
         inst.set(mass, 1.0)
     assert raised.value.status == FMI2_ERROR
     assert mass in log.text()
+
+
+# --------------------------------------------------------------------------------------
+# Geometry and inertia parameters, tunable contact-law constants, the energy warning
+# --------------------------------------------------------------------------------------
+
+G = 9.81
+
+
+def test_geometry_and_inertia_parameters_equal_the_scene_edited_by_hand(fmus, export_scene):
+    text = scene_path("bouncing_ball").read_text()
+    changes = {
+        "ball.mass": ("mass = 0.0329", "mass = 0.05"),
+        "ball.inertia[1]": ("inertia = [1.316e-6, 1.316e-6, 1.316e-6]", "inertia = [2e-6, 2.5e-6, 3e-6]"),
+        "ball.inertia[2]": None,
+        "ball.inertia[3]": None,
+        "ball_floor.radius": ("radius = 0.01", "radius = 0.012"),
+        "ball_floor.size[1]": ("size = [1.0, 1.0]", "size = [0.5, 2.0]"),
+        "ball_floor.size[2]": None,
+    }
+    edited = text
+    for old, new in (c for c in changes.values() if c):
+        assert old in edited
+        edited = edited.replace(old, new, 1)
+    start_values = {
+        "ball.mass": 0.05,
+        "ball.inertia[1]": 2e-6,
+        "ball.inertia[2]": 2.5e-6,
+        "ball.inertia[3]": 3e-6,
+        "ball_floor.radius": 0.012,
+        "ball_floor.size[1]": 0.5,
+        "ball_floor.size[2]": 2.0,
+    }
+    assert set(start_values) == set(changes)
+    by_hand, _ = export_scene(edited, "ball_by_hand")
+    md = fmpy.read_model_description(str(fmus["bouncing_ball"]))
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    kwargs = dict(stop_time=0.5, output_interval=1e-3, output=outputs)
+    with_parameters = fmpy.simulate_fmu(str(fmus["bouncing_ball"]), start_values=start_values, **kwargs)
+    expected = fmpy.simulate_fmu(str(by_hand), **kwargs)
+    unchanged = fmpy.simulate_fmu(str(fmus["bouncing_ball"]), **kwargs)
+    for column in ["time", *outputs]:
+        assert np.array_equal(with_parameters[column], expected[column]), column
+    assert not np.array_equal(with_parameters["ball.r[3]"], unchanged["ball.r[3]"])
+
+
+def flight_speed(inst, radius=0.01):
+    """The ball's speed at the plate from its state in flight, sqrt(v^2 + 2 g (z - R)):
+    constant between impacts, the rebound speed of the last impact."""
+    z, v = inst.get("ball.r[3]"), inst.get("ball.v[3]")
+    return math.sqrt(v * v + 2 * G * (z - radius))
+
+
+def step_until(inst, t, h=1e-3):
+    while inst.time < t - 1e-12:
+        inst.step(h)
+
+
+def test_restitution_set_between_steps_gives_each_bounce_its_closed_form(unzipped, make_instance):
+    # impulse law (Newton's restitution, exact); the ball drops 0.1 m: v0 = sqrt(2 g h)
+    inst = make_instance(unzipped["bouncing_ball"], "tunable")
+    assert inst.vars["ball_floor.restitution"].variability == "tunable"
+    inst.init(start_values={"ball_floor.law": 6})
+    v0 = math.sqrt(2 * G * 0.1)
+    expected = [v0]
+    for e in [0.8, 0.5, 0.3, 0.9]:
+        expected.append(expected[-1] * e)
+    # the changes at 0.2, 0.4 and 0.5 s each fall between two impacts
+    for t, e in [(0.2, 0.5), (0.4, 0.3), (0.5, 0.9), (0.545, None)]:
+        step_until(inst, t)
+        impacts = inst.get("ball_floor.impacts")
+        assert flight_speed(inst) == pytest.approx(expected[impacts], rel=0, abs=1e-9 * v0), t
+        if e is not None:
+            inst.set("ball_floor.restitution", e)
+            assert inst.get("ball_floor.restitution") == e
+    assert inst.get("ball_floor.impacts") == 4
+
+
+def test_a_tunable_change_equals_the_same_change_after_a_restore_and_a_state_keeps_its_values(
+    unzipped, make_instance
+):
+    a = make_instance(unzipped["bouncing_ball"], "a")
+    a.init()
+    step_until(a, 0.2)
+    t_saved = a.time  # the sum of the steps, as the FMU's own time
+    state = a.slave.getFMUstate()
+    saved = a.slave.serializeFMUstate(state)
+    a.slave.freeFMUstate(state)
+    a.set("ball_floor.restitution", 0.3)
+    changed = []
+    for _ in range(300):
+        a.step(1e-3)
+        changed.append(a.outputs())
+    # another instance, restored from the state saved before the change, changed the same way
+    b = make_instance(unzipped["bouncing_ball"], "b")
+    b.slave.setFMUstate(b.slave.deSerializeFMUstate(saved))
+    b.time = t_saved
+    assert b.get("ball_floor.restitution") == 0.8
+    b.set("ball_floor.restitution", 0.3)
+    restored = []
+    for _ in range(300):
+        b.step(1e-3)
+        restored.append(b.outputs())
+    assert changed == restored
+    # restoring the state saved before the change restores the old value and the old future
+    a.slave.setFMUstate(a.slave.deSerializeFMUstate(saved))
+    a.time = t_saved
+    assert a.get("ball_floor.restitution") == 0.8
+    untouched = []
+    for _ in range(300):
+        a.step(1e-3)
+        untouched.append(a.outputs())
+    assert untouched != changed
+    fresh = make_instance(unzipped["bouncing_ball"], "fresh")
+    fresh.init()
+    step_until(fresh, 0.5)
+    assert fresh.outputs() == untouched[-1]
+
+
+def test_a_bad_tunable_value_and_a_fixed_parameter_are_refused_after_initialization(unzipped, make_instance, log):
+    inst = make_instance(unzipped["bouncing_ball"], "refused", callbacks=log.callbacks)
+    inst.init()
+    inst.step(1e-3)
+    with pytest.raises(FMICallException) as raised:
+        inst.set("ball_floor.restitution", 1.5)
+    assert raised.value.status == FMI2_ERROR
+    assert "ball_floor.restitution = 1.5 is out of its allowed range [0, 1]" in log.text()
+    inst.slave.reset()
+    inst.init()
+    with pytest.raises(FMICallException):
+        inst.set("ball_floor.radius", 0.02)
+    assert "ball_floor.radius is a fixed parameter" in log.text()
+
+
+def test_energy_drift_is_logged_once_as_a_warning(export_scene, unzipped, make_instance, log):
+    # rk4 at 0.1 ms through a steel contact of ~40 us gains energy
+    text = scene_path("bouncing_ball").read_text().replace('method = "dopri5"', 'method = "rk4"', 1)
+    text = text.replace("max_step = 1e-3", "max_step = 1e-4", 1)
+    _, coarse = export_scene(text, "coarse_ball")
+    inst = make_instance(coarse, "coarse", callbacks=log.callbacks)
+    inst.init()
+    for _ in range(1000):
+        inst.step(1e-3)
+    warnings = [(s, c, m) for s, c, m in log.messages if "energy balance" in m]
+    assert len(warnings) == 1, warnings
+    status, category, message = warnings[0]
+    assert (status, category) == (FMI2_WARNING, "logStatusWarning")
+    assert "more than 1 %" in message and message.startswith("fmi2DoStep: at t = 0.1")
+    log.clear()
+    default = make_instance(unzipped["bouncing_ball"], "default", callbacks=log.callbacks)
+    default.init()
+    for _ in range(1000):
+        default.step(1e-3)
+    assert log.messages == []
 
 
 def test_type_and_reference_errors(unzipped, make_instance, log):
