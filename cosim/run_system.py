@@ -16,7 +16,9 @@ libcosim counts time, so that both masters hand the FMUs the same times):
 
 Jacobi rather than Gauss-Seidel because it is what libcosim's fixed-step algorithm does, so
 the two engines run the same algorithm and their results can be compared number for number.
-Initialisation: enter initialisation mode, set the parameter values of the SSD's first
+Before running, the master looks for algebraic loops (`cosim.ssp.algebraic_loops`: cycles of
+connections and of the outputs' declared direct dependencies on inputs) and refuses a system
+that has one. Initialisation: enter initialisation mode, set the parameter values of the SSD's first
 parameter set, exit initialisation mode; the first exchange happens at t_0, before the first
 step. The step h is `--step`, else the SSD's `osp:FixedStepAlgorithm baseStepSize`.
 """
@@ -32,9 +34,9 @@ from fmpy.fmi2 import FMU2Slave
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from cosim.ssp import SCENARIO, event_step, read_scenario, read_system  # noqa: E402
+    from cosim.ssp import SCENARIO, algebraic_loops, event_step, read_scenario, read_system  # noqa: E402
 else:
-    from .ssp import SCENARIO, event_step, read_scenario, read_system
+    from .ssp import SCENARIO, algebraic_loops, event_step, read_scenario, read_system
 
 
 class Slave:
@@ -65,6 +67,13 @@ def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), w
     with tempfile.TemporaryDirectory(prefix="cosim_") as tmp:
         workdir = Path(workdir or tmp)
         system = read_system(system_path, workdir / "ssp" if str(system_path).endswith(".ssp") else None)
+        loops = algebraic_loops(system)
+        if loops:
+            raise ValueError(
+                "algebraic loop (outputs that depend directly on inputs, in a cycle): "
+                + "; ".join(" -> ".join(loop) for loop in loops)
+                + ". A Jacobi master would break it with a delay of one step, changing the model."
+            )
         h = step or system.step_size
         t_stop = stop_time if stop_time is not None else system.stop_time
         h_ns = round(h * 1e9)

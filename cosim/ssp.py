@@ -161,3 +161,55 @@ def event_step(event_time, start_time, step_size):
     h_ns = round(step_size * 1e9)
     dt_ns = round((event_time - start_time) * 1e9)
     return -(-dt_ns // h_ns)
+
+
+def direct_feedthrough(fmu):
+    """output name -> the input names on which it depends directly (FMI 2.0
+    `ModelStructure/Outputs`); an `Unknown` without a `dependencies` attribute depends on every
+    input, as the standard says."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ElementTree.fromstring(z.read("modelDescription.xml"))
+    variables = list(root.find("ModelVariables"))
+    inputs = {v.get("name") for v in variables if v.get("causality") == "input"}
+    feedthrough = {}
+    for unknown in root.iterfind("ModelStructure/Outputs/Unknown"):
+        output = variables[int(unknown.get("index")) - 1].get("name")
+        dependencies = unknown.get("dependencies")
+        if dependencies is None:
+            feedthrough[output] = set(inputs)
+        else:
+            names = {variables[int(i) - 1].get("name") for i in dependencies.split()}
+            feedthrough[output] = names & inputs
+    return feedthrough
+
+
+def algebraic_loops(system, feedthrough=None):
+    """The algebraic loops of a system: cycles of connections and direct feedthroughs
+    (input -> output of one FMU), each as a list of "component.variable". `feedthrough`:
+    component -> `direct_feedthrough` of its FMU (read from the FMUs when not given)."""
+    if feedthrough is None:
+        feedthrough = {name: direct_feedthrough(c.fmu) for name, c in system.components.items()}
+    edges = {}
+    for c in system.connections:
+        edges.setdefault(f"{c.start_element}.{c.start_connector}", []).append(f"{c.end_element}.{c.end_connector}")
+    for component, outputs in feedthrough.items():
+        for output, inputs in outputs.items():
+            for i in inputs:
+                edges.setdefault(f"{component}.{i}", []).append(f"{component}.{output}")
+    loops, state = [], {}  # state: 1 on the current path, 2 done
+
+    def visit(node, path):
+        state[node] = 1
+        path.append(node)
+        for nxt in edges.get(node, []):
+            if state.get(nxt) == 1:
+                loops.append(path[path.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt, path)
+        path.pop()
+        state[node] = 2
+
+    for node in list(edges):
+        if node not in state:
+            visit(node, [])
+    return loops
