@@ -132,7 +132,11 @@ def _plugin_class():
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class UnpackFmu(WorkerPlugin):
-        """Holds the FMU's bytes; unpacks them once on each worker, into its local directory."""
+        """Holds the FMU's bytes; unpacks them once on each worker, into its local directory.
+        Idempotent: registering it again (another sweep of the same FMU, whose hash is in the
+        name) changes nothing, so an FMU whose library is loaded is never unpacked over."""
+
+        idempotent = True
 
         def __init__(self, name, data):
             self.name = name
@@ -160,8 +164,8 @@ def plugin_name(fmu):
 
 
 def prepare(client, fmu):
-    """Sends the FMU to every worker of `client` (now and joining later), unpacked once there;
-    returns the plugin's name. Functions of this module travel by value, so the workers need
+    """Sends the FMU to every worker of `client` (now and joining later), unpacked once there
+    for the life of the worker; returns the plugin's name. Functions of this module travel by value, so the workers need
     not have this repository."""
     import cloudpickle
 
