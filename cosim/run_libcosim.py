@@ -23,9 +23,11 @@ from libcosimpy.CosimObserver import CosimObserver
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from cosim import pythonfmu_exit  # noqa: E402
     from cosim.run_system import command_line, report  # noqa: E402
     from cosim.ssp import SCENARIO, read_system  # noqa: E402
 else:
+    from . import pythonfmu_exit
     from .run_system import command_line, report
     from .ssp import SCENARIO, read_system
 
@@ -60,7 +62,7 @@ def run(system_path, scenario=SCENARIO, stop_time=None, outputs=(), log_level=Co
         columns += [f"{c.start_element}.{c.start_connector}", f"{c.end_element}.{c.end_connector}"]
     columns = list(dict.fromkeys(columns + list(outputs)))
 
-    observer = CosimObserver.create_time_series(buffer_size=n + 1)
+    observer = CosimObserver.create_time_series(buffer_size=n + 16)
     execution.add_observer(observer)
     observed = []
     for column in columns:
@@ -91,6 +93,7 @@ def run(system_path, scenario=SCENARIO, stop_time=None, outputs=(), log_level=Co
         result[column] = list(values)
     result.pop("step")
     result["status"] = status
+    pythonfmu_exit.settle()  # while the execution still holds the driver's library
     return result
 
 

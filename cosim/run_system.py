@@ -34,8 +34,10 @@ from fmpy.fmi2 import FMU2Slave
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from cosim import pythonfmu_exit  # noqa: E402
     from cosim.ssp import SCENARIO, algebraic_loops, event_step, read_scenario, read_system  # noqa: E402
 else:
+    from . import pythonfmu_exit
     from .ssp import SCENARIO, algebraic_loops, event_step, read_scenario, read_system
 
 
@@ -59,6 +61,17 @@ class Slave:
         if v.type != "Real":
             raise ValueError(f"{self.name}.{name}: only Real variables are exchanged, not {v.type}")
         return v.valueReference
+
+
+def free(fmu, md):
+    """Frees an FMU2Slave's instance. An FMU made by pythonfmu keeps its library loaded (its
+    own thread holds it; fmpy's `freeInstance` would try to unload it), and its interpreter
+    state is reset at once (`cosim.pythonfmu_exit`: otherwise the process may abort at exit)."""
+    if (md.generationTool or "").startswith("PythonFMU"):
+        fmu.fmi2FreeInstance(fmu.component)
+        pythonfmu_exit.settle()
+    else:
+        fmu.freeInstance()
 
 
 def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), workdir=None):
@@ -129,7 +142,7 @@ def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), w
                 s.fmu.terminate()
         finally:
             for s in slaves.values():
-                s.fmu.freeInstance()
+                free(s.fmu, s.md)
         return result
 
 

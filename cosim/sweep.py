@@ -3,7 +3,7 @@ the results gathered into one CSV table and a plot.
 
     .venv/bin/python -m cosim.sweep FMU --param NAME=V1,V2,... [--param ...] --output NAME [...]
         [--stop-time T] [--step H] [--workers N | --scheduler tcp://HOST:8786]
-        [--csv OUT.csv] [--plot OUT.png] [--serial]
+        [--csv OUT.csv] [--plot OUT.png [--plot-y COLUMN]] [--serial]
 
 - `--param NAME=...`: values of a parameter (or input) set before initialisation ends; NAME may
   hold shell-style wildcards (`susp_*.damping`) to give every matching variable the same value.
@@ -243,7 +243,8 @@ def main():
     where.add_argument("--scheduler", help="address of a running dask scheduler")
     where.add_argument("--serial", action="store_true", help="no dask: every case in this process")
     parser.add_argument("--csv", type=Path, default=Path("sweep.csv"))
-    parser.add_argument("--plot", type=Path, help="PNG: the first output against the first parameter")
+    parser.add_argument("--plot", type=Path, help="PNG: a column against the first parameter")
+    parser.add_argument("--plot-y", help="the column plotted (default: the first output)")
     args = parser.parse_args()
 
     params = dict(args.param)
@@ -265,7 +266,7 @@ def main():
     write_csv(rows, args.csv)
     print(f"wrote {args.csv}")
     if args.plot:
-        plot(rows, list(params), args.output[0], args.plot)
+        plot(rows, list(params), args.plot_y or args.output[0], args.plot)
         print(f"wrote {args.plot}")
 
 

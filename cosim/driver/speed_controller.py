@@ -29,6 +29,7 @@ from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.default_experiment import DefaultExperiment
+from pythonfmu.enums import Fmi2Status
 
 KMH = 1.0 / 3.6  # m/s per km/h
 
@@ -128,18 +129,27 @@ class SpeedController(Fmi2Slave):
             )
 
     def exit_initialization_mode(self):
+        # A parameter out of range is logged as an error, and every step is then refused
+        # (fmi2Discard). Not raised: pythonfmu turns a Python exception into fmi2Fatal, after
+        # which FMI allows no further call, not even fmi2FreeInstance.
         checks = {
             "kp": self.kp >= 0.0,
             "ti": self.ti > 0.0,
             "max_traction": self.max_traction >= 0.0,
             "max_braking": self.max_braking >= 0.0,
         }
-        for name, ok in checks.items():
-            value = getattr(self, name)
-            if not ok or not math.isfinite(value):
-                raise ValueError(f"{name} = {value}: {VARIABLES[name][4]}")
+        self.invalid = [
+            f"{name} = {getattr(self, name)}: {VARIABLES[name][4]}"
+            for name, ok in checks.items()
+            if not ok or not math.isfinite(getattr(self, name))
+        ]
+        for message in self.invalid:
+            self.log(message, Fmi2Status.error)
 
     def do_step(self, current_time, step_size):
+        if getattr(self, "invalid", None):
+            self.log("no step with a parameter out of range: " + "; ".join(self.invalid), Fmi2Status.error)
+            return False
         self.speed_error_integral, self.traction = pi_step(
             self.kp,
             self.ti,

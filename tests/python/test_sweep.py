@@ -8,10 +8,9 @@ import pytest
 
 from conftest import ROOT
 
+distributed = pytest.importorskip("distributed")  # ./run_tests.sh installs it
 sys.path.insert(0, str(ROOT))
 from cosim import sweep  # noqa: E402
-
-distributed = pytest.importorskip("distributed")
 
 PARAMS = {"ball_floor.restitution": [0.5, 0.8, 0.95], "ball_floor.law": [3, 4]}  # hertz_ln, hunt_crossley
 OUTPUTS = ["ball.r[3]", "ball_floor.force", "energy.dissipated", "solver.steps"]
