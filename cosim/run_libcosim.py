@@ -13,6 +13,7 @@ at t_k before the step from t_k. A time-series observer records the connected va
 """
 
 import sys
+import tempfile
 from pathlib import Path
 
 from libcosimpy.CosimEnums import CosimVariableType
@@ -46,8 +47,6 @@ def samples(observer, index, vr, n):
 def run(system_path, scenario=SCENARIO, stop_time=None, outputs=(), log_level=CosimLogLevel.WARNING):
     """Runs the system; returns {"time": [...], "<component>.<variable>": [...]} at every
     communication point t_0 ... t_n (t_0: the values after initialisation)."""
-    import tempfile
-
     log_output_level(log_level)
     with tempfile.TemporaryDirectory(prefix="cosim_ssd_") as tmp:
         # Our own reading of the SSD only names the variables to record and the stop time.
@@ -62,7 +61,7 @@ def run(system_path, scenario=SCENARIO, stop_time=None, outputs=(), log_level=Co
         columns += [f"{c.start_element}.{c.start_connector}", f"{c.end_element}.{c.end_connector}"]
     columns = list(dict.fromkeys(columns + list(outputs)))
 
-    observer = CosimObserver.create_time_series(buffer_size=n + 16)
+    observer = CosimObserver.create_time_series(buffer_size=n + 1)
     execution.add_observer(observer)
     observed = []
     for column in columns:

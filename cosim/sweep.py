@@ -28,6 +28,7 @@ import fnmatch
 import hashlib
 import itertools
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -121,8 +122,6 @@ def grid(params):
 
 def run_serial(fmu, cases, outputs, stop_time=None, step=None, directory=None):
     """Every case in this process, from one unpacked copy of the FMU."""
-    import tempfile
-
     with tempfile.TemporaryDirectory(prefix="sweep_") as tmp:
         runner = FmuRunner(fmu, directory or Path(tmp) / "fmu")
         return [runner.run(case, outputs, stop_time, step) for case in cases]
