@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The project's test command: build, Rust tests, build the library the FMUs ship with, export
 # the bundled FMUs, then test the exported .fmu files through real FMI hosts (fmpy in a Python
-# venv, and the FMU Compliance Checker where present: FMU_CHECK, see docs/fmi.md).
+# venv, libcosim through libcosimpy, and the FMU Compliance Checker where present: FMU_CHECK, see
+# docs/fmi.md).
 #
 #   ./run_tests.sh            everything
 #   ./run_tests.sh -k guid    extra arguments go to pytest
@@ -36,9 +37,12 @@ echo "== Python venv (.venv)"
 if [ ! -x .venv/bin/python ]; then
     python3 -m venv .venv
 fi
-if ! .venv/bin/python -c "import fmpy, pytest, numpy, matplotlib" 2>/dev/null; then
+# fmpy, pytest, numpy, matplotlib: the FMU tests; pythonfmu (builds the driver FMU), libcosimpy
+# (libcosim, the second co-simulation engine) and dask[distributed] (parameter sweeps): the
+# co-simulation and sweep tests (docs/cosimulation.md, docs/sweeps.md).
+if ! .venv/bin/python -c "import fmpy, pytest, numpy, matplotlib, pythonfmu, libcosimpy, dask, distributed" 2>/dev/null; then
     .venv/bin/python -m pip install --quiet --upgrade pip
-    .venv/bin/python -m pip install --quiet fmpy pytest numpy matplotlib
+    .venv/bin/python -m pip install --quiet fmpy pytest numpy matplotlib pythonfmu libcosimpy "dask[distributed]"
 fi
 
 echo "== pytest tests/python"

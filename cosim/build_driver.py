@@ -1,0 +1,41 @@
+"""Builds the driver FMU (`cosim/driver/speed_controller.py`) with pythonfmu.
+
+    .venv/bin/python cosim/build_driver.py [-o target/fmu/speed_controller.fmu]
+
+The FMU runs its Python class in the Python of the process that loads it (fmpy, libcosimpy):
+it needs a Python 3 with the shared `libpython` (any venv of the system Python has it).
+"""
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCE = ROOT / "cosim" / "driver" / "speed_controller.py"
+DEFAULT_OUTPUT = ROOT / "target" / "fmu" / "speed_controller.fmu"
+
+
+def build(output=DEFAULT_OUTPUT):
+    """Builds the driver FMU at `output` (a path ending in .fmu); returns its path."""
+    from pythonfmu import FmuBuilder
+
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    if output.exists():
+        output.unlink()  # pythonfmu takes an existing .fmu path for a file name only if it is a file
+    built = FmuBuilder.build_FMU(SOURCE, dest=output)
+    # The builder imports the script as a module; forget it so that a later build (another
+    # output path in the same process) imports the current source again.
+    sys.modules.pop(SOURCE.stem, None)
+    return Path(built)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-o", "--output", type=Path, default=DEFAULT_OUTPUT)
+    args = parser.parse_args()
+    print(f"wrote {build(args.output)}")
+
+
+if __name__ == "__main__":
+    main()
