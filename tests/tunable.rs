@@ -75,7 +75,7 @@ fn change_mid_run_equals_restored_run(scene: &Scene) {
         ("ball_floor.stiffness", 3e5),
         ("ball_floor.exponent", 1.3),
     ] {
-        let mut a = start(&scene, &[]);
+        let mut a = start(scene, &[]);
         record(&mut a, 1, k1);
         assert_eq!(get(&mut a, "ball_floor.active"), 1.0, "t1 must lie inside the contact");
         let saved = a.snapshot(Vec::new());
