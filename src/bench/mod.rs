@@ -9,6 +9,7 @@
 //! - `scaling`: N free spheres in a box, time per simulated second against N ([`scaling`]).
 //! - `targets`: the rail vehicle's speed and accuracy targets, RHS cost, allocations
 //!   ([`targets`]).
+//! - `rhs`: the cost of one right-hand-side evaluation of each bundled scene ([`rhs`]).
 //! - `run`: one scene, repeated, with its median time, counters and a trajectory CSV (used by
 //!   the Python peer comparison in `scripts/`).
 //!
@@ -16,6 +17,7 @@
 //! and the thread's CPU time; the counters (steps, RHS and Jacobian evaluations, events)
 //! are exact and repeat bit for bit.
 
+pub mod rhs;
 pub mod scaling;
 pub mod scenes;
 pub mod stress;
@@ -95,6 +97,25 @@ pub enum BenchCommand {
         #[arg(long, default_value = "docs/targets.csv")]
         csv: PathBuf,
     },
+    /// The cost of one RHS evaluation of each bundled scene (free flight, every contact
+    /// active).
+    Rhs {
+        /// Folder of bundled scenes.
+        #[arg(long, default_value = "fmu")]
+        scenes: PathBuf,
+        /// Only scenes whose name contains this.
+        #[arg(long)]
+        only: Option<String>,
+        /// Timed batches (the median is reported).
+        #[arg(long, default_value_t = 9)]
+        repeats: usize,
+        /// Calls per batch (default: about 50 ms worth); fixed for instruction counts.
+        #[arg(long)]
+        calls: Option<usize>,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/rhs.csv")]
+        csv: PathBuf,
+    },
     /// One scene, repeated: median time, counters, and the outputs at every communication
     /// point written to a CSV.
     Run {
@@ -143,6 +164,13 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             None => scaling::run(&n, time, repeats, &csv),
         },
         BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
+        BenchCommand::Rhs {
+            scenes,
+            only,
+            repeats,
+            calls,
+            csv,
+        } => rhs::run(&scenes, only.as_deref(), repeats, calls, &csv),
         BenchCommand::Run {
             scene,
             experiment,

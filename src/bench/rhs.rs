@@ -1,0 +1,80 @@
+//! The cost of one right-hand-side evaluation of each bundled scene, at its initial state,
+//! in two contact modes: as the scene starts (contacts not yet touching, the cost of free
+//! flight) and with every contact active (the force laws included). Medians of `repeats`
+//! batches; with `--calls N` every batch has exactly N calls, so that an instruction count
+//! (`scripts/rhs_instructions.sh`) divides into a count per evaluation.
+
+use super::scaling::time_per_call;
+use super::{bundled_scenes, f, Csv};
+use crate::compile::compile;
+use crate::forward::Rhs;
+use crate::integrator::OdeSystem;
+use crate::scene::Scene;
+use std::path::Path;
+use std::time::Instant;
+
+/// Runs the benchmark and writes the CSV.
+pub fn run(
+    dir: &Path,
+    only: Option<&str>,
+    repeats: usize,
+    calls: Option<usize>,
+    csv_path: &Path,
+) -> Result<(), String> {
+    let mut csv = Csv::new(&["scene", "contacts_active", "nv", "contacts", "calls", "rhs_seconds"]);
+    println!(
+        "{:<16} {:>5} {:>6} {:>9} {:>16} {:>16}",
+        "scene", "nv", "ncont", "calls", "free [ns]", "contact [ns]"
+    );
+    for (name, path) in bundled_scenes(dir)? {
+        if only.is_some_and(|o| !name.contains(o)) {
+            continue;
+        }
+        let scene = Scene::from_file(&path).map_err(|e| e.to_string())?;
+        let (m, mut d) = compile(&scene, &path.display().to_string()).map_err(|e| e.to_string())?;
+        let state = d.state.clone();
+        let mut dy = vec![0.0; state.len()];
+        let mut cost = [0.0; 2];
+        let mut n_calls = 0;
+        for (k, active) in [false, true].into_iter().enumerate() {
+            for mem in d.contact_memory.iter_mut() {
+                mem.active = active;
+                mem.impact_velocity = 1.0;
+            }
+            let t0 = Instant::now();
+            Rhs {
+                model: &m,
+                data: &mut d,
+            }
+            .rhs(0.0, &state, &mut dy);
+            let once = t0.elapsed().as_secs_f64().max(1e-9);
+            n_calls = calls.unwrap_or(((0.05 / once) as usize).clamp(1, 1_000_000));
+            cost[k] = time_per_call(repeats, n_calls, || {
+                Rhs {
+                    model: &m,
+                    data: &mut d,
+                }
+                .rhs(0.0, &state, &mut dy);
+                std::hint::black_box(&dy);
+            });
+            csv.push(vec![
+                name.clone(),
+                active.to_string(),
+                m.nv.to_string(),
+                m.contacts.len().to_string(),
+                n_calls.to_string(),
+                f(cost[k]),
+            ]);
+        }
+        println!(
+            "{:<16} {:>5} {:>6} {:>9} {:>16.1} {:>16.1}",
+            name,
+            m.nv,
+            m.contacts.len(),
+            n_calls,
+            cost[0] * 1e9,
+            cost[1] * 1e9
+        );
+    }
+    csv.write(csv_path)
+}
