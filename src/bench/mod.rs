@@ -112,6 +112,10 @@ pub enum BenchCommand {
         /// Calls per batch (default: about 50 ms worth); fixed for instruction counts.
         #[arg(long)]
         calls: Option<usize>,
+        /// Only one contact mode: `free` (as the scene starts) or `contact` (every contact
+        /// active).
+        #[arg(long)]
+        mode: Option<String>,
         /// Output CSV.
         #[arg(long, default_value = "docs/rhs.csv")]
         csv: PathBuf,
@@ -169,8 +173,9 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             only,
             repeats,
             calls,
+            mode,
             csv,
-        } => rhs::run(&scenes, only.as_deref(), repeats, calls, &csv),
+        } => rhs::run(&scenes, only.as_deref(), repeats, calls, mode.as_deref(), &csv),
         BenchCommand::Run {
             scene,
             experiment,

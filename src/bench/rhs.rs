@@ -2,7 +2,8 @@
 //! in two contact modes: as the scene starts (contacts not yet touching, the cost of free
 //! flight) and with every contact active (the force laws included). Medians of `repeats`
 //! batches; with `--calls N` every batch has exactly N calls, so that an instruction count
-//! (`scripts/rhs_instructions.sh`) divides into a count per evaluation.
+//! (`scripts/rhs_instructions.sh`) divides into a count per evaluation; `--mode` restricts the
+//! run to one of the two contact modes.
 
 use super::scaling::time_per_call;
 use super::{bundled_scenes, f, Csv};
@@ -19,8 +20,15 @@ pub fn run(
     only: Option<&str>,
     repeats: usize,
     calls: Option<usize>,
+    mode: Option<&str>,
     csv_path: &Path,
 ) -> Result<(), String> {
+    let modes: &[bool] = match mode {
+        None => &[false, true],
+        Some("free") => &[false],
+        Some("contact") => &[true],
+        Some(other) => return Err(format!("--mode {other:?}: expected free or contact")),
+    };
     let mut csv = Csv::new(&["scene", "contacts_active", "nv", "contacts", "calls", "rhs_seconds"]);
     println!(
         "{:<16} {:>5} {:>6} {:>9} {:>16} {:>16}",
@@ -36,7 +44,8 @@ pub fn run(
         let mut dy = vec![0.0; state.len()];
         let mut cost = [0.0; 2];
         let mut n_calls = 0;
-        for (k, active) in [false, true].into_iter().enumerate() {
+        for &active in modes {
+            let k = active as usize;
             for mem in d.contact_memory.iter_mut() {
                 mem.active = active;
                 mem.impact_velocity = 1.0;
