@@ -15,7 +15,7 @@ out=$(mktemp -d)
 count() {  # binary scene mode calls
     valgrind --tool=callgrind --callgrind-out-file="$out/cg" "$1" bench rhs --only "$2" --mode "$3" \
         --calls "$4" --repeats 1 --csv "$out/rhs.csv" > /dev/null 2>&1
-    callgrind_annotate "$out/cg" | awk '/PROGRAM TOTALS/ {gsub(",","",$1); print $1}'
+    callgrind_annotate "$out/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ {gsub(",","",$1); print $1}'
 }
 printf "%-16s %-8s %12s %12s %8s\n" scene mode "old [instr]" "new [instr]" ratio
 for s in "${scenes[@]}"; do

@@ -13,7 +13,7 @@
 
 use crate::kinematics::{add_jacobian_row, frame, kinematics};
 use crate::linalg;
-use crate::model::{Data, Input, Model};
+use crate::model::{Data, FreeBody, Input, Model, Part};
 use crate::scene::JointType;
 use crate::spatial::{point_acceleration, Spatial};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -69,8 +69,13 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
 /// Assembles the packed mass-matrix blocks M̄ (composite-rigid-body method) and the
 /// right-hand side `τ − C(q, q̇)` into `d.qacc` (recursive Newton-Euler with q̈ = 0).
 pub fn mass_and_bias(m: &Model, d: &mut Data) {
+    mass_and_bias_part(m, d, &m.plan.all);
+}
+
+/// [`mass_and_bias`] for the joints and bodies of `part` only (a set of whole trees).
+pub fn mass_and_bias_part(m: &Model, d: &mut Data, part: &Part) {
     // Bias forces.
-    for b in 0..m.bodies.len() {
+    for &b in &part.bodies {
         let i = &d.body_inertia[b];
         let v = &d.body_vel[b];
         let f = i
@@ -80,7 +85,8 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
         d.body_wrench[b] = f;
         d.composite[b] = *i;
     }
-    for j in m.joints.iter().rev() {
+    for &ji in part.joints.iter().rev() {
+        let j = &m.joints[ji];
         let c = j.child;
         let f = d.body_wrench[c];
         for k in j.qvel..j.qvel + j.nv() {
@@ -94,7 +100,8 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
     }
     // Mass matrix, block by tree. Only entries on ancestor paths are written (and read by the
     // tree-sparse factorisation); entries between sibling branches stay zero.
-    for j in m.joints.iter() {
+    for &ji in &part.joints {
+        let j = &m.joints[ji];
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
         let off = m.tree_block[tree];
@@ -115,12 +122,38 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
     }
 }
 
+/// The accelerations of a free body ([`FreeBody`]) into `d.qacc`, by Newton-Euler at its
+/// centre of mass: `a = f/m` (world frame) and `I ω̇ = τ − ω × I ω` (body frame), from the
+/// forces on it (`d.body_force`, at the origin) and generalised forces on its coordinates
+/// (`d.tau`). Reads the pose [`crate::kinematics::free_body_kinematics`] wrote.
+#[inline]
+pub fn free_body_accelerations(m: &Model, d: &mut Data, fb: &FreeBody) {
+    let (b, v) = (fb.body, fb.qvel);
+    let f = &d.body_force[b];
+    let w = &d.eval_state[m.nq + v + 3..m.nq + v + 6];
+    let omega = Vector3::new(w[0], w[1], w[2]);
+    let tau = &d.tau[v..v + 6];
+    let force = f.lin + Vector3::new(tau[0], tau[1], tau[2]);
+    // the moment about the centre of mass, in the body frame
+    let moment = d.body_rot[b].tr_mul(&(f.ang - d.body_pos[b].cross(&f.lin))) + Vector3::new(tau[3], tau[4], tau[5]);
+    let alpha = (moment - omega.cross(&fb.inertia.component_mul(&omega))).component_mul(&fb.inv_inertia);
+    let acc = &mut d.qacc[v..v + 6];
+    acc[..3].copy_from_slice((force * fb.inv_mass).as_slice());
+    acc[3..].copy_from_slice(alpha.as_slice());
+}
+
 /// Factorises every mass-matrix block in place (Cholesky). Returns false when a block is not
 /// positive definite.
 /// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
 /// O(n d²) for a tree of depth d.
 pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
-    for (t, &(t0, n)) in m.trees.iter().enumerate() {
+    factor_mass_trees(m, d, &m.plan.all.trees)
+}
+
+/// [`factor_mass`] for the blocks of `trees` only.
+pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
+    for &t in trees {
+        let (t0, n) = m.trees[t];
         let off = m.tree_block[t];
         if !linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n]) {
             return false;
@@ -131,7 +164,14 @@ pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
 
 /// Solves M̄ x = x in place with the factorised blocks.
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
-    for (t, &(t0, n)) in m.trees.iter().enumerate() {
+    solve_mass_trees(m, &m.plan.all.trees, mass_blocks, x);
+}
+
+/// [`solve_mass`] for the blocks of `trees` only (the other entries of `x` are left as they
+/// are).
+pub fn solve_mass_trees(m: &Model, trees: &[usize], mass_blocks: &[f64], x: &mut [f64]) {
+    for &t in trees {
+        let (t0, n) = m.trees[t];
         let off = m.tree_block[t];
         linalg::ltdl_solve(
             &mass_blocks[off..off + n * n],
@@ -278,12 +318,18 @@ pub const REDUNDANT_PIVOT: f64 = 1e-10;
 /// Solves the constrained equations of motion (31), in the block form (34): on entry `d.qacc` holds `τ − C` and the
 /// mass blocks are factorised; on exit `d.qacc` holds q̈ and `d.lambda` the multipliers.
 pub fn solve_constrained(m: &Model, d: &mut Data) {
-    solve_mass(m, &d.mass_blocks, &mut d.qacc);
+    solve_constrained_trees(m, d, &m.plan.all.trees);
+}
+
+/// [`solve_constrained`] with the blocks of `trees` only (the constraint rows must not touch
+/// the other trees' degrees of freedom, whose entries of `d.qacc` are left as they are).
+pub fn solve_constrained_trees(m: &Model, d: &mut Data, trees: &[usize]) {
+    solve_mass_trees(m, trees, &d.mass_blocks, &mut d.qacc);
     let (nv, nc) = (m.nv, m.nc);
     if nc == 0 {
         return;
     }
-    factor_schur(m, d);
+    factor_schur_trees(m, d, trees);
     for r in 0..nc {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];
         d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
@@ -316,11 +362,17 @@ fn solve_schur(d: &mut Data, nc: usize) {
 /// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
 /// leading `d.schur_rank` pivots.
 pub fn factor_schur(m: &Model, d: &mut Data) {
+    factor_schur_trees(m, d, &m.plan.all.trees);
+}
+
+/// [`factor_schur`] with the blocks of `trees` only (the rows' entries outside them are zero
+/// and stay zero in `M̄⁻¹ Φ_qᵀ`).
+fn factor_schur_trees(m: &Model, d: &mut Data, trees: &[usize]) {
     let (nv, nc) = (m.nv, m.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
         col.copy_from_slice(&d.phi_q[r * nv..(r + 1) * nv]);
-        solve_mass(m, &d.mass_blocks, col);
+        solve_mass_trees(m, trees, &d.mass_blocks, col);
     }
     for r in 0..nc {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];

@@ -11,11 +11,19 @@
 //!
 //! The contact *mode* (which contacts are active) is frozen during an evaluation; the engine
 //! changes it at located events.
+//!
+//! The integrators call [`evaluate_rhs`], which follows the model's [`Plan`](crate::model::Plan):
+//! free bodies (a free joint to the ground, nothing attached by a loop) skip the general path
+//! — no motion subspaces, spatial inertias, mass-matrix assembly or factorisation — and get
+//! their accelerations from Newton-Euler with their constant body-frame mass matrix; the rest
+//! of the model takes the general path above. [`evaluate`] (outputs, events, mode changes,
+//! projection) always takes the general path over the whole model, so that everything in
+//! [`Data`] is filled.
 
 use crate::contact;
 use crate::dynamics;
 use crate::integrator::OdeSystem;
-use crate::kinematics::{kinematics, position_derivative};
+use crate::kinematics::{free_body_kinematics, joint_kinematics, kinematics, position_derivative};
 use crate::model::{Data, Model};
 use crate::scene::Law;
 
@@ -46,6 +54,50 @@ pub fn evaluate(m: &Model, d: &mut Data) -> bool {
         }
     } else {
         d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
+    }
+    ok
+}
+
+/// The right-hand side's evaluation at `d.eval_state`: `d.qacc` and `d.dissipation` as
+/// [`evaluate`] computes them (up to rounding: the free bodies' accelerations come from
+/// Newton-Euler instead of the factorised mass matrix), by the lean path of the model's plan.
+/// Leaves the free bodies' motion subspaces, bias accelerations and spatial inertias, and
+/// their blocks of the mass matrix, as they were: code that reads those calls [`evaluate`]
+/// or [`kinematics`]. Takes the general path while an impulse-law contact rests (its
+/// constraint row needs the motion subspaces).
+pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
+    let plan = &m.plan;
+    if plan.free.is_empty() || any_resting(m, d) {
+        return evaluate(m, d);
+    }
+    let general = &plan.general;
+    for &ji in &general.joints {
+        joint_kinematics(m, d, ji);
+    }
+    for fb in &plan.free {
+        free_body_kinematics(m, d, fb);
+    }
+    let mut power = dynamics::applied_forces(m, d);
+    if !m.contacts.is_empty() {
+        power += contact::apply_forces(m, d);
+    }
+    d.dissipation = power;
+    let mut ok = true;
+    if !general.joints.is_empty() {
+        dynamics::mass_and_bias_part(m, d, general);
+        ok = dynamics::factor_mass_trees(m, d, &general.trees);
+        if !ok {
+            d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
+        } else if m.loop_rows() > 0 {
+            // (a loop never touches a free body: the plan leaves such a body on the general path)
+            dynamics::constraints(m, d, contact::resting_rows);
+            dynamics::solve_constrained_trees(m, d, &general.trees);
+        } else {
+            dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
+        }
+    }
+    for fb in &plan.free {
+        dynamics::free_body_accelerations(m, d, fb);
     }
     ok
 }
@@ -84,7 +136,7 @@ pub struct Rhs<'a> {
 impl OdeSystem for Rhs<'_> {
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         self.data.eval_state.copy_from_slice(y);
-        evaluate(self.model, self.data);
+        evaluate_rhs(self.model, self.data);
         state_derivative(self.model, self.data, dy);
     }
 }
