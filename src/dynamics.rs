@@ -534,11 +534,29 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) 
     true
 }
 
-/// Kinetic energy ½ Σ Vᵀ I V [J].
+/// Kinetic energy ½ Σ Vᵀ I V [J] at the evaluated kinematics; the free bodies' part from their
+/// centre-of-mass velocity and body-frame inertia (their spatial inertias are not computed on
+/// the lean path).
 pub fn kinetic_energy(m: &Model, d: &Data) -> f64 {
-    (0..m.bodies.len())
-        .map(|b| 0.5 * d.body_vel[b].dot(&d.body_inertia[b].mul(&d.body_vel[b])))
-        .sum()
+    let general: f64 = m
+        .plan
+        .general
+        .bodies
+        .iter()
+        .map(|&b| 0.5 * d.body_vel[b].dot(&d.body_inertia[b].mul(&d.body_vel[b])))
+        .sum();
+    let free: f64 = m
+        .plan
+        .free
+        .iter()
+        .map(|fb| {
+            let b = fb.body;
+            let v = d.body_vel[b].point_velocity(&d.body_pos[b]);
+            let w = d.body_rot[b].tr_mul(&d.body_vel[b].ang);
+            0.5 * (m.bodies[b].mass * v.norm_squared() + w.dot(&fb.inertia.component_mul(&w)))
+        })
+        .sum();
+    general + free
 }
 
 /// Potential energy of gravity and springs [J].

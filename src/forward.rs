@@ -102,6 +102,30 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     ok
 }
 
+/// What the outputs read, at the current state `d.state`: body poses and velocities, the
+/// contact forces and outputs (through the plan: the free bodies' lean kinematics). The mass
+/// matrix and the accelerations are not computed (no output reads them), except while an
+/// impulse-law contact rests: its force is a multiplier of the constrained solve, so then
+/// this is [`evaluate_current`].
+pub fn evaluate_outputs(m: &Model, d: &mut Data) {
+    if any_resting(m, d) {
+        evaluate_current(m, d);
+        return;
+    }
+    d.eval_state.copy_from_slice(&d.state);
+    for &ji in &m.plan.general.joints {
+        joint_kinematics(m, d, ji);
+    }
+    for fb in &m.plan.free {
+        free_body_kinematics(m, d, fb);
+    }
+    let mut power = dynamics::applied_forces(m, d);
+    if !m.contacts.is_empty() {
+        power += contact::apply_forces(m, d);
+    }
+    d.dissipation = power;
+}
+
 /// [`evaluate`] at the current state `d.state`.
 pub fn evaluate_current(m: &Model, d: &mut Data) -> bool {
     d.eval_state.copy_from_slice(&d.state);

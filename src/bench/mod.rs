@@ -133,6 +133,10 @@ pub enum BenchCommand {
         /// Trajectory CSV (time and every output).
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// Outputs to read at every communication point in the timed runs (as a host that
+        /// records the trajectory does): comma-separated names, or `all`.
+        #[arg(long, value_delimiter = ',')]
+        read: Vec<String>,
     },
 }
 
@@ -181,14 +185,8 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             experiment,
             repeats,
             csv,
-        } => run_command(
-            &scene,
-            experiment.stop_time,
-            experiment.interval,
-            &experiment.set,
-            repeats,
-            csv.as_deref(),
-        ),
+            read,
+        } => run_command(&scene, &experiment, repeats, csv.as_deref(), read),
     }
 }
 
@@ -231,6 +229,9 @@ pub struct RunSpec {
     pub stop_time: f64,
     /// Communication interval [s].
     pub interval: f64,
+    /// Outputs read at every communication point in the timed runs too (as a host that
+    /// records the trajectory does): their names, or `all`; none when empty.
+    pub read_outputs: Vec<String>,
 }
 
 impl RunSpec {
@@ -242,6 +243,7 @@ impl RunSpec {
             set: Vec::new(),
             stop_time,
             interval,
+            read_outputs: Vec::new(),
         }
     }
 
@@ -354,12 +356,34 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
         let mut sim = setup(spec)?;
         let c0 = thread_cpu_seconds();
         let t0 = Instant::now();
-        failure = step_through(&mut sim, spec, |_| {});
+        let outputs = read_indices(&sim, &spec.read_outputs)?;
+        let mut sink = 0.0;
+        failure = step_through(&mut sim, spec, |s| {
+            for &i in &outputs {
+                sink += s.get(i).unwrap_or(0.0);
+            }
+        });
+        std::hint::black_box(sink);
         wall.push(t0.elapsed().as_secs_f64());
         cpu.push(thread_cpu_seconds() - c0);
         counters = sim.counters();
     }
     Ok((median(&wall), median(&cpu), counters, failure))
+}
+
+/// The variable indices of `names` (`all`: every output).
+fn read_indices(sim: &Simulation, names: &[String]) -> Result<Vec<usize>, String> {
+    if names.iter().any(|n| n == "all") {
+        return Ok(sim.output_indices());
+    }
+    names
+        .iter()
+        .map(|n| {
+            sim.table()
+                .index_of(n)
+                .ok_or_else(|| format!("--read: no variable {n:?}"))
+        })
+        .collect()
 }
 
 /// Runs once, recording the named outputs (all outputs when `outputs` is empty) at every
@@ -512,19 +536,19 @@ pub fn parse_settings(set: &[String]) -> Result<Vec<(String, f64)>, String> {
 
 fn run_command(
     scene: &Path,
-    stop_time: Option<f64>,
-    interval: Option<f64>,
-    set: &[String],
+    experiment: &crate::run::Experiment,
     repeats: usize,
     csv: Option<&Path>,
+    read_outputs: Vec<String>,
 ) -> Result<(), String> {
     let parsed = Scene::from_file(scene).map_err(|e| e.to_string())?;
     let spec = RunSpec {
-        stop_time: stop_time.unwrap_or(parsed.model.stop_time),
-        interval: interval.unwrap_or(parsed.model.interval),
+        stop_time: experiment.stop_time.unwrap_or(parsed.model.stop_time),
+        interval: experiment.interval.unwrap_or(parsed.model.interval),
         scene: parsed,
         origin: scene.display().to_string(),
-        set: parse_settings(set)?,
+        set: parse_settings(&experiment.set)?,
+        read_outputs,
     };
     let (wall, cpu, c, failure) = time_runs(&spec, repeats)?;
     if let Some(p) = csv {
