@@ -13,7 +13,7 @@
 
 use crate::kinematics::{add_jacobian_row, frame, kinematics};
 use crate::linalg;
-use crate::model::{Data, FreeBody, Input, Model, Part};
+use crate::model::{Data, FreeBody, Input, Model, Part, TreeJoint};
 use crate::scene::JointType;
 use crate::spatial::{point_acceleration, Spatial};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -69,13 +69,27 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
 /// Assembles the packed mass-matrix blocks M̄ (composite-rigid-body method) and the
 /// right-hand side `τ − C(q, q̇)` into `d.qacc` (recursive Newton-Euler with q̈ = 0).
 pub fn mass_and_bias(m: &Model, d: &mut Data) {
-    mass_and_bias_part(m, d, &m.plan.all);
+    mass_and_bias_of(m, d, 0..m.bodies.len(), m.joints.iter());
 }
 
 /// [`mass_and_bias`] for the joints and bodies of `part` only (a set of whole trees).
 pub fn mass_and_bias_part(m: &Model, d: &mut Data, part: &Part) {
+    mass_and_bias_of(
+        m,
+        d,
+        part.bodies.iter().copied(),
+        part.joints.iter().map(|&ji| &m.joints[ji]),
+    );
+}
+
+/// [`mass_and_bias`] over `bodies` and `joints` (parents first), generic so that the whole
+/// model's pass iterates its own arrays.
+fn mass_and_bias_of<'a, J>(m: &'a Model, d: &mut Data, bodies: impl Iterator<Item = usize>, joints: J)
+where
+    J: DoubleEndedIterator<Item = &'a TreeJoint> + Clone,
+{
     // Bias forces.
-    for &b in &part.bodies {
+    for b in bodies {
         let i = &d.body_inertia[b];
         let v = &d.body_vel[b];
         let f = i
@@ -85,8 +99,7 @@ pub fn mass_and_bias_part(m: &Model, d: &mut Data, part: &Part) {
         d.body_wrench[b] = f;
         d.composite[b] = *i;
     }
-    for &ji in part.joints.iter().rev() {
-        let j = &m.joints[ji];
+    for j in joints.clone().rev() {
         let c = j.child;
         let f = d.body_wrench[c];
         for k in j.qvel..j.qvel + j.nv() {
@@ -100,8 +113,7 @@ pub fn mass_and_bias_part(m: &Model, d: &mut Data, part: &Part) {
     }
     // Mass matrix, block by tree. Only entries on ancestor paths are written (and read by the
     // tree-sparse factorisation); entries between sibling branches stay zero.
-    for &ji in &part.joints {
-        let j = &m.joints[ji];
+    for j in joints {
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
         let off = m.tree_block[tree];
@@ -147,12 +159,13 @@ pub fn free_body_accelerations(m: &Model, d: &mut Data, fb: &FreeBody) {
 /// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
 /// O(n d²) for a tree of depth d.
 pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
-    factor_mass_trees(m, d, &m.plan.all.trees)
+    factor_mass_trees(m, d, 0..m.trees.len())
 }
 
 /// [`factor_mass`] for the blocks of `trees` only.
-pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
-    for &t in trees {
+#[inline(always)]
+pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: impl IntoIterator<Item = usize>) -> bool {
+    for t in trees {
         let (t0, n) = m.trees[t];
         let off = m.tree_block[t];
         if !linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n]) {
@@ -164,13 +177,14 @@ pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
 
 /// Solves M̄ x = x in place with the factorised blocks.
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
-    solve_mass_trees(m, &m.plan.all.trees, mass_blocks, x);
+    solve_mass_trees(m, 0..m.trees.len(), mass_blocks, x);
 }
 
 /// [`solve_mass`] for the blocks of `trees` only (the other entries of `x` are left as they
 /// are).
-pub fn solve_mass_trees(m: &Model, trees: &[usize], mass_blocks: &[f64], x: &mut [f64]) {
-    for &t in trees {
+#[inline(always)]
+pub fn solve_mass_trees(m: &Model, trees: impl IntoIterator<Item = usize>, mass_blocks: &[f64], x: &mut [f64]) {
+    for t in trees {
         let (t0, n) = m.trees[t];
         let off = m.tree_block[t];
         linalg::ltdl_solve(
@@ -318,13 +332,13 @@ pub const REDUNDANT_PIVOT: f64 = 1e-10;
 /// Solves the constrained equations of motion (31), in the block form (34): on entry `d.qacc` holds `τ − C` and the
 /// mass blocks are factorised; on exit `d.qacc` holds q̈ and `d.lambda` the multipliers.
 pub fn solve_constrained(m: &Model, d: &mut Data) {
-    solve_constrained_trees(m, d, &m.plan.all.trees);
+    solve_constrained_trees(m, d, 0..m.trees.len());
 }
 
 /// [`solve_constrained`] with the blocks of `trees` only (the constraint rows must not touch
 /// the other trees' degrees of freedom, whose entries of `d.qacc` are left as they are).
-pub fn solve_constrained_trees(m: &Model, d: &mut Data, trees: &[usize]) {
-    solve_mass_trees(m, trees, &d.mass_blocks, &mut d.qacc);
+pub fn solve_constrained_trees<T: IntoIterator<Item = usize> + Clone>(m: &Model, d: &mut Data, trees: T) {
+    solve_mass_trees(m, trees.clone(), &d.mass_blocks, &mut d.qacc);
     let (nv, nc) = (m.nv, m.nc);
     if nc == 0 {
         return;
@@ -362,17 +376,17 @@ fn solve_schur(d: &mut Data, nc: usize) {
 /// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
 /// leading `d.schur_rank` pivots.
 pub fn factor_schur(m: &Model, d: &mut Data) {
-    factor_schur_trees(m, d, &m.plan.all.trees);
+    factor_schur_trees(m, d, 0..m.trees.len());
 }
 
 /// [`factor_schur`] with the blocks of `trees` only (the rows' entries outside them are zero
 /// and stay zero in `M̄⁻¹ Φ_qᵀ`).
-fn factor_schur_trees(m: &Model, d: &mut Data, trees: &[usize]) {
+fn factor_schur_trees<T: IntoIterator<Item = usize> + Clone>(m: &Model, d: &mut Data, trees: T) {
     let (nv, nc) = (m.nv, m.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
         col.copy_from_slice(&d.phi_q[r * nv..(r + 1) * nv]);
-        solve_mass_trees(m, trees, &d.mass_blocks, col);
+        solve_mass_trees(m, trees.clone(), &d.mass_blocks, col);
     }
     for r in 0..nc {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];

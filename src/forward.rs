@@ -85,15 +85,15 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let mut ok = true;
     if !general.joints.is_empty() {
         dynamics::mass_and_bias_part(m, d, general);
-        ok = dynamics::factor_mass_trees(m, d, &general.trees);
+        ok = dynamics::factor_mass_trees(m, d, general.trees.iter().copied());
         if !ok {
             d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
         } else if m.loop_rows() > 0 {
             // (a loop never touches a free body: the plan leaves such a body on the general path)
             dynamics::constraints(m, d, contact::resting_rows);
-            dynamics::solve_constrained_trees(m, d, &general.trees);
+            dynamics::solve_constrained_trees(m, d, general.trees.iter().copied());
         } else {
-            dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
+            dynamics::solve_mass_trees(m, general.trees.iter().copied(), &d.mass_blocks, &mut d.qacc);
         }
     }
     for fb in &plan.free {

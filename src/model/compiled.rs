@@ -204,8 +204,6 @@ pub struct Part {
 /// lean path, everything else the general one.
 #[derive(Debug, Clone, Default)]
 pub struct Plan {
-    /// Every joint, body and tree (the general path over the whole model).
-    pub all: Part,
     /// What the lean right-hand side leaves to the general path (everything but `free`).
     pub general: Part,
     /// Free bodies (Newton-Euler, no mass matrix).
@@ -238,14 +236,7 @@ impl Plan {
                 && b.mass > 0.0
                 && b.inertia.iter().all(|&x| x > 0.0)
         };
-        let mut plan = Plan {
-            all: Part {
-                joints: (0..joints.len()).collect(),
-                bodies: (0..bodies.len()).collect(),
-                trees: (0..ntrees).collect(),
-            },
-            ..Plan::default()
-        };
+        let mut plan = Plan::default();
         let mut general_tree = vec![false; ntrees];
         for (ji, j) in joints.iter().enumerate() {
             if is_free(j) {
