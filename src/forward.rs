@@ -104,11 +104,12 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
 
 /// What the outputs read, at the current state `d.state`: body poses and velocities, the
 /// contact forces and outputs (through the plan: the free bodies' lean kinematics). The mass
-/// matrix and the accelerations are not computed (no output reads them), except while an
-/// impulse-law contact rests: its force is a multiplier of the constrained solve, so then
-/// this is [`evaluate_current`].
+/// matrix and the accelerations are not computed (no output reads them), except in a model
+/// with loops (the data after an output read then holds the constrained solve: its
+/// multipliers and the rank of its constraint rows, as before) or while an impulse-law
+/// contact rests (its force is a multiplier): then this is [`evaluate_current`].
 pub fn evaluate_outputs(m: &Model, d: &mut Data) {
-    if any_resting(m, d) {
+    if m.loop_rows() > 0 || any_resting(m, d) {
         evaluate_current(m, d);
         return;
     }
