@@ -5,8 +5,7 @@
 //! (`scripts/rhs_instructions.sh`) divides into a count per evaluation; `--mode` restricts the
 //! run to one of the two contact modes.
 
-use super::scaling::time_per_call;
-use super::{bundled_scenes, f, Csv};
+use super::{bundled_scenes, f, median, thread_cpu_seconds, Csv};
 use crate::compile::compile;
 use crate::forward::Rhs;
 use crate::integrator::OdeSystem;
@@ -29,10 +28,18 @@ pub fn run(
         Some("contact") => &[true],
         Some(other) => return Err(format!("--mode {other:?}: expected free or contact")),
     };
-    let mut csv = Csv::new(&["scene", "contacts_active", "nv", "contacts", "calls", "rhs_seconds"]);
+    let mut csv = Csv::new(&[
+        "scene",
+        "contacts_active",
+        "nv",
+        "contacts",
+        "calls",
+        "rhs_cpu_seconds",
+        "rhs_wall_seconds",
+    ]);
     println!(
-        "{:<16} {:>5} {:>6} {:>9} {:>16} {:>16}",
-        "scene", "nv", "ncont", "calls", "free [ns]", "contact [ns]"
+        "{:<16} {:>5} {:>6} {:>9} {:>16} {:>16} {:>16} {:>16}",
+        "scene", "nv", "ncont", "calls", "free cpu [ns]", "contact cpu [ns]", "free wall [ns]", "contact wall [ns]"
     );
     for (name, path) in bundled_scenes(dir)? {
         if only.is_some_and(|o| !name.contains(o)) {
@@ -43,6 +50,7 @@ pub fn run(
         let state = d.state.clone();
         let mut dy = vec![0.0; state.len()];
         let mut cost = [0.0; 2];
+        let mut wall = [0.0; 2];
         let mut n_calls = 0;
         for &active in modes {
             let k = active as usize;
@@ -58,14 +66,21 @@ pub fn run(
             .rhs(0.0, &state, &mut dy);
             let once = t0.elapsed().as_secs_f64().max(1e-9);
             n_calls = calls.unwrap_or(((0.05 / once) as usize).clamp(1, 1_000_000));
-            cost[k] = time_per_call(repeats, n_calls, || {
-                Rhs {
-                    model: &m,
-                    data: &mut d,
+            let (mut cpu_runs, mut wall_runs) = (Vec::new(), Vec::new());
+            for _ in 0..repeats.max(1) {
+                let (c0, t0) = (thread_cpu_seconds(), Instant::now());
+                for _ in 0..n_calls {
+                    Rhs {
+                        model: &m,
+                        data: &mut d,
+                    }
+                    .rhs(0.0, &state, &mut dy);
+                    std::hint::black_box(&dy);
                 }
-                .rhs(0.0, &state, &mut dy);
-                std::hint::black_box(&dy);
-            });
+                wall_runs.push(t0.elapsed().as_secs_f64() / n_calls as f64);
+                cpu_runs.push((thread_cpu_seconds() - c0) / n_calls as f64);
+            }
+            (cost[k], wall[k]) = (median(&cpu_runs), median(&wall_runs));
             csv.push(vec![
                 name.clone(),
                 active.to_string(),
@@ -73,16 +88,19 @@ pub fn run(
                 m.contacts.len().to_string(),
                 n_calls.to_string(),
                 f(cost[k]),
+                f(wall[k]),
             ]);
         }
         println!(
-            "{:<16} {:>5} {:>6} {:>9} {:>16.1} {:>16.1}",
+            "{:<16} {:>5} {:>6} {:>9} {:>16.1} {:>16.1} {:>16.1} {:>16.1}",
             name,
             m.nv,
             m.contacts.len(),
             n_calls,
             cost[0] * 1e9,
-            cost[1] * 1e9
+            cost[1] * 1e9,
+            wall[0] * 1e9,
+            wall[1] * 1e9
         );
     }
     csv.write(csv_path)
