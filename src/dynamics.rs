@@ -159,14 +159,7 @@ pub fn free_body_accelerations(m: &Model, d: &mut Data, fb: &FreeBody) {
 /// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
 /// O(n d²) for a tree of depth d.
 pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
-    factor_mass_trees(m, d, 0..m.trees.len())
-}
-
-/// [`factor_mass`] for the blocks of `trees` only.
-#[inline(always)]
-pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: impl IntoIterator<Item = usize>) -> bool {
-    for t in trees {
-        let (t0, n) = m.trees[t];
+    for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
         if !linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n]) {
             return false;
@@ -175,18 +168,32 @@ pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: impl IntoIterator<Item 
     true
 }
 
-/// Solves M̄ x = x in place with the factorised blocks.
-pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
-    solve_mass_trees(m, 0..m.trees.len(), mass_blocks, x);
+/// [`factor_mass`] for the blocks of `trees` only (the lean path's general part).
+pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
+    trees.iter().all(|&t| {
+        let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
+        linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n])
+    })
 }
 
-/// [`solve_mass`] for the blocks of `trees` only (the other entries of `x` are left as they
-/// are).
-#[inline(always)]
-pub fn solve_mass_trees(m: &Model, trees: impl IntoIterator<Item = usize>, mass_blocks: &[f64], x: &mut [f64]) {
-    for t in trees {
-        let (t0, n) = m.trees[t];
+/// Solves M̄ x = x in place with the factorised blocks.
+pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
+    for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
+        linalg::ltdl_solve(
+            &mass_blocks[off..off + n * n],
+            n,
+            &m.dof_parent[t0..t0 + n],
+            &mut x[t0..t0 + n],
+        );
+    }
+}
+
+/// [`solve_mass`] with the blocks of `trees` only (the other entries of `x` are left as they
+/// are).
+pub fn solve_mass_trees(m: &Model, trees: &[usize], mass_blocks: &[f64], x: &mut [f64]) {
+    for &t in trees {
+        let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
         linalg::ltdl_solve(
             &mass_blocks[off..off + n * n],
             n,
@@ -332,18 +339,12 @@ pub const REDUNDANT_PIVOT: f64 = 1e-10;
 /// Solves the constrained equations of motion (31), in the block form (34): on entry `d.qacc` holds `τ − C` and the
 /// mass blocks are factorised; on exit `d.qacc` holds q̈ and `d.lambda` the multipliers.
 pub fn solve_constrained(m: &Model, d: &mut Data) {
-    solve_constrained_trees(m, d, 0..m.trees.len());
-}
-
-/// [`solve_constrained`] with the blocks of `trees` only (the constraint rows must not touch
-/// the other trees' degrees of freedom, whose entries of `d.qacc` are left as they are).
-pub fn solve_constrained_trees<T: IntoIterator<Item = usize> + Clone>(m: &Model, d: &mut Data, trees: T) {
-    solve_mass_trees(m, trees.clone(), &d.mass_blocks, &mut d.qacc);
+    solve_mass(m, &d.mass_blocks, &mut d.qacc);
     let (nv, nc) = (m.nv, m.nc);
     if nc == 0 {
         return;
     }
-    factor_schur_trees(m, d, trees);
+    factor_schur(m, d);
     for r in 0..nc {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];
         d.lambda[r] = linalg::dot(jr, &d.qacc) - d.gamma[r];
@@ -376,17 +377,11 @@ fn solve_schur(d: &mut Data, nc: usize) {
 /// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
 /// leading `d.schur_rank` pivots.
 pub fn factor_schur(m: &Model, d: &mut Data) {
-    factor_schur_trees(m, d, 0..m.trees.len());
-}
-
-/// [`factor_schur`] with the blocks of `trees` only (the rows' entries outside them are zero
-/// and stay zero in `M̄⁻¹ Φ_qᵀ`).
-fn factor_schur_trees<T: IntoIterator<Item = usize> + Clone>(m: &Model, d: &mut Data, trees: T) {
     let (nv, nc) = (m.nv, m.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
         col.copy_from_slice(&d.phi_q[r * nv..(r + 1) * nv]);
-        solve_mass_trees(m, trees.clone(), &d.mass_blocks, col);
+        solve_mass(m, &d.mass_blocks, col);
     }
     for r in 0..nc {
         let jr = &d.phi_q[r * nv..(r + 1) * nv];

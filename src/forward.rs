@@ -85,15 +85,20 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let mut ok = true;
     if !general.joints.is_empty() {
         dynamics::mass_and_bias_part(m, d, general);
-        ok = dynamics::factor_mass_trees(m, d, general.trees.iter().copied());
+        ok = dynamics::factor_mass_trees(m, d, &general.trees);
         if !ok {
             d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
         } else if m.loop_rows() > 0 {
-            // (a loop never touches a free body: the plan leaves such a body on the general path)
+            // A loop never touches a free body (the plan leaves such a body on the general
+            // path), so the free bodies' columns of Φ_q are zero, and the solve over every block
+            // leaves the general dofs as the solve over the general blocks would: the free
+            // bodies' blocks always hold a valid factor (their constant M̄ from `Data::new`, or
+            // the general path's at the last full evaluation), and their entries of q̈ are
+            // overwritten below.
             dynamics::constraints(m, d, contact::resting_rows);
-            dynamics::solve_constrained_trees(m, d, general.trees.iter().copied());
+            dynamics::solve_constrained(m, d);
         } else {
-            dynamics::solve_mass_trees(m, general.trees.iter().copied(), &d.mass_blocks, &mut d.qacc);
+            dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
         }
     }
     for fb in &plan.free {
