@@ -308,7 +308,7 @@ def main():
                     break
         if sc["truth"] is None:
             best_ex = min((p[3] for p in points if p[0] == "exudyn" and p[7] == "ok"), default=float("nan"))
-            print(f"{name}: reference (contact-fmu dopri5 rtol 1e-12) agrees with Exudyn's best run to {best_ex:.2e}")
+            print(f"{name}: reference (contact-fmu dopri5 rtol {sc.get('reference_rtol', 1e-12):.0e}) agrees with Exudyn's best run to {best_ex:.2e}")
         for p in points:
             rows.append((name,) + p)
             print(f"{name:15s} {p[0]:12s} {p[1]:34s} {p[2]:9.1e} err {p[3]:10.3e} t {p[4]:10.3e} s cpu {p[5]:10.3e} s {p[7]}")
