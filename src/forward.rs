@@ -71,17 +71,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
         return evaluate(m, d);
     }
     let general = &plan.general;
-    for &ji in &general.joints {
-        joint_kinematics(m, d, ji);
-    }
-    for fb in &plan.free {
-        free_body_kinematics(m, d, fb);
-    }
-    let mut power = dynamics::applied_forces(m, d);
-    if !m.contacts.is_empty() {
-        power += contact::apply_forces(m, d);
-    }
-    d.dissipation = power;
+    planned_kinematics_and_forces(m, d);
     let mut ok = true;
     if !general.joints.is_empty() {
         dynamics::mass_and_bias_part(m, d, general);
@@ -119,6 +109,12 @@ pub fn evaluate_outputs(m: &Model, d: &mut Data) {
         return;
     }
     d.eval_state.copy_from_slice(&d.state);
+    planned_kinematics_and_forces(m, d);
+}
+
+/// Kinematics through the plan (the general joints', then the free bodies' lean ones), the
+/// applied and contact forces, and the dissipated power, at `d.eval_state`.
+fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
     for &ji in &m.plan.general.joints {
         joint_kinematics(m, d, ji);
     }
