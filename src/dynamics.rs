@@ -13,7 +13,7 @@
 
 use crate::kinematics::{add_jacobian_row, frame, kinematics};
 use crate::linalg;
-use crate::model::{Data, Input, Model};
+use crate::model::{Data, FreeBody, Input, Model, Part, TreeJoint};
 use crate::scene::JointType;
 use crate::spatial::{point_acceleration, Spatial};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -73,8 +73,27 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
 /// Assembles the packed mass-matrix blocks M̄ (composite-rigid-body method) and the
 /// right-hand side `τ − C(q, q̇)` into `d.qacc` (recursive Newton-Euler with q̈ = 0).
 pub fn mass_and_bias(m: &Model, d: &mut Data) {
+    mass_and_bias_of(m, d, 0..m.bodies.len(), m.joints.iter());
+}
+
+/// [`mass_and_bias`] for the joints and bodies of `part` only (a set of whole trees).
+pub fn mass_and_bias_part(m: &Model, d: &mut Data, part: &Part) {
+    mass_and_bias_of(
+        m,
+        d,
+        part.bodies.iter().copied(),
+        part.joints.iter().map(|&ji| &m.joints[ji]),
+    );
+}
+
+/// [`mass_and_bias`] over `bodies` and `joints` (parents first), generic so that the whole
+/// model's pass iterates its own arrays.
+fn mass_and_bias_of<'a, J>(m: &'a Model, d: &mut Data, bodies: impl Iterator<Item = usize>, joints: J)
+where
+    J: DoubleEndedIterator<Item = &'a TreeJoint> + Clone,
+{
     // Bias forces.
-    for b in 0..m.bodies.len() {
+    for b in bodies {
         let i = &d.body_inertia[b];
         let v = &d.body_vel[b];
         let f = i
@@ -84,7 +103,7 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
         d.body_wrench[b] = f;
         d.composite[b] = *i;
     }
-    for j in m.joints.iter().rev() {
+    for j in joints.clone().rev() {
         let c = j.child;
         let f = d.body_wrench[c];
         for k in j.qvel..j.qvel + j.nv() {
@@ -98,7 +117,7 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
     }
     // Mass matrix, block by tree. Only entries on ancestor paths are written (and read by the
     // tree-sparse factorisation); entries between sibling branches stay zero.
-    for j in m.joints.iter() {
+    for j in joints {
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
         let off = m.tree_block[tree];
@@ -119,6 +138,26 @@ pub fn mass_and_bias(m: &Model, d: &mut Data) {
     }
 }
 
+/// The accelerations of a free body ([`FreeBody`]) into `d.qacc`, by Newton-Euler at its
+/// centre of mass: `a = f/m` (world frame) and `I ω̇ = τ − ω × I ω` (body frame), from the
+/// forces on it (`d.body_force`, at the origin) and generalised forces on its coordinates
+/// (`d.tau`). Reads the pose [`crate::kinematics::free_body_kinematics`] wrote.
+#[inline]
+pub fn free_body_accelerations(m: &Model, d: &mut Data, fb: &FreeBody) {
+    let (b, v) = (fb.body, fb.qvel);
+    let f = &d.body_force[b];
+    let w = &d.eval_state[m.nq + v + 3..m.nq + v + 6];
+    let omega = Vector3::new(w[0], w[1], w[2]);
+    let tau = &d.tau[v..v + 6];
+    let force = f.lin + Vector3::new(tau[0], tau[1], tau[2]);
+    // the moment about the centre of mass, in the body frame
+    let moment = d.body_rot[b].tr_mul(&(f.ang - d.body_pos[b].cross(&f.lin))) + Vector3::new(tau[3], tau[4], tau[5]);
+    let alpha = (moment - omega.cross(&fb.inertia.component_mul(&omega))).component_mul(&fb.inv_inertia);
+    let acc = &mut d.qacc[v..v + 6];
+    acc[..3].copy_from_slice((force * fb.inv_mass).as_slice());
+    acc[3..].copy_from_slice(alpha.as_slice());
+}
+
 /// Factorises every mass-matrix block in place (Cholesky). Returns false when a block is not
 /// positive definite.
 /// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
@@ -133,10 +172,32 @@ pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
     true
 }
 
+/// [`factor_mass`] for the blocks of `trees` only (the lean path's general part).
+pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
+    trees.iter().all(|&t| {
+        let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
+        linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n])
+    })
+}
+
 /// Solves M̄ x = x in place with the factorised blocks.
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
     for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
+        linalg::ltdl_solve(
+            &mass_blocks[off..off + n * n],
+            n,
+            &m.dof_parent[t0..t0 + n],
+            &mut x[t0..t0 + n],
+        );
+    }
+}
+
+/// [`solve_mass`] with the blocks of `trees` only (the other entries of `x` are left as they
+/// are).
+pub fn solve_mass_trees(m: &Model, trees: &[usize], mass_blocks: &[f64], x: &mut [f64]) {
+    for &t in trees {
+        let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
         linalg::ltdl_solve(
             &mass_blocks[off..off + n * n],
             n,
@@ -505,11 +566,29 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) 
     true
 }
 
-/// Kinetic energy ½ Σ Vᵀ I V [J].
+/// Kinetic energy ½ Σ Vᵀ I V [J] at the evaluated kinematics; the free bodies' part from their
+/// centre-of-mass velocity and body-frame inertia (their spatial inertias are not computed on
+/// the lean path).
 pub fn kinetic_energy(m: &Model, d: &Data) -> f64 {
-    (0..m.bodies.len())
-        .map(|b| 0.5 * d.body_vel[b].dot(&d.body_inertia[b].mul(&d.body_vel[b])))
-        .sum()
+    let general: f64 = m
+        .plan
+        .general
+        .bodies
+        .iter()
+        .map(|&b| 0.5 * d.body_vel[b].dot(&d.body_inertia[b].mul(&d.body_vel[b])))
+        .sum();
+    let free: f64 = m
+        .plan
+        .free
+        .iter()
+        .map(|fb| {
+            let b = fb.body;
+            let v = d.body_vel[b].point_velocity(&d.body_pos[b]);
+            let w = d.body_rot[b].tr_mul(&d.body_vel[b].ang);
+            0.5 * (m.bodies[b].mass * v.norm_squared() + w.dot(&fb.inertia.component_mul(&w)))
+        })
+        .sum();
+    general + free
 }
 
 /// Potential energy of gravity and springs [J].

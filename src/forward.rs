@@ -11,11 +11,19 @@
 //!
 //! The contact *mode* (which contacts are active) is frozen during an evaluation; the engine
 //! changes it at located events.
+//!
+//! The integrators call [`evaluate_rhs`], which follows the model's [`Plan`](crate::model::Plan):
+//! free bodies (a free joint to the ground, nothing attached by a loop) skip the general path
+//! — no motion subspaces, spatial inertias, mass-matrix assembly or factorisation — and get
+//! their accelerations from Newton-Euler with their constant body-frame mass matrix; the rest
+//! of the model takes the general path above. [`evaluate`] (outputs, events, mode changes,
+//! projection) always takes the general path over the whole model, so that everything in
+//! [`Data`] is filled.
 
 use crate::contact;
 use crate::dynamics;
 use crate::integrator::OdeSystem;
-use crate::kinematics::{kinematics, position_derivative};
+use crate::kinematics::{free_body_kinematics, joint_kinematics, kinematics, position_derivative};
 use crate::model::{Data, Model};
 use crate::scene::Law;
 
@@ -54,6 +62,76 @@ pub fn evaluate(m: &Model, d: &mut Data) -> bool {
     ok
 }
 
+/// The right-hand side's evaluation at `d.eval_state`: `d.qacc` and `d.dissipation` as
+/// [`evaluate`] computes them (up to rounding: the free bodies' accelerations come from
+/// Newton-Euler instead of the factorised mass matrix), by the lean path of the model's plan.
+/// Leaves the free bodies' motion subspaces, bias accelerations and spatial inertias, and
+/// their blocks of the mass matrix, as they were: code that reads those calls [`evaluate`]
+/// or [`kinematics`]. Takes the general path while an impulse-law contact rests (its
+/// constraint row needs the motion subspaces).
+pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
+    let plan = &m.plan;
+    if plan.free.is_empty() || any_resting(m, d) {
+        return evaluate(m, d);
+    }
+    let general = &plan.general;
+    planned_kinematics_and_forces(m, d);
+    let mut ok = true;
+    if !general.joints.is_empty() {
+        dynamics::mass_and_bias_part(m, d, general);
+        ok = dynamics::factor_mass_trees(m, d, &general.trees);
+        if !ok {
+            d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
+        } else if m.loop_rows() > 0 {
+            // A loop never touches a free body (the plan leaves such a body on the general
+            // path), so the free bodies' columns of Φ_q are zero, and the solve over every block
+            // leaves the general dofs as the solve over the general blocks would: the free
+            // bodies' blocks always hold a valid factor (their constant M̄ from `Data::new`, or
+            // the general path's at the last full evaluation), and their entries of q̈ are
+            // overwritten below.
+            dynamics::constraints(m, d, contact::resting_rows);
+            dynamics::solve_constrained(m, d);
+        } else {
+            dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
+        }
+    }
+    for fb in &plan.free {
+        dynamics::free_body_accelerations(m, d, fb);
+    }
+    ok
+}
+
+/// What the outputs read, at the current state `d.state`: body poses and velocities, the
+/// contact forces and outputs (through the plan: the free bodies' lean kinematics). The mass
+/// matrix and the accelerations are not computed (no output reads them), except in a model
+/// with loops (the data after an output read then holds the constrained solve: its
+/// multipliers and the rank of its constraint rows, as before) or while an impulse-law
+/// contact rests (its force is a multiplier): then this is [`evaluate_current`].
+pub fn evaluate_outputs(m: &Model, d: &mut Data) {
+    if m.loop_rows() > 0 || any_resting(m, d) {
+        evaluate_current(m, d);
+        return;
+    }
+    d.eval_state.copy_from_slice(&d.state);
+    planned_kinematics_and_forces(m, d);
+}
+
+/// Kinematics through the plan (the general joints', then the free bodies' lean ones), the
+/// applied and contact forces, and the dissipated power, at `d.eval_state`.
+fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
+    for &ji in &m.plan.general.joints {
+        joint_kinematics(m, d, ji);
+    }
+    for fb in &m.plan.free {
+        free_body_kinematics(m, d, fb);
+    }
+    let mut power = dynamics::applied_forces(m, d);
+    if !m.contacts.is_empty() {
+        power += contact::apply_forces(m, d);
+    }
+    d.dissipation = power;
+}
+
 /// [`evaluate`] at the current state `d.state`.
 pub fn evaluate_current(m: &Model, d: &mut Data) -> bool {
     d.eval_state.copy_from_slice(&d.state);
@@ -88,7 +166,7 @@ pub struct Rhs<'a> {
 impl OdeSystem for Rhs<'_> {
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         self.data.eval_state.copy_from_slice(y);
-        evaluate(self.model, self.data);
+        evaluate_rhs(self.model, self.data);
         state_derivative(self.model, self.data, dy);
     }
 }

@@ -7,7 +7,7 @@
 //! to the kinematics part of [`Data`]. All spatial quantities are in world-frame Plücker
 //! coordinates at the world origin (see [`crate::spatial`]).
 
-use crate::model::{Data, Model};
+use crate::model::{Data, FreeBody, Model};
 use crate::scene::JointType;
 use crate::spatial::{Frame, Inertia, Spatial};
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
@@ -151,6 +151,26 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
     let b = &m.bodies[c];
     let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
     d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
+}
+
+/// The lean kinematics of a free body ([`FreeBody`]): its pose and spatial velocity only
+/// (the pose bit for bit as [`joint_kinematics`] gives it). Its motion subspaces, bias
+/// acceleration and spatial inertia are not computed: Newton-Euler
+/// ([`crate::dynamics::free_body_accelerations`]) needs none of them.
+#[inline]
+pub fn free_body_kinematics(m: &Model, d: &mut Data, fb: &FreeBody) {
+    let q = &d.eval_state[fb.qpos..fb.qpos + 7];
+    let w = &d.eval_state[m.nq + fb.qvel..m.nq + fb.qvel + 6];
+    let pos = Vector3::new(q[0], q[1], q[2]);
+    let quat = quat_at(&q[3..7]);
+    let rot = *quat.to_rotation_matrix().matrix();
+    let omega = rot * Vector3::new(w[3], w[4], w[5]);
+    let v = Vector3::new(w[0], w[1], w[2]);
+    let b = fb.body;
+    d.body_pos[b] = pos;
+    d.body_rot[b] = rot;
+    d.body_quat[b] = quat;
+    d.body_vel[b] = Spatial::new(omega, v + pos.cross(&omega));
 }
 
 /// Time derivative of the position coordinates (quaternion rates for spherical and free

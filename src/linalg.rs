@@ -21,6 +21,7 @@ pub const NO_PARENT: usize = usize::MAX;
 /// the cost is O(n d²) for depth d instead of O(n³), and only the lower entries on ancestor
 /// paths are read or written. L (unit, strictly lower) and D (diagonal) overwrite `h`.
 /// Returns false if a pivot is not positive.
+#[inline(always)]
 pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
     for k in (0..n).rev() {
         let hkk = h[k * n + k];
@@ -43,6 +44,7 @@ pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
 }
 
 /// Solves `Lᵀ D L x = b` in place with a factor from [`ltdl_in_place`].
+#[inline(always)]
 pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
     for i in (0..n).rev() {
         let xi = x[i];

@@ -7,7 +7,7 @@
 
 use crate::contact;
 use crate::dynamics;
-use crate::forward::evaluate_current;
+use crate::forward::evaluate_outputs;
 use crate::kinematics::com_velocity;
 use crate::model::{Data, Model};
 use crate::variables::VarRef;
@@ -32,10 +32,11 @@ impl Energies {
     }
 }
 
-/// Evaluates the data at the current state unless that was done since the state changed.
+/// Evaluates the data at the current state unless that was done since the state changed
+/// (kinematics and contact forces: [`evaluate_outputs`]).
 pub fn refresh(m: &Model, d: &mut Data) {
     if !d.outputs_valid {
-        evaluate_current(m, d);
+        evaluate_outputs(m, d);
         d.outputs_valid = true;
     }
 }

@@ -380,7 +380,11 @@ impl Simulation {
             self.compiled = Some(Compiled { model, data });
             self.compiled_fresh = true;
         }
-        self.compiled.as_mut().ok_or(SimError::NotInitialized)
+        // (a match, not `ok_or`: that builds and drops an error on every successful call)
+        match self.compiled.as_mut() {
+            Some(c) => Ok(c),
+            None => Err(SimError::NotInitialized),
+        }
     }
 
     /// The initialised model and data.
@@ -388,7 +392,11 @@ impl Simulation {
         if !self.initialized {
             return Err(SimError::NotInitialized);
         }
-        self.compiled.as_mut().ok_or(SimError::NotInitialized)
+        // (a match, not `ok_or`: that builds and drops an error on every successful call)
+        match self.compiled.as_mut() {
+            Some(c) => Ok(c),
+            None => Err(SimError::NotInitialized),
+        }
     }
 
     /// Ends initialisation: checks every parameter, compiles the model and sets the state to

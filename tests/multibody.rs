@@ -1302,3 +1302,87 @@ fn parallelogram_passes_its_change_points_on_its_branch() {
     assert!(dq < 1e-8, "left the parallelogram branch: {dq:.3e}");
     assert!(resid < 1e-9, "residual {resid:.3e}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// the lean path of free bodies
+
+#[test]
+fn lean_right_hand_side_matches_the_general_path() {
+    // A slider-crank (a loop: the general path) beside two free spheres, spinning, turned and
+    // far from the origin, in contact with each other; a spring ties one to the crank, an input
+    // force and torque act on the other.
+    let mut scene = slider_crank(Method::Dopri5, 1e-8, 2.0, 3.0, false);
+    scene.material.push(MaterialSpec::steel());
+    let turned = UnitQuaternion::from_euler_angles(0.3, -0.7, 1.1);
+    let a = body(
+        "a",
+        0.0329,
+        [1.316e-6, 1.5e-6, 1.7e-6],
+        Vector3::new(1.0, -2.0, 0.5),
+        turned,
+    )
+    .velocity([0.3, -0.2, 0.1])
+    .angular_velocity([4.0, -7.0, 11.0]);
+    let b = body(
+        "b",
+        0.111,
+        [9.99e-6, 9.99e-6, 1.2e-5],
+        Vector3::new(1.0199, -2.0, 0.5),
+        UnitQuaternion::identity(),
+    )
+    .velocity([-0.5, 0.0, 0.2])
+    .angular_velocity([-3.0, 2.0, 5.0]);
+    scene.contact.push(
+        ContactSpec::sphere_sphere("ab", Law::HertzLn, Sphere::of(&a, 0.01), Sphere::of(&b, 0.01))
+            .restitution(0.8)
+            .materials("steel", "steel"),
+    );
+    scene
+        .spring_damper
+        .push(SpringDamperSpec::new("tie", "crank", [0.0, 0.0, 0.0], "a", [1.0, -2.0, 0.51], 50.0).damping(0.3));
+    scene.input.push(InputSpec::force("push", "b", [0.0, 1.0, 0.0]));
+    scene.input.push(InputSpec::torque("twist", "b", [1.0, 1.0, 0.0]));
+    scene.body.push(a);
+    scene.body.push(b);
+    let (m, mut d) = compile(scene);
+    assert_eq!(m.plan.free.len(), 2);
+    assert!(!m.plan.general.joints.is_empty());
+    d.inputs.iter_mut().enumerate().for_each(|(i, u)| *u = 0.7 + i as f64);
+    for mem in d.contact_memory.iter_mut() {
+        mem.active = true;
+        mem.impact_velocity = 0.5;
+    }
+    let state = d.state.clone();
+    let (mut lean, mut general) = (vec![0.0; m.nstate()], vec![0.0; m.nstate()]);
+    for k in 0..5 {
+        let mut y = state.clone();
+        y[m.nq..m.nq + m.nv]
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v += 0.1 * (k * i) as f64 % 0.7);
+        Rhs {
+            model: &m,
+            data: &mut d,
+        }
+        .rhs(0.0, &y, &mut lean);
+        d.eval_state.copy_from_slice(&y);
+        assert!(contact_fmu::forward::evaluate(&m, &mut d));
+        contact_fmu::forward::state_derivative(&m, &d, &mut general);
+        assert!(d.contact_out.iter().any(|o| o.force > 0.0));
+        let scale = general.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+        let worst = lean
+            .iter()
+            .zip(&general)
+            .fold(0.0_f64, |a, (x, g)| a.max((x - g).abs()));
+        println!(
+            "state {k}: largest |lean − general| = {:.2e} of the largest rate {scale:.3e}",
+            worst / scale
+        );
+        for (i, (x, g)) in lean.iter().zip(&general).enumerate() {
+            assert!(
+                (x - g).abs() <= 1e-10 * scale,
+                "state {k}, component {i}: lean {x:e}, general {g:e}"
+            );
+        }
+    }
+}

@@ -9,6 +9,7 @@
 //! - `scaling`: N free spheres in a box, time per simulated second against N ([`scaling`]).
 //! - `targets`: the rail vehicle's speed and accuracy targets, RHS cost, allocations
 //!   ([`targets`]).
+//! - `rhs`: the cost of one right-hand-side evaluation of each bundled scene ([`rhs`]).
 //! - `run`: one scene, repeated, with its median time, counters and a trajectory CSV (used by
 //!   the Python peer comparison in `scripts/`).
 //!
@@ -16,6 +17,7 @@
 //! and the thread's CPU time; the counters (steps, RHS and Jacobian evaluations, events)
 //! are exact and repeat bit for bit.
 
+pub mod rhs;
 pub mod scaling;
 pub mod scenes;
 pub mod stress;
@@ -95,6 +97,29 @@ pub enum BenchCommand {
         #[arg(long, default_value = "docs/targets.csv")]
         csv: PathBuf,
     },
+    /// The cost of one RHS evaluation of each bundled scene (free flight, every contact
+    /// active).
+    Rhs {
+        /// Folder of bundled scenes.
+        #[arg(long, default_value = "fmu")]
+        scenes: PathBuf,
+        /// Only scenes whose name contains this.
+        #[arg(long)]
+        only: Option<String>,
+        /// Timed batches (the median is reported).
+        #[arg(long, default_value_t = 9)]
+        repeats: usize,
+        /// Calls per batch (default: about 50 ms worth); fixed for instruction counts.
+        #[arg(long)]
+        calls: Option<usize>,
+        /// Only one contact mode: `free` (as the scene starts) or `contact` (every contact
+        /// active).
+        #[arg(long)]
+        mode: Option<String>,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/rhs.csv")]
+        csv: PathBuf,
+    },
     /// One scene, repeated: median time, counters, and the outputs at every communication
     /// point written to a CSV.
     Run {
@@ -108,6 +133,10 @@ pub enum BenchCommand {
         /// Trajectory CSV (time and every output).
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// Outputs to read at every communication point in the timed runs (as a host that
+        /// records the trajectory does): comma-separated names, or `all`.
+        #[arg(long, value_delimiter = ',')]
+        read: Vec<String>,
     },
 }
 
@@ -143,19 +172,21 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             None => scaling::run(&n, time, repeats, &csv),
         },
         BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
+        BenchCommand::Rhs {
+            scenes,
+            only,
+            repeats,
+            calls,
+            mode,
+            csv,
+        } => rhs::run(&scenes, only.as_deref(), repeats, calls, mode.as_deref(), &csv),
         BenchCommand::Run {
             scene,
             experiment,
             repeats,
             csv,
-        } => run_command(
-            &scene,
-            experiment.stop_time,
-            experiment.interval,
-            &experiment.set,
-            repeats,
-            csv.as_deref(),
-        ),
+            read,
+        } => run_command(&scene, &experiment, repeats, csv.as_deref(), read),
     }
 }
 
@@ -198,6 +229,9 @@ pub struct RunSpec {
     pub stop_time: f64,
     /// Communication interval [s].
     pub interval: f64,
+    /// Outputs read at every communication point in the timed runs too (as a host that
+    /// records the trajectory does): their names, or `all`; none when empty.
+    pub read_outputs: Vec<String>,
 }
 
 impl RunSpec {
@@ -209,6 +243,7 @@ impl RunSpec {
             set: Vec::new(),
             stop_time,
             interval,
+            read_outputs: Vec::new(),
         }
     }
 
@@ -321,12 +356,34 @@ pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, 
         let mut sim = setup(spec)?;
         let c0 = thread_cpu_seconds();
         let t0 = Instant::now();
-        failure = step_through(&mut sim, spec, |_| {});
+        let outputs = read_indices(&sim, &spec.read_outputs)?;
+        let mut sink = 0.0;
+        failure = step_through(&mut sim, spec, |s| {
+            for &i in &outputs {
+                sink += s.get(i).unwrap_or(0.0);
+            }
+        });
+        std::hint::black_box(sink);
         wall.push(t0.elapsed().as_secs_f64());
         cpu.push(thread_cpu_seconds() - c0);
         counters = sim.counters();
     }
     Ok((median(&wall), median(&cpu), counters, failure))
+}
+
+/// The variable indices of `names` (`all`: every output).
+fn read_indices(sim: &Simulation, names: &[String]) -> Result<Vec<usize>, String> {
+    if names.iter().any(|n| n == "all") {
+        return Ok(sim.output_indices());
+    }
+    names
+        .iter()
+        .map(|n| {
+            sim.table()
+                .index_of(n)
+                .ok_or_else(|| format!("--read: no variable {n:?}"))
+        })
+        .collect()
 }
 
 /// Runs once, recording the named outputs (all outputs when `outputs` is empty) at every
@@ -479,19 +536,19 @@ pub fn parse_settings(set: &[String]) -> Result<Vec<(String, f64)>, String> {
 
 fn run_command(
     scene: &Path,
-    stop_time: Option<f64>,
-    interval: Option<f64>,
-    set: &[String],
+    experiment: &crate::run::Experiment,
     repeats: usize,
     csv: Option<&Path>,
+    read_outputs: Vec<String>,
 ) -> Result<(), String> {
     let parsed = Scene::from_file(scene).map_err(|e| e.to_string())?;
     let spec = RunSpec {
-        stop_time: stop_time.unwrap_or(parsed.model.stop_time),
-        interval: interval.unwrap_or(parsed.model.interval),
+        stop_time: experiment.stop_time.unwrap_or(parsed.model.stop_time),
+        interval: experiment.interval.unwrap_or(parsed.model.interval),
         scene: parsed,
         origin: scene.display().to_string(),
-        set: parse_settings(set)?,
+        set: parse_settings(&experiment.set)?,
+        read_outputs,
     };
     let (wall, cpu, c, failure) = time_runs(&spec, repeats)?;
     if let Some(p) = csv {

@@ -19,7 +19,7 @@ mod velocities;
 pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
-use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
+use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -355,6 +355,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         })
         .collect();
 
+    let plan = Plan::of(&bodies, &joints, &loops, trees.len());
     let mut model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),
@@ -373,6 +374,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         tree_block,
         dof_joint,
         dof_parent,
+        plan,
         solver: params.solver.clone(),
         baumgarte: 20.0,
         warnings,

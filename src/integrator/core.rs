@@ -98,6 +98,10 @@ impl StepCore {
         if h <= ROUNDOFF_GAP * self.t.abs().max(1e-300) {
             return Err(IntegratorError::StepSizeUnderflow(self.t));
         }
+        if !(self.t + h).is_finite() {
+            // a step to a time beyond the largest number (or from a non-finite one)
+            return Err(IntegratorError::NotFinite(self.t));
+        }
         Ok((h, last))
     }
 

@@ -167,6 +167,100 @@ pub enum Input {
     },
 }
 
+/// A free body on the lean path: a free joint to the ground with no child body and no loop
+/// joint attached. Its velocity coordinates are the centre-of-mass velocity (world frame) and
+/// the angular velocity (body frame), so its block of M̄ is the constant
+/// `diag(m, m, m, I₁, I₂, I₃)` and its accelerations are Newton-Euler's, body by body:
+/// `m a = f`, `I ω̇ + ω × I ω = τ` (see [`crate::forward`]).
+#[derive(Debug, Clone)]
+pub struct FreeBody {
+    /// The body.
+    pub body: usize,
+    /// First position coordinate (centre of mass, then the quaternion).
+    pub qpos: usize,
+    /// First velocity coordinate.
+    pub qvel: usize,
+    /// 1 / mass [1/kg].
+    pub inv_mass: f64,
+    /// Principal moments of inertia [kg m^2].
+    pub inertia: Vector3<f64>,
+    /// Their reciprocals [1/(kg m^2)].
+    pub inv_inertia: Vector3<f64>,
+}
+
+/// Tree joints, bodies and trees that one pass of the general path (kinematics, CRBA,
+/// tree-sparse `LᵀDL`) covers, in processing order (parents before children).
+#[derive(Debug, Clone, Default)]
+pub struct Part {
+    /// Tree joints.
+    pub joints: Vec<usize>,
+    /// Bodies.
+    pub bodies: Vec<usize>,
+    /// Trees (blocks of M̄).
+    pub trees: Vec<usize>,
+}
+
+/// How the right-hand side is evaluated, decided at compilation: the free bodies take the
+/// lean path, everything else the general one.
+#[derive(Debug, Clone, Default)]
+pub struct Plan {
+    /// What the lean right-hand side leaves to the general path (everything but `free`).
+    pub general: Part,
+    /// Free bodies (Newton-Euler, no mass matrix).
+    pub free: Vec<FreeBody>,
+}
+
+impl Plan {
+    /// The plan of a model: every tree that is one free body with nothing attached by a loop
+    /// goes to `free`.
+    pub fn of(bodies: &[Body], joints: &[TreeJoint], loops: &[LoopConstraint], ntrees: usize) -> Plan {
+        let mut tree_joints = vec![0usize; ntrees];
+        for j in joints {
+            tree_joints[j.tree] += 1;
+        }
+        let mut in_loop = vec![false; bodies.len()];
+        for l in loops {
+            if let Some(a) = l.body_a {
+                in_loop[a] = true;
+            }
+            in_loop[l.body_b] = true;
+        }
+        // (A body without positive mass and inertia stays on the general path, whose
+        // factorisation reports the singular mass matrix.)
+        let is_free = |j: &TreeJoint| {
+            let b = &bodies[j.child];
+            j.kind == JointType::Free
+                && j.parent.is_none()
+                && tree_joints[j.tree] == 1
+                && !in_loop[j.child]
+                && b.mass > 0.0
+                && b.inertia.iter().all(|&x| x > 0.0)
+        };
+        let mut plan = Plan::default();
+        let mut general_tree = vec![false; ntrees];
+        for (ji, j) in joints.iter().enumerate() {
+            if is_free(j) {
+                let b = &bodies[j.child];
+                plan.free.push(FreeBody {
+                    body: j.child,
+                    qpos: j.qpos,
+                    qvel: j.qvel,
+                    inv_mass: 1.0 / b.mass,
+                    inertia: b.inertia,
+                    inv_inertia: b.inertia.map(|x| 1.0 / x),
+                });
+            } else {
+                plan.general.joints.push(ji);
+                plan.general.bodies.push(j.child);
+                general_tree[j.tree] = true;
+            }
+        }
+        plan.general.bodies.sort_unstable();
+        plan.general.trees = (0..ntrees).filter(|&t| general_tree[t]).collect();
+        plan
+    }
+}
+
 /// The compiled, read-only model.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -206,6 +300,8 @@ pub struct Model {
     /// For each velocity index, the previous one on its path to the ground, local to its
     /// tree's block ([`crate::linalg::NO_PARENT`] at a tree's root): the sparsity of M̄.
     pub dof_parent: Vec<usize>,
+    /// How the right-hand side is evaluated (the lean path of the free bodies).
+    pub plan: Plan,
     /// Solver settings.
     pub solver: crate::scene::SolverSection,
     /// Baumgarte stabilisation frequency for loop constraints [1/s].

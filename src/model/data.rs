@@ -269,6 +269,19 @@ impl Data {
             state[j.qpos..j.qpos + j.nq()].copy_from_slice(&j.q0[..j.nq()]);
         }
         let impulse_contacts = model.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        // A free body's block of M̄ is diag(m, m, m, I₁, I₂, I₃), its own LᵀDL factor: the
+        // lean right-hand side never assembles it, and a solve over every block must find a
+        // valid factor there (see `forward::evaluate_rhs`).
+        let mut mass_blocks = vec![0.0; mass_len];
+        for fb in &model.plan.free {
+            let t = model.joints[model.bodies[fb.body].joint].tree;
+            let off = model.tree_block[t];
+            let b = &model.bodies[fb.body];
+            let diag = [b.mass, b.mass, b.mass, b.inertia[0], b.inertia[1], b.inertia[2]];
+            for (k, x) in diag.into_iter().enumerate() {
+                mass_blocks[off + 7 * k] = x;
+            }
+        }
         Data {
             time: 0.0,
             eval_state: state.clone(),
@@ -316,7 +329,7 @@ impl Data {
             path_joints: Vec::with_capacity(model.joints.len()),
             composite: vec![Inertia::zero(); nb],
             body_wrench: vec![Spatial::zero(); nb],
-            mass_blocks: vec![0.0; mass_len],
+            mass_blocks,
             qacc: vec![0.0; nv],
             tau: vec![0.0; nv],
             phi: vec![0.0; nc],

@@ -7,5 +7,5 @@ pub mod compiled;
 pub mod data;
 pub mod state;
 
-pub use compiled::{nq_of, nv_of, Body, Input, LoopConstraint, Model, SpringDamper, TreeJoint};
+pub use compiled::{nq_of, nv_of, Body, FreeBody, Input, LoopConstraint, Model, Part, Plan, SpringDamper, TreeJoint};
 pub use data::{ContactEvent, ContactEventKind, Counters, Data};
