@@ -24,7 +24,7 @@ fn run(path: &std::path::Path, interval: f64) -> (u64, Vec<Vec<f64>>) {
     let mut k = 0u64;
     s.run(stop, interval, |s| {
         k += 1;
-        if k % every == 0 {
+        if k.is_multiple_of(every) {
             rows.push(outputs.iter().map(|&i| s.get(i).unwrap()).collect());
         }
         Ok(())
