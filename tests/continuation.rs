@@ -54,7 +54,7 @@ fn work_does_not_depend_on_the_communication_step() {
         println!("{name}: {fine} RHS at 1e-4 s, {coarse} at 1e-2 s (ratio {ratio:.3}); largest difference {worst:.1e} of the range");
         assert_eq!(a.len(), b.len(), "{name}: rows");
         assert!(
-            ratio <= 1.2 && ratio >= 1.0 / 1.2,
+            (1.0 / 1.2..=1.2).contains(&ratio),
             "{name}: RHS {fine} at 1e-4 s against {coarse} at 1e-2 s"
         );
         assert!(worst < 1e-5, "{name}: outputs differ by {worst:.1e} of their range");
