@@ -965,14 +965,17 @@ def main():
         sys.exit(1 if seq.violations else 0)
     t0 = time.monotonic()
     last = [t0]
+    csv = args.csv or (str(ROOT / "docs" / "fuzz.csv") if args.sequences >= 10000 else None)
 
     def progress(results):
         now = time.monotonic()
-        if now - last[0] > 30:
+        if now - last[0] > 60:
             last[0] = now
             s = summarize(results)
             print(f"  {len(results)}/{args.sequences} sequences, {now - t0:.0f} s, "
                   + ", ".join(f"{k} {v}" for k, v in s["counts"].items()), flush=True)
+            if csv:  # an interrupted campaign leaves the figures of what it ran
+                write_csv(s, csv, now - t0, args.jobs, args.first_seed)
 
     seeds = range(args.first_seed, args.first_seed + args.sequences)
     results = campaign(fmus, seeds, jobs=args.jobs, timeout=args.timeout, slow=args.slow, inject=args.inject,
@@ -980,7 +983,6 @@ def main():
     seconds = time.monotonic() - t0
     summary = summarize(results)
     print_table(summary, seconds, args.jobs, args.first_seed)
-    csv = args.csv or (str(ROOT / "docs" / "fuzz.csv") if args.sequences >= 10000 else None)
     if csv:
         write_csv(summary, csv, seconds, args.jobs, args.first_seed)
         print(f"wrote {csv}")
