@@ -139,6 +139,9 @@ class FmuInfo:
         self.by_type = by_type
         self.checked = [vr for vr, _, t, c in self.vars if t == "Real" and c in ("output", "calculatedParameter")]
         self.max_steps_vr = next((vr for vr, n, _, _ in self.vars if n == "solver.max_steps"), None)
+        self.solver_integers = [
+            (n, vr) for vr, n, _, _ in self.vars if n in ("solver.method", "solver.max_steps", "solver.steps")
+        ]
         resources = self.dir / "resources"
         self.uri = "file:///" + urllib.parse.quote(str(resources).lstrip("/"))
         self.uri_forms = [
@@ -240,10 +243,12 @@ class Sequence:
             print(f"  [{len(self.calls) - 1:3d}] {who}{self.fmus[fmu][0].name}: {name}({describe}) -> {s}  ({dt * 1e3:.2f} ms)")
         if status is not None and not (0 <= status <= 5):
             self.violations.append(("bad_status", len(self.calls) - 1, f"{name} returned {status}"))
-        if name == "fmi2DoStep" and dt > self.slow:
-            self.violations.append(("slow_step", len(self.calls) - 1, f"{name}({describe}) took {dt:.2f} s"))
         if inst is not None and status is not None:
             self.update_shadow(inst, name, status)
+        if name == "fmi2DoStep" and dt > self.slow:
+            self.violations.append(
+                ("slow_step", len(self.calls) - 1, f"{name}({describe}) took {dt:.2f} s{self.solver_settings(inst)}")
+            )
         self.last = (inst, status)
         return res
 
@@ -256,6 +261,19 @@ class Sequence:
             inst["state"] = FATAL
         elif status == 2:
             inst["state"] = FAILED
+
+    def solver_settings(self, inst):
+        """`solver.*` Integer values of an instance in a readable state (for the report of a
+        slow step: its method and step budget)."""
+        info = self.fmus[inst["fmu"]][0]
+        if not inst["alive"] or inst["state"] not in READABLE or not info.solver_integers:
+            return ""
+        names = [n for n, _ in info.solver_integers]
+        vrs = (c_uint * len(names))(*[vr for _, vr in info.solver_integers])
+        out = (c_int * len(names))()
+        if self.f(inst["fmu"], "fmi2GetInteger")(inst["handle"], vrs, len(names), out) != 0:
+            return ""
+        return " (" + ", ".join(f"{n} = {x}" for n, x in zip(names, out)) + ")"
 
     def check_outputs(self, inst):
         """Reads every Real output and calculated parameter of a live instance in a readable
@@ -854,10 +872,15 @@ def campaign(fmu_paths, seeds, jobs=2, timeout=30.0, slow=1.0, inject=None, prog
     ctx = multiprocessing.get_context("fork")
     results = []
     with ctx.Pool(jobs, initializer=_worker_init, initargs=([str(p) for p in fmu_paths], unzip_root, slow, inject)) as pool:
-        for part in pool.imap_unordered(_run_chunk, chunks):
-            results.extend(part)
-            if progress:
-                progress(results)
+        try:
+            for part in pool.imap_unordered(_run_chunk, chunks):
+                results.extend(part)
+                if progress:
+                    progress(results)
+        except KeyboardInterrupt:
+            # an interrupted campaign (Ctrl-C, SIGTERM) reports the sequences it finished
+            pool.terminate()
+            print(f"interrupted after {len(results)} sequences", file=sys.stderr)
     import shutil
 
     shutil.rmtree(unzip_root, ignore_errors=True)
@@ -893,7 +916,7 @@ def summarize(results):
 
 def print_table(summary, seconds, jobs, first_seed):
     s = summary
-    print(f"\nFMI call-sequence fuzzing: {s['sequences']} sequences (seeds {first_seed}..{first_seed + s['sequences'] - 1}),"
+    print(f"\nFMI call-sequence fuzzing: {s['sequences']} sequences (seeds from {first_seed}),"
           f" {s['calls']} calls, {jobs} jobs, {seconds:.0f} s")
     print(f"{'function':32s} {'calls':>8s} {'OK':>8s} {'Warn':>6s} {'Discard':>8s} {'Error':>8s} {'Fatal':>6s} {'max s':>8s}")
     for name in FUNCTIONS:
@@ -963,6 +986,10 @@ def main():
         for v in seq.violations:
             print("VIOLATION", v)
         sys.exit(1 if seq.violations else 0)
+    def interrupted(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, interrupted)
     t0 = time.monotonic()
     last = [t0]
     csv = args.csv or (str(ROOT / "docs" / "fuzz.csv") if args.sequences >= 10000 else None)
@@ -986,6 +1013,12 @@ def main():
     if csv:
         write_csv(summary, csv, seconds, args.jobs, args.first_seed)
         print(f"wrote {csv}")
+    findings = [{"seed": r["seed"], "fmus": r.get("fmus"), "violations": r["violations"]} for r in results if r["violations"]]
+    if findings:
+        path = ROOT / "target" / "fuzz_findings.json"
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(json.dumps(findings, indent=1))
+        print(f"the {len(findings)} sequences with findings: {path} (replay one: python scripts/fuzz_fmi.py --seed N)")
     failed = sum(summary["counts"][k] for k in ("crash", "hang", "nan_after_ok", "bad_status")) + sum(
         summary["other"].values())
     sys.exit(1 if failed else 0)
