@@ -13,7 +13,8 @@ cd "$(dirname "$0")/.."
 if [ "${1:-}" = "--selftest" ]; then export CONTACT_FMU_LEAK_SELFTEST=1; fi
 command -v valgrind >/dev/null || { echo "valgrind is not installed" >&2; exit 2; }
 
-# builds the library (cdylib and rlib) and the test; prints the test executable's path
+# the shared library (cargo test builds only the rlib), then the test; its executable's path
+cargo build --release --lib
 exe="$(cargo test --release --test fmi_shared_library --no-run 2>&1 \
     | sed -n 's/.*Executable tests\/fmi_shared_library.rs (\(.*\))/\1/p' | tail -n 1)"
 [ -x "$exe" ] || { echo "could not build tests/fmi_shared_library.rs" >&2; exit 2; }

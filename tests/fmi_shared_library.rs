@@ -5,7 +5,8 @@
 //! checks that the session's results are those of the linked library.
 //!
 //! The library is `CONTACT_FMU_LIBRARY` when set, otherwise the one cargo built beside this
-//! test (`target/<profile>/libcontact_fmu.so`).
+//! test (`target/<profile>/libcontact_fmu.so`, which `cargo build` makes and `cargo test`
+//! alone does not update: `./run_tests.sh` and `scripts/valgrind_fmi.sh` build it first).
 
 #![cfg(target_os = "linux")]
 
