@@ -19,7 +19,8 @@ Oracles, checked after every call:
                fmi2GetReal that returned fmi2OK or, after any call that returned fmi2OK on an
                instance in a readable state, by the fuzzer's own read of all of them
   bad_status   a status outside the fmi2Status enumeration (0..5)
-  slow_step    an fmi2DoStep that took longer than --slow seconds (reported, counted apart)
+  slow_step    an fmi2DoStep that used more than --slow seconds of CPU time (its thread's, so
+               that a busy machine does not count; reported, counted apart)
 
 The hosts' values for `solver.max_steps` are drawn from 1..20000: that parameter is the
 per-step budget of integrator steps a host grants (default 5000), and granting two billion
@@ -230,11 +231,11 @@ class Sequence:
 
     def call(self, fmu, name, *args, inst=None, describe=""):
         fn = self.f(fmu, name)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         res = fn(*args)
-        dt = time.perf_counter() - t0
+        dt, cpu = time.perf_counter() - t0, time.thread_time() - c0
         status = res if fn.restype is c_int else None
-        self.calls.append((name, status, dt))
+        self.calls.append((name, status, dt, cpu))
         if self.verbose:
             s = STATUS_NAMES[status] if status is not None and 0 <= status < len(STATUS_NAMES) else status
             who = ""
@@ -245,9 +246,10 @@ class Sequence:
             self.violations.append(("bad_status", len(self.calls) - 1, f"{name} returned {status}"))
         if inst is not None and status is not None:
             self.update_shadow(inst, name, status)
-        if name == "fmi2DoStep" and dt > self.slow:
+        if name == "fmi2DoStep" and cpu > self.slow:
             self.violations.append(
-                ("slow_step", len(self.calls) - 1, f"{name}({describe}) took {dt:.2f} s{self.solver_settings(inst)}")
+                ("slow_step", len(self.calls) - 1,
+                 f"{name}({describe}) took {cpu:.2f} s CPU, {dt:.2f} s wall{self.solver_settings(inst)}")
             )
         self.last = (inst, status)
         return res
@@ -456,8 +458,11 @@ class Sequence:
             return None
         vr, start = self.rng.choice(info.plausible)
         x = start * self.rng.uniform(0.5, 2.0)
+        if self.rng.random() < 0.15 + 0.3 * self.chaos:
+            # within the range of most parameters (> 0), but near the ends of double precision
+            x = math.copysign(self.rng.choice([1.7976931348623157e308, 8e307, 1e305, 1e300, 1e-300, 5e-324]), start)
         return self.call(inst["fmu"], "fmi2SetReal", inst["handle"], (c_uint * 1)(vr), 1, (c_double * 1)(x), inst=inst,
-                         describe=f"[{vr}] = [{x}] (plausible)")
+                         describe=f"[{vr}] = [{x}] (start value scaled)")
 
     def set_values(self, inst, kind):
         fmu = inst["fmu"]
@@ -772,12 +777,13 @@ class Sequence:
 
     def result(self):
         per_function = {}
-        for name, status, dt in self.calls:
-            e = per_function.setdefault(name, {"calls": 0, "status": {}, "max_seconds": 0.0})
+        for name, status, dt, cpu in self.calls:
+            e = per_function.setdefault(name, {"calls": 0, "status": {}, "max_seconds": 0.0, "max_cpu_seconds": 0.0})
             e["calls"] += 1
             key = "none" if status is None else str(status)
             e["status"][key] = e["status"].get(key, 0) + 1
             e["max_seconds"] = max(e["max_seconds"], dt)
+            e["max_cpu_seconds"] = max(e["max_cpu_seconds"], cpu)
         return {"seed": self.seed, "calls": len(self.calls), "violations": self.violations, "functions": per_function,
                 "fmus": [info.name for info, _ in self.fmus]}
 
@@ -902,14 +908,15 @@ def summarize(results):
             else:
                 other[kind] = other.get(kind, 0) + 1
             bad_seeds.setdefault(kind, []).append(r["seed"])
-    functions = {name: {"calls": 0, "status": {}, "max_seconds": 0.0} for name in FUNCTIONS}
+    functions = {name: {"calls": 0, "status": {}, "max_seconds": 0.0, "max_cpu_seconds": 0.0} for name in FUNCTIONS}
     for r in results:
         for name, e in r["functions"].items():
-            agg = functions.setdefault(name, {"calls": 0, "status": {}, "max_seconds": 0.0})
+            agg = functions.setdefault(name, {"calls": 0, "status": {}, "max_seconds": 0.0, "max_cpu_seconds": 0.0})
             agg["calls"] += e["calls"]
             for k, v in e["status"].items():
                 agg["status"][k] = agg["status"].get(k, 0) + v
             agg["max_seconds"] = max(agg["max_seconds"], e["max_seconds"])
+            agg["max_cpu_seconds"] = max(agg["max_cpu_seconds"], e["max_cpu_seconds"])
     return {"sequences": len(results), "calls": sum(r["calls"] for r in results), "counts": counts, "other": other,
             "bad_seeds": bad_seeds, "functions": functions}
 
@@ -918,7 +925,7 @@ def print_table(summary, seconds, jobs, first_seed):
     s = summary
     print(f"\nFMI call-sequence fuzzing: {s['sequences']} sequences (seeds from {first_seed}),"
           f" {s['calls']} calls, {jobs} jobs, {seconds:.0f} s")
-    print(f"{'function':32s} {'calls':>8s} {'OK':>8s} {'Warn':>6s} {'Discard':>8s} {'Error':>8s} {'Fatal':>6s} {'max s':>8s}")
+    print(f"{'function':32s} {'calls':>8s} {'OK':>8s} {'Warn':>6s} {'Discard':>8s} {'Error':>8s} {'Fatal':>6s} {'max wall s':>10s} {'max CPU s':>9s}")
     for name in FUNCTIONS:
         e = s["functions"][name]
         st = e["status"]
@@ -927,7 +934,7 @@ def print_table(summary, seconds, jobs, first_seed):
         else:
             ok = st.get("0", 0)
         print(f"{name:32s} {e['calls']:8d} {ok:8d} {st.get('1', 0):6d} {st.get('2', 0):8d} {st.get('3', 0):8d}"
-              f" {st.get('4', 0):6d} {e['max_seconds']:8.3f}")
+              f" {st.get('4', 0):6d} {e['max_seconds']:10.3f} {e['max_cpu_seconds']:9.3f}")
     print()
     print(f"{'oracle':16s} {'sequences':>10s}  first seeds")
     for kind in ORACLES + sorted(s["other"]):
@@ -938,7 +945,7 @@ def print_table(summary, seconds, jobs, first_seed):
 
 def write_csv(summary, path, seconds, jobs, first_seed):
     s = summary
-    lines = ["function,calls,ok,warning,discard,error,fatal,pending,other,max_seconds"]
+    lines = ["function,calls,ok,warning,discard,error,fatal,pending,other,max_wall_seconds,max_cpu_seconds"]
     for name in FUNCTIONS:
         e = s["functions"][name]
         st = dict(e["status"])
@@ -946,7 +953,7 @@ def write_csv(summary, path, seconds, jobs, first_seed):
         ok = st.pop("0", 0) + none
         known = [st.pop(str(k), 0) for k in range(1, 6)]
         other = sum(st.values())
-        lines.append(f"{name},{e['calls']},{ok},{','.join(map(str, known))},{other},{e['max_seconds']:.4f}")
+        lines.append(f"{name},{e['calls']},{ok},{','.join(map(str, known))},{other},{e['max_seconds']:.4f},{e['max_cpu_seconds']:.4f}")
     lines.append("")
     lines.append("oracle,sequences_violating")
     for kind in ORACLES + sorted(s["other"]):
@@ -967,7 +974,7 @@ def main():
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--timeout", type=float, default=30.0, help="seconds per sequence before it counts as a hang")
-    ap.add_argument("--slow", type=float, default=1.0, help="an fmi2DoStep longer than this counts as slow_step")
+    ap.add_argument("--slow", type=float, default=1.0, help="an fmi2DoStep using more CPU seconds counts as slow_step")
     ap.add_argument("--fmu", action="append", help="FMU files (default: target/fmu/*.fmu)")
     ap.add_argument("--csv", default=None, help="CSV to write (default docs/fuzz.csv for >= 10000 sequences)")
     ap.add_argument("--seed", type=int, help="replay one sequence in this process, printing every call")

@@ -352,9 +352,17 @@ impl Instance {
         Ok(())
     }
 
-    /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model.
+    /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model; then
+    /// every output and calculated parameter at the initial state must be a finite number
+    /// (see [`Instance::finite`]).
     pub fn exit_initialization_mode(&mut self) -> FmiResult {
         self.sim.initialize(self.start_time)?;
+        for vr in 0..self.sim.variables().len() {
+            if computed(&self.sim.variables()[vr]) {
+                let x = self.sim.get(vr)?;
+                self.finite(vr, x)?;
+            }
+        }
         self.state = LifeState::StepComplete;
         self.log_event(&format!(
             "fmi2ExitInitializationMode: initialised at t = {}",
@@ -410,9 +418,26 @@ impl Instance {
         for (k, &vr) in vrs.iter().enumerate() {
             self.variable(vr, access)?;
             let x = self.sim.get(vr as usize)?;
+            self.finite(vr as usize, x)?;
             put(k, x);
         }
         Ok(())
+    }
+
+    /// An output or calculated parameter is never handed to the host as NaN or infinity:
+    /// parameter values inside their ranges can still overflow double precision (a mass near
+    /// 1.8e308 makes the energies infinite or NaN), and such a value is an error naming the
+    /// variable instead. Parameters and inputs read back what the host set.
+    fn finite(&self, vr: usize, x: f64) -> FmiResult {
+        let var = &self.sim.variables()[vr];
+        if x.is_finite() || !computed(var) {
+            return Ok(());
+        }
+        Err(Failure::error(format!(
+            "{} = {x} is not a finite number: the parameter values overflow double precision \
+             (a mass, modulus or length near 1.8e308?); reset and set smaller ones",
+            var.name
+        )))
     }
 
     /// Sets variables of one type, checking that each may be set in the current state.
@@ -555,6 +580,11 @@ impl Instance {
         ));
         Ok(())
     }
+}
+
+/// True for the variables the model computes (outputs, calculated parameters).
+fn computed(var: &Variable) -> bool {
+    matches!(var.causality, Causality::Output | Causality::CalculatedParameter)
 }
 
 /// This model has no String variables: a String access with any value reference is refused.
