@@ -121,7 +121,7 @@ fn bad_binary_arguments_are_refused_with_a_message() {
         (format!("win64={missing}"), "missing.dll: no such file"),
         (s.path("contact_fmu.dll"), "expected PLATFORM=PATH"),
     ] {
-        let o = export(&fmu, &[arg.clone()]);
+        let o = export(&fmu, std::slice::from_ref(&arg));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{arg}");
         assert!(

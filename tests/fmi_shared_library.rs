@@ -63,7 +63,7 @@ impl Loaded {
             ($name:literal) => {
                 // SAFETY: the symbol is the library's `extern "C"` function of this name, whose
                 // signature is the field's (both follow fmi2FunctionTypes.h).
-                unsafe { std::mem::transmute::<*mut c_void, _>(self.symbol($name)) }
+                unsafe { function(self.symbol($name)) }
             };
         }
         Api {
@@ -84,6 +84,17 @@ impl Loaded {
             deserialize: load!(c"fmi2DeSerializeFMUstate"),
         }
     }
+}
+
+/// A function pointer of type `F` from a symbol's address.
+///
+/// # Safety
+/// `F` is the `extern "C" fn` type of the function at `p`.
+unsafe fn function<F: Copy>(p: *mut c_void) -> F {
+    assert_eq!(std::mem::size_of::<F>(), std::mem::size_of::<*mut c_void>());
+    // SAFETY: a function pointer has the size of an address (checked) and `p` is the address
+    // of a function of type `F` (this function's contract).
+    unsafe { std::mem::transmute_copy::<*mut c_void, F>(&p) }
 }
 
 impl Drop for Loaded {
