@@ -30,6 +30,7 @@ Usage:
   python scripts/fuzz_fmi.py --sequences 300 --jobs 2          # a short run
   python scripts/fuzz_fmi.py --sequences 100000 --jobs 2       # the campaign: table + docs/fuzz.csv
   python scripts/fuzz_fmi.py --seed 1234 --verbose             # replay one sequence
+  python scripts/fuzz_fmi.py --long-steps --csv docs/long_steps.csv   # overlong steps timed
 """
 
 import argparse
@@ -964,6 +965,45 @@ def write_csv(summary, path, seconds, jobs, first_seed):
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+def long_steps(fmu_paths, csv=None):
+    """fmi2DoStep(0, h) right after initialisation, without a stop time, for h = 1e300, 1e9,
+    1e3, with every integration method and the default step budget: status, the time
+    reached, wall and CPU seconds. Prints a table; writes `csv` when given."""
+    from fmpy.fmi2 import fmi2CallbackFunctions
+
+    root = tempfile.mkdtemp(prefix="contact-fmu-long-")
+    rows = []
+    print(f"{'fmu':14s} {'method':>6s} {'h':>7s} {'status':>8s} {'t reached':>10s} {'wall s':>7s} {'CPU s':>7s}")
+    for path in fmu_paths:
+        info = FmuInfo(path, root)
+        f = load_slave(info)._functions
+        method_vr = next(vr for vr, n, _, _ in info.vars if n == "solver.method")
+        for method in (1, 2, 3, 4):
+            for h in (1e300, 1e9, 1e3):
+                cb = fmi2CallbackFunctions()
+                c = f["fmi2Instantiate"](b"long", 1, info.guid.encode(), info.uri.encode(), byref(cb), 0, 0)
+                assert f["fmi2SetupExperiment"](c, 0, 0.0, 0.0, 0, 0.0) == 0
+                assert f["fmi2EnterInitializationMode"](c) == 0
+                assert f["fmi2SetInteger"](c, (c_uint * 1)(method_vr), 1, (c_int * 1)(method)) == 0
+                assert f["fmi2ExitInitializationMode"](c) == 0
+                t0, c0 = time.perf_counter(), time.thread_time()
+                status = f["fmi2DoStep"](c, 0.0, h, 1)
+                wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
+                reached = c_double(float("nan"))
+                f["fmi2GetRealStatus"](c, 2, byref(reached))
+                f["fmi2FreeInstance"](c)
+                name = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else str(status)
+                rows.append((info.name, method, h, name, reached.value, wall, cpu))
+                print(f"{info.name:14s} {method:6d} {h:7.0e} {name:>8s} {reached.value:10.4g} {wall:7.3f} {cpu:7.3f}",
+                      flush=True)
+    if csv:
+        lines = ["fmu,method,h,status,time_reached,wall_seconds,cpu_seconds"]
+        lines += [f"{n},{m},{h:g},{st},{t:.6g},{w:.4f},{c:.4f}" for n, m, h, st, t, w, c in rows]
+        Path(csv).write_text("\n".join(lines) + "\n")
+        print(f"wrote {csv}")
+    return rows
+
+
 def default_fmus():
     return sorted(FMU_DIR.glob("*.fmu"))
 
@@ -980,10 +1020,15 @@ def main():
     ap.add_argument("--seed", type=int, help="replay one sequence in this process, printing every call")
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--inject", choices=["crash", "hang", "nan"], help="self-test: make every sequence fail so")
+    ap.add_argument("--long-steps", action="store_true",
+                    help="instead of fuzzing: time fmi2DoStep(0, 1e300 | 1e9 | 1e3) per FMU and method")
     args = ap.parse_args()
     fmus = [Path(p) for p in args.fmu] if args.fmu else default_fmus()
     if not fmus:
         sys.exit("no FMUs: export them first (cargo run --release)")
+    if args.long_steps:
+        long_steps(fmus, args.csv)
+        return
     if args.seed is not None:
         root = tempfile.mkdtemp(prefix="contact-fmu-fuzz-")
         infos = [FmuInfo(p, root) for p in fmus]

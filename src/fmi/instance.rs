@@ -317,18 +317,23 @@ impl Instance {
     /// `fmi2SetReal` of `solver.rtol` wins).
     pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> FmiResult {
         if !start_time.is_finite() {
-            return Err(Failure::error(format!("startTime must be finite (got {start_time})")));
+            return Err(Failure::error(format!(
+                "startTime must be finite (got {start_time})",
+                start_time = Num(start_time)
+            )));
         }
         if let Some(stop) = stop_time {
             if !(stop.is_finite() && stop >= start_time) {
                 return Err(Failure::error(format!(
-                    "stopTime = {stop} must be finite and >= startTime = {start_time}"
+                    "stopTime = {stop} must be finite and >= startTime = {start_time}",
+                    start_time = Num(start_time),
+                    stop = Num(stop)
                 )));
             }
         }
         if let Some(tol) = tolerance {
             if !(tol.is_finite() && tol > 0.0) {
-                return Err(Failure::error(format!("tolerance = {tol} must be > 0")));
+                return Err(Failure::error(format!("tolerance = {tol} must be > 0", tol = Num(tol))));
             }
             let vr = self.sim.table().index_of("solver.rtol").unwrap_or(usize::MAX);
             let scene_rtol = self.sim.get(vr)?;
@@ -479,42 +484,60 @@ impl Instance {
     /// `fmi2DoStep`: integrates from the current time to `current + h`.
     pub fn do_step(&mut self, current: f64, h: f64) -> FmiResult {
         if !(h.is_finite() && h > 0.0) {
-            return Err(Failure::error(format!("communicationStepSize = {h} must be > 0")));
+            return Err(Failure::error(format!(
+                "communicationStepSize = {h} must be > 0",
+                h = Num(h)
+            )));
         }
         let now = self.time();
         let scale = now.abs().max(h);
         if !current.is_finite() || (current - now).abs() > 1e-9 * scale {
             return Err(Failure::error(format!(
-                "currentCommunicationPoint = {current} is not the FMU's current time {now}"
+                "currentCommunicationPoint = {current} is not the FMU's current time {now}",
+                current = Num(current),
+                now = Num(now)
             )));
         }
         let t_end = current + h;
         if !t_end.is_finite() {
             return Err(Failure::error(format!(
-                "the step from {current} by {h} ends at a time that is not a finite number"
+                "the step from {current} by {h} ends at a time that is not a finite number",
+                h = Num(h),
+                current = Num(current)
             )));
         }
         if t_end <= now {
             return Err(Failure::error(format!(
-                "the step from {current} by {h} does not advance past the current time {now}"
+                "the step from {current} by {h} does not advance past the current time {now}",
+                h = Num(h),
+                current = Num(current),
+                now = Num(now)
             )));
         }
         if let Some(stop) = self.stop_time {
             if t_end > stop + 1e-9 * stop.abs().max(h) {
                 return Err(Failure::error(format!(
-                    "the step to t = {t_end} goes past stopTime = {stop}"
+                    "the step to t = {t_end} goes past stopTime = {stop}",
+                    stop = Num(stop),
+                    t_end = Num(t_end)
                 )));
             }
         }
         match self.sim.step_to(t_end) {
             Ok(()) => Ok(()),
             Err(SimError::Step { time, message }) => Err(Failure::error(format!(
-                "the step from t = {current} to {t_end} failed at t = {time}: {message}"
+                "the step from t = {current} to {t_end} failed at t = {time}: {message}",
+                current = Num(current),
+                t_end = Num(t_end),
+                time = Num(time)
             ))),
             Err(SimError::StepLimit { time, message }) => Err(Failure {
                 status: fmi2Status::fmi2Discard,
                 message: format!(
-                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}"
+                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}",
+                    current = Num(current),
+                    t_end = Num(t_end),
+                    time = Num(time)
                 ),
             }),
             Err(e) => Err(e.into()),
@@ -582,6 +605,21 @@ impl Instance {
     }
 }
 
+/// A time or step size in a message: as Rust writes it, except very large or small magnitudes,
+/// which get an exponent (`1e300` rather than 301 digits).
+struct Num(f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// True for the variables the model computes (outputs, calculated parameters).
 fn computed(var: &Variable) -> bool {
     matches!(var.causality, Causality::Output | Causality::CalculatedParameter)
@@ -594,5 +632,29 @@ fn no_strings(access: Access, vrs: &[fmi2ValueReference]) -> FmiResult {
             "this model has no String variables (value reference {vr})"
         ))),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Num;
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        for (x, text) in [
+            (1e300, "1e300"),
+            (-1e300, "-1e300"),
+            (5e-324, "5e-324"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (1e3, "1000"),
+            (0.001, "0.001"),
+            (0.0, "0"),
+            (-0.0, "-0"),
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "inf"),
+            (1e-5, "1e-5"),
+        ] {
+            assert_eq!(Num(x).to_string(), text);
+        }
     }
 }
