@@ -206,9 +206,11 @@ class Sequence:
         self.calls = []  # (function, status, seconds)
         self.violations = []
         self.log_count = 0
+        self.last_message = ""
 
         def logger(env, name, status, category, message):
             self.log_count += 1
+            self.last_message = message.decode(errors="replace")
             if self.verbose:
                 print(f"      log[{status}] {category.decode() if category else None}: {message.decode(errors='replace')}")
 
@@ -289,16 +291,22 @@ class Sequence:
             return
         arr = (c_uint * len(vrs))(*vrs)
         out = (c_double * len(vrs))()
+        self.last_message = ""
         status = self.f(inst["fmu"], "fmi2GetReal")(inst["handle"], arr, len(vrs), out)
         if status == 0:
             self.check_values(info, vrs, out, "after the call")
         elif status != 3 or inst["state"] not in (ERROR, INIT):
             # A read in a readable state must succeed; in initialization mode it compiles the
             # model from the parameters set so far, which fails (with a message naming the
-            # parameter) when one is out of its range.
-            self.violations.append(
-                ("read_refused", len(self.calls) - 1, f"fmi2GetReal of the outputs returned {status}")
-            )
+            # parameter) when one is out of its range. An output that overflowed (a value set
+            # near the largest double) is refused rather than handed out as NaN: that is the
+            # rule, not a violation, when the log says so (an instance without a logger, or
+            # whose error category was switched off, cannot tell, and is not judged).
+            why = self.last_message
+            if why and "is not a finite number" not in why:
+                self.violations.append(
+                    ("read_refused", len(self.calls) - 1, f"fmi2GetReal of the outputs returned {status}: {why}")
+                )
             inst["state"] = ERROR if status == 3 else inst["state"]
 
     def check_values(self, info, vrs, values, when):

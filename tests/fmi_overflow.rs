@@ -2,7 +2,9 @@
 //! found by scripts/fuzz_fmi.py: the kinetic or potential energy became NaN or infinite
 //! while fmi2ExitInitializationMode returned fmi2OK) are refused: exiting initialization
 //! mode is an error naming the output, no fmi2GetReal returns fmi2OK with a value that is not
-//! finite, and fmi2Reset recovers the instance.
+//! finite, and fmi2Reset recovers the instance. A finite input that overflows an output (a
+//! traction of 1.8e308 on contacts resting under the impulse law) makes the read of that
+//! output an error too.
 
 #[path = "common/fmu_session.rs"]
 mod fmu_session;
@@ -96,6 +98,48 @@ fn outputs_read_in_initialization_mode_are_finite_or_an_error() {
         assert_eq!(fmi2SetReal(c, &mass, 1, &f64::MAX), OK);
         let (status, x) = read(c, potential);
         assert_eq!(status, ERROR, "energy.potential = {x}");
+        fmi2FreeInstance(c);
+    }
+}
+
+#[test]
+fn an_input_that_overflows_an_output_makes_its_read_an_error() {
+    // a contact resting under the impulse law carries the traction in its force
+    let dir = SceneDir::bundled("rail_vehicle", "overflow input");
+    let sim = dir.simulation();
+    let laws: Vec<u32> = sim
+        .variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.name.ends_with(".law"))
+        .map(|(vr, _)| vr as u32)
+        .collect();
+    let (traction, force) = (dir.vr("traction"), dir.vr("contact_fl1.force"));
+    let impulse = 6;
+    let c = instantiate(&dir);
+    // SAFETY: a live instance and one-element arrays.
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), OK);
+        assert_eq!(fmi2EnterInitializationMode(c), OK);
+        for law in &laws {
+            assert_eq!(fmi2SetInteger(c, law, 1, &impulse), OK);
+        }
+        assert_eq!(fmi2ExitInitializationMode(c), OK);
+        for k in 0..50 {
+            assert_eq!(fmi2DoStep(c, k as f64 * 0.01, 0.01, 1), OK);
+        }
+        let mut saved: fmi2FMUstate = std::ptr::null_mut();
+        assert_eq!(fmi2GetFMUstate(c, &mut saved), OK);
+        assert_eq!(fmi2SetReal(c, &traction, 1, &1e3), OK);
+        let (status, x) = read(c, force);
+        assert!(status == OK && x.is_finite(), "a moderate traction: {x}");
+        assert_eq!(fmi2SetReal(c, &traction, 1, &f64::MAX), OK, "finite, so accepted");
+        let (status, x) = read(c, force);
+        assert_eq!(status, ERROR, "contact_fl1.force = {x}");
+        assert_eq!(fmi2SetFMUstate(c, saved), OK, "a saved state recovers");
+        let (status, x) = read(c, force);
+        assert!(status == OK && x.is_finite(), "{x}");
+        assert_eq!(fmi2FreeFMUstate(c, &mut saved), OK);
         fmi2FreeInstance(c);
     }
 }

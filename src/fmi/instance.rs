@@ -431,16 +431,17 @@ impl Instance {
 
     /// An output or calculated parameter is never handed to the host as NaN or infinity:
     /// parameter values inside their ranges can still overflow double precision (a mass near
-    /// 1.8e308 makes the energies infinite or NaN), and such a value is an error naming the
-    /// variable instead. Parameters and inputs read back what the host set.
+    /// 1.8e308 makes the energies infinite or NaN), and so can finite inputs (a force of
+    /// 1.8e308 on a contact resting under the impulse law); such a value is an error naming
+    /// the variable instead. Parameters and inputs read back what the host set.
     fn finite(&self, vr: usize, x: f64) -> FmiResult {
         let var = &self.sim.variables()[vr];
         if x.is_finite() || !computed(var) {
             return Ok(());
         }
         Err(Failure::error(format!(
-            "{} = {x} is not a finite number: the parameter values overflow double precision \
-             (a mass, modulus or length near 1.8e308?); reset and set smaller ones",
+            "{} = {x} is not a finite number: the parameter or input values overflow double \
+             precision (a mass, modulus, length or force near 1.8e308?); set smaller ones",
             var.name
         )))
     }
