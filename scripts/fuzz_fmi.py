@@ -267,10 +267,14 @@ class Sequence:
         elif status == 2:
             inst["state"] = FAILED
 
+    def model(self, inst):
+        """The FMU whose model an instance runs (the variables it has)."""
+        return self.fmus[inst.get("model", inst["fmu"])][0]
+
     def solver_settings(self, inst):
         """`solver.*` Integer values of an instance in a readable state (for the report of a
         slow step: its method and step budget)."""
-        info = self.fmus[inst["fmu"]][0]
+        info = self.model(inst)
         if not inst["alive"] or inst["state"] not in READABLE or not info.solver_integers:
             return ""
         names = [n for n, _ in info.solver_integers]
@@ -285,7 +289,7 @@ class Sequence:
         state; any NaN or infinity after fmi2OK is a violation."""
         if not inst["alive"] or inst["state"] not in READABLE:
             return
-        info = self.fmus[inst["fmu"]][0]
+        info = self.model(inst)
         vrs = info.checked
         if not vrs:
             return
@@ -377,8 +381,12 @@ class Sequence:
         logging_on = self.rng.choice([0, 1])
         desc = f"name={name!r}, type={fmu_type}, guid={'ok' if guid == info.guid.encode() else guid!r}, uri={uri!r}, cb={cb_choice}"
         handle = self.call(fmu, "fmi2Instantiate", name, fmu_type, guid, uri, callbacks, 0, logging_on, describe=desc)
-        inst = {"fmu": fmu, "handle": c_void_p(handle), "state": INSTANTIATED, "alive": bool(handle), "time": 0.0,
-                "stop": None}
+        # One library serves every scene: with another FMU's resources (and GUID) the
+        # instance runs that FMU's model through this FMU's library.
+        foreign = str(self.fmus[-1][0].dir / "resources").encode()
+        model = len(self.fmus) - 1 if uri == foreign else fmu
+        inst = {"fmu": fmu, "model": model, "handle": c_void_p(handle), "state": INSTANTIATED, "alive": bool(handle),
+                "time": 0.0, "stop": None}
         self.instances.append(inst)
         return inst
 
@@ -457,7 +465,7 @@ class Sequence:
         out = (ctype * n)() if not (n and self.odd(0.1)) else None
         st = self.call(fmu, f"fmi2Get{kind}", inst["handle"], arr, n, out, inst=inst, describe=f"{vrs}")
         if st == 0 and kind == "Real" and out is not None:
-            self.check_values(self.fmus[fmu][0], vrs, list(out), "read by fmi2GetReal")
+            self.check_values(self.model(inst), vrs, list(out), "read by fmi2GetReal")
         return st
 
     def set_plausible(self, inst):
@@ -475,7 +483,7 @@ class Sequence:
 
     def set_values(self, inst, kind):
         fmu = inst["fmu"]
-        info = self.fmus[fmu][0]
+        info = self.model(inst)
         vrs = self.vrs(fmu, kind)
         n = len(vrs)
         if kind == "Real":
