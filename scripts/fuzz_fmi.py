@@ -115,14 +115,16 @@ MAX_STEPS_CEILING = 20000
 class FmuInfo:
     """One exported FMU, unzipped: its variables and where its library is."""
 
-    def __init__(self, path, unzip_root):
+    def __init__(self, path, unzip_root, extract=True):
         from fmpy import read_model_description
 
         self.path = Path(path)
         self.name = self.path.stem
         self.dir = Path(unzip_root) / self.name
-        with zipfile.ZipFile(self.path) as z:
-            z.extractall(self.dir)
+        if extract:
+            # once per campaign: rewriting a library another process has loaded crashes it
+            with zipfile.ZipFile(self.path) as z:
+                z.extractall(self.dir)
         md = read_model_description(str(self.dir))
         self.guid = md.guid
         self.model_identifier = md.coSimulation.modelIdentifier
@@ -817,7 +819,7 @@ _WORKER = {}
 
 
 def _worker_init(fmu_paths, unzip_root, slow, inject):
-    infos = [FmuInfo(p, unzip_root) for p in fmu_paths]
+    infos = [FmuInfo(p, unzip_root, extract=False) for p in fmu_paths]
     _WORKER.update(infos=infos, slaves=[load_slave(i) for i in infos], slow=slow, inject=inject)
 
 
@@ -890,6 +892,8 @@ def campaign(fmu_paths, seeds, jobs=2, timeout=30.0, slow=1.0, inject=None, prog
 
     seeds = list(seeds)
     unzip_root = tempfile.mkdtemp(prefix="contact-fmu-fuzz-")
+    for p in fmu_paths:  # unzipped here, before the workers load the libraries
+        FmuInfo(p, unzip_root)
     chunk = max(1, min(50, len(seeds) // (4 * jobs) or 1))
     chunks = [(seeds[i : i + chunk], timeout) for i in range(0, len(seeds), chunk)]
     ctx = multiprocessing.get_context("fork")
