@@ -54,6 +54,59 @@ pub const LIBRARY_EXTENSION: &str = if cfg!(target_os = "windows") {
     "so"
 };
 
+/// The platforms of FMI 2.0 (`binaries/<platform>/`) and their shared-library extensions.
+pub const PLATFORMS: [(&str, &str); 5] = [
+    ("win64", "dll"),
+    ("win32", "dll"),
+    ("linux64", "so"),
+    ("linux32", "so"),
+    ("darwin64", "dylib"),
+];
+
+/// A shared library to pack for one platform (the CLI's `--binary PLATFORM=PATH`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binary {
+    /// The FMI platform folder, one of [`PLATFORMS`].
+    pub platform: String,
+    /// The library file.
+    pub path: PathBuf,
+}
+
+impl Binary {
+    /// Parses `PLATFORM=PATH`; an unknown platform or a missing file is refused with a
+    /// message naming it.
+    pub fn parse(arg: &str) -> Result<Binary, ExportError> {
+        let refuse = |why: String| ExportError::Binary(format!("--binary {arg}: {why}"));
+        let (platform, path) = arg
+            .split_once('=')
+            .ok_or_else(|| refuse("expected PLATFORM=PATH, e.g. win64=contact_fmu.dll".into()))?;
+        if !PLATFORMS.iter().any(|(p, _)| *p == platform) {
+            let known: Vec<&str> = PLATFORMS.iter().map(|(p, _)| *p).collect();
+            return Err(refuse(format!(
+                "unknown platform {platform:?} (known: {})",
+                known.join(", ")
+            )));
+        }
+        let path = PathBuf::from(path);
+        if !path.is_file() {
+            return Err(refuse(format!("{}: no such file", path.display())));
+        }
+        Ok(Binary {
+            platform: platform.to_string(),
+            path,
+        })
+    }
+
+    /// Where the library goes in the FMU: `binaries/<platform>/<model identifier>.<ext>`.
+    pub fn entry(&self, model_identifier: &str) -> String {
+        let ext = PLATFORMS
+            .iter()
+            .find(|(p, _)| *p == self.platform)
+            .map_or(LIBRARY_EXTENSION, |(_, e)| *e);
+        format!("binaries/{}/{model_identifier}.{ext}", self.platform)
+    }
+}
+
 /// The file name cargo gives this crate's shared library.
 pub fn library_file() -> String {
     let prefix = if cfg!(target_os = "windows") { "" } else { "lib" };
@@ -85,6 +138,9 @@ pub enum ExportError {
     /// The shared library was not found.
     #[error("{0}")]
     Library(String),
+    /// A `--binary` argument that cannot be packed.
+    #[error("{0}")]
+    Binary(String),
     /// `SOURCE_DATE_EPOCH` is set but is not a number of seconds since 1970.
     #[error("SOURCE_DATE_EPOCH = {0:?} is not a whole number of seconds since 1970-01-01 (0 to {MAX_EPOCH})")]
     SourceDateEpoch(String),
@@ -638,6 +694,28 @@ pub fn documentation_html(scene: &Scene) -> String {
 /// The scene is parsed, validated and initialised once with its start values first, so a
 /// scene that cannot run is refused with the same message `simulate` would give.
 pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<ExportedFmu, ExportError> {
+    let host = Binary {
+        platform: PLATFORM.to_string(),
+        path: library.to_path_buf(),
+    };
+    export_fmu_binaries(scene_path, out, &[host])
+}
+
+/// Builds the FMU like [`export_fmu`], packing one library per platform: each of `binaries`
+/// as `binaries/<platform>/<model name>.<dll|so|dylib>` (in the order of the platform
+/// names, so the FMU does not depend on the order given). Two libraries for one platform
+/// are refused.
+pub fn export_fmu_binaries(scene_path: &Path, out: &Path, binaries: &[Binary]) -> Result<ExportedFmu, ExportError> {
+    let mut binaries = binaries.to_vec();
+    binaries.sort_by(|a, b| a.platform.cmp(&b.platform));
+    if let Some(w) = binaries.windows(2).find(|w| w[0].platform == w[1].platform) {
+        return Err(ExportError::Binary(format!(
+            "two libraries for the platform {}: {} and {}",
+            w[0].platform,
+            w[0].path.display(),
+            w[1].path.display()
+        )));
+    }
     let text = std::fs::read_to_string(scene_path).map_err(io_error(scene_path))?;
     let origin = scene_path.display().to_string();
     let scene = Scene::from_str(&text, &origin)?;
@@ -646,21 +724,20 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
         path: scene_path.to_path_buf(),
         message: e.to_string(),
     })?;
-    let binary = std::fs::read(library).map_err(io_error(library))?;
+    let libraries = binaries
+        .iter()
+        .map(|b| std::fs::read(&b.path).map_err(io_error(&b.path)))
+        .collect::<Result<Vec<_>, _>>()?;
     let epoch = generation_epoch()?;
     let xml = model_description_xml_dated(&scene, &text, Some(&format_utc(epoch)));
     let html = documentation_html(&scene);
     let name = &scene.model.name;
-    let entries: Vec<(String, &[u8], u32)> = vec![
-        ("modelDescription.xml".into(), xml.as_bytes(), 0o644),
-        (
-            format!("binaries/{PLATFORM}/{name}.{LIBRARY_EXTENSION}"),
-            &binary,
-            0o755,
-        ),
-        ("resources/scene.toml".into(), text.as_bytes(), 0o644),
-        ("documentation/index.html".into(), html.as_bytes(), 0o644),
-    ];
+    let mut entries: Vec<(String, &[u8], u32)> = vec![("modelDescription.xml".into(), xml.as_bytes(), 0o644)];
+    for (b, bytes) in binaries.iter().zip(&libraries) {
+        entries.push((b.entry(name), bytes, 0o755));
+    }
+    entries.push(("resources/scene.toml".into(), text.as_bytes(), 0o644));
+    entries.push(("documentation/index.html".into(), html.as_bytes(), 0o644));
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(io_error(dir))?;
     }
@@ -907,15 +984,26 @@ pub fn glibc_needed(elf: &[u8]) -> Option<(u32, u32)> {
     newest
 }
 
-/// The CLI's `export` command: the library from [`find_library`] (its notes go to standard
-/// error), and when no output is given, `target/fmu/<model name>.fmu` (where the main job
-/// puts the bundled FMUs).
-pub fn export_command(scene_path: &Path, out: Option<&Path>) -> Result<ExportedFmu, ExportError> {
+/// The CLI's `export` command: the libraries of `binaries` (`PLATFORM=PATH`, see
+/// [`Binary::parse`]) and, unless one of them is for this platform, the library from
+/// [`find_library`] (its notes go to standard error); when no output is given,
+/// `target/fmu/<model name>.fmu` (where the main job puts the bundled FMUs).
+pub fn export_command(scene_path: &Path, out: Option<&Path>, binaries: &[String]) -> Result<ExportedFmu, ExportError> {
     // a scene that does not parse or validate gets its one message before anything else
     let scene = Scene::from_file(scene_path)?;
-    let library = find_library()?;
-    for note in &library.notes {
-        eprintln!("note: {note}");
+    let mut binaries = binaries
+        .iter()
+        .map(|b| Binary::parse(b))
+        .collect::<Result<Vec<_>, _>>()?;
+    if !binaries.iter().any(|b| b.platform == PLATFORM) {
+        let library = find_library()?;
+        for note in &library.notes {
+            eprintln!("note: {note}");
+        }
+        binaries.push(Binary {
+            platform: PLATFORM.to_string(),
+            path: library.path,
+        });
     }
     let out = match out {
         Some(o) => o.to_path_buf(),
@@ -923,7 +1011,7 @@ pub fn export_command(scene_path: &Path, out: Option<&Path>) -> Result<ExportedF
             .join("fmu")
             .join(format!("{}.fmu", scene.model.name)),
     };
-    export_fmu(scene_path, &out, &library.path)
+    export_fmu_binaries(scene_path, &out, &binaries)
 }
 
 #[cfg(test)]

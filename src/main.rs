@@ -25,6 +25,11 @@ enum Command {
         /// Output .fmu (default target/fmu/<name>.fmu).
         #[arg(short, long)]
         o: Option<PathBuf>,
+        /// Also pack a library built for another platform (win64, win32, linux64, linux32,
+        /// darwin64) as binaries/<PLATFORM>/<name>.<dll|so|dylib>; repeatable. One for this
+        /// platform replaces the library the exporter would find.
+        #[arg(long = "binary", value_name = "PLATFORM=PATH")]
+        binary: Vec<String>,
     },
     /// Run a scene natively (no FMI host), same engine and variable names as the FMU.
     Simulate {
@@ -44,9 +49,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         None => run::main_job(std::path::Path::new("fmu"), std::path::Path::new("target/fmu")),
-        Some(Command::Export { scene, o }) => contact_fmu::export::export_command(&scene, o.as_deref())
-            .map(|e| println!("wrote {}", e.path.display()))
-            .map_err(|e| e.to_string()),
+        Some(Command::Export { scene, o, binary }) => {
+            contact_fmu::export::export_command(&scene, o.as_deref(), &binary)
+                .map(|e| println!("wrote {}", e.path.display()))
+                .map_err(|e| e.to_string())
+        }
         Some(Command::Simulate { scene, options }) => run::simulate_command(&scene, &options).map(|_| ()),
         Some(Command::Bench { what }) => contact_fmu::bench::bench_command(what),
     };

@@ -276,7 +276,7 @@ pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
             ));
         }
         let out = out_dir.join(format!("{name}.fmu"));
-        let exported = crate::export::export_command(scene, Some(&out)).map_err(|e| e.to_string())?;
+        let exported = crate::export::export_command(scene, Some(&out), &[]).map_err(|e| e.to_string())?;
         eprintln!("exported {}", exported.path.display());
         let opts = RunOptions {
             quiet: true,

@@ -317,18 +317,23 @@ impl Instance {
     /// `fmi2SetReal` of `solver.rtol` wins).
     pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> FmiResult {
         if !start_time.is_finite() {
-            return Err(Failure::error(format!("startTime must be finite (got {start_time})")));
+            return Err(Failure::error(format!(
+                "startTime must be finite (got {start_time})",
+                start_time = Num(start_time)
+            )));
         }
         if let Some(stop) = stop_time {
             if !(stop.is_finite() && stop >= start_time) {
                 return Err(Failure::error(format!(
-                    "stopTime = {stop} must be finite and >= startTime = {start_time}"
+                    "stopTime = {stop} must be finite and >= startTime = {start_time}",
+                    start_time = Num(start_time),
+                    stop = Num(stop)
                 )));
             }
         }
         if let Some(tol) = tolerance {
             if !(tol.is_finite() && tol > 0.0) {
-                return Err(Failure::error(format!("tolerance = {tol} must be > 0")));
+                return Err(Failure::error(format!("tolerance = {tol} must be > 0", tol = Num(tol))));
             }
             let vr = self.sim.table().index_of("solver.rtol").unwrap_or(usize::MAX);
             let scene_rtol = self.sim.get(vr)?;
@@ -351,9 +356,17 @@ impl Instance {
         Ok(())
     }
 
-    /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model.
+    /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model; then
+    /// every output and calculated parameter at the initial state must be a finite number
+    /// (see [`Instance::finite`]).
     pub fn exit_initialization_mode(&mut self) -> FmiResult {
         self.sim.initialize(self.start_time)?;
+        for vr in 0..self.sim.variables().len() {
+            if computed(&self.sim.variables()[vr]) {
+                let x = self.sim.get(vr)?;
+                self.finite(vr, x)?;
+            }
+        }
         self.state = LifeState::StepComplete;
         self.log_event(&format!(
             "fmi2ExitInitializationMode: initialised at t = {}",
@@ -409,9 +422,27 @@ impl Instance {
         for (k, &vr) in vrs.iter().enumerate() {
             self.variable(vr, access)?;
             let x = self.sim.get(vr as usize)?;
+            self.finite(vr as usize, x)?;
             put(k, x);
         }
         Ok(())
+    }
+
+    /// An output or calculated parameter is never handed to the host as NaN or infinity:
+    /// parameter values inside their ranges can still overflow double precision (a mass near
+    /// 1.8e308 makes the energies infinite or NaN), and so can finite inputs (a force of
+    /// 1.8e308 on a contact resting under the impulse law); such a value is an error naming
+    /// the variable instead. Parameters and inputs read back what the host set.
+    fn finite(&self, vr: usize, x: f64) -> FmiResult {
+        let var = &self.sim.variables()[vr];
+        if x.is_finite() || !computed(var) {
+            return Ok(());
+        }
+        Err(Failure::error(format!(
+            "{} = {x} is not a finite number: the parameter or input values overflow double \
+             precision (a mass, modulus, length or force near 1.8e308?); set smaller ones",
+            var.name
+        )))
     }
 
     /// Sets variables of one type, checking that each may be set in the current state.
@@ -468,30 +499,42 @@ impl Instance {
     /// `fmi2DoStep`: integrates from the current time to `current + h`.
     pub fn do_step(&mut self, current: f64, h: f64) -> FmiResult {
         if !(h.is_finite() && h > 0.0) {
-            return Err(Failure::error(format!("communicationStepSize = {h} must be > 0")));
+            return Err(Failure::error(format!(
+                "communicationStepSize = {h} must be > 0",
+                h = Num(h)
+            )));
         }
         let now = self.time();
         let scale = now.abs().max(h);
         if !current.is_finite() || (current - now).abs() > 1e-9 * scale {
             return Err(Failure::error(format!(
-                "currentCommunicationPoint = {current} is not the FMU's current time {now}"
+                "currentCommunicationPoint = {current} is not the FMU's current time {now}",
+                current = Num(current),
+                now = Num(now)
             )));
         }
         let t_end = current + h;
         if !t_end.is_finite() {
             return Err(Failure::error(format!(
-                "the step from {current} by {h} ends at a time that is not a finite number"
+                "the step from {current} by {h} ends at a time that is not a finite number",
+                h = Num(h),
+                current = Num(current)
             )));
         }
         if t_end <= now {
             return Err(Failure::error(format!(
-                "the step from {current} by {h} does not advance past the current time {now}"
+                "the step from {current} by {h} does not advance past the current time {now}",
+                h = Num(h),
+                current = Num(current),
+                now = Num(now)
             )));
         }
         if let Some(stop) = self.stop_time {
             if t_end > stop + 1e-9 * stop.abs().max(h) {
                 return Err(Failure::error(format!(
-                    "the step to t = {t_end} goes past stopTime = {stop}"
+                    "the step to t = {t_end} goes past stopTime = {stop}",
+                    stop = Num(stop),
+                    t_end = Num(t_end)
                 )));
             }
         }
@@ -502,12 +545,18 @@ impl Instance {
         match result {
             Ok(()) => Ok(()),
             Err(SimError::Step { time, message }) => Err(Failure::error(format!(
-                "the step from t = {current} to {t_end} failed at t = {time}: {message}"
+                "the step from t = {current} to {t_end} failed at t = {time}: {message}",
+                current = Num(current),
+                t_end = Num(t_end),
+                time = Num(time)
             ))),
             Err(SimError::StepLimit { time, message }) => Err(Failure {
                 status: fmi2Status::fmi2Discard,
                 message: format!(
-                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}"
+                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}",
+                    current = Num(current),
+                    t_end = Num(t_end),
+                    time = Num(time)
                 ),
             }),
             Err(e) => Err(e.into()),
@@ -574,6 +623,26 @@ impl Instance {
     }
 }
 
+/// A time or step size in a message: as Rust writes it, except very large or small magnitudes,
+/// which get an exponent (`1e300` rather than 301 digits).
+struct Num(f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+/// True for the variables the model computes (outputs, calculated parameters).
+fn computed(var: &Variable) -> bool {
+    matches!(var.causality, Causality::Output | Causality::CalculatedParameter)
+}
+
 /// This model has no String variables: a String access with any value reference is refused.
 fn no_strings(access: Access, vrs: &[fmi2ValueReference]) -> FmiResult {
     match vrs.first() {
@@ -581,5 +650,29 @@ fn no_strings(access: Access, vrs: &[fmi2ValueReference]) -> FmiResult {
             "this model has no String variables (value reference {vr})"
         ))),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Num;
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        for (x, text) in [
+            (1e300, "1e300"),
+            (-1e300, "-1e300"),
+            (5e-324, "5e-324"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (1e3, "1000"),
+            (0.001, "0.001"),
+            (0.0, "0"),
+            (-0.0, "-0"),
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "inf"),
+            (1e-5, "1e-5"),
+        ] {
+            assert_eq!(Num(x).to_string(), text);
+        }
     }
 }

@@ -68,6 +68,20 @@ def test_packed_library_is_stripped_without_debug_information(fmus, name, tmp_pa
     assert re.search(r"\bfmi2DoStep\b", objdump("-T", str(library)))
 
 
+CLOCK_FUNCTIONS = {"clock_gettime", "clock_getres", "clock", "gettimeofday", "time", "times", "getrusage", "clock_nanosleep"}
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_packed_library_calls_no_clock_function(fmus, name, tmp_path):
+    """The FMU functions read no clock (the benchmarks' CPU clock is not on their path), so
+    the library imports none: results cannot depend on the time of day and the library
+    needs no clock API of the platform."""
+    library = packed_library(fmus[name], name, tmp_path)
+    imported = {m.group(1) for m in re.finditer(r"\*UND\*.*\s(\w+)$", objdump("-T", str(library)), re.MULTILINE)}
+    assert imported, "no imported symbol found: is this a shared library?"
+    assert not imported & CLOCK_FUNCTIONS, sorted(imported & CLOCK_FUNCTIONS)
+
+
 @pytest.mark.parametrize("name", SCENES)
 def test_shipped_fmu_loads_and_runs_in_fmpy(fmus, name):
     md = fmpy.read_model_description(str(fmus[name]))
