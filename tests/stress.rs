@@ -4,8 +4,8 @@
 //! `hertz_ln` touched at a vanishing speed. Every case must finish, or fail with a clear
 //! error where the physics cannot be described.
 
-use contact_fmu::bench::scenes::{self, BALL_MASS as M};
-use contact_fmu::bench::stress::{hertz_duration, hertz_max_penetration, steel_ball_plane_stiffness};
+use contact_fmu::bench::scenes::{self, steel_ball_plane_stiffness, BALL_MASS as M};
+use contact_fmu::bench::stress::{hertz_duration, hertz_max_penetration};
 use contact_fmu::bench::{record, Outcome, RunSpec};
 use contact_fmu::scene::{Law, Method, Scene};
 

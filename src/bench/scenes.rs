@@ -49,12 +49,18 @@ pub fn ball_plane(
         .build()
 }
 
+/// Hertz stiffness of the 10 mm steel ball of [`ball_plane`] on its steel plane (E = 210 GPa,
+/// ν = 0.3) [N/m^1.5].
+pub fn steel_ball_plane_stiffness() -> f64 {
+    crate::contact::laws::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
+}
+
 /// The steel ball of [`ball_plane`] resting on the plane at its static Hertz penetration
 /// under gravity (`hertz_ln`, e = 0.8), launched sliding along x at `speed` [m/s] without
 /// spin, with friction `mu` (stiction velocity `stiction_velocity` [m/s]): it rolls from
 /// t = 2 v0/(7 μ g) at 5/7 of `speed`.
 pub fn sliding_ball(speed: f64, mu: f64, stiction_velocity: f64, stop_time: f64, interval: f64) -> Scene {
-    let k = crate::bench::stress::steel_ball_plane_stiffness();
+    let k = steel_ball_plane_stiffness();
     let delta0 = (BALL_MASS * 9.81 / k).powf(2.0 / 3.0);
     let mut scene = ball_plane("sliding", Law::HertzLn, 0.8, 0.0, -delta0, true, stop_time, interval);
     scene.body[0].velocity = [speed, 0.0, 0.0];

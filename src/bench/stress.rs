@@ -3,15 +3,10 @@
 //! with a case-specific check (effective restitution, drift, chatter, momentum, the rolling
 //! speed reached by a sliding ball with friction).
 
-use super::scenes::{self, BALL_MASS};
+use super::scenes::{self, steel_ball_plane_stiffness, BALL_MASS};
 use super::{f, record, Csv, Outcome, RunSpec};
 use crate::scene::{Law, Method, Scene};
 use std::path::Path;
-/// Hertz stiffness of a 10 mm steel ball on a steel plane (E = 210 GPa, ν = 0.3) [N/m^1.5].
-pub fn steel_ball_plane_stiffness() -> f64 {
-    crate::contact::laws::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
-}
-
 /// Largest penetration of an undamped Hertz impact `(5 m v² / (4 K))^(2/5)` [m].
 pub fn hertz_max_penetration(m: f64, v: f64, k: f64) -> f64 {
     (5.0 * m * v * v / (4.0 * k)).powf(0.4)
