@@ -43,13 +43,19 @@ pub fn hysteresis_factor(law: Law, e: f64) -> f64 {
     }
 }
 
-/// Normal force of contact `c` at penetration `delta` ≥ 0 [m], rate `delta_dot` [m/s] and
-/// remembered impact velocity `impact_velocity` (δ̇⁻, already floored) [m/s].
+/// Normal force of contact `c` at penetration `delta` [m], rate `delta_dot` [m/s] and
+/// remembered impact velocity `impact_velocity` (δ̇⁻, already floored) [m/s]. A negative
+/// `delta` (an active contact evaluated past its separation, inside the step that crosses
+/// it): Kelvin-Voigt's elastic part continues linearly through δ = 0 (its total force is cut
+/// to zero there already), so that the right-hand side stays smooth up to the separation
+/// event and the dense output that locates it is accurate; the Hertz family is floored at
+/// δ = 0 (`δ^n` is C¹ there).
 pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f64) -> Force {
     let (k, n) = (c.stiffness, c.exponent);
     let (elastic, energy) = match c.law {
         Law::KelvinVoigt => (k * delta, 0.5 * k * delta * delta),
         _ => {
+            let delta = delta.max(0.0);
             // δ·√δ for the Hertz exponent: exact and several times cheaper than powf
             let p = if n == 1.5 { delta * delta.sqrt() } else { delta.powf(n) };
             (k * p, k * p * delta / (n + 1.0))

@@ -220,20 +220,11 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
         let fs = frame(d, c.sphere_body);
         let fo = frame(d, c.body);
         let g = geometry::detect(c, &fs, &fo);
-        // Kelvin-Voigt's elastic part continues linearly through δ = 0 while the contact is
-        // active (its total force is cut to zero there already): the right-hand side stays
-        // smooth up to the separation event, so the dense output that locates it is accurate
-        // (with δ floored at zero the dissipated power has a kink there).
-        let delta = if c.law == Law::KelvinVoigt {
-            g.delta
-        } else {
-            g.delta.max(0.0)
-        };
-        let f = laws::force(c, delta, g.delta_dot, mem.impact_velocity);
+        let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let mut force = g.normal * f.total;
         let mut out = ContactOutput {
-            delta: delta.max(0.0),
+            delta: g.delta.max(0.0),
             delta_dot: g.delta_dot,
             force: f.total,
             elastic_energy: f.energy,
