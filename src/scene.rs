@@ -143,8 +143,7 @@ fn default_interval() -> f64 {
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
-    /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location (default).
-    #[default]
+    /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location.
     Dopri5 = 1,
     /// Adaptive implicit SDIRK4 (L-stable, order 4) for stiff problems.
     Sdirk = 2,
@@ -153,11 +152,15 @@ pub enum Method {
     /// Adaptive implicit Radau IIA of order 5 (stage order 3) for stiff problems with a smooth
     /// slow solution.
     Radau5 = 4,
+    /// Dormand-Prince while the problem is not stiff, Radau IIA while it is, switched by a
+    /// stiffness estimate (default).
+    #[default]
+    Auto = 5,
 }
 
 impl Method {
     /// All methods, in enumeration order.
-    pub const ALL: [Method; 4] = [Method::Dopri5, Method::Sdirk, Method::Rk4, Method::Radau5];
+    pub const ALL: [Method; 5] = [Method::Dopri5, Method::Sdirk, Method::Rk4, Method::Radau5, Method::Auto];
     /// Scene-file name.
     pub fn name(self) -> &'static str {
         match self {
@@ -165,6 +168,7 @@ impl Method {
             Method::Sdirk => "sdirk",
             Method::Rk4 => "rk4",
             Method::Radau5 => "radau5",
+            Method::Auto => "auto",
         }
     }
     /// From the FMU enumeration value.

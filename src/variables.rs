@@ -551,7 +551,7 @@ impl VariableTable {
             start: Some(s.method as i64 as f64),
             unit: None,
             display_unit: None,
-            description: "integration method: dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
+            description: "integration method: auto (dopri5 while not stiff, radau5 while stiff; the default), dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
             range: Some(Range {
                 min: 1.0,
                 min_exclusive: false,

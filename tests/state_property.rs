@@ -73,7 +73,12 @@ fn outputs(sim: &mut Simulation) -> Vec<u64> {
 /// A simulation of `text` with `method` and `law`; `continuation`: the integrator continues
 /// across communication points (its state then includes a step reaching past the save point).
 fn configured(text: &str, method: Method, contact: &str, law: Law, continuation: bool) -> Simulation {
-    let text = text.replacen("[solver]", &format!("[solver]\ncontinuation = {continuation}"), 1);
+    let setting = format!("[solver]\ncontinuation = {continuation}");
+    let text = if text.lines().any(|l| l.trim() == "[solver]") {
+        text.replacen("\n[solver]", &format!("\n{setting}"), 1)
+    } else {
+        format!("{text}\n{setting}\n")
+    };
     let mut s = Simulation::from_scene_str(&text, "scene.toml").unwrap();
     s.set_by_name("solver.method", method as i64 as f64).unwrap();
     if !contact.is_empty() {
@@ -145,7 +150,7 @@ fn check(
     Ok(n - split)
 }
 
-const METHODS: [Method; 4] = Method::ALL;
+const METHODS: [Method; 5] = Method::ALL;
 
 #[test]
 fn every_method_and_law_continues_bit_for_bit_after_a_serialised_restore() {

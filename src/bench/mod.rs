@@ -4,6 +4,9 @@
 //! - `work-precision`: every bundled scene × every integrator × a sweep of tolerances (step
 //!   sizes for rk4); error against a closed form or a tight reference; median run time of
 //!   several runs and the deterministic work counters ([`work_precision`]).
+//! - `defaults`: `auto` against the best fixed method at error 1e-6 on every bundled scene,
+//!   the rail vehicle with no `[solver]` against the former defaults, its 5 ms goal
+//!   ([`defaults`]).
 //! - `stress`: stiffness, restitution, impact speed, communication step, long resting
 //!   contact, Newton's cradle, slow touches of `hertz_ln` ([`stress`]).
 //! - `scaling`: N free spheres in a box, time per simulated second against N ([`scaling`]).
@@ -17,6 +20,7 @@
 //! and the thread's CPU time; the counters (steps, RHS and Jacobian evaluations, events)
 //! are exact and repeat bit for bit.
 
+pub mod defaults;
 pub mod rhs;
 pub mod scaling;
 pub mod scenes;
@@ -34,25 +38,51 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// What a tolerance sweep over the bundled scenes takes (`work-precision`, `defaults`).
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    /// Folder of bundled scenes (`<dir>/<name>/scene.toml`).
+    #[arg(long, default_value = "fmu")]
+    pub scenes: PathBuf,
+    /// Only scenes whose name contains this.
+    #[arg(long)]
+    pub only: Option<String>,
+    /// Timed runs per point (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Stop refining a method once one run takes longer than this [s].
+    #[arg(long, default_value_t = 4.0)]
+    pub budget: f64,
+}
+
+/// The run of `method` at tolerance `tol` (rk4: step `tol`) of a sweep from `base`, with
+/// `atol = tol · atol_ratio`.
+pub fn sweep_point(base: &RunSpec, method: Method, tol: f64, atol_ratio: f64) -> RunSpec {
+    let s = base.clone().method(method);
+    match method {
+        Method::Rk4 => s.with("solver.max_step", tol),
+        _ => s.with("solver.rtol", tol).with("solver.atol", tol * atol_ratio),
+    }
+}
+
 /// The `bench` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
     /// Work-precision diagrams: error vs run time for every bundled scene and integrator.
     WorkPrecision {
-        /// Folder of bundled scenes (`<dir>/<name>/scene.toml`).
-        #[arg(long, default_value = "fmu")]
-        scenes: PathBuf,
-        /// Only scenes whose name contains this.
-        #[arg(long)]
-        only: Option<String>,
-        /// Timed runs per point (the median is reported).
-        #[arg(long, default_value_t = 5)]
-        repeats: usize,
-        /// Stop refining a method once one run takes longer than this [s].
-        #[arg(long, default_value_t = 4.0)]
-        budget: f64,
+        #[command(flatten)]
+        sweep: SweepArgs,
         /// Output CSV.
         #[arg(long, default_value = "docs/work_precision.csv")]
+        csv: PathBuf,
+    },
+    /// The defaults: `auto` against the best fixed method at error 1e-6 on every bundled
+    /// scene; the rail vehicle with no `[solver]` against the former defaults; its 5 ms goal.
+    Defaults {
+        #[command(flatten)]
+        sweep: SweepArgs,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/defaults.csv")]
         csv: PathBuf,
     },
     /// Stability stress cases: each finishes or fails with a clear error.
@@ -143,13 +173,8 @@ pub enum BenchCommand {
 /// Runs a `bench` subcommand.
 pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
     match cmd {
-        BenchCommand::WorkPrecision {
-            scenes,
-            only,
-            repeats,
-            budget,
-            csv,
-        } => work_precision::run(&scenes, only.as_deref(), repeats, budget, &csv),
+        BenchCommand::WorkPrecision { sweep, csv } => work_precision::run(&sweep, &csv),
+        BenchCommand::Defaults { sweep, csv } => defaults::run(&sweep, &csv),
         BenchCommand::Stress {
             resting_time,
             csv,

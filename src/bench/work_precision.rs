@@ -4,7 +4,7 @@
 //! reference is confirmed by the other methods converging to it); the median run time and
 //! the work counters.
 
-use super::{bundled_scenes, f, record, time_runs, Csv, RunSpec, Trajectory};
+use super::{bundled_scenes, f, record, sweep_point, time_runs, Csv, RunSpec, SweepArgs, Trajectory};
 use crate::scene::{Method, Scene};
 use std::path::Path;
 
@@ -16,7 +16,7 @@ const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
 const RTOL_REF: f64 = 1e-12;
 
 /// How the error of a run is measured.
-enum Truth {
+pub(crate) enum Truth {
     /// Closed-form final velocities of a central elastic impact of two free spheres:
     /// (output names, exact values, speed scale).
     FinalVelocities(Vec<String>, Vec<f64>, f64),
@@ -26,7 +26,7 @@ enum Truth {
 
 /// The closed form where the scene is a central impact of two free spheres under the pure
 /// Hertz law without gravity (elastic: the exact post-impact velocities are known).
-fn closed_form(scene: &Scene) -> Option<Truth> {
+pub(crate) fn closed_form(scene: &Scene) -> Option<Truth> {
     use crate::scene::{ContactType, Law};
     if scene.body.len() != 2
         || !scene.joint.is_empty()
@@ -70,7 +70,7 @@ fn closed_form(scene: &Scene) -> Option<Truth> {
 }
 
 /// Names of the body-position outputs of a scene.
-fn position_outputs(scene: &Scene) -> Vec<String> {
+pub(crate) fn position_outputs(scene: &Scene) -> Vec<String> {
     scene
         .body
         .iter()
@@ -111,7 +111,8 @@ pub fn trajectory_error(run: &Trajectory, reference: &Trajectory) -> f64 {
     err
 }
 
-fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
+/// The error of a run against the truth (see [`Truth`]).
+pub(crate) fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
     match truth {
         Truth::Reference(r) => trajectory_error(traj, r),
         Truth::FinalVelocities(names, vals, scale) => {
@@ -141,7 +142,14 @@ struct Point {
 }
 
 /// Runs the benchmark and writes the CSV.
-pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path: &Path) -> Result<(), String> {
+pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
+    let SweepArgs {
+        scenes: dir,
+        only,
+        repeats,
+        budget,
+    } = args;
+    let (only, repeats, budget) = (only.as_deref(), *repeats, *budget);
     let mut csv = Csv::new(&[
         "scene",
         "method",
@@ -173,13 +181,7 @@ pub fn run(dir: &Path, only: Option<&str>, repeats: usize, budget: f64, csv_path
         };
         let ratio = scene.solver.atol / scene.solver.rtol;
         let base = RunSpec::new(scene.clone(), &origin, scene.model.stop_time, scene.model.interval);
-        let with = |method: Method, tol: f64| -> RunSpec {
-            let s = base.clone().method(method);
-            match method {
-                Method::Rk4 => s.with("solver.max_step", tol),
-                _ => s.with("solver.rtol", tol).with("solver.atol", tol * ratio),
-            }
-        };
+        let with = |method: Method, tol: f64| sweep_point(&base, method, tol, ratio);
         let positions = position_outputs(&scene);
         let pos_refs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
         let (truth, kind) = match closed_form(&scene) {

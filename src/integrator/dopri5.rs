@@ -53,6 +53,10 @@ pub struct Dopri5 {
     err: Vec<f64>,
     /// Dense output coefficients after `core.y_prev`.
     cont: [Vec<f64>; 4],
+    /// `h·ρ` of the last accepted step: its size times the local Lipschitz estimate
+    /// `‖k₇ − k₆‖ / ‖y₁ − Y₆‖` of the two stages at its end (Hairer's stiffness test; the
+    /// method is stable for `h·ρ` up to about 3.3 on the negative real axis).
+    stiffness: f64,
 }
 
 impl Dopri5 {
@@ -67,7 +71,15 @@ impl Dopri5 {
             tmp: v(),
             err: v(),
             cont: [v(), v(), v(), v()],
+            stiffness: 0.0,
         }
+    }
+
+    /// `h·ρ` of the last accepted step (0 before one): above 3.25 the step size is bounded by
+    /// stability rather than accuracy, so the problem is stiff at this tolerance (see
+    /// [`super::auto`]). It is not part of saved states: it is computed afresh by each step.
+    pub fn stiffness(&self) -> f64 {
+        self.stiffness
     }
 
     /// Dense output of a zero-length step (with `core.y_prev = y`).
@@ -90,6 +102,7 @@ impl Integrator for Dopri5 {
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);
         self.err_old = 1e-4;
+        self.stiffness = 0.0;
         self.core.first_step(sys, h, 5, &mut self.tmp, &mut self.k[0]);
         self.clear_dense();
     }
@@ -154,6 +167,14 @@ impl Integrator for Dopri5 {
             let h_new = if rejected_before { (h / fac).min(h) } else { h / fac };
             if err <= 1.0 {
                 self.err_old = err.max(1e-4);
+                // stiffness estimate: k6 and k7 are f at the stage state `tmp` and at y_new,
+                // both at t_new
+                let (mut num, mut den) = (0.0, 0.0);
+                for i in 0..n {
+                    num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
+                    den += (y_new[i] - tmp[i]) * (y_new[i] - tmp[i]);
+                }
+                self.stiffness = if den > 0.0 { h * (num / den).sqrt() } else { 0.0 };
                 for i in 0..n {
                     let dy = y_new[i] - y[i];
                     let bspl = h * k1[i] - dy;

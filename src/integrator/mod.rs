@@ -11,6 +11,7 @@
 //! a step); the implicit ones also share a [`newton::NewtonCore`] (Jacobian, simplified
 //! Newton, warm memory) and the step-size controller of [`newton::ImplicitMethod`].
 
+pub mod auto;
 pub mod core;
 pub mod dopri5;
 pub mod newton;
@@ -159,6 +160,13 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
         )),
         Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, hmax)),
         Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
+        Method::Auto => Box::new(auto::Auto::new(
+            n,
+            s.rtol,
+            s.atol,
+            hmax,
+            (n <= auto::IMPLICIT_MAX_SIZE).then(|| radau::Radau5::new(n, s.rtol, s.atol, hmax)),
+        )),
     }
 }
 
@@ -737,12 +745,24 @@ mod tests {
     }
 
     /// Length of a saved state of `method` for size `n` (implicit: with the Jacobian when
-    /// `with_jac`).
+    /// `with_jac`; auto: of the active method `inner`).
     fn saved_len(method: Method, n: usize, with_jac: bool) -> usize {
         match method {
             Method::Dopri5 => 9 + 7 * n,
             Method::Rk4 => 8 + 4 * n,
             Method::Sdirk | Method::Radau5 => 15 + 6 * n + if with_jac { n * n } else { 0 },
+            Method::Auto => unreachable!("auto: the length of its active method's state"),
+        }
+    }
+
+    /// The method whose state a saved state of `method` holds, and where that state begins
+    /// (auto: after its tag and switching memory, the active method's).
+    fn layout(method: Method, w: &[f64]) -> (Method, usize) {
+        if method == Method::Auto {
+            let inner = if w[1] == 1.0 { Method::Radau5 } else { Method::Dopri5 };
+            (inner, 1 + auto::MEMORY_LEN)
+        } else {
+            (method, 0)
         }
     }
 
@@ -795,12 +815,16 @@ mod tests {
                 let first = |p: &dyn Fn(usize) -> bool| (1..BEFORE).find(|&k| p(k));
                 ks.extend(first(&|k| matches!(lim[k - 1], Limit::Near(f) if f < 1.0)));
                 ks.extend(first(&|k| matches!(lim[k - 1], Limit::Here)));
-                let mut stale = None;
-                if is_implicit(method) {
-                    let o = newton_offset(n);
-                    stale = first(&|k| states[k][o + 3] == 1.0);
-                    ks.extend(stale);
-                    ks.extend(first(&|k| states[k][o + 5] == 1.0));
+                let implicit_at = |k: usize| {
+                    let (inner, base) = layout(method, &states[k]);
+                    is_implicit(inner).then_some(base + newton_offset(n))
+                };
+                let stale = first(&|k| implicit_at(k).is_some_and(|o| states[k][o + 3] == 1.0));
+                ks.extend(stale);
+                ks.extend(first(&|k| implicit_at(k).is_some_and(|o| states[k][o + 5] == 1.0)));
+                if method == Method::Auto {
+                    // the first states after each switch
+                    ks.extend((1..BEFORE).filter(|&k| states[k][1] != states[k - 1][1]));
                 }
                 ks.sort_unstable();
                 ks.dedup();
@@ -818,8 +842,9 @@ mod tests {
                     if prefix[..] == lim[..k] {
                         assert_eq!(bits(&w), bits(&states[k]), "{what}: the run is deterministic");
                     }
-                    let with_jac = is_implicit(method) && w[newton_offset(n) + 4] == 1.0;
-                    assert_eq!(w.len(), saved_len(method, n, with_jac), "{what}: length");
+                    let (inner, base) = layout(method, &w);
+                    let with_jac = is_implicit(inner) && w[base + newton_offset(n) + 4] == 1.0;
+                    assert_eq!(w.len(), base + saved_len(inner, n, with_jac), "{what}: length");
                     // b: fresh; other: with another history (a Jacobian, LU factors,
                     // stages and scratch of its own) before the load
                     let mut b = create(&s, n);
@@ -921,16 +946,43 @@ mod tests {
                     with(format!("tag of {m:?}"), 0, m as i64 as f64);
                 }
                 with("tag NaN".into(), 0, f64::NAN);
+                let (inner, base) = layout(method, &s2);
+                if method == Method::Auto {
+                    // the switching memory: two flags, two counts, ρ, the Jacobian count
+                    // (−1: none), the switches; then the active method's tag
+                    for i in [1, 2] {
+                        for x in [2.0, -1.0, 0.5, f64::NAN] {
+                            with(format!("auto flag {i} = {x}"), i, x);
+                        }
+                    }
+                    for i in [3, 4, 7] {
+                        for x in [-1.0, 0.5, f64::NAN, f64::INFINITY, 2f64.powi(60)] {
+                            with(format!("auto count {i} = {x}"), i, x);
+                        }
+                    }
+                    for x in [-1.0, f64::NAN] {
+                        with(format!("auto ρ = {x}"), 5, x);
+                    }
+                    for x in [-2.0, 0.5, f64::NAN] {
+                        with(format!("auto Jacobian count = {x}"), 6, x);
+                    }
+                    with("auto with the other method's state".into(), 1, 1.0 - s2[1]);
+                    with("auto's inner tag".into(), base, Method::Sdirk as i64 as f64);
+                }
                 // counters: after the tag and t, t_prev, h
-                for i in 4..8 {
+                for i in base + 4..base + 8 {
                     for x in [-1.0, 0.5, f64::NAN, f64::INFINITY, 2f64.powi(60)] {
                         with(format!("counter {i} = {x}"), i, x);
                     }
                 }
-                if is_implicit(method) {
-                    let o = newton_offset(n);
+                if is_implicit(inner) {
+                    let o = base + newton_offset(n);
                     let jac_valid = s2[o + 4] == 1.0;
-                    assert_eq!(jac_valid, c.name != "smooth", "{what}: a Jacobian is held");
+                    assert_eq!(
+                        jac_valid,
+                        c.name != "smooth" || method == Method::Auto,
+                        "{what}: a Jacobian is held"
+                    );
                     for i in o + 3..o + 6 {
                         for x in [2.0, -1.0, 0.5, f64::NAN] {
                             with(format!("flag {i} = {x}"), i, x);

@@ -2,9 +2,13 @@
 //! Hairer & Wanner's RADAU5 (*Solving ODEs II*, IV.8), for stiff problems with a smooth slow
 //! solution, where the stage order 1 of SDIRK4 costs it accuracy (order reduction).
 //!
-//! - The stage increments `Zᵢ = Yᵢ − y₀` are solved together by simplified Newton on the real
-//!   3n × 3n matrix `I − h A⊗J` (an in-place LU on a preallocated buffer; no complex
-//!   transformation — the systems here are small), `J` by forward differences.
+//! - The stage increments `Zᵢ = Yᵢ − y₀` are solved together by simplified Newton with the
+//!   matrix `I − h A⊗J`, `J` by forward differences. As in RADAU5, the correction is computed
+//!   in the eigenbasis of `A⁻¹` (one real eigenvalue γ, one complex pair α ± iβ; the basis `T`
+//!   is computed once per method from `A`): one real n × n system `I − (h/γ) J` (the matrix
+//!   the error estimate needs anyway) and one complex n × n system `I − h/(α + iβ) J` instead
+//!   of the real 3n × 3n one, about 5× fewer operations per factorisation (in-place LUs on
+//!   preallocated buffers).
 //! - Jacobian and LU reuse, `J = 0` after a reset, `J` and controller memory kept across a
 //!   plain restart (and saved through `warm_state`), and the step-size controller are those of
 //!   SDIRK4, shared in [`super::newton`].
@@ -44,6 +48,82 @@ fn gamma0() -> f64 {
     (6.0 + 81f64.cbrt() - 9f64.cbrt()) / 30.0
 }
 
+/// The eigenbasis of `A⁻¹`: `T⁻¹ A⁻¹ T = [[γ, 0, 0], [0, α, −β], [0, β, α]]`.
+#[derive(Debug, Clone, Copy)]
+struct Eigenbasis {
+    t: [[f64; 3]; 3],
+    t_inv: [[f64; 3]; 3],
+    /// The complex eigenvalue α + iβ (γ = 1/γ₀ is the real one).
+    alpha: f64,
+    beta: f64,
+}
+
+/// Inverse of a 3 × 3 matrix (adjugate over determinant).
+fn inverse3(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let c = |i: usize, j: usize| {
+        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
+        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
+        m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
+    };
+    let det = m[0][0] * c(0, 0) + m[0][1] * c(0, 1) + m[0][2] * c(0, 2);
+    let mut inv = [[0.0; 3]; 3];
+    for (i, row) in inv.iter_mut().enumerate() {
+        for (j, x) in row.iter_mut().enumerate() {
+            *x = c(j, i) / det;
+        }
+    }
+    inv
+}
+
+impl Eigenbasis {
+    /// From the tableau: γ from [`gamma0`], α and β from the trace and determinant of `A⁻¹`,
+    /// eigenvectors as cross products of two rows of `A⁻¹ − λI` (complex for the pair).
+    fn new() -> Eigenbasis {
+        let ai = inverse3(&A);
+        let gamma = 1.0 / gamma0();
+        let trace = ai[0][0] + ai[1][1] + ai[2][2];
+        let det = 1.0 / {
+            let a = &A;
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        };
+        let alpha = 0.5 * (trace - gamma);
+        let beta = (det / gamma - alpha * alpha).sqrt();
+        // complex arithmetic on (re, im)
+        type C = (f64, f64);
+        let mul = |a: C, b: C| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+        let sub = |a: C, b: C| (a.0 - b.0, a.1 - b.1);
+        let cross = |r0: [C; 3], r1: [C; 3]| {
+            [
+                sub(mul(r0[1], r1[2]), mul(r0[2], r1[1])),
+                sub(mul(r0[2], r1[0]), mul(r0[0], r1[2])),
+                sub(mul(r0[0], r1[1]), mul(r0[1], r1[0])),
+            ]
+        };
+        let shifted = |lambda: C, i: usize| -> [C; 3] {
+            [0, 1, 2].map(|j| {
+                (
+                    ai[i][j] - if i == j { lambda.0 } else { 0.0 },
+                    if i == j { -lambda.1 } else { 0.0 },
+                )
+            })
+        };
+        let v1 = cross(shifted((gamma, 0.0), 0), shifted((gamma, 0.0), 1));
+        let v = cross(shifted((alpha, beta), 0), shifted((alpha, beta), 1));
+        // columns v1, Re v, −Im v
+        let mut t = [[0.0; 3]; 3];
+        for i in 0..3 {
+            t[i] = [v1[i].0, v[i].0, -v[i].1];
+        }
+        Eigenbasis {
+            t,
+            t_inv: inverse3(&t),
+            alpha,
+            beta,
+        }
+    }
+}
+
 /// The Radau IIA 5 method (scene name `"radau5"`).
 pub struct Radau5 {
     core: StepCore,
@@ -56,14 +136,15 @@ pub struct Radau5 {
     /// Stage values and right-hand sides.
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
-    /// LU of `I − hA⊗J` (3n × 3n) and of `I − hγ₀J` (n × n).
-    lu_big: Vec<f64>,
-    perm_big: Vec<usize>,
+    /// LU of `I − hγ₀J` (n × n, real) and of `I − h/(α + iβ) J` (n × n, complex, interleaved).
     lu_err: Vec<f64>,
     perm_err: Vec<usize>,
+    lu_complex: Vec<f64>,
+    perm_complex: Vec<usize>,
     err: Vec<f64>,
     work: Vec<f64>,
-    work_big: Vec<f64>,
+    work_complex: Vec<f64>,
+    basis: Eigenbasis,
 }
 
 impl Radau5 {
@@ -79,13 +160,14 @@ impl Radau5 {
             dz: v(3 * n),
             stage: v(n),
             fz: [v(n), v(n), v(n)],
-            lu_big: v(9 * n * n),
-            perm_big: vec![0; 3 * n],
             lu_err: v(n * n),
             perm_err: vec![0; n],
+            lu_complex: v(2 * n * n),
+            perm_complex: vec![0; n],
             err: v(n),
             work: v(n),
-            work_big: v(3 * n),
+            work_complex: v(2 * n),
+            basis: Eigenbasis::new(),
         }
     }
 
@@ -136,7 +218,26 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            linalg::lu_solve(&self.lu_big, 3 * n, &self.perm_big, dz, &mut self.work_big);
+            // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the real
+            // system for W₁ and the complex one for W₂ + iW₃ (both scaled so that their
+            // right-hand sides are W itself), then dz = (T⊗I) W
+            let (ti, t) = (&self.basis.t_inv, &self.basis.t);
+            for m in 0..n {
+                let r = [dz[m], dz[n + m], dz[2 * n + m]];
+                for (s, row) in ti.iter().enumerate() {
+                    dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
+                }
+            }
+            let (w1, w23) = dz.split_at_mut(n);
+            let (w2, w3) = w23.split_at_mut(n);
+            linalg::lu_solve(&self.lu_err, n, &self.perm_err, w1, &mut self.work);
+            linalg::lu_solve_complex(&self.lu_complex, n, &self.perm_complex, w2, w3, &mut self.work_complex);
+            for m in 0..n {
+                let w = [dz[m], dz[n + m], dz[2 * n + m]];
+                for (s, row) in t.iter().enumerate() {
+                    dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
+                }
+            }
             let mut sum = 0.0;
             let mut at_roundoff = true;
             for s in 0..3 {
@@ -217,28 +318,25 @@ impl ImplicitMethod for Radau5 {
         &mut self.z_prev
     }
 
-    /// `I − h A⊗J` and `I − hγ₀J`.
+    /// `I − hγ₀J` (real) and `I − h/(α + iβ) J` (complex).
     fn factor(&mut self, h: f64) -> bool {
         let n = self.core.y.len();
+        let (alpha, beta) = (self.basis.alpha, self.basis.beta);
+        let lu_complex = &mut self.lu_complex;
+        let perm_complex = &mut self.perm_complex;
         self.newton.factor(h, |jac| {
-            let m = 3 * n;
-            for (bi, a_row) in A.iter().enumerate() {
-                for (bj, aij) in a_row.iter().enumerate() {
-                    let a = h * aij;
-                    for i in 0..n {
-                        let row = (bi * n + i) * m + bj * n;
-                        let (dst, src) = (&mut self.lu_big[row..row + n], &jac[i * n..(i + 1) * n]);
-                        for (d, j) in dst.iter_mut().zip(src) {
-                            *d = -a * j;
-                        }
-                    }
-                }
+            // h/(α + iβ) = h (α − iβ)/(α² + β²)
+            let d = alpha * alpha + beta * beta;
+            let (cr, ci) = (h * alpha / d, -h * beta / d);
+            for (k, j) in jac.iter().enumerate() {
+                lu_complex[2 * k] = -cr * j;
+                lu_complex[2 * k + 1] = -ci * j;
             }
-            for i in 0..m {
-                self.lu_big[i * m + i] += 1.0;
+            for i in 0..n {
+                lu_complex[2 * (i * n + i)] += 1.0;
             }
-            linalg::lu_in_place(&mut self.lu_big, m, &mut self.perm_big)
-                && NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
+            NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
+                && linalg::lu_in_place_complex(lu_complex, n, perm_complex)
         })
     }
 

@@ -1,0 +1,475 @@
+//! `auto`: Dormand-Prince while the problem is not stiff, an implicit method while it is,
+//! switched by a stiffness estimate, as LSODA does between Adams and BDF.
+//!
+//! - **Explicit → implicit.** Every accepted Dormand-Prince step estimates `h·ρ` from its last
+//!   two stages ([`Dopri5::stiffness`], Hairer's test). Above [`STIFF_LIMIT`] the step size is
+//!   bounded by stability, not accuracy. After [`STIFF_STEPS`] such steps (a run of
+//!   [`CALM_STEPS`] steps below the limit forgets them) the next step switches: the implicit
+//!   method starts at the current state with a fresh Jacobian.
+//! - **Implicit → explicit.** After every accepted implicit step: the step is *non-stiff* when
+//!   Newton converged without a Jacobian (functional iteration, as after a reset), or when
+//!   the spectral radius ρ(J) of the Jacobian held (power iteration, computed once per
+//!   Jacobian) times the next step is below [`CALM_LIMIT`]: Dormand-Prince would be stable at
+//!   that step size with margin. After [`CALM_STEPS_IMPLICIT`] non-stiff steps in a row the
+//!   next step switches back.
+//! - A switch happens at the start of a step, so the dense output of the last step stays that
+//!   of the method that took it. The counters carry over (one [`Stats`] for the run).
+//! - Resets (after events) and restarts keep the active method and the switching memory.
+//! - Systems larger than [`IMPLICIT_MAX_SIZE`] get no implicit method (its dense matrices
+//!   would take `4n²` numbers): `auto` is Dormand-Prince alone there.
+//! - Saved state: the tag, the switching memory, then the active method's own state; the other
+//!   method is not saved since it starts afresh at a switch.
+
+use super::core::{StateReader, StepCore};
+use super::dopri5::Dopri5;
+use super::newton::ImplicitMethod;
+use super::{Integrator, IntegratorError, OdeSystem};
+use crate::scene::Method;
+
+/// `h·ρ` above which a Dormand-Prince step counts as limited by stability (Hairer's 3.25; the
+/// stability region reaches about 3.3 along the negative real axis).
+pub const STIFF_LIMIT: f64 = 3.25;
+/// Stability-limited Dormand-Prince steps that make the problem stiff (Hairer: 15).
+pub const STIFF_STEPS: u32 = 15;
+/// Dormand-Prince steps below [`STIFF_LIMIT`] in a row that forget the stiff ones (Hairer: 6).
+pub const CALM_STEPS: u32 = 6;
+/// `h·ρ(J)` of the implicit method's next step below which Dormand-Prince would be stable
+/// with margin (half of [`STIFF_LIMIT`]).
+pub const CALM_LIMIT: f64 = 0.5 * STIFF_LIMIT;
+/// Non-stiff implicit steps in a row that switch back to Dormand-Prince.
+pub const CALM_STEPS_IMPLICIT: u32 = 10;
+/// Largest system for which `auto` holds an implicit method (dense Jacobian and factors: 4n²
+/// numbers, 32 MB at this size).
+pub const IMPLICIT_MAX_SIZE: usize = 1_000;
+/// Power iterations for ρ(J).
+const POWER_ITERATIONS: usize = 16;
+/// Numbers of the switching memory in saved states (after the tag).
+pub const MEMORY_LEN: usize = 7;
+
+/// The automatic method (scene name `"auto"`) over Dormand-Prince and the implicit method `I`.
+pub struct Auto<I: ImplicitMethod + Integrator> {
+    explicit: Dopri5,
+    /// None for systems above [`IMPLICIT_MAX_SIZE`].
+    implicit: Option<I>,
+    /// The implicit method is the active one.
+    stiff: bool,
+    /// Switch to the other method at the start of the next step.
+    switch_pending: bool,
+    /// Explicit: stability-limited steps counted toward a switch; implicit: non-stiff steps in
+    /// a row.
+    count: u32,
+    /// Explicit: steps below the limit in a row.
+    calm: u32,
+    /// ρ(J) of the implicit method's Jacobian, and the Jacobian count it was computed for
+    /// (u64::MAX: none).
+    rho: f64,
+    rho_jac: u64,
+    /// Power-iteration vectors.
+    x: Vec<f64>,
+    jx: Vec<f64>,
+    /// Switches made (both directions).
+    switches: u64,
+}
+
+impl<I: ImplicitMethod + Integrator> Auto<I> {
+    /// The method for systems of size `n`, with the explicit method's tolerances and largest
+    /// step and an implicit method built for the same (None: never stiff).
+    pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64, implicit: Option<I>) -> Self {
+        Auto {
+            explicit: Dopri5::new(n, rtol, atol, hmax),
+            implicit,
+            stiff: false,
+            switch_pending: false,
+            count: 0,
+            calm: 0,
+            rho: 0.0,
+            rho_jac: u64::MAX,
+            x: vec![0.0; n],
+            jx: vec![0.0; n],
+            switches: 0,
+        }
+    }
+
+    /// Whether the implicit method is active.
+    pub fn is_stiff(&self) -> bool {
+        self.stiff
+    }
+
+    /// Switches made since construction.
+    pub fn switches(&self) -> u64 {
+        self.switches
+    }
+
+    fn active(&self) -> &dyn Integrator {
+        match &self.implicit {
+            Some(i) if self.stiff => i,
+            _ => &self.explicit,
+        }
+    }
+
+    fn active_mut(&mut self) -> &mut dyn Integrator {
+        match &mut self.implicit {
+            Some(i) if self.stiff => i,
+            _ => &mut self.explicit,
+        }
+    }
+
+    /// Makes the other method the active one at the current state: it starts there with the
+    /// counters so far (the implicit one with a fresh Jacobian).
+    fn switch(&mut self, sys: &mut dyn OdeSystem) {
+        let (t, stats, h) = (self.active().t(), self.active().stats(), self.active().next_step());
+        self.stiff = !self.stiff;
+        self.switch_pending = false;
+        self.count = 0;
+        self.calm = 0;
+        self.switches += 1;
+        let Auto { explicit, implicit, .. } = self;
+        let Some(implicit) = implicit else {
+            return;
+        };
+        if self.stiff {
+            implicit.set_stats(stats);
+            implicit.reset(sys, t, explicit.y(), h);
+            implicit.jacobian(sys);
+        } else {
+            explicit.set_stats(stats);
+            explicit.reset(sys, t, implicit.y(), h);
+        }
+    }
+
+    /// Updates the switching memory after an accepted step of positive length.
+    fn observe(&mut self) {
+        if !self.stiff {
+            if self.explicit.stiffness() > STIFF_LIMIT {
+                self.count += 1;
+                self.calm = 0;
+            } else {
+                self.calm += 1;
+                if self.calm >= CALM_STEPS {
+                    self.count = 0;
+                }
+            }
+            if self.count >= STIFF_STEPS && self.implicit.is_some() {
+                self.switch_pending = true;
+            }
+            return;
+        }
+        let Some(implicit) = &self.implicit else {
+            return;
+        };
+        let (_, newton) = implicit.parts();
+        let calm = if !newton.mem.jac_valid {
+            true
+        } else {
+            let jac_evals = implicit.stats().jac_evals;
+            if self.rho_jac != jac_evals {
+                self.rho = spectral_radius(&newton.jac, &mut self.x, &mut self.jx);
+                self.rho_jac = jac_evals;
+            }
+            implicit.next_step() * self.rho < CALM_LIMIT
+        };
+        self.count = if calm { self.count + 1 } else { 0 };
+        if self.count >= CALM_STEPS_IMPLICIT {
+            self.switch_pending = true;
+        }
+    }
+}
+
+/// Spectral radius of the row-major n×n matrix `jac` by power iteration from a fixed start
+/// (deterministic): `sqrt(‖J²x‖/‖x‖)` after [`POWER_ITERATIONS`] iterations, which is exact
+/// for a dominant real eigenvalue and for a dominant complex pair `±iω` of an oscillation.
+pub fn spectral_radius(jac: &[f64], x: &mut [f64], jx: &mut [f64]) -> f64 {
+    let n = x.len();
+    if n == 0 {
+        return 0.0;
+    }
+    for (i, v) in x.iter_mut().enumerate() {
+        *v = 1.0 + (0.618_033_988_749_895 * i as f64).fract();
+    }
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let scale = norm(x);
+    x.iter_mut().for_each(|v| *v /= scale);
+    let mut norms = [0.0; 2];
+    for k in 0..POWER_ITERATIONS {
+        for (i, out) in jx.iter_mut().enumerate() {
+            let row = &jac[i * n..(i + 1) * n];
+            *out = row.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
+        }
+        let nj = norm(jx);
+        if !(nj > 0.0 && nj.is_finite()) {
+            return if nj == 0.0 { 0.0 } else { f64::INFINITY };
+        }
+        norms[k % 2] = nj;
+        for (a, b) in x.iter_mut().zip(jx.iter()) {
+            *a = b / nj;
+        }
+    }
+    (norms[0] * norms[1]).sqrt()
+}
+
+impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
+    fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.switch_pending = false;
+        self.active_mut().reset(sys, t, y, h);
+    }
+
+    fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
+        self.switch_pending = false;
+        self.active_mut().restart(sys, t, y, h);
+    }
+
+    fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError> {
+        if self.switch_pending {
+            self.switch(sys);
+        }
+        self.active_mut().step(sys, t_max)?;
+        if self.active().t() > self.active().t_prev() {
+            self.observe();
+        }
+        Ok(())
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        self.active().interpolate(t, out);
+    }
+
+    fn core(&self) -> &StepCore {
+        self.active().core()
+    }
+
+    fn core_mut(&mut self) -> &mut StepCore {
+        self.active_mut().core_mut()
+    }
+
+    /// Tag, the switching memory (implicit active, switch pending, the two step counts, ρ(J)
+    /// and the Jacobian count it is for (−1: none), switches made), then the active method's
+    /// state with its own tag.
+    fn save_state(&self, out: &mut Vec<f64>) {
+        out.push(super::core::state_tag(Method::Auto));
+        let flag = |b: bool| b as u8 as f64;
+        let rho_jac = if self.rho_jac == u64::MAX {
+            -1.0
+        } else {
+            self.rho_jac as f64
+        };
+        out.extend_from_slice(&[
+            flag(self.stiff),
+            flag(self.switch_pending),
+            self.count as f64,
+            self.calm as f64,
+            self.rho,
+            rho_jac,
+            self.switches as f64,
+        ]);
+        self.active().save_state(out);
+    }
+
+    fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
+        let mut r = StateReader::new(v, Method::Auto)?;
+        let stiff = r.flag()?;
+        let pending = r.flag()?;
+        let count = r.count()?;
+        let calm = r.count()?;
+        let rho = r.value()?;
+        let rho_jac = match r.value()? {
+            -1.0 => u64::MAX,
+            x if x >= 0.0 && x.fract() == 0.0 && x < 9.0e15 => x as u64,
+            x => {
+                return Err(format!(
+                    "the auto integrator state holds {x} where a Jacobian count belongs"
+                ))
+            }
+        };
+        let switches = r.count()?;
+        let own = r.take(v.len() - 1 - MEMORY_LEN)?;
+        r.finish()?;
+        if count > u32::MAX as u64 || calm > u32::MAX as u64 || rho.is_nan() || rho < 0.0 {
+            return Err("the auto integrator state holds an out-of-range switching memory".into());
+        }
+        match &mut self.implicit {
+            Some(i) if stiff => i.load_state(own)?,
+            None if stiff => {
+                return Err("the auto integrator state is implicit, but this system is too large for one".into())
+            }
+            _ => self.explicit.load_state(own)?,
+        }
+        self.stiff = stiff;
+        self.switch_pending = pending;
+        self.count = count as u32;
+        self.calm = calm as u32;
+        self.rho = rho;
+        self.rho_jac = rho_jac;
+        self.switches = switches;
+        Ok(())
+    }
+
+    /// The active method (a flag) and its warm memory.
+    fn warm_state(&self, out: &mut Vec<f64>) {
+        out.push(self.stiff as u8 as f64);
+        self.active().warm_state(out);
+    }
+
+    fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
+        match v.split_first() {
+            None => self.active_mut().set_warm_state(&[]),
+            Some((&flag, rest)) if flag == 0.0 || flag == 1.0 => {
+                match &mut self.implicit {
+                    Some(i) if flag == 1.0 => i.set_warm_state(rest)?,
+                    None if flag == 1.0 => {
+                        return Err(
+                            "the auto integrator's memory is implicit, but this system is too large for one".into(),
+                        )
+                    }
+                    _ => self.explicit.set_warm_state(rest)?,
+                }
+                self.stiff = flag == 1.0;
+                Ok(())
+            }
+            Some((&flag, _)) => Err(format!(
+                "the auto integrator's memory begins with {flag}, not a flag (0 or 1)"
+            )),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::radau::Radau5;
+    use super::super::test_problems::*;
+    use super::*;
+
+    /// Prothero-Robinson with a stiffness that fades: `y' = λ(t)(y − sin t) + cos t`,
+    /// `λ(t) = −10⁵ e^{−10t}`, `y = sin t` from `y(0) = 0`. Stiff at first (h·|λ| ≫ 3.3 at any
+    /// step the accuracy allows), not stiff after about t = 1 (|λ| < 5).
+    struct FadingStiffness;
+    impl OdeSystem for FadingStiffness {
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            let lambda = -1e5 * (-10.0 * t).exp();
+            dy[0] = lambda * (y[0] - t.sin()) + t.cos();
+        }
+    }
+
+    fn auto(n: usize, rtol: f64) -> Auto<Radau5> {
+        Auto::new(
+            n,
+            rtol,
+            rtol,
+            f64::INFINITY,
+            Some(Radau5::new(n, rtol, rtol, f64::INFINITY)),
+        )
+    }
+
+    /// Steps to `t_end`, recording whether the implicit method was active after each step.
+    fn run_recording(m: &mut Auto<Radau5>, sys: &mut dyn OdeSystem, y0: &[f64], t_end: f64) -> Vec<(f64, bool)> {
+        m.reset(sys, 0.0, y0, 0.0);
+        let mut modes = Vec::new();
+        while m.t() < t_end {
+            m.step(sys, t_end).unwrap();
+            modes.push((m.t(), m.is_stiff()));
+        }
+        modes
+    }
+
+    #[test]
+    fn the_spectral_radius_of_a_real_and_of_an_oscillating_dominant_mode() {
+        let (mut x, mut jx) = (vec![0.0; 3], vec![0.0; 3]);
+        let diag = [-5.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0];
+        let rho = spectral_radius(&diag, &mut x, &mut jx);
+        assert!((rho - 5.0).abs() < 1e-3, "{rho}");
+        // x'' = −ω²x − c x' with light damping: eigenvalues −c/2 ± i√(ω² − c²/4), |λ| = ω
+        let (mut x, mut jx) = (vec![0.0; 2], vec![0.0; 2]);
+        let w = 1e4;
+        let osc = [0.0, 1.0, -w * w, 0.0];
+        let rho = spectral_radius(&osc, &mut x, &mut jx);
+        assert!((rho / w - 1.0).abs() < 1e-12, "{rho}");
+        assert_eq!(spectral_radius(&[0.0; 4], &mut x, &mut jx), 0.0);
+    }
+
+    /// Stiff at first: auto switches to the implicit method within the first steps, then
+    /// back to Dormand-Prince once the stiffness has faded; it is as accurate as each method
+    /// alone and costs far fewer evaluations than Dormand-Prince (which sits at its stability
+    /// limit while stiff) and fewer than Radau IIA (whose steps each cost several).
+    #[test]
+    fn switches_to_the_implicit_method_while_stiff_and_back_when_the_stiffness_fades() {
+        let rtol = 1e-7;
+        let mut m = auto(1, rtol);
+        let modes = run_recording(&mut m, &mut FadingStiffness, &[0.0], 3.0);
+        assert_eq!(m.switches(), 2, "{modes:?}");
+        let t_on = modes.iter().find(|(_, s)| *s).map(|(t, _)| *t).unwrap();
+        let t_off = modes.iter().rev().find(|(_, s)| *s).map(|(t, _)| *t).unwrap();
+        assert!(t_on < 1e-3, "switched to the implicit method at t = {t_on}");
+        // stiff while 3.25/|λ(t)| is below the accuracy-limited step (~0.01 at this rtol)
+        assert!((0.5..2.0).contains(&t_off), "switched back at t = {t_off}");
+        assert!(!m.is_stiff());
+        let err = (m.y()[0] - 3f64.sin()).abs();
+        let mut d = Dopri5::new(1, rtol, rtol, f64::INFINITY);
+        let yd = run(&mut d, &mut FadingStiffness, 0.0, &[0.0], 3.0);
+        let mut r = Radau5::new(1, rtol, rtol, f64::INFINITY);
+        let yr = run(&mut r, &mut FadingStiffness, 0.0, &[0.0], 3.0);
+        let (ed, er) = ((yd[0] - 3f64.sin()).abs(), (yr[0] - 3f64.sin()).abs());
+        assert!(err < 1e-6, "auto error {err:e} (dopri5 {ed:e}, radau5 {er:e})");
+        let (sa, sd, sr) = (m.stats(), d.stats(), r.stats());
+        println!("auto {sa:?}\ndopri5 {sd:?}\nradau5 {sr:?}");
+        assert!(3 * sa.rhs_evals < sd.rhs_evals, "auto {sa:?}, dopri5 {sd:?}");
+        assert!(sa.rhs_evals < sr.rhs_evals, "auto {sa:?}, radau5 {sr:?}");
+    }
+
+    /// A non-stiff problem never leaves Dormand-Prince: the steps are those of dopri5 alone,
+    /// bit for bit.
+    #[test]
+    fn a_non_stiff_problem_is_integrated_by_dormand_prince_alone() {
+        let mut m = auto(3, 1e-8);
+        let modes = run_recording(&mut m, &mut Smooth, &Smooth::exact(0.0), 5.0);
+        assert!(modes.iter().all(|(_, s)| !s));
+        let mut d = Dopri5::new(3, 1e-8, 1e-8, f64::INFINITY);
+        let yd = run(&mut d, &mut Smooth, 0.0, &Smooth::exact(0.0), 5.0);
+        assert_eq!(m.y(), &yd[..]);
+        assert_eq!(m.stats(), d.stats());
+    }
+
+    /// A stiff oscillation that lasts (a resting contact): auto stays implicit once switched.
+    #[test]
+    fn a_lasting_stiff_oscillation_stays_implicit() {
+        let mut sys = SpringDamper { omega: 1e4, g: 9.81 };
+        let mut m = auto(2, 1e-8);
+        let modes = run_recording(&mut m, &mut sys, &[0.0, -1.0], 1.0);
+        assert_eq!(m.switches(), 1, "{:?}", &modes[..modes.len().min(40)]);
+        assert!(m.is_stiff());
+        let exact = sys.exact(1.0, -1.0);
+        assert!(max_diff(m.y(), &exact) < 1e-9, "{:?} vs {exact:?}", m.y());
+    }
+
+    /// Above [`IMPLICIT_MAX_SIZE`] there is no implicit method: a stiff system stays with
+    /// Dormand-Prince (at its stability limit), and a state claiming an implicit method is
+    /// refused.
+    #[test]
+    fn a_system_too_large_for_the_dense_implicit_method_stays_explicit() {
+        let n = IMPLICIT_MAX_SIZE + 1;
+        let s = crate::scene::SolverSection {
+            method: Method::Auto,
+            rtol: 1e-6,
+            atol: 1e-8,
+            ..Default::default()
+        };
+        let mut m = super::super::create(&s, n);
+        struct Many(FadingStiffness);
+        impl OdeSystem for Many {
+            fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+                for (d, v) in dy.iter_mut().zip(y) {
+                    let mut one = [0.0];
+                    self.0.rhs(t, &[*v], &mut one);
+                    *d = one[0];
+                }
+            }
+        }
+        let mut many = Many(FadingStiffness);
+        let y = run(m.as_mut(), &mut many, 0.0, &vec![0.0; n], 0.02);
+        assert!((y[0] - 0.02f64.sin()).abs() < 1e-5);
+        let mut w = Vec::new();
+        m.save_state(&mut w);
+        assert_eq!(w[1], 0.0, "explicit throughout");
+        assert!(m.stats().steps > 100, "{:?}: stability-limited steps", m.stats());
+        w[1] = 1.0;
+        assert!(m.load_state(&w).is_err());
+    }
+}
