@@ -28,8 +28,8 @@ expected (sphere-sphere at 2 × 0.3·√3 m/s, wall at 0.3·√3 m/s). b is cali
 a MuJoCo run of one contact) so that the restitution at the scene's typical speed equals the
 one contact-fmu's `hertz_ln` (e = 0.8) gives, measured by a contact-fmu run.
 
-Timestep: MuJoCo's semi-implicit Euler, MJ_DT = 1e-4 s (contact duration ~1.7 ms at 0.3 m/s:
-~17 steps per impact; the accuracy section sweeps dt and prints the error of each).
+Timestep: MuJoCo's semi-implicit Euler, MJ_DT = 1e-4 s (contact duration 1.66 ms at 0.3 m/s:
+16 steps per impact; the accuracy section sweeps dt and prints the error of each).
 
 contact-fmu runs `contact-fmu bench run` (timing inside the process, setup excluded), the
 scene's own settings (dopri5, rtol 1e-6), stop time FMU_TIME[N]; MuJoCo runs the same window
