@@ -138,6 +138,10 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
         for tol in [1e-4, 1e-6] {
             candidates.push((Method::Radau5, tol, 1e-2));
         }
+        // the default method with the default (no) largest step
+        for tol in [1e-4, 1e-5, 1e-6, 1e-8] {
+            candidates.push((Method::Auto, tol, 0.0));
+        }
         let mut best: Option<(f64, String)> = None;
         for (method, tol, hmax) in candidates {
             let spec = with(method, tol, hmax);
