@@ -4,7 +4,7 @@
 //! the structure that makes a scene of free bodies cheap: one 6×6 mass block per free body
 //! and no loop-constraint rows.
 
-use super::{f, median, scenes, time_runs, Csv, RunSpec};
+use super::{f, median, scenes, thread_cpu_seconds, time_runs, Csv, RunSpec};
 use crate::compile::compile;
 use crate::contact;
 use crate::forward::Rhs;
@@ -15,15 +15,16 @@ use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
-/// Median time of one call of `body` [s], from `repeats` batches of `iters` calls.
+/// Median CPU time of one call of `body` [s] (the thread's CPU clock, which other load on
+/// the machine does not inflate), from `repeats` batches of `iters` calls.
 pub fn time_per_call(repeats: usize, iters: usize, mut body: impl FnMut()) -> f64 {
     let mut v = Vec::new();
     for _ in 0..repeats.max(1) {
-        let t = Instant::now();
+        let t = thread_cpu_seconds();
         for _ in 0..iters {
             body();
         }
-        v.push(t.elapsed().as_secs_f64() / iters as f64);
+        v.push((thread_cpu_seconds() - t) / iters as f64);
     }
     median(&v)
 }
