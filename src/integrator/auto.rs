@@ -140,11 +140,12 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// Updates the switching memory after an accepted step of positive length.
     fn observe(&mut self) {
         if !self.stiff {
+            // (the counts saturate: without an implicit method they would grow forever)
             if self.explicit.stiffness() > STIFF_LIMIT {
-                self.count += 1;
+                self.count = (self.count + 1).min(STIFF_STEPS);
                 self.calm = 0;
             } else {
-                self.calm += 1;
+                self.calm = (self.calm + 1).min(CALM_STEPS);
                 if self.calm >= CALM_STEPS {
                     self.count = 0;
                 }
@@ -168,7 +169,11 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             }
             implicit.next_step() * self.rho < CALM_LIMIT
         };
-        self.count = if calm { self.count + 1 } else { 0 };
+        self.count = if calm {
+            (self.count + 1).min(CALM_STEPS_IMPLICIT)
+        } else {
+            0
+        };
         if self.count >= CALM_STEPS_IMPLICIT {
             self.switch_pending = true;
         }
