@@ -19,6 +19,8 @@
 pub mod element;
 pub mod friction;
 pub mod geometry;
+pub mod broad;
+pub mod groups;
 pub mod impulse;
 pub mod laws;
 pub mod modes;
