@@ -66,6 +66,8 @@ pub struct Simulation {
     watch: EnergyWatch,
     /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
     drift: Option<Drift>,
+    /// Contact groups: how often the candidate pairs were found again (a diagnostic).
+    refreshes: u64,
 }
 
 /// The energy-balance watch: `energy.total + energy.dissipated` against its value at
@@ -150,7 +152,14 @@ impl Simulation {
             max_penetration_follows,
             watch: EnergyWatch::default(),
             drift: None,
+            refreshes: 0,
         }
+    }
+
+    /// Contact groups: how often the candidate pairs were found again since this simulation
+    /// was created (a diagnostic, not part of the state).
+    pub fn candidate_refreshes(&self) -> u64 {
+        self.refreshes
     }
 
     /// Reads, parses and validates a scene file.
@@ -570,6 +579,7 @@ impl Simulation {
         engine::events::event_values(&m2, &mut d2, false);
         c.model = m2;
         c.data = d2;
+        self.refreshes += 1;
         Ok(())
     }
 

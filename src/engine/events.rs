@@ -185,7 +185,8 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
 pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     let n_contacts = m.contacts.len();
     let method = d.solver.method()?;
-    if n_contacts == 0 {
+    // (contact groups without candidates still follow how far their shapes moved)
+    if n_contacts == 0 && !m.groups.is_active() {
         return None;
     }
     let (t0, t1) = (method.t_prev(), method.t());

@@ -335,6 +335,30 @@ impl Scene {
         c
     }
 
+    /// The `[[contact]]` list the contact groups stand for: one contact per pair of shapes
+    /// whose groups touch (not on one body), named `<pair>_<sphere>_<other>` (1-based shape
+    /// numbers), in the order of the group contacts of a model (group pair, sphere shape,
+    /// other shape).
+    pub fn group_contacts(&self) -> Vec<ContactSpec> {
+        let mut out = Vec::new();
+        for g in &self.contact_group {
+            let [a, b] = &g.groups;
+            for (i, s) in self.shape.iter().enumerate() {
+                if s.group != *a {
+                    continue;
+                }
+                for (j, o) in self.shape.iter().enumerate() {
+                    if o.group != *b || o.body == s.body || (a == b && j <= i) {
+                        continue;
+                    }
+                    let name = format!("{}_{}_{}", g.name, i + 1, j + 1);
+                    out.push(self.group_pair_contact(g, &name, s, o));
+                }
+            }
+        }
+        out
+    }
+
     /// Checks `[[shape]]`, `[[contact_group]]` and `[broad_phase]` (names are checked for
     /// uniqueness by the caller).
     pub(super) fn validate_groups(
