@@ -651,7 +651,16 @@ impl Simulation {
         if kept_values != self.values {
             self.compiled_fresh = false;
         }
+        let params = self.parameters();
+        let (scene, origin) = (self.scene.clone(), self.origin.clone());
         let restored = self.ensure_compiled().and_then(|c| {
+            // contact groups: the model of the snapshot's candidate pairs
+            if let Some(found) = state::group_candidates(&c.model, &s.state) {
+                if found != c.model.groups.candidates {
+                    let (m, d) = compile::compile_with_candidates(&scene, &params, &origin, Some(&found))?;
+                    *c = Compiled { model: m, data: d };
+                }
+            }
             state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
             engine::resync(&c.model, &mut c.data);
             Ok(())

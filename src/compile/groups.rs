@@ -107,7 +107,18 @@ pub(super) fn compile_groups(
         has_shape,
     };
     groups.candidates = match candidates {
-        Some(c) => c.to_vec(),
+        Some(c) => {
+            let (np, ns) = (scene.contact_group.len(), scene.shape.len());
+            if let Some(bad) = c.iter().find(|k| k.pair >= np || k.sphere >= ns || k.other >= ns) {
+                return Err(SceneError::new(
+                    origin,
+                    "[broad_phase]",
+                    "candidates",
+                    format!("candidate pair {bad:?} names a group pair or shape the scene does not have"),
+                ));
+            }
+            c.to_vec()
+        }
         None => groups.find(&|b| {
             let (p, q) = pose0(b);
             (p, *q.to_rotation_matrix().matrix())

@@ -86,11 +86,20 @@ impl Groups {
         i.checked_sub(self.n_explicit).and_then(|k| self.candidates.get(k).copied())
     }
 
-    /// The element (sphere, other, pair) for shapes `i` and `j`, if their groups touch.
-    fn pair_of(&self, i: usize, j: usize) -> Option<Candidate> {
+    /// The element (sphere, other, pair) for shapes `i` and `j` whose boxes overlap, if their
+    /// groups touch and, for two balls, their bounds come within the margin.
+    fn pair_of(&self, i: usize, j: usize, boxes: &[[Vector3<f64>; 2]]) -> Option<Candidate> {
         let (a, b) = (&self.shapes[i], &self.shapes[j]);
         if a.body == b.body {
             return None;
+        }
+        if let (Bound::Ball(ra), Bound::Ball(rb)) = (a.bound, b.bound) {
+            // the box centres are the balls' centres
+            let (ca, cb) = (boxes[i][0] + boxes[i][1], boxes[j][0] + boxes[j][1]);
+            let reach = ra + rb + self.margin;
+            if (ca - cb).norm_squared() > 4.0 * reach * reach {
+                return None;
+            }
         }
         let n = self.ngroups;
         if a.group == b.group {
@@ -119,7 +128,8 @@ impl Groups {
 
     /// The candidate pairs at the body poses `pose(body)` (position of the centre of mass,
     /// rotation), sorted (pair, sphere, other): every pair whose bounding boxes, grown by
-    /// half the margin each, overlap.
+    /// half the margin each, overlap (and, for two ball bounds, whose balls come within the
+    /// margin).
     pub fn find(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
         let boxes: Vec<[Vector3<f64>; 2]> = self
             .shapes
@@ -149,7 +159,7 @@ impl Groups {
             open.retain(|&j| boxes[j][1].x >= lo);
             for &j in &open {
                 if overlap_yz(&boxes[i], &boxes[j]) {
-                    if let Some(c) = self.pair_of(i, j) {
+                    if let Some(c) = self.pair_of(i, j, boxes) {
                         out.push(c);
                     }
                 }
@@ -201,7 +211,7 @@ impl Groups {
                     if common != *key {
                         continue;
                     }
-                    if let Some(c) = self.pair_of(i, j) {
+                    if let Some(c) = self.pair_of(i, j, boxes) {
                         out.push(c);
                     }
                 }
@@ -226,7 +236,7 @@ impl Groups {
             for j in i + 1..boxes.len() {
                 let (bi, bj) = (&boxes[i], &boxes[j]);
                 if bi[0].x <= bj[1].x && bj[0].x <= bi[1].x && overlap_yz(bi, bj) {
-                    if let Some(c) = self.pair_of(i, j) {
+                    if let Some(c) = self.pair_of(i, j, &boxes) {
                         out.push(c);
                     }
                 }
