@@ -281,7 +281,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Inputs => d.inputs.copy_from_slice(s),
             StatePart::ContactMemory => {
                 let groups = group_section_len(m);
-                let poses = &s[1 + 3 * m.groups.candidates.len()..groups];
+                let poses = &s[(1 + 3 * m.groups.candidates.len()).min(groups)..groups];
                 for (r, p) in d.broad_reference.iter_mut().zip(poses.chunks(7)) {
                     r.0 = Vector3::new(p[0], p[1], p[2]);
                     r.1 = UnitQuaternion::new_unchecked(Quaternion::new(p[3], p[4], p[5], p[6]));
