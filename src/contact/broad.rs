@@ -13,7 +13,6 @@
 
 use crate::scene::BroadPhaseMethod;
 use nalgebra::{Matrix3, Vector3};
-use std::collections::HashMap;
 
 /// The bounding geometry of a group shape in its body's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -169,9 +168,11 @@ impl Groups {
         out
     }
 
-    /// Uniform grid: cells of the size of the largest box of a sphere (at least the margin);
-    /// each box is entered into the cells it covers, and a pair is reported by the first cell
-    /// the two share.
+    /// Uniform grid: cells of the size of the largest box of a ball bound (at least the
+    /// margin). Each box is entered into the cells it covers (one sorted list of (cell, box)),
+    /// and a pair is reported by the first cell the two share; a box that would cover more
+    /// than [`GRID_LARGE`] cells (a wall much larger than the spheres) is tested against every
+    /// other box instead.
     fn grid(&self, boxes: &[[Vector3<f64>; 2]]) -> Vec<Candidate> {
         let mut cell = self.margin;
         for (s, b) in self.shapes.iter().zip(boxes) {
@@ -182,36 +183,63 @@ impl Groups {
         let lo: Vector3<f64> = boxes
             .iter()
             .fold(Vector3::repeat(f64::INFINITY), |a, b| a.inf(&b[0]));
-        let index = |x: &Vector3<f64>| -> [i64; 3] {
+        let index = |x: &Vector3<f64>| -> [u64; 3] {
             let r = (x - lo) / cell;
-            [r.x.floor() as i64, r.y.floor() as i64, r.z.floor() as i64]
+            [r.x as u64, r.y as u64, r.z as u64]
         };
-        let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-        let range = |b: &[Vector3<f64>; 2]| (index(&b[0]), index(&b[1]));
+        let key = |c: [u64; 3]| (c[0] << 42) | (c[1] << 21) | c[2];
+        let mut entries: Vec<(u64, usize)> = Vec::with_capacity(2 * boxes.len());
+        let mut large = Vec::new();
         for (i, b) in boxes.iter().enumerate() {
-            let (a, z) = range(b);
+            let (a, z) = (index(&b[0]), index(&b[1]));
+            let cells = (z[0] - a[0] + 1) * (z[1] - a[1] + 1) * (z[2] - a[2] + 1);
+            if cells > GRID_LARGE || z.iter().any(|&c| c >= 1 << 21) {
+                large.push(i);
+                continue;
+            }
             for x in a[0]..=z[0] {
                 for y in a[1]..=z[1] {
                     for w in a[2]..=z[2] {
-                        cells.entry([x, y, w]).or_default().push(i);
+                        entries.push((key([x, y, w]), i));
                     }
                 }
             }
         }
+        entries.sort_unstable();
         let mut out = Vec::new();
-        for (key, members) in &cells {
-            for (n, &i) in members.iter().enumerate() {
-                for &j in &members[n + 1..] {
+        let mut start = 0;
+        while start < entries.len() {
+            let k = entries[start].0;
+            let mut end = start + 1;
+            while end < entries.len() && entries[end].0 == k {
+                end += 1;
+            }
+            for (n, &(_, i)) in entries[start..end].iter().enumerate() {
+                for &(_, j) in &entries[start + n + 1..end] {
                     let (bi, bj) = (&boxes[i], &boxes[j]);
                     if bi[0].x > bj[1].x || bj[0].x > bi[1].x || !overlap_yz(bi, bj) {
                         continue;
                     }
-                    // report once: in the lowest cell of the boxes' common part
-                    let common = index(&bi[0].sup(&bj[0]));
-                    if common != *key {
+                    // report once: in the cell of the lower corner of the boxes' common part
+                    if key(index(&bi[0].sup(&bj[0]))) != k {
                         continue;
                     }
                     if let Some(c) = self.pair_of(i, j, boxes) {
+                        out.push(c);
+                    }
+                }
+            }
+            start = end;
+        }
+        for (n, &l) in large.iter().enumerate() {
+            for j in 0..boxes.len() {
+                // a large box against the others, each pair of large boxes once
+                if j == l || (large.contains(&j) && large[..=n].contains(&j)) {
+                    continue;
+                }
+                let (bi, bj) = (&boxes[l], &boxes[j]);
+                if bi[0].x <= bj[1].x && bj[0].x <= bi[1].x && overlap_yz(bi, bj) {
+                    if let Some(c) = self.pair_of(l, j, boxes) {
                         out.push(c);
                     }
                 }
@@ -246,6 +274,9 @@ impl Groups {
         out
     }
 }
+
+/// Most grid cells a box may cover before the grid tests it against every box instead.
+const GRID_LARGE: u64 = 64;
 
 fn overlap_yz(a: &[Vector3<f64>; 2], b: &[Vector3<f64>; 2]) -> bool {
     a[0].y <= b[1].y && b[0].y <= a[1].y && a[0].z <= b[1].z && b[0].z <= a[1].z

@@ -238,9 +238,9 @@ impl ContactGroupSpec {
 #[serde(rename_all = "snake_case")]
 pub enum BroadPhaseMethod {
     /// Sweep and prune along x.
-    #[default]
     Sweep,
-    /// Uniform grid (hashed cells).
+    /// Uniform grid (cells sorted by key).
+    #[default]
     Grid,
 }
 
