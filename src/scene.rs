@@ -9,7 +9,6 @@ use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
-
 mod groups;
 pub use groups::{shape_item, BroadPhaseMethod, BroadPhaseSection, ContactGroupSpec, ShapeSpec, ShapeType};
 

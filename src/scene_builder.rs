@@ -28,8 +28,8 @@
 //! ```
 
 use crate::scene::{
-    BodySpec, ContactGroupSpec, ShapeSpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, InputType, JointSpec, JointType, Law, MaterialSpec,
-    Method, ModelSection, Scene, Side, SolverSection, SpringDamperSpec,
+    BodySpec, ContactGroupSpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, InputType, JointSpec, JointType,
+    Law, MaterialSpec, Method, ModelSection, Scene, ShapeSpec, Side, SolverSection, SpringDamperSpec,
 };
 use nalgebra::UnitQuaternion;
 

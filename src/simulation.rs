@@ -560,7 +560,8 @@ impl Simulation {
                             message: format!(
                                 "contact {:?} touched before the broad phase listed it: a body moved more than \
                                  half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                m2.contacts[n + k].name, m2.groups.margin
+                                m2.contacts[n + k].name,
+                                m2.groups.margin
                             ),
                         });
                     }

@@ -97,7 +97,11 @@ impl Rng {
         lo + (hi - lo) * self.next()
     }
     fn vector(&mut self, half: f64) -> [f64; 3] {
-        [self.range(-half, half), self.range(-half, half), self.range(-half, half)]
+        [
+            self.range(-half, half),
+            self.range(-half, half),
+            self.range(-half, half),
+        ]
     }
     fn unit(&mut self) -> Vector3<f64> {
         loop {
@@ -175,7 +179,14 @@ fn random_scene(rng: &mut Rng, method: BroadPhaseMethod) -> Scene {
                 [rng.range(0.01, 0.3), rng.range(0.01, 0.3)],
             ));
         } else {
-            let mut cyl = ShapeSpec::cylinder("w", GROUND, o, rng.unit().into(), rng.range(0.02, 0.1), rng.range(0.01, 0.2));
+            let mut cyl = ShapeSpec::cylinder(
+                "w",
+                GROUND,
+                o,
+                rng.unit().into(),
+                rng.range(0.02, 0.1),
+                rng.range(0.01, 0.2),
+            );
             if rng.next() < 0.5 {
                 cyl.side = Side::Inside;
                 cyl.cylinder_radius = Some(0.2);
@@ -231,7 +242,13 @@ fn narrow_distance(m: &contact_fmu::model::Model, d: &contact_fmu::model::Data, 
     }
     match &c.shape {
         contact::Shape::Sphere { .. } => -g.delta,
-        contact::Shape::Plane { origin, normal, u, v, half } => {
+        contact::Shape::Plane {
+            origin,
+            normal,
+            u,
+            v,
+            half,
+        } => {
             let center = fs.pos + fs.rot * c.center;
             let o = fo.pos + fo.rot * origin;
             let (n, uu, vv) = (fo.rot * normal, fo.rot * u, fo.rot * v);
@@ -242,7 +259,9 @@ fn narrow_distance(m: &contact_fmu::model::Model, d: &contact_fmu::model::Data, 
             let _ = n;
             (center - closest).norm() - c.radius
         }
-        contact::Shape::Cylinder { point, axis, radius, .. } => {
+        contact::Shape::Cylinder {
+            point, axis, radius, ..
+        } => {
             // the distance of the sphere from the surface, where its centre lies on the patch
             let center = fs.pos + fs.rot * c.center;
             let (p, k) = (fo.pos + fo.rot * point, fo.rot * axis);
@@ -271,9 +290,15 @@ fn the_broad_phase_keeps_every_pair_within_the_margin() {
         let margin = scene.broad_phase.margin.unwrap();
         let (mg, dg) = compile(scene.clone());
         let found = mg.groups.find(&|b| contact::groups::pose(&dg, b));
-        assert_eq!(found, mg.groups.candidates, "case {case}: the compiled list is the broad phase's");
+        assert_eq!(
+            found, mg.groups.candidates,
+            "case {case}: the compiled list is the broad phase's"
+        );
         let reference = mg.groups.find_all_pairs(&|b| contact::groups::pose(&dg, b));
-        assert_eq!(found, reference, "case {case}: {method:?} against testing all pairs of boxes");
+        assert_eq!(
+            found, reference,
+            "case {case}: {method:?} against testing all pairs of boxes"
+        );
         let e = explicit(&scene);
         let (me, de) = compile(e.clone());
         for (i, c) in me.contacts.iter().enumerate() {
@@ -304,12 +329,24 @@ fn the_broad_phase_keeps_every_pair_within_the_margin() {
 /// ball_floor and ball_ball), impulse law.
 fn three_balls(restitution: f64) -> Scene {
     let heights = [0.05, 0.08, 0.12];
-    let mut b = SceneBuilder::new("three_balls").gravity([0.0, 0.0, -9.81]).tolerances(1e-10, 1e-12);
+    let mut b = SceneBuilder::new("three_balls")
+        .gravity([0.0, 0.0, -9.81])
+        .tolerances(1e-10, 1e-12);
     for (i, h) in heights.iter().enumerate() {
         let name = format!("ball{i}");
         b = b
-            .body(BodySpec::sphere(&name, BALL_MASS, BALL_RADIUS, [0.05 * i as f64, 0.0, BALL_RADIUS + h]))
-            .shape(ShapeSpec::sphere("balls", &name, [0.05 * i as f64, 0.0, BALL_RADIUS + h], BALL_RADIUS));
+            .body(BodySpec::sphere(
+                &name,
+                BALL_MASS,
+                BALL_RADIUS,
+                [0.05 * i as f64, 0.0, BALL_RADIUS + h],
+            ))
+            .shape(ShapeSpec::sphere(
+                "balls",
+                &name,
+                [0.05 * i as f64, 0.0, BALL_RADIUS + h],
+                BALL_RADIUS,
+            ));
     }
     b.shape(ShapeSpec::plane(
         "floor",
@@ -336,7 +373,9 @@ fn a_group_pair_parameter_acts_on_every_pair() {
         }
         s.initialize(0.0).unwrap();
         s.step_to(t_end).unwrap();
-        (0..3).map(|i| get(&mut s, &format!("ball{i}.v[3]"))).collect::<Vec<f64>>()
+        (0..3)
+            .map(|i| get(&mut s, &format!("ball{i}.v[3]")))
+            .collect::<Vec<f64>>()
     };
     let scene_e = run(three_balls(0.5), &[]);
     let param_e = run(three_balls(0.9), &[("ball_floor.restitution", 0.5)]);
@@ -346,7 +385,11 @@ fn a_group_pair_parameter_acts_on_every_pair() {
         let t1 = (2.0 * h / g).sqrt();
         let exact = 0.5 * g * t1 - g * (t_end - t1);
         println!("ball{i}: v_z = {:.12} m/s, closed form {exact:.12}", param_e[i]);
-        assert!((param_e[i] - exact).abs() < 1e-8, "ball{i}: {} against {exact}", param_e[i]);
+        assert!(
+            (param_e[i] - exact).abs() < 1e-8,
+            "ball{i}: {} against {exact}",
+            param_e[i]
+        );
     }
     let other = run(three_balls(0.9), &[]);
     assert!(other.iter().zip(&param_e).all(|(a, b)| a != b));
@@ -461,13 +504,9 @@ fn bad_group_input_is_a_clear_error() {
     assert!(e.contains("unknown field `radios`"), "{e}");
 }
 
-
 /// Every output of a simulation at its current state.
 fn all_outputs(s: &mut Simulation) -> Vec<f64> {
-    s.output_indices()
-        .into_iter()
-        .map(|vr| s.get(vr).unwrap())
-        .collect()
+    s.output_indices().into_iter().map(|vr| s.get(vr).unwrap()).collect()
 }
 
 #[test]

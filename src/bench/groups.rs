@@ -77,7 +77,17 @@ pub fn run(ns: &[usize], repeats: usize, run_time: f64, csv_path: &Path) -> Resu
     ]);
     println!(
         "{:>6} {:<9} {:>9} {:>12} {:>14} {:>16} {:>12} {:>12} {:>12} {:>7} {:>7}",
-        "N", "scene", "contacts", "compile [s]", "RHS start [µs]", "RHS active [µs]", "sweep [µs]", "grid [µs]", "s per sim s", "steps", "events"
+        "N",
+        "scene",
+        "contacts",
+        "compile [s]",
+        "RHS start [µs]",
+        "RHS active [µs]",
+        "sweep [µs]",
+        "grid [µs]",
+        "s per sim s",
+        "steps",
+        "events"
     );
     for &n in ns {
         for (kind, scene) in [
@@ -91,7 +101,10 @@ pub fn run(ns: &[usize], repeats: usize, run_time: f64, csv_path: &Path) -> Resu
             if m.groups.is_active() {
                 let mut g = m.groups.clone();
                 let mut counts = [0; 2];
-                for (k, method) in [BroadPhaseMethod::Sweep, BroadPhaseMethod::Grid].into_iter().enumerate() {
+                for (k, method) in [BroadPhaseMethod::Sweep, BroadPhaseMethod::Grid]
+                    .into_iter()
+                    .enumerate()
+                {
                     g.method = method;
                     let t = timed(repeats, || {
                         counts[k] = std::hint::black_box(g.find(&|b| pose(&d, b))).len();

@@ -277,7 +277,9 @@ pub fn sphere_box_groups(n: usize, stop_time: f64) -> Scene {
         ([mid, mid, lo], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
         ([mid, mid, hi], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]),
     ] {
-        scene.shape.push(ShapeSpec::plane("walls", GROUND, o, nrm, u, [size, size]));
+        scene
+            .shape
+            .push(ShapeSpec::plane("walls", GROUND, o, nrm, u, [size, size]));
     }
     scene.contact_group = vec![
         ContactGroupSpec::new("ball_ball", "balls", "balls", Law::HertzLn)

@@ -67,7 +67,10 @@ pub(super) fn compile_groups(
                     let [lu, lv] = s.size.unwrap_or([1.0, 1.0]);
                     (
                         local_point(body, v(s.origin.unwrap_or_default())),
-                        Bound::Rectangle(local_dir(body, u) * (0.5 * lu), local_dir(body, n.cross(&u)) * (0.5 * lv)),
+                        Bound::Rectangle(
+                            local_dir(body, u) * (0.5 * lu),
+                            local_dir(body, n.cross(&u)) * (0.5 * lv),
+                        ),
                     )
                 }
                 ShapeType::Cylinder => {

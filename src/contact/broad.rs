@@ -82,7 +82,8 @@ impl Groups {
 
     /// The candidate of contact element `i`, if it is a group contact.
     pub fn candidate_of(&self, i: usize) -> Option<Candidate> {
-        i.checked_sub(self.n_explicit).and_then(|k| self.candidates.get(k).copied())
+        i.checked_sub(self.n_explicit)
+            .and_then(|k| self.candidates.get(k).copied())
     }
 
     /// The element (sphere, other, pair) for shapes `i` and `j` whose boxes overlap, if their
@@ -110,9 +111,17 @@ impl Groups {
             });
         }
         if let Some(pair) = self.touch[a.group * n + b.group] {
-            return Some(Candidate { pair, sphere: i, other: j });
+            return Some(Candidate {
+                pair,
+                sphere: i,
+                other: j,
+            });
         }
-        self.touch[b.group * n + a.group].map(|pair| Candidate { pair, sphere: j, other: i })
+        self.touch[b.group * n + a.group].map(|pair| Candidate {
+            pair,
+            sphere: j,
+            other: i,
+        })
     }
 
     /// World bounding box (min, max) of shape `s` at pose `(pos, rot)`, grown by `grow`.
@@ -180,9 +189,7 @@ impl Groups {
                 cell = cell.max((b[1] - b[0]).max());
             }
         }
-        let lo: Vector3<f64> = boxes
-            .iter()
-            .fold(Vector3::repeat(f64::INFINITY), |a, b| a.inf(&b[0]));
+        let lo: Vector3<f64> = boxes.iter().fold(Vector3::repeat(f64::INFINITY), |a, b| a.inf(&b[0]));
         let index = |x: &Vector3<f64>| -> [u64; 3] {
             let r = (x - lo) / cell;
             [r.x as u64, r.y as u64, r.z as u64]
@@ -281,4 +288,3 @@ const GRID_LARGE: u64 = 64;
 fn overlap_yz(a: &[Vector3<f64>; 2], b: &[Vector3<f64>; 2]) -> bool {
     a[0].y <= b[1].y && b[0].y <= a[1].y && a[0].z <= b[1].z && b[0].z <= a[1].z
 }
-

@@ -90,7 +90,14 @@ impl ShapeSpec {
     }
 
     /// A rectangle on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
-    pub fn plane(group: &str, body: &str, origin: [f64; 3], normal: [f64; 3], u_axis: [f64; 3], size: [f64; 2]) -> ShapeSpec {
+    pub fn plane(
+        group: &str,
+        body: &str,
+        origin: [f64; 3],
+        normal: [f64; 3],
+        u_axis: [f64; 3],
+        size: [f64; 2],
+    ) -> ShapeSpec {
         ShapeSpec {
             origin: Some(origin),
             normal: Some(normal),
@@ -101,7 +108,14 @@ impl ShapeSpec {
     }
 
     /// A whole cylindrical surface (outside) on `body`, in `group`.
-    pub fn cylinder(group: &str, body: &str, axis_point: [f64; 3], axis: [f64; 3], radius: f64, length: f64) -> ShapeSpec {
+    pub fn cylinder(
+        group: &str,
+        body: &str,
+        axis_point: [f64; 3],
+        axis: [f64; 3],
+        radius: f64,
+        length: f64,
+    ) -> ShapeSpec {
         ShapeSpec {
             axis_point: Some(axis_point),
             axis: Some(axis),
@@ -371,7 +385,10 @@ impl Scene {
         for (k, s) in self.shape.iter().enumerate() {
             let item = shape_item(k, s);
             let err = |field: &str, msg: String| SceneError::new(origin, &item, field, msg);
-            super::check_name(origin, &item, &s.group).map_err(|e| SceneError { field: "group".into(), ..e })?;
+            super::check_name(origin, &item, &s.group).map_err(|e| SceneError {
+                field: "group".into(),
+                ..e
+            })?;
             if s.body != GROUND && !bodies.contains(s.body.as_str()) {
                 return Err(err("body", format!("unknown body {}", quote(&s.body))));
             }
@@ -392,7 +409,12 @@ impl Scene {
                     vector(origin, &item, f, &v)?;
                 }
             }
-            for (f, v) in [("normal", s.normal), ("u_axis", s.u_axis), ("axis", s.axis), ("ref_axis", s.ref_axis)] {
+            for (f, v) in [
+                ("normal", s.normal),
+                ("u_axis", s.u_axis),
+                ("axis", s.axis),
+                ("ref_axis", s.ref_axis),
+            ] {
                 if let Some(v) = v {
                     direction(origin, &item, f, v)?;
                 }
@@ -408,7 +430,10 @@ impl Scene {
             }
             if let Some([a, b]) = s.size {
                 if !(a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite()) {
-                    return Err(err("size", format!("both side lengths must be finite and > 0 (got [{a}, {b}])")));
+                    return Err(err(
+                        "size",
+                        format!("both side lengths must be finite and > 0 (got [{a}, {b}])"),
+                    ));
                 }
                 magnitude(origin, &item, "size", a.max(b))?;
             }
@@ -472,7 +497,11 @@ impl Scene {
                         format!(
                             "unknown group {} (no [[shape]] names it; groups: {})",
                             quote(n),
-                            if known.is_empty() { "none".into() } else { known.join(", ") }
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
                         ),
                     ));
                 }
@@ -514,7 +543,12 @@ impl Scene {
         }
         if let Some(m) = self.broad_phase.margin {
             if !(m > 0.0 && m.is_finite()) {
-                return Err(SceneError::new(origin, "[broad_phase]", "margin", format!("must be > 0 (got {m})")));
+                return Err(SceneError::new(
+                    origin,
+                    "[broad_phase]",
+                    "margin",
+                    format!("must be > 0 (got {m})"),
+                ));
             }
             magnitude(origin, "[broad_phase]", "margin", m)?;
         }
