@@ -546,3 +546,15 @@ fn a_saved_state_of_a_scene_with_groups_continues_bit_for_bit() {
         assert_eq!(&all_outputs(&mut a), out);
     }
 }
+
+#[test]
+fn shapes_without_a_group_pair_touch_nothing() {
+    // a ball falling through a floor whose group no [[contact_group]] names
+    let mut scene = three_balls(0.5);
+    scene.contact_group.clear();
+    let mut s = start(scene);
+    s.step_to(0.2).unwrap();
+    let z = get(&mut s, "ball0.r[3]");
+    assert!(z < 0.0, "the ball fell through: z = {z}");
+    assert_eq!(s.model().unwrap().contacts.len(), 0);
+}

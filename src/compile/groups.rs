@@ -27,7 +27,8 @@ pub(super) fn compile_groups(
     local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
     local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
 ) -> Result<(Groups, Vec<ContactElement>), SceneError> {
-    if scene.shape.is_empty() {
+    // shapes that no group pair names touch nothing
+    if scene.contact_group.is_empty() {
         return Ok((
             Groups {
                 n_explicit,
