@@ -393,6 +393,15 @@ fn a_group_pair_parameter_acts_on_every_pair() {
     }
     let other = run(three_balls(0.9), &[]);
     assert!(other.iter().zip(&param_e).all(|(a, b)| a != b));
+    // tunable: set between steps (before the first impact, at 0.1 s), it acts from then on
+    let mut s = start(three_balls(0.9));
+    s.step_to(0.05).unwrap();
+    s.set_by_name("ball_floor.restitution", 0.5).unwrap();
+    s.step_to(t_end).unwrap();
+    for (i, v) in param_e.iter().enumerate() {
+        let w = get(&mut s, &format!("ball{i}.v[3]"));
+        assert!((w - v).abs() < 1e-9, "ball{i}: {w} against {v}");
+    }
 }
 
 #[test]
@@ -557,4 +566,48 @@ fn shapes_without_a_group_pair_touch_nothing() {
     let z = get(&mut s, "ball0.r[3]");
     assert!(z < 0.0, "the ball fell through: z = {z}");
     assert_eq!(s.model().unwrap().contacts.len(), 0);
+}
+
+#[test]
+fn a_fast_sphere_from_far_away_is_caught() {
+    // weightless: a steel ball at 10 m/s toward a resting one 0.3 m away, off-centre by half a
+    // radius; pure Hertz (e = 1). Neither is a candidate of the other at the start (margin:
+    // the radius); the collision must still happen, and equal masses then exchange the normal
+    // velocity: compare with the same scene with every pair a candidate from the start.
+    let scene = |margin: f64| {
+        let mut s = SceneBuilder::new("fast")
+            .gravity([0.0; 3])
+            .tolerances(1e-10, 1e-12)
+            .material(MaterialSpec::steel())
+            .body(BodySpec::sphere("a", BALL_MASS, BALL_RADIUS, [0.0, 0.0, 0.0]).velocity([10.0, 0.0, 0.0]))
+            .body(BodySpec::sphere("b", BALL_MASS, BALL_RADIUS, [0.3, 0.005, 0.0]))
+            .shape(ShapeSpec::sphere("balls", "a", [0.0, 0.0, 0.0], BALL_RADIUS).material("steel"))
+            .shape(ShapeSpec::sphere("balls", "b", [0.3, 0.005, 0.0], BALL_RADIUS).material("steel"))
+            .contact_group(ContactGroupSpec::new("ball_ball", "balls", "balls", Law::Hertz))
+            .build();
+        s.broad_phase.margin = margin.into();
+        s
+    };
+    let run = |scene: Scene| {
+        let mut s = start(scene);
+        let candidates = s.model().unwrap().contacts.len();
+        s.step_to(0.05).unwrap();
+        let out = (
+            common::vec_out(&mut s, "a.v"),
+            common::vec_out(&mut s, "b.v"),
+            s.candidate_refreshes(),
+            candidates,
+        );
+        out
+    };
+    let (va, vb, refreshes, at_start) = run(scene(BALL_RADIUS));
+    let (wa, wb, _, all) = run(scene(1.0));
+    println!(
+        "fast sphere: {refreshes} refreshes, b leaves at {vb:?} (all pairs from the start: {wb:?}), difference {:e}",
+        (vb - wb).norm().max((va - wa).norm())
+    );
+    assert_eq!((at_start, all), (0, 1));
+    assert!(vb.norm() > 1.0, "the collision was missed: b at {vb:?}");
+    assert!((vb - wb).norm() < 1e-6 && (va - wa).norm() < 1e-6);
+    assert!((va + vb - Vector3::new(10.0, 0.0, 0.0)).norm() < 1e-9, "momentum");
 }
