@@ -592,13 +592,12 @@ fn a_fast_sphere_from_far_away_is_caught() {
         let mut s = start(scene);
         let candidates = s.model().unwrap().contacts.len();
         s.step_to(0.05).unwrap();
-        let out = (
+        (
             common::vec_out(&mut s, "a.v"),
             common::vec_out(&mut s, "b.v"),
             s.candidate_refreshes(),
             candidates,
-        );
-        out
+        )
     };
     let (va, vb, refreshes, at_start) = run(scene(BALL_RADIUS));
     let (wa, wb, _, all) = run(scene(1.0));
