@@ -610,3 +610,30 @@ fn a_fast_sphere_from_far_away_is_caught() {
     assert!((vb - wb).norm() < 1e-6 && (va - wa).norm() < 1e-6);
     assert!((va + vb - Vector3::new(10.0, 0.0, 0.0)).norm() < 1e-9, "momentum");
 }
+
+#[test]
+fn body_outputs_add_the_friction_force_and_its_torque() {
+    // the sliding ball of the friction benchmarks (an explicit [[contact]] "floor" with
+    // μ = 0.3), in a scene that also has a contact group, so that the body outputs exist
+    let mut scene = contact_fmu::bench::scenes::sliding_ball(1.0, 0.3, 1e-4, 0.1, 1e-3);
+    let p = scene.body[0].position;
+    scene.shape.push(ShapeSpec::sphere("balls", "ball", p, BALL_RADIUS));
+    scene
+        .contact_group
+        .push(ContactGroupSpec::new("ball_ball", "balls", "balls", Law::Hertz).stiffness(1e7));
+    let mut s = start(scene);
+    s.step_to(0.01).unwrap();
+    let normal = get(&mut s, "floor.force");
+    let friction = common::vec_out(&mut s, "floor.friction_force");
+    let total = common::vec_out(&mut s, "ball.contact_force");
+    let torque = common::vec_out(&mut s, "ball.contact_torque");
+    // the contact point lies h = R − δ below the centre
+    let h = BALL_RADIUS - get(&mut s, "floor.delta");
+    let expect = Vector3::new(friction.x, friction.y, friction.z + normal);
+    let expect_torque = Vector3::new(0.0, 0.0, -h).cross(&expect);
+    println!("sliding ball: contact force {total:?}, torque {torque:?}");
+    assert!(friction.x < -0.09, "sliding: friction {friction:?}");
+    assert!((total - expect).norm() < 1e-12 * expect.norm());
+    assert!((torque - expect_torque).norm() < 1e-12 * expect_torque.norm());
+    assert_eq!(get(&mut s, "ball_ball.active_contacts"), 0.0);
+}
