@@ -37,7 +37,46 @@ impl Energies {
 pub fn refresh(m: &Model, d: &mut Data) {
     if !d.outputs_valid {
         evaluate_outputs(m, d);
+        if m.groups.is_active() {
+            contact_totals(m, d);
+        }
         d.outputs_valid = true;
+    }
+}
+
+/// The totals the contact-group outputs read: per body the contact force and torque (about
+/// its centre of mass, world frame) of every contact, per group pair the number of contacts
+/// in contact and their largest penetration.
+fn contact_totals(m: &Model, d: &mut Data) {
+    for w in d.body_contact.iter_mut() {
+        *w = [0.0; 6];
+    }
+    for o in d.group_out.iter_mut() {
+        *o = (0.0, 0.0);
+    }
+    for i in 0..m.contacts.len() {
+        if !d.contact_memory[i].active {
+            continue;
+        }
+        let c = &m.contacts[i];
+        let out = d.contact_out[i];
+        if let Some(k) = m.groups.candidate_of(i) {
+            let o = &mut d.group_out[k.pair];
+            o.0 += 1.0;
+            o.1 = o.1.max(out.delta);
+        }
+        let g = contact::gap(m, d, i);
+        let f = g.normal * out.force + out.friction_force;
+        for (body, sign) in [(c.sphere_body, 1.0), (c.body, -1.0)] {
+            if let Some(b) = body {
+                let t = (g.point - d.body_pos[b]).cross(&f) * sign;
+                let w = &mut d.body_contact[b];
+                for k in 0..3 {
+                    w[k] += sign * f[k];
+                    w[3 + k] += t[k];
+                }
+            }
+        }
     }
 }
 
@@ -97,6 +136,7 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         | VarRef::SpringFreeLength(_)
         | VarRef::InitialVelocity(..)
         | VarRef::InitialAngularVelocity(..)
+        | VarRef::Group(..)
         | VarRef::Input(_) => return None,
         VarRef::Stiffness(i) => m.contacts[i].stiffness,
         VarRef::BodyPosition(b, k) => d.body_pos[b][k],
@@ -140,6 +180,10 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         VarRef::EnergyDissipated => energies(m, d).dissipated,
         VarRef::SolverSteps => d.counters.steps as f64,
         VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,
+        VarRef::BodyContactForce(b, k) => d.body_contact[b][k],
+        VarRef::BodyContactTorque(b, k) => d.body_contact[b][3 + k],
+        VarRef::GroupActive(p) => d.group_out[p].0,
+        VarRef::GroupLargestPenetration(p) => d.group_out[p].1,
     };
     Some(value)
 }

@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
+mod groups;
+pub use groups::{shape_item, BroadPhaseMethod, BroadPhaseSection, ContactGroupSpec, ShapeSpec, ShapeType};
+
 /// An error in a scene: names the file (origin), the item and the field.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
 #[error("{origin}: {item}: {field}: {message}")]
@@ -62,6 +65,15 @@ pub struct Scene {
     /// `[[input]]`
     #[serde(default)]
     pub input: Vec<InputSpec>,
+    /// `[[shape]]`: contact shapes declared once per body, each in a group.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shape: Vec<ShapeSpec>,
+    /// `[[contact_group]]`: which groups touch which, with the law of their contacts.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contact_group: Vec<ContactGroupSpec>,
+    /// `[broad_phase]`: how the pairs of the contact groups that can touch are found.
+    #[serde(default, skip_serializing_if = "BroadPhaseSection::is_default")]
+    pub broad_phase: BroadPhaseSection,
 }
 
 /// `[model]`
@@ -906,6 +918,10 @@ impl Scene {
             unique(&item, &c.name)?;
             self.validate_contact(origin, &item, c, &bodies, &materials)?;
         }
+        for g in &self.contact_group {
+            unique(&item_name("contact_group", &g.name), &g.name)?;
+        }
+        self.validate_groups(origin, &bodies, &materials)?;
         for i in &self.input {
             let item = item_name("input", &i.name);
             unique(&item, &i.name)?;
@@ -1090,6 +1106,18 @@ impl Scene {
             }
         }
         let materials = c.sphere_material.is_some() && c.material.is_some();
+        validate_law_keys(origin, item, c, materials)
+    }
+}
+
+/// The law constants of a contact (or of a contact group's template contact): what
+/// [`check_law`] asks, signs and ranges of the optional keys.
+fn validate_law_keys(origin: &str, item: &str, c: &ContactSpec, materials: bool) -> Result<(), SceneError> {
+    let err = |field: &str, msg: String| SceneError::new(origin, item, field, msg);
+    {
+        if !(0.0..=1.0).contains(&c.restitution) {
+            return Err(err("restitution", format!("must be in [0, 1] (got {})", c.restitution)));
+        }
         check_law(c.law, c.restitution, c.stiffness.is_some(), materials).map_err(|(f, m)| err(f, m))?;
         if let Some(k) = c.stiffness {
             positive(origin, item, "stiffness", k)?;

@@ -28,8 +28,8 @@
 //! ```
 
 use crate::scene::{
-    BodySpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, InputType, JointSpec, JointType, Law, MaterialSpec,
-    Method, ModelSection, Scene, Side, SolverSection, SpringDamperSpec,
+    BodySpec, ContactGroupSpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, InputType, JointSpec, JointType,
+    Law, MaterialSpec, Method, ModelSection, Scene, ShapeSpec, Side, SolverSection, SpringDamperSpec,
 };
 use nalgebra::UnitQuaternion;
 
@@ -87,6 +87,9 @@ impl SceneBuilder {
                 spring_damper: Vec::new(),
                 contact: Vec::new(),
                 input: Vec::new(),
+                shape: Vec::new(),
+                contact_group: Vec::new(),
+                broad_phase: Default::default(),
             },
         }
     }
@@ -141,6 +144,8 @@ impl SceneBuilder {
         spring_damper / spring_dampers: SpringDamperSpec,
         contact / contacts: ContactSpec,
         input / inputs: InputSpec,
+        shape / shapes: ShapeSpec,
+        contact_group / contact_groups: ContactGroupSpec,
     }
 
     /// Adds [`MaterialSpec::steel`].

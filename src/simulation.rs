@@ -4,7 +4,8 @@
 //! variables and the same numbers.
 
 use crate::checkpoint::Snapshot;
-use crate::compile::{compile_with, Parameters};
+use crate::compile::{self, compile_with, Parameters};
+use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
@@ -65,6 +66,8 @@ pub struct Simulation {
     watch: EnergyWatch,
     /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
     drift: Option<Drift>,
+    /// Contact groups: how often the candidate pairs were found again (a diagnostic).
+    refreshes: u64,
 }
 
 /// The energy-balance watch: `energy.total + energy.dissipated` against its value at
@@ -149,7 +152,14 @@ impl Simulation {
             max_penetration_follows,
             watch: EnergyWatch::default(),
             drift: None,
+            refreshes: 0,
         }
+    }
+
+    /// Contact groups: how often the candidate pairs were found again since this simulation
+    /// was created (a diagnostic, not part of the state).
+    pub fn candidate_refreshes(&self) -> u64 {
+        self.refreshes
     }
 
     /// Reads, parses and validates a scene file.
@@ -256,9 +266,16 @@ impl Simulation {
         }
         let before = if self.watch.started { self.balance()? } else { 0.0 };
         let old = std::mem::replace(&mut self.values[vr], value);
-        let compiled = self
-            .check_parameter(vr)
-            .and_then(|()| Ok(compile_with(&self.scene, &self.parameters(), &self.origin)?));
+        // the contact groups keep their candidate pairs (the data's contact memory is theirs)
+        let candidates = self.running()?.model.groups.candidates.clone();
+        let compiled = self.check_parameter(vr).and_then(|()| {
+            Ok(compile::compile_with_candidates(
+                &self.scene,
+                &self.parameters(),
+                &self.origin,
+                Some(&candidates),
+            )?)
+        });
         let kept = self.running()?;
         let model = match compiled {
             Ok((model, _)) if same_layout(&model, &kept.model) => model,
@@ -478,21 +495,93 @@ impl Simulation {
         if !self.watch.started {
             self.start_watch()?;
         }
-        let c = self.running()?;
-        engine::advance(&c.model, &mut c.data, t_end).map_err(
-            |EngineError {
-                 time,
-                 message,
-                 step_limit,
-             }| {
-                if step_limit {
-                    SimError::StepLimit { time, message }
-                } else {
-                    SimError::Step { time, message }
-                }
-            },
-        )?;
+        loop {
+            let c = self.running()?;
+            engine::advance(&c.model, &mut c.data, t_end).map_err(
+                |EngineError {
+                     time,
+                     message,
+                     step_limit,
+                 }| {
+                    if step_limit {
+                        SimError::StepLimit { time, message }
+                    } else {
+                        SimError::Step { time, message }
+                    }
+                },
+            )?;
+            if !groups::stale(&c.model, &c.data) {
+                break;
+            }
+            self.refresh_candidates()?;
+        }
         self.watch_energy()
+    }
+
+    /// Contact groups: finds the candidate pairs again at the current state, compiles the
+    /// model with them and carries the data over (the state, the integrator with its step,
+    /// the contact memory of the pairs kept, the counters, the event log). A pair that is new
+    /// to the list and already touches was missed by the bounds on the step: an error (it
+    /// cannot happen while no body is accelerated far beyond gravity within one step).
+    fn refresh_candidates(&mut self) -> Result<(), SimError> {
+        let params = self.parameters();
+        let (scene, origin) = (&self.scene, &self.origin);
+        let Some(c) = self.compiled.as_mut() else {
+            return Err(SimError::NotInitialized);
+        };
+        let (m, d) = (&c.model, &mut c.data);
+        d.eval_state.copy_from_slice(&d.state);
+        crate::kinematics::kinematics(m, d);
+        let found = m.groups.find(&|b| groups::pose(d, b));
+        let (m2, mut d2) = compile::compile_with_candidates(scene, &params, origin, Some(&found))?;
+        let mask = state::FULL & !(state::StatePart::ContactMemory as u32);
+        let mut v = Vec::new();
+        state::get(m, d, mask, &mut v);
+        state::set(&m2, &mut d2, mask, &v).map_err(SimError::Variable)?;
+        let n = m.groups.n_explicit;
+        d2.contact_memory[..n].copy_from_slice(&d.contact_memory[..n]);
+        let old: std::collections::HashMap<_, _> = m
+            .groups
+            .candidates
+            .iter()
+            .zip(&d.contact_memory[n..])
+            .map(|(k, mem)| (*k, *mem))
+            .collect();
+        d2.eval_state.copy_from_slice(&d2.state);
+        crate::kinematics::kinematics(&m2, &mut d2);
+        for (k, cand) in m2.groups.candidates.iter().enumerate() {
+            match old.get(cand) {
+                Some(mem) => d2.contact_memory[n + k] = *mem,
+                None => {
+                    let g = crate::contact::gap(&m2, &d2, n + k);
+                    if crate::contact::event_function(&m2.contacts[n + k], &g) > 0.0 {
+                        return Err(SimError::Step {
+                            time: d.time,
+                            message: format!(
+                                "contact {:?} touched before the broad phase listed it: a body moved more than \
+                                 half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
+                                m2.contacts[n + k].name,
+                                m2.groups.margin
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        for b in 0..m2.bodies.len() {
+            d2.broad_reference[b] = (d2.body_pos[b], d2.body_quat[b]);
+        }
+        d2.clamp_events = d.clamp_events;
+        d2.log_peaks = d.log_peaks;
+        d2.solver.base = d.solver.base;
+        d2.event_log = std::mem::take(&mut d.event_log);
+        // the step was accepted: the event values at the current state start the next one
+        d2.eval_state.copy_from_slice(&d2.state);
+        engine::events::event_values(&m2, &mut d2, false);
+        c.model = m2;
+        c.data = d2;
+        self.refreshes += 1;
+        Ok(())
     }
 
     /// Runs from the current state over the communication points (the multiples of
@@ -563,7 +652,16 @@ impl Simulation {
         if kept_values != self.values {
             self.compiled_fresh = false;
         }
+        let params = self.parameters();
+        let (scene, origin) = (self.scene.clone(), self.origin.clone());
         let restored = self.ensure_compiled().and_then(|c| {
+            // contact groups: the model of the snapshot's candidate pairs
+            if let Some(found) = state::group_candidates(&c.model, &s.state) {
+                if found != c.model.groups.candidates {
+                    let (m, d) = compile::compile_with_candidates(&scene, &params, &origin, Some(&found))?;
+                    *c = Compiled { model: m, data: d };
+                }
+            }
             state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
             engine::resync(&c.model, &mut c.data);
             Ok(())

@@ -180,6 +180,46 @@ pub enum VarRef {
     SolverSteps,
     /// solver.rhs_evals
     SolverRhsEvals,
+    /// contact group pair index, key: a law constant of every contact of the pair
+    Group(usize, GroupKey),
+    /// body index, component: total contact force on the body, world frame
+    BodyContactForce(usize, usize),
+    /// body index, component: total contact torque about the centre of mass, world frame
+    BodyContactTorque(usize, usize),
+    /// contact group pair index: Integer number of contacts in contact
+    GroupActive(usize),
+    /// contact group pair index: largest penetration of its contacts
+    GroupLargestPenetration(usize),
+}
+
+/// The law constants of a contact group pair that are FMU parameters (`<pair>.<key>`, the
+/// keys of a `[[contact]]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GroupKey {
+    /// `law` (and its Integer twin `law_index`)
+    Law,
+    /// `restitution`
+    Restitution,
+    /// `exponent`
+    Exponent,
+    /// `damping`
+    Damping,
+    /// `max_penetration` (when the scene gives it)
+    MaxPenetration,
+    /// `min_impact_velocity`
+    MinImpactVelocity,
+    /// `stiffness` (when the scene gives it)
+    Stiffness,
+    /// `friction`
+    Friction,
+    /// `static_friction`
+    StaticFriction,
+    /// `stribeck_velocity`
+    StribeckVelocity,
+    /// `viscous_friction`
+    ViscousFriction,
+    /// `stiction_velocity`
+    StictionVelocity,
 }
 
 /// One variable.
@@ -1012,12 +1052,244 @@ impl VariableTable {
                 }
             }
         }
+        group_variables(scene, &mut v);
         VariableTable { vars: v }
     }
 
     /// Index of a variable by name.
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.vars.iter().position(|v| v.name == name)
+    }
+}
+
+/// The variables of the contact groups, after every other (so that no value reference of a
+/// scene without groups moves): per group pair its law constants, then per body its total
+/// contact force and torque, then per group pair its active count and largest penetration.
+fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
+    if scene.contact_group.is_empty() {
+        return;
+    }
+    let param = |name: String, start: f64, unit, range: Range, target, tunable: bool, description: &str| Variable {
+        name,
+        vtype: VarType::Real,
+        causality: Causality::Parameter,
+        variability: if tunable {
+            Variability::Tunable
+        } else {
+            Variability::Fixed
+        },
+        start: Some(start),
+        unit,
+        display_unit: None,
+        description: format!("{description} (every contact of the group pair)"),
+        range: Some(range),
+        target,
+        depends_on_inputs: false,
+    };
+    let pos = Range::open_above(0.0, true);
+    let nonneg = Range::open_above(0.0, false);
+    let unit_interval = Range {
+        min: 0.0,
+        min_exclusive: false,
+        max: 1.0,
+        max_exclusive: false,
+    };
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        let t = |key| VarRef::Group(p, key);
+        v.push(Variable {
+            name: format!("{}.law", g.name),
+            vtype: VarType::Enumeration(EnumType::ContactLaw),
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(g.law as i64 as f64),
+            unit: None,
+            display_unit: None,
+            description: "contact force law of every contact of the group pair".into(),
+            range: Some(Range {
+                min: 1.0,
+                min_exclusive: false,
+                max: 6.0,
+                max_exclusive: false,
+            }),
+            target: t(GroupKey::Law),
+            depends_on_inputs: false,
+        });
+        v.push(integer_twin(
+            format!("{}.law_index", g.name),
+            EnumType::ContactLaw,
+            &format!("{}.law", g.name),
+            t(GroupKey::Law),
+        ));
+        let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
+        let [mu, mu_s, v_st, sigma, v_s] = template.friction_or_default();
+        for (key, value, unit, range, target, tunable, description) in [
+            (
+                "restitution",
+                g.restitution,
+                None,
+                unit_interval,
+                GroupKey::Restitution,
+                true,
+                "coefficient of restitution e",
+            ),
+            (
+                "exponent",
+                g.exponent.unwrap_or(1.5),
+                None,
+                Range::open_above(1.0, false),
+                GroupKey::Exponent,
+                true,
+                "force exponent n of the penetration",
+            ),
+            (
+                "damping",
+                g.damping.unwrap_or(0.0),
+                Some("N.s/m"),
+                nonneg,
+                GroupKey::Damping,
+                true,
+                "Kelvin-Voigt damping coefficient",
+            ),
+            (
+                "min_impact_velocity",
+                template.min_impact_velocity_or_default(),
+                Some("m/s"),
+                nonneg,
+                GroupKey::MinImpactVelocity,
+                false,
+                "floor on the remembered impact velocity",
+            ),
+            (
+                "friction",
+                mu,
+                None,
+                nonneg,
+                GroupKey::Friction,
+                true,
+                "Coulomb (sliding) friction coefficient mu",
+            ),
+            (
+                "static_friction",
+                mu_s,
+                None,
+                nonneg,
+                GroupKey::StaticFriction,
+                true,
+                "static friction coefficient mu_s",
+            ),
+            (
+                "stribeck_velocity",
+                v_st,
+                Some("m/s"),
+                pos,
+                GroupKey::StribeckVelocity,
+                true,
+                "Stribeck velocity",
+            ),
+            (
+                "viscous_friction",
+                sigma,
+                Some("s/m"),
+                nonneg,
+                GroupKey::ViscousFriction,
+                true,
+                "viscous friction coefficient",
+            ),
+            (
+                "stiction_velocity",
+                v_s,
+                Some("m/s"),
+                pos,
+                GroupKey::StictionVelocity,
+                true,
+                "regularisation velocity of the continuous friction law",
+            ),
+        ] {
+            v.push(param(
+                format!("{}.{key}", g.name),
+                value,
+                unit,
+                range,
+                t(target),
+                tunable,
+                description,
+            ));
+        }
+        if let Some(d) = g.max_penetration {
+            v.push(param(
+                format!("{}.max_penetration", g.name),
+                d,
+                Some("m"),
+                pos,
+                t(GroupKey::MaxPenetration),
+                false,
+                "largest admissible penetration",
+            ));
+        }
+        if let Some(k) = g.stiffness {
+            v.push(param(
+                format!("{}.stiffness", g.name),
+                k,
+                None,
+                pos,
+                t(GroupKey::Stiffness),
+                true,
+                "contact stiffness K of F = K delta^n [N/m^n]",
+            ));
+        }
+    }
+    let out = |name: String, vtype: VarType, unit, target, description: String| Variable {
+        name,
+        vtype,
+        causality: Causality::Output,
+        variability: if vtype == VarType::Real {
+            Variability::Continuous
+        } else {
+            Variability::Discrete
+        },
+        start: None,
+        unit,
+        display_unit: None,
+        description,
+        range: None,
+        target,
+        depends_on_inputs: !scene.input.is_empty(),
+    };
+    for (b, body) in scene.body.iter().enumerate() {
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(out(
+                format!("{}.contact_force[{}]", body.name, k + 1),
+                VarType::Real,
+                Some("N"),
+                VarRef::BodyContactForce(b, k),
+                format!("total contact force on the body (normal and friction, every contact), world {axis}"),
+            ));
+        }
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(out(
+                format!("{}.contact_torque[{}]", body.name, k + 1),
+                VarType::Real,
+                Some("N.m"),
+                VarRef::BodyContactTorque(b, k),
+                format!("total contact torque on the body about its centre of mass, world {axis}"),
+            ));
+        }
+    }
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        v.push(out(
+            format!("{}.active_contacts", g.name),
+            VarType::Integer,
+            None,
+            VarRef::GroupActive(p),
+            "number of contacts of the group pair in contact".into(),
+        ));
+        v.push(out(
+            format!("{}.largest_penetration", g.name),
+            VarType::Real,
+            Some("m"),
+            VarRef::GroupLargestPenetration(p),
+            "largest penetration among the contacts of the group pair (0: none in contact)".into(),
+        ));
     }
 }
 
@@ -1094,6 +1366,27 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::InitialVelocity(b, k) => params.velocities[b][k] = x,
         VarRef::InitialAngularVelocity(b, k) => params.angular_velocities[b][k] = x,
         VarRef::Input(i) => params.input_start[i] = x,
+        VarRef::Group(p, key) => {
+            let g = &mut params.groups[p];
+            match key {
+                GroupKey::Law => {
+                    if let Some(l) = Law::from_index(x as i64) {
+                        g.law = l;
+                    }
+                }
+                GroupKey::Restitution => g.restitution = x,
+                GroupKey::Exponent => g.exponent = x,
+                GroupKey::Damping => g.damping = x,
+                GroupKey::MaxPenetration => g.max_penetration = Some(x),
+                GroupKey::MinImpactVelocity => g.min_impact_velocity = x,
+                GroupKey::Stiffness => g.stiffness = Some(x),
+                GroupKey::Friction => g.friction.mu = x,
+                GroupKey::StaticFriction => g.friction.mu_static = x,
+                GroupKey::StribeckVelocity => g.friction.stribeck_velocity = x,
+                GroupKey::ViscousFriction => g.friction.viscous = x,
+                GroupKey::StictionVelocity => g.friction.stiction_velocity = x,
+            }
+        }
         VarRef::BodyPosition(..)
         | VarRef::BodyVelocity(..)
         | VarRef::BodyAngularVelocity(..)
@@ -1113,6 +1406,10 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::EnergyTotal
         | VarRef::EnergyDissipated
         | VarRef::SolverSteps
-        | VarRef::SolverRhsEvals => {}
+        | VarRef::SolverRhsEvals
+        | VarRef::BodyContactForce(..)
+        | VarRef::BodyContactTorque(..)
+        | VarRef::GroupActive(_)
+        | VarRef::GroupLargestPenetration(_) => {}
     }
 }

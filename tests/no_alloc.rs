@@ -330,3 +330,42 @@ fn event_log_wraps_without_allocating() {
     assert!(longest <= 4096, "the log grew to {longest} entries");
     assert_eq!(allocations, 0);
 }
+
+#[test]
+fn contact_groups_allocate_only_when_the_candidate_list_is_made_again() {
+    use contact_fmu::bench::scenes::sphere_box_groups;
+    let run = |margin: f64| {
+        let mut scene = sphere_box_groups(8, 0.2);
+        scene.broad_phase.margin = Some(margin);
+        let mut sim = common::start(scene);
+        let h = 0.005;
+        for k in 1..=4 {
+            sim.step_to(k as f64 * h).expect("warm-up");
+        }
+        let (s0, e0, r0) = (sim.counters().steps, sim.counters().events, sim.candidate_refreshes());
+        let n = count(|| {
+            for k in 5..=30 {
+                sim.step_to(k as f64 * h).expect("advances");
+            }
+        });
+        (
+            n,
+            sim.counters().steps - s0,
+            sim.counters().events - e0,
+            sim.candidate_refreshes() - r0,
+        )
+    };
+    // every pair a candidate: never made again, no allocation in steps and events
+    let (n, steps, events, refreshes) = run(10.0);
+    println!(
+        "8 spheres, groups, margin 10 m: {n} allocations in {steps} steps, {events} events, {refreshes} refreshes"
+    );
+    assert!(steps > 0 && events > 0);
+    assert_eq!((n, refreshes), (0, 0));
+    // the default margin: the refreshes allocate (a new model), nothing else does
+    let (n, steps, events, refreshes) = run(0.01);
+    println!(
+        "8 spheres, groups, margin 10 mm: {n} allocations in {steps} steps, {events} events, {refreshes} refreshes"
+    );
+    assert!(refreshes > 0 && n > 0);
+}

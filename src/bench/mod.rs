@@ -21,6 +21,7 @@
 //! are exact and repeat bit for bit.
 
 pub mod defaults;
+pub mod groups;
 pub mod rhs;
 pub mod scaling;
 pub mod scenes;
@@ -115,6 +116,22 @@ pub enum BenchCommand {
         #[arg(long)]
         write_scene: Option<PathBuf>,
     },
+    /// Contact groups against the explicit pair list (spheres in a box): compile time, one
+    /// RHS, broad phase by sweep and prune and by grid.
+    Groups {
+        /// Sphere counts.
+        #[arg(long, value_delimiter = ',', default_value = "100,1000,3000")]
+        n: Vec<usize>,
+        /// Timed batches per point.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Also run each scene for this simulated time [s] (N ≤ 1,000; 0: no run).
+        #[arg(long, default_value_t = 0.0)]
+        run_time: f64,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/groups.csv")]
+        csv: PathBuf,
+    },
     /// Speed and accuracy targets (rail vehicle), RHS cost per scene, allocations per step.
     Targets {
         /// Folder of bundled scenes.
@@ -196,6 +213,12 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             }
             None => scaling::run(&n, time, repeats, &csv),
         },
+        BenchCommand::Groups {
+            n,
+            repeats,
+            run_time,
+            csv,
+        } => groups::run(&n, repeats, run_time, &csv),
         BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
         BenchCommand::Rhs {
             scenes,

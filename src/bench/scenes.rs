@@ -1,7 +1,7 @@
 //! Scenes generated for the benchmarks, built with [`SceneBuilder`] ([`Scene::to_toml`] writes
 //! them as the files users write).
 
-use crate::scene::{BodySpec, ContactSpec, JointSpec, Law, Method, Scene, GROUND};
+use crate::scene::{BodySpec, ContactGroupSpec, ContactSpec, JointSpec, Law, Method, Scene, ShapeSpec, GROUND};
 use crate::scene_builder::{Plane, SceneBuilder, Sphere};
 
 /// Radius of the benchmark's steel balls [m].
@@ -247,4 +247,47 @@ pub fn sphere_box(n: usize, stop_time: f64) -> Scene {
         }
     }
     scene.build()
+}
+
+/// The spheres and velocities of [`sphere_box`] with contact groups instead of a pair list:
+/// every sphere in group `balls`, the six walls (one plane each, on the ground) in group
+/// `walls`; group pairs `ball_ball` (balls, balls) and `ball_wall` (balls, walls), both
+/// `hertz_ln` e = 0.8, K = 1e7 N/m^1.5. Every pair can touch (the broad phase finds those
+/// within reach), so it stays valid however far the spheres travel.
+pub fn sphere_box_groups(n: usize, stop_time: f64) -> Scene {
+    let explicit = sphere_box(n, stop_time);
+    let side = (n as f64).cbrt().ceil() as usize;
+    let a = 0.025;
+    let wall = 0.5 * a;
+    let max = (side - 1) as f64 * a;
+    let size = max + 2.0 * wall + 0.1;
+    let mut scene = explicit;
+    scene.contact.clear();
+    scene.shape = scene
+        .body
+        .iter()
+        .map(|b| ShapeSpec::sphere("balls", &b.name, b.position, BALL_RADIUS))
+        .collect();
+    let (lo, hi, mid) = (-wall, max + wall, 0.5 * max);
+    for (o, nrm, u) in [
+        ([lo, mid, mid], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([hi, mid, mid], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([mid, lo, mid], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+        ([mid, hi, mid], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]),
+        ([mid, mid, lo], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
+        ([mid, mid, hi], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]),
+    ] {
+        scene
+            .shape
+            .push(ShapeSpec::plane("walls", GROUND, o, nrm, u, [size, size]));
+    }
+    scene.contact_group = vec![
+        ContactGroupSpec::new("ball_ball", "balls", "balls", Law::HertzLn)
+            .restitution(0.8)
+            .stiffness(1e7),
+        ContactGroupSpec::new("ball_wall", "balls", "walls", Law::HertzLn)
+            .restitution(0.8)
+            .stiffness(1e7),
+    ];
+    scene
 }

@@ -10,14 +10,17 @@
 //!
 //! - `parameters`: the values a host may set (their defaults from the scene).
 //! - `contact`: one contact element from its scene entry (shape, stiffness, law constants).
+//! - `groups`: the contact groups (group shapes, candidate pairs, their contact elements).
 //! - `velocities`: the initial joint rates from the scene's body velocities.
 
 mod contact;
+mod groups;
 pub mod parameters;
 mod velocities;
 
 pub use parameters::Parameters;
 
+use crate::contact::broad::Candidate;
 use crate::kinematics::kinematics;
 use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
@@ -42,6 +45,17 @@ pub fn compile(scene: &Scene, origin: &str) -> Result<(Model, Data), SceneError>
 /// the initial configuration (positions, and velocities projected onto the joint
 /// coordinates). The law constants are computed here, once.
 pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<(Model, Data), SceneError> {
+    compile_with_candidates(scene, params, origin, None)
+}
+
+/// [`compile_with`], the contact groups' candidate pairs given (None: found by the broad
+/// phase at the initial configuration).
+pub fn compile_with_candidates(
+    scene: &Scene,
+    params: &Parameters,
+    origin: &str,
+    candidates: Option<&[Candidate]>,
+) -> Result<(Model, Data), SceneError> {
     params.check(scene, origin)?;
     let nb = scene.body.len();
     // Name → index maps, built once: every lookup below is O(1), so compilation is linear in
@@ -315,6 +329,23 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
             },
         )?);
     }
+    let (groups, group_contacts) = groups::compile_groups(
+        scene,
+        params,
+        origin,
+        contacts.len(),
+        candidates,
+        &|b| pose(b),
+        &params.materials,
+        &|n| material_index.get(n).copied(),
+        &|n| to_body(n),
+        &|b, p| local_point(b, p),
+        &|b, v| {
+            let (_, q) = pose(b);
+            q.inverse() * v
+        },
+    )?;
+    contacts.extend(group_contacts);
     // One constraint row per impulse-law contact after the loop rows (its resting mode).
     nc = contact::reserve_constraint_rows(&mut contacts, nc);
     let mut warnings = Vec::new();
@@ -366,6 +397,7 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
         nc,
         springs,
         contacts,
+        groups,
         inputs,
         input_start: params.input_start.clone(),
         nq,
@@ -398,6 +430,9 @@ pub fn compile_with(scene: &Scene, params: &Parameters, origin: &str) -> Result<
     data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
     data.eval_state.copy_from_slice(&data.state);
     kinematics(&model, &mut data);
+    for b in 0..nb {
+        data.broad_reference[b] = (data.body_pos[b], data.body_quat[b]);
+    }
     Ok((model, data))
 }
 

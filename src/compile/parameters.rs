@@ -50,6 +50,28 @@ pub struct ContactValues {
     pub length: f64,
 }
 
+/// The settable constants of a contact group pair (its law constants; the geometry is the
+/// shapes').
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GroupValues {
+    /// Force law.
+    pub law: Law,
+    /// Coefficient of restitution.
+    pub restitution: f64,
+    /// Exponent n.
+    pub exponent: f64,
+    /// Kelvin-Voigt damping [N s/m].
+    pub damping: f64,
+    /// Largest admissible penetration [m] (None: each pair's sphere radius).
+    pub max_penetration: Option<f64>,
+    /// Floor on δ̇⁻ [m/s].
+    pub min_impact_velocity: f64,
+    /// Stiffness, when the scene gives one (else derived per pair from the materials).
+    pub stiffness: Option<f64>,
+    /// Friction constants.
+    pub friction: Friction,
+}
+
 /// The settable constants of a spring-damper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringValues {
@@ -78,6 +100,8 @@ pub struct Parameters {
     pub springs: Vec<SpringValues>,
     /// Per contact.
     pub contacts: Vec<ContactValues>,
+    /// Per contact group pair.
+    pub groups: Vec<GroupValues>,
     /// Solver settings.
     pub solver: SolverSection,
     /// Per input: its value at the start.
@@ -128,6 +152,23 @@ impl Parameters {
                     length: c.length.unwrap_or(1.0),
                 })
                 .collect(),
+            groups: scene
+                .contact_group
+                .iter()
+                .map(|g| {
+                    let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
+                    GroupValues {
+                        law: g.law,
+                        restitution: g.restitution,
+                        exponent: g.exponent.unwrap_or(1.5),
+                        damping: g.damping.unwrap_or(0.0),
+                        max_penetration: g.max_penetration,
+                        min_impact_velocity: template.min_impact_velocity_or_default(),
+                        stiffness: g.stiffness,
+                        friction: Friction::from_values(template.friction_or_default()),
+                    }
+                })
+                .collect(),
             solver: scene.solver.clone(),
             input_start: scene.input.iter().map(|i| i.start).collect(),
         }
@@ -143,6 +184,27 @@ impl Parameters {
             return Err(SceneError::new(origin, "parameter \"solver.max_step\"", field, msg));
         }
         self.check_geometry(scene, origin)?;
+        for (g, v) in scene.contact_group.iter().zip(&self.groups) {
+            let materials = scene
+                .shape
+                .iter()
+                .filter(|s| g.groups.contains(&s.group))
+                .all(|s| s.material.is_some());
+            if let Err((field, msg)) = check_law(v.law, v.restitution, v.stiffness.is_some(), materials) {
+                let msg = if v.law != g.law || v.restitution != g.restitution {
+                    format!(
+                        "parameters \"{n}.law\" = {} ({}), \"{n}.restitution\" = {}: {msg}",
+                        v.law as i64,
+                        v.law.name(),
+                        v.restitution,
+                        n = g.name
+                    )
+                } else {
+                    msg
+                };
+                return Err(SceneError::new(origin, item_name("contact_group", &g.name), field, msg));
+            }
+        }
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
             let materials = c.sphere_material.is_some() && c.material.is_some();
             let has_stiffness = v.stiffness.is_some();

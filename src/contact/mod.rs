@@ -16,9 +16,11 @@
 //! (`active`): a unilateral constraint row `J q̈ = −J̇ q̇` (with Baumgarte stabilisation of δ)
 //! holds it until its normal force would become tensile, or the sphere leaves the patch.
 
+pub mod broad;
 pub mod element;
 pub mod friction;
 pub mod geometry;
+pub mod groups;
 pub mod impulse;
 pub mod laws;
 pub mod modes;

@@ -54,6 +54,14 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
         };
         g[2 * n_contacts + i] = slip;
     }
+    // contact groups: (time to move half the margin, largest displacement)
+    let (moved, time) = contact::groups::margin_values(m, d);
+    let aux = if at_step_end {
+        &mut d.events.aux_new
+    } else {
+        &mut d.events.aux
+    };
+    aux[n_contacts] = (time, moved);
 }
 
 /// Kinematics of the two bodies of contact `i` (and their ancestors) only: enough for its
@@ -167,7 +175,7 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
         let t = 2.0 * reach / (v + (v * v + 2.0 * a * reach).sqrt());
         bound = bound.min(t);
     }
-    bound
+    bound.min(contact::groups::time_to_margin(m, d))
 }
 
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
@@ -177,7 +185,8 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
 pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     let n_contacts = m.contacts.len();
     let method = d.solver.method()?;
-    if n_contacts == 0 {
+    // (contact groups without candidates still follow how far their shapes moved)
+    if n_contacts == 0 && !m.groups.is_active() {
         return None;
     }
     let (t0, t1) = (method.t_prev(), method.t());

@@ -137,6 +137,10 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
             } else if t_step <= t_end {
                 interrupted = 0;
                 accept_step(m, d)?;
+                if contact::groups::stale(m, d) {
+                    // the caller makes the candidate pairs of the contact groups again
+                    break;
+                }
             } else {
                 interpolate_to(m, d, t_end);
                 break;

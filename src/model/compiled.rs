@@ -283,6 +283,9 @@ pub struct Model {
     pub springs: Vec<SpringDamper>,
     /// Contact elements.
     pub contacts: Vec<ContactElement>,
+    /// Contact groups: the group shapes and the candidate pairs behind the group contacts
+    /// (`contacts[groups.n_explicit..]`).
+    pub groups: crate::contact::broad::Groups,
     /// Inputs, in scene order.
     pub inputs: Vec<Input>,
     /// Input start values.

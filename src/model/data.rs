@@ -254,6 +254,14 @@ pub struct Data {
     pub dissipation: f64,
     /// Per-contact outputs of the last evaluation.
     pub contact_out: Vec<ContactOutput>,
+    /// Contact groups: per body, the pose (centre of mass, orientation) where the candidate
+    /// pairs were found.
+    pub broad_reference: Vec<(Vector3<f64>, UnitQuaternion<f64>)>,
+    /// Contact groups: per body the total contact force and torque of the last output
+    /// evaluation (world frame; torque about the centre of mass).
+    pub body_contact: Vec<[f64; 6]>,
+    /// Contact groups: per group pair, contacts in contact and their largest penetration.
+    pub group_out: Vec<(f64, f64)>,
 }
 
 impl Data {
@@ -306,8 +314,8 @@ impl Data {
             events: EventWork {
                 g: vec![0.0; 3 * ncontacts],
                 g_new: vec![0.0; 3 * ncontacts],
-                aux: vec![(0.0, 0.0); ncontacts],
-                aux_new: vec![(0.0, 0.0); ncontacts],
+                aux: vec![(0.0, 0.0); ncontacts + 1],
+                aux_new: vec![(0.0, 0.0); ncontacts + 1],
             },
             impacts: ImpactWork {
                 solve: ImpulseWork::new(nv, model.loop_rows(), impulse_contacts),
@@ -348,6 +356,9 @@ impl Data {
             friction_dlambda: vec![0.0; nc],
             dissipation: 0.0,
             contact_out: vec![ContactOutput::default(); ncontacts],
+            broad_reference: vec![(Vector3::zeros(), UnitQuaternion::identity()); nb],
+            body_contact: vec![[0.0; 6]; if model.groups.is_active() { nb } else { 0 }],
+            group_out: vec![(0.0, 0.0); model.groups.pair_names.len()],
         }
     }
 

@@ -8,7 +8,9 @@
 //! the data as it was.
 
 use super::{Data, Model};
+use crate::contact::broad::Candidate;
 use crate::integrator::Stats;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// One part of the state (a bit of a mask).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,7 +22,10 @@ pub enum StatePart {
     Coordinates = 2,
     /// `Data::inputs`: one number per input.
     Inputs = 4,
-    /// `Data::contact_memory`: active flag, δ̇⁻, impact count per contact.
+    /// `Data::contact_memory`: active flag, δ̇⁻, impact count per contact. With contact
+    /// groups, first the candidate pairs behind the group contacts (their number, then pair,
+    /// sphere and other shape of each) and the reference poses where they were found (per
+    /// body: position, quaternion w, x, y, z).
     ContactMemory = 8,
     /// `Data::counters`: steps, rejected, RHS and Jacobian evaluations, events.
     Counters = 16,
@@ -66,7 +71,7 @@ const COUNTERS_LEN: usize = 5;
 const SOLVER_HEAD: usize = 4;
 
 /// Appends the parts of `mask` to `out`.
-pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
+pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
     for part in StatePart::ALL {
         if mask & part as u32 == 0 {
             continue;
@@ -76,6 +81,15 @@ pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
             StatePart::Coordinates => out.extend_from_slice(&d.state),
             StatePart::Inputs => out.extend_from_slice(&d.inputs),
             StatePart::ContactMemory => {
+                if m.groups.is_active() {
+                    out.push(m.groups.candidates.len() as f64);
+                    for c in &m.groups.candidates {
+                        out.extend_from_slice(&[c.pair as f64, c.sphere as f64, c.other as f64]);
+                    }
+                    for (p, q) in &d.broad_reference {
+                        out.extend_from_slice(&[p.x, p.y, p.z, q.w, q.i, q.j, q.k]);
+                    }
+                }
                 for mem in &d.contact_memory {
                     out.extend_from_slice(&[mem.active as u8 as f64, mem.impact_velocity, mem.impacts as f64]);
                 }
@@ -101,6 +115,42 @@ pub fn get(_m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
             }
         }
     }
+}
+
+/// Numbers of the contact groups' section at the start of [`StatePart::ContactMemory`] (0
+/// without groups).
+fn group_section_len(m: &Model) -> usize {
+    if m.groups.is_active() {
+        1 + 3 * m.groups.candidates.len() + 7 * m.bodies.len()
+    } else {
+        0
+    }
+}
+
+/// The candidate pairs at the start of a contact-group section (None: malformed).
+fn candidates_in(v: &[f64]) -> Option<Vec<Candidate>> {
+    let n = count(*v.first()?, "candidates").ok()? as usize;
+    let list = v.get(1..1 + 3 * n)?;
+    list.chunks(3)
+        .map(|c| {
+            let k = |x: f64| count(x, "shape").ok().map(|x| x as usize);
+            Some(Candidate {
+                pair: k(c[0])?,
+                sphere: k(c[1])?,
+                other: k(c[2])?,
+            })
+        })
+        .collect()
+}
+
+/// The contact groups' candidate pairs recorded in a whole state `v` ([`FULL`]) of a model
+/// with the layout of `m` (the same scene): the list to compile the model with before the
+/// state is set. None without groups or when `v` is too short.
+pub fn group_candidates(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
+    if !m.groups.is_active() {
+        return None;
+    }
+    candidates_in(v.get(1 + m.nstate() + m.inputs.len()..)?)
 }
 
 /// A count stored as a number: a whole number in range, or an error naming the part.
@@ -131,7 +181,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Time => 1,
             StatePart::Coordinates => m.nstate(),
             StatePart::Inputs => m.inputs.len(),
-            StatePart::ContactMemory => MEMORY_LEN * m.contacts.len(),
+            StatePart::ContactMemory => group_section_len(m) + MEMORY_LEN * m.contacts.len(),
             StatePart::Counters => COUNTERS_LEN,
             StatePart::Solver => {
                 let head = v
@@ -161,7 +211,11 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         }
         match part {
             StatePart::ContactMemory => {
-                for c in slice.chunks(MEMORY_LEN) {
+                let groups = group_section_len(m);
+                if groups > 0 && candidates_in(&slice[..groups]) != Some(m.groups.candidates.clone()) {
+                    return Err("state: its contact-group candidate pairs are not this model's".into());
+                }
+                for c in slice[groups..].chunks(MEMORY_LEN) {
                     if c[0] != 0.0 && c[0] != 1.0 {
                         return Err(format!("state: contact active flag {} is not 0 or 1", c[0]));
                     }
@@ -226,7 +280,13 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Coordinates => d.state.copy_from_slice(s),
             StatePart::Inputs => d.inputs.copy_from_slice(s),
             StatePart::ContactMemory => {
-                for (mem, c) in d.contact_memory.iter_mut().zip(s.chunks(MEMORY_LEN)) {
+                let groups = group_section_len(m);
+                let poses = &s[(1 + 3 * m.groups.candidates.len()).min(groups)..groups];
+                for (r, p) in d.broad_reference.iter_mut().zip(poses.chunks(7)) {
+                    r.0 = Vector3::new(p[0], p[1], p[2]);
+                    r.1 = UnitQuaternion::new_unchecked(Quaternion::new(p[3], p[4], p[5], p[6]));
+                }
+                for (mem, c) in d.contact_memory.iter_mut().zip(s[groups..].chunks(MEMORY_LEN)) {
                     mem.active = c[0] != 0.0;
                     mem.impact_velocity = c[1];
                     mem.impacts = c[2] as u64;

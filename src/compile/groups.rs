@@ -1,0 +1,166 @@
+//! The contact groups of a scene: the group shapes in their bodies' frames, the candidate
+//! pairs (found by the broad phase at the initial configuration, or given), and one contact
+//! element per candidate, compiled as the `[[contact]]` the group pair stands for.
+
+use super::contact::compile_contact;
+use super::parameters::{ContactValues, MaterialValues, Parameters};
+use crate::contact::broad::{Bound, Candidate, GroupShape, Groups};
+use crate::contact::element::ContactElement;
+use crate::scene::{Scene, SceneError, ShapeType};
+use nalgebra::{UnitQuaternion, Vector3};
+use std::collections::HashMap;
+
+/// Builds the groups and the contact elements of `candidates` (None: the broad phase's pairs
+/// at the initial configuration). `pose0` gives a body's initial pose, the other closures are
+/// those of [`compile_contact`].
+#[allow(clippy::too_many_arguments)]
+pub(super) fn compile_groups(
+    scene: &Scene,
+    params: &Parameters,
+    origin: &str,
+    n_explicit: usize,
+    candidates: Option<&[Candidate]>,
+    pose0: &dyn Fn(Option<usize>) -> (Vector3<f64>, UnitQuaternion<f64>),
+    materials: &[MaterialValues],
+    material_of: &dyn Fn(&str) -> Option<usize>,
+    body_of: &dyn Fn(&str) -> Option<usize>,
+    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+) -> Result<(Groups, Vec<ContactElement>), SceneError> {
+    // shapes that no group pair names touch nothing
+    if scene.contact_group.is_empty() {
+        return Ok((
+            Groups {
+                n_explicit,
+                ..Groups::default()
+            },
+            Vec::new(),
+        ));
+    }
+    let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
+    let mut group_index: HashMap<&str, usize> = HashMap::new();
+    for s in &scene.shape {
+        let n = group_index.len();
+        group_index.entry(s.group.as_str()).or_insert(n);
+    }
+    let ngroups = group_index.len();
+    let mut touch = vec![None; ngroups * ngroups];
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        let (a, b) = (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]);
+        touch[a * ngroups + b] = Some(p);
+    }
+    let nb = scene.body.len();
+    let mut reach = vec![0.0_f64; nb];
+    let mut has_shape = vec![false; nb];
+    let shapes: Vec<GroupShape> = scene
+        .shape
+        .iter()
+        .map(|s| {
+            let body = body_of(&s.body);
+            let (center, bound) = match s.kind {
+                ShapeType::Sphere => {
+                    let c = s.center.map(v).unwrap_or_else(|| pose0(body).0);
+                    (local_point(body, c), Bound::Ball(s.radius.unwrap_or(0.0)))
+                }
+                ShapeType::Plane => {
+                    let n = v(s.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
+                    let u = v(s.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
+                    let [lu, lv] = s.size.unwrap_or([1.0, 1.0]);
+                    (
+                        local_point(body, v(s.origin.unwrap_or_default())),
+                        Bound::Rectangle(
+                            local_dir(body, u) * (0.5 * lu),
+                            local_dir(body, n.cross(&u)) * (0.5 * lv),
+                        ),
+                    )
+                }
+                ShapeType::Cylinder => {
+                    let (rho, len) = (s.cylinder_radius.unwrap_or(1.0), s.length.unwrap_or(1.0));
+                    (
+                        local_point(body, v(s.axis_point.unwrap_or_default())),
+                        Bound::Ball((rho * rho + 0.25 * len * len).sqrt()),
+                    )
+                }
+            };
+            if let Some(b) = body {
+                let extent = match bound {
+                    Bound::Ball(r) => r,
+                    Bound::Rectangle(u, w) => (u.norm_squared() + w.norm_squared()).sqrt(),
+                };
+                reach[b] = reach[b].max(center.norm() + extent);
+                has_shape[b] = true;
+            }
+            GroupShape {
+                body,
+                group: group_index[s.group.as_str()],
+                center,
+                bound,
+            }
+        })
+        .collect();
+    let mut groups = Groups {
+        shapes,
+        ngroups,
+        touch,
+        pair_names: scene.contact_group.iter().map(|g| g.name.clone()).collect(),
+        n_explicit,
+        candidates: Vec::new(),
+        margin: scene.broad_phase_margin(),
+        method: scene.broad_phase.method,
+        reach,
+        has_shape,
+    };
+    groups.candidates = match candidates {
+        Some(c) => {
+            let (np, ns) = (scene.contact_group.len(), scene.shape.len());
+            if let Some(bad) = c.iter().find(|k| k.pair >= np || k.sphere >= ns || k.other >= ns) {
+                return Err(SceneError::new(
+                    origin,
+                    "[broad_phase]",
+                    "candidates",
+                    format!("candidate pair {bad:?} names a group pair or shape the scene does not have"),
+                ));
+            }
+            c.to_vec()
+        }
+        None => groups.find(&|b| {
+            let (p, q) = pose0(b);
+            (p, *q.to_rotation_matrix().matrix())
+        }),
+    };
+    let mut elements = Vec::with_capacity(groups.candidates.len());
+    for c in &groups.candidates {
+        let g = &scene.contact_group[c.pair];
+        let (a, b) = (&scene.shape[c.sphere], &scene.shape[c.other]);
+        let name = format!("{}[{}:{}]", g.name, c.sphere + 1, c.other + 1);
+        let spec = scene.group_pair_contact(g, &name, a, b);
+        let gv = &params.groups[c.pair];
+        let radius = a.radius.unwrap_or(1.0);
+        let values = ContactValues {
+            law: gv.law,
+            restitution: gv.restitution,
+            exponent: gv.exponent,
+            damping: gv.damping,
+            max_penetration: gv.max_penetration.unwrap_or(radius),
+            min_impact_velocity: gv.min_impact_velocity,
+            stiffness: gv.stiffness,
+            friction: gv.friction,
+            radius,
+            other_radius: b.radius.unwrap_or(1.0),
+            size: b.size.unwrap_or([1.0, 1.0]),
+            cylinder_radius: b.cylinder_radius.unwrap_or(1.0),
+            length: b.length.unwrap_or(1.0),
+        };
+        elements.push(compile_contact(
+            &spec,
+            &values,
+            materials,
+            material_of,
+            origin,
+            body_of,
+            local_point,
+            local_dir,
+        )?);
+    }
+    Ok((groups, elements))
+}

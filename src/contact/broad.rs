@@ -1,0 +1,290 @@
+//! The contact groups of a model and the broad phase that finds the pairs of their shapes
+//! within reach (sweep and prune along x, or a uniform grid).
+//!
+//! The model holds the contacts of the group pairs as ordinary contact elements
+//! (`Model::contacts[n_explicit..]`), one per *candidate*: a pair of shapes whose bounding
+//! boxes, each grown by half the margin, overlap at the configuration where the list was
+//! made (the reference poses, `Data::broad_reference`). A pair left out is farther apart than
+//! the margin there, so it cannot touch while every body's shapes have moved less than half
+//! the margin: the engine bounds each step so that no body's shapes move farther than that
+//! (`groups::time_to_margin`), stops once one has moved a quarter of it (`groups::stale`), and the
+//! caller then makes the list again at the present configuration (`Simulation` recompiles
+//! the model with the new list and carries the state over).
+
+use crate::scene::BroadPhaseMethod;
+use nalgebra::{Matrix3, Vector3};
+
+/// The bounding geometry of a group shape in its body's frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bound {
+    /// A ball of this radius around the centre (spheres, cylinder patches).
+    Ball(f64),
+    /// A rectangle: its two half side vectors.
+    Rectangle(Vector3<f64>, Vector3<f64>),
+}
+
+/// A group shape as the broad phase sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupShape {
+    /// Body (None = ground).
+    pub body: Option<usize>,
+    /// Group index.
+    pub group: usize,
+    /// Centre of the bound, body frame.
+    pub center: Vector3<f64>,
+    /// The bound around it.
+    pub bound: Bound,
+}
+
+/// One candidate pair: the contact element `n_explicit + k` for the `k`-th candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Candidate {
+    /// Group pair (index of the `[[contact_group]]`).
+    pub pair: usize,
+    /// The sphere shape.
+    pub sphere: usize,
+    /// The other shape.
+    pub other: usize,
+}
+
+/// The contact groups of a model (empty without `[[shape]]`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Groups {
+    /// Every group shape, in scene order.
+    pub shapes: Vec<GroupShape>,
+    /// Number of groups.
+    pub ngroups: usize,
+    /// `touch[a * ngroups + b]`: the group pair whose spheres are in group `a` and whose other
+    /// shapes are in group `b`.
+    pub touch: Vec<Option<usize>>,
+    /// Per group pair: its name.
+    pub pair_names: Vec<String>,
+    /// Contact elements before the group contacts (the scene's `[[contact]]` entries).
+    pub n_explicit: usize,
+    /// The candidates, in the order of their contact elements.
+    pub candidates: Vec<Candidate>,
+    /// Broad-phase margin [m].
+    pub margin: f64,
+    /// Algorithm.
+    pub method: BroadPhaseMethod,
+    /// Per body: the largest distance of a point of its group shapes' bounds from its centre
+    /// of mass (0: no group shape).
+    pub reach: Vec<f64>,
+    /// Per body: carries a group shape.
+    pub has_shape: Vec<bool>,
+}
+
+impl Groups {
+    /// True when the model has group shapes.
+    pub fn is_active(&self) -> bool {
+        !self.candidates.is_empty() || !self.shapes.is_empty()
+    }
+
+    /// The candidate of contact element `i`, if it is a group contact.
+    pub fn candidate_of(&self, i: usize) -> Option<Candidate> {
+        i.checked_sub(self.n_explicit)
+            .and_then(|k| self.candidates.get(k).copied())
+    }
+
+    /// The element (sphere, other, pair) for shapes `i` and `j` whose boxes overlap, if their
+    /// groups touch and, for two balls, their bounds come within the margin.
+    fn pair_of(&self, i: usize, j: usize, boxes: &[[Vector3<f64>; 2]]) -> Option<Candidate> {
+        let (a, b) = (&self.shapes[i], &self.shapes[j]);
+        if a.body == b.body {
+            return None;
+        }
+        if let (Bound::Ball(ra), Bound::Ball(rb)) = (a.bound, b.bound) {
+            // the box centres are the balls' centres
+            let (ca, cb) = (boxes[i][0] + boxes[i][1], boxes[j][0] + boxes[j][1]);
+            let reach = ra + rb + self.margin;
+            if (ca - cb).norm_squared() > 4.0 * reach * reach {
+                return None;
+            }
+        }
+        let n = self.ngroups;
+        if a.group == b.group {
+            let pair = self.touch[a.group * n + a.group]?;
+            return Some(Candidate {
+                pair,
+                sphere: i.min(j),
+                other: i.max(j),
+            });
+        }
+        if let Some(pair) = self.touch[a.group * n + b.group] {
+            return Some(Candidate {
+                pair,
+                sphere: i,
+                other: j,
+            });
+        }
+        self.touch[b.group * n + a.group].map(|pair| Candidate {
+            pair,
+            sphere: j,
+            other: i,
+        })
+    }
+
+    /// World bounding box (min, max) of shape `s` at pose `(pos, rot)`, grown by `grow`.
+    fn aabb(&self, s: &GroupShape, pos: &Vector3<f64>, rot: &Matrix3<f64>, grow: f64) -> [Vector3<f64>; 2] {
+        let c = pos + rot * s.center;
+        let half = match s.bound {
+            Bound::Ball(r) => Vector3::repeat(r),
+            Bound::Rectangle(u, v) => (rot * u).abs() + (rot * v).abs(),
+        } + Vector3::repeat(grow);
+        [c - half, c + half]
+    }
+
+    /// The candidate pairs at the body poses `pose(body)` (position of the centre of mass,
+    /// rotation), sorted (pair, sphere, other): every pair whose bounding boxes, grown by
+    /// half the margin each, overlap (and, for two ball bounds, whose balls come within the
+    /// margin).
+    pub fn find(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
+        let boxes: Vec<[Vector3<f64>; 2]> = self
+            .shapes
+            .iter()
+            .map(|s| {
+                let (p, r) = pose(s.body);
+                self.aabb(s, &p, &r, 0.5 * self.margin)
+            })
+            .collect();
+        let mut out = match self.method {
+            BroadPhaseMethod::Sweep => self.sweep(&boxes),
+            BroadPhaseMethod::Grid => self.grid(&boxes),
+        };
+        out.sort_unstable();
+        out
+    }
+
+    /// Sweep and prune along x: boxes sorted by their lower x; each is tested against the
+    /// boxes still open at its lower end.
+    fn sweep(&self, boxes: &[[Vector3<f64>; 2]]) -> Vec<Candidate> {
+        let mut order: Vec<usize> = (0..boxes.len()).collect();
+        order.sort_unstable_by(|&a, &b| boxes[a][0].x.total_cmp(&boxes[b][0].x));
+        let mut open: Vec<usize> = Vec::new();
+        let mut out = Vec::new();
+        for &i in &order {
+            let lo = boxes[i][0].x;
+            open.retain(|&j| boxes[j][1].x >= lo);
+            for &j in &open {
+                if overlap_yz(&boxes[i], &boxes[j]) {
+                    if let Some(c) = self.pair_of(i, j, boxes) {
+                        out.push(c);
+                    }
+                }
+            }
+            open.push(i);
+        }
+        out
+    }
+
+    /// Uniform grid: cells of the size of the largest box of a ball bound (at least the
+    /// margin). Each box is entered into the cells it covers (one sorted list of (cell, box)),
+    /// and a pair is reported by the first cell the two share; a box that would cover more
+    /// than [`GRID_LARGE`] cells (a wall much larger than the spheres) is tested against every
+    /// other box instead.
+    fn grid(&self, boxes: &[[Vector3<f64>; 2]]) -> Vec<Candidate> {
+        let mut cell = self.margin;
+        for (s, b) in self.shapes.iter().zip(boxes) {
+            if matches!(s.bound, Bound::Ball(_)) {
+                cell = cell.max((b[1] - b[0]).max());
+            }
+        }
+        let lo: Vector3<f64> = boxes.iter().fold(Vector3::repeat(f64::INFINITY), |a, b| a.inf(&b[0]));
+        let index = |x: &Vector3<f64>| -> [u64; 3] {
+            let r = (x - lo) / cell;
+            [r.x as u64, r.y as u64, r.z as u64]
+        };
+        let key = |c: [u64; 3]| (c[0] << 42) | (c[1] << 21) | c[2];
+        let mut entries: Vec<(u64, usize)> = Vec::with_capacity(2 * boxes.len());
+        let mut large = Vec::new();
+        for (i, b) in boxes.iter().enumerate() {
+            let (a, z) = (index(&b[0]), index(&b[1]));
+            let cells = (z[0] - a[0] + 1) * (z[1] - a[1] + 1) * (z[2] - a[2] + 1);
+            if cells > GRID_LARGE || z.iter().any(|&c| c >= 1 << 21) {
+                large.push(i);
+                continue;
+            }
+            for x in a[0]..=z[0] {
+                for y in a[1]..=z[1] {
+                    for w in a[2]..=z[2] {
+                        entries.push((key([x, y, w]), i));
+                    }
+                }
+            }
+        }
+        entries.sort_unstable();
+        let mut out = Vec::new();
+        let mut start = 0;
+        while start < entries.len() {
+            let k = entries[start].0;
+            let mut end = start + 1;
+            while end < entries.len() && entries[end].0 == k {
+                end += 1;
+            }
+            for (n, &(_, i)) in entries[start..end].iter().enumerate() {
+                for &(_, j) in &entries[start + n + 1..end] {
+                    let (bi, bj) = (&boxes[i], &boxes[j]);
+                    if bi[0].x > bj[1].x || bj[0].x > bi[1].x || !overlap_yz(bi, bj) {
+                        continue;
+                    }
+                    // report once: in the cell of the lower corner of the boxes' common part
+                    if key(index(&bi[0].sup(&bj[0]))) != k {
+                        continue;
+                    }
+                    if let Some(c) = self.pair_of(i, j, boxes) {
+                        out.push(c);
+                    }
+                }
+            }
+            start = end;
+        }
+        for (n, &l) in large.iter().enumerate() {
+            for j in 0..boxes.len() {
+                // a large box against the others, each pair of large boxes once
+                if j == l || (large.contains(&j) && large[..=n].contains(&j)) {
+                    continue;
+                }
+                let (bi, bj) = (&boxes[l], &boxes[j]);
+                if bi[0].x <= bj[1].x && bj[0].x <= bi[1].x && overlap_yz(bi, bj) {
+                    if let Some(c) = self.pair_of(l, j, boxes) {
+                        out.push(c);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Every pair whose grown boxes overlap, by testing all pairs (for tests and as a
+    /// reference).
+    pub fn find_all_pairs(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
+        let boxes: Vec<[Vector3<f64>; 2]> = self
+            .shapes
+            .iter()
+            .map(|s| {
+                let (p, r) = pose(s.body);
+                self.aabb(s, &p, &r, 0.5 * self.margin)
+            })
+            .collect();
+        let mut out = Vec::new();
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                let (bi, bj) = (&boxes[i], &boxes[j]);
+                if bi[0].x <= bj[1].x && bj[0].x <= bi[1].x && overlap_yz(bi, bj) {
+                    if let Some(c) = self.pair_of(i, j, &boxes) {
+                        out.push(c);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+}
+
+/// Most grid cells a box may cover before the grid tests it against every box instead.
+const GRID_LARGE: u64 = 64;
+
+fn overlap_yz(a: &[Vector3<f64>; 2], b: &[Vector3<f64>; 2]) -> bool {
+    a[0].y <= b[1].y && b[0].y <= a[1].y && a[0].z <= b[1].z && b[0].z <= a[1].z
+}
