@@ -53,7 +53,7 @@ from exudyn.utilities import RigidBodyInertia
 
 warnings.simplefilter("ignore", DeprecationWarning)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-EXE = os.path.join(ROOT, "target", "release", "contact-fmu")
+EXE = os.environ.get("BENCH_EXE") or os.path.join(ROOT, "target", "release", "contact-fmu")
 WORK = os.path.join(ROOT, "target", "bench", "exudyn")
 SHOW_HINTS = bool(os.environ.get("BENCH_HINTS"))
 REPEATS = int(os.environ.get("BENCH_REPEATS", "5"))
