@@ -21,13 +21,15 @@ reaches it is compared. Writes docs/exudyn_comparison.csv and prints a table.
 
 A fourth scene, ball_plane_10, is run on its own (so that the first table's figures stay as
 they were measured): the ball dropped from 50 mm onto the plane under gravity, ten bounces
-(2.02 s), so that solver start-up is not the measure. Reference: contact-fmu dopri5 at
-rtol 1e-13 (the other settings' tight runs and Exudyn's best run are printed against it).
-contact-fmu runs three [solver] variants written into its scene (VARIANTS: today's max_step
-1 ms with a restart at each communication point; continuation = true with max_step left to
-its default; continuation with max_step 0.1 s). Times: CPU time (ours: the thread running the
-engine; Exudyn: its process, around SolveDynamic), medians of BENCH_REPEATS (5) runs; wall
-clock in the CSV.
+(2.02 s), so that solver start-up is not the measure. Reference: contact-fmu at rtol 1e-13
+with its defaults (the other settings' tight runs and Exudyn's best run are printed against
+it). contact-fmu runs two [solver] variants written into its scene (BALL10_VARIANTS):
+`defaults` (no method and no max_step: solver.method = "auto", which is Dormand-Prince
+throughout on this scene, continuation across communication points, steps bounded by the time
+to contact) and, for comparison, `former` (the former defaults: dopri5, max_step 1 ms, a
+restart at each communication point). Exudyn's DOPRI5 is swept down to rtol 1e-13 here.
+Times: CPU time (ours: the thread running the engine; Exudyn: its process, around
+SolveDynamic), medians of BENCH_REPEATS (5) runs; wall clock in the CSV.
 
 Run from the repository root after `cargo build --release`:
     .venv/bin/python scripts/bench_exudyn.py                               (the first three scenes)
@@ -51,7 +53,7 @@ from exudyn.utilities import RigidBodyInertia
 
 warnings.simplefilter("ignore", DeprecationWarning)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-EXE = os.path.join(ROOT, "target", "release", "contact-fmu")
+EXE = os.environ.get("BENCH_EXE") or os.path.join(ROOT, "target", "release", "contact-fmu")
 WORK = os.path.join(ROOT, "target", "bench", "exudyn")
 SHOW_HINTS = bool(os.environ.get("BENCH_HINTS"))
 REPEATS = int(os.environ.get("BENCH_REPEATS", "5"))
@@ -83,8 +85,9 @@ def scenes():
     out["ball_plane_10"] = dict(
         bodies=[ball("ball", m, j, [0, 0, r + h], [0, 0, 0.0], r)],
         plane=True, pairs=[], t_end=10 * 2 * math.sqrt(2 * h / g), truth=None, v_scale=math.sqrt(2 * g * h),
-        gravity=[0, 0, -g], variants=VARIANTS, rk4=[], rk44=[1e-5, 3e-6, 1e-6], exudyn_min_step=1e-12,
-        reference_rtol=1e-13, tols=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12])
+        gravity=[0, 0, -g], variants=BALL10_VARIANTS, rk4=[], rk44=[1e-5, 3e-6, 1e-6], exudyn_min_step=1e-12,
+        reference_rtol=1e-13, reference_variant="defaults", tols=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
+        exudyn_tols=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13])
     # two spheres (fmu/two_spheres)
     m1, m2, v0 = 0.0329, 0.111, 1.0
     out["two_spheres"] = dict(
@@ -105,14 +108,17 @@ def scenes():
 # "continuation" continues the integrator across communication points and leaves max_step to
 # its default; "continuation, max_step 0.1" lifts the bound on the step (safe here: event
 # location finds every touch, also after a long step).
-VARIANTS = {"today": "max_step = 1e-3\n", "continuation": "continuation = true\n",
-            "continuation, max_step 0.1": "continuation = true\nmax_step = 0.1\n"}
+VARIANTS = {"today": 'method = "dopri5"\nmax_step = 1e-3\ncontinuation = false\n'}
+# ball_plane_10: the engine's defaults (no method, no max_step: "auto", continuation, steps
+# bounded by the time to contact) and the former defaults for comparison.
+BALL10_VARIANTS = {"defaults": "", "former": 'method = "dopri5"\nmax_step = 1e-3\ncontinuation = false\n'}
+ALL_VARIANTS = {**VARIANTS, **BALL10_VARIANTS}
 
 
 def toml(name, sc, variant="today"):
     gravity = [float(x) for x in sc.get("gravity", [0, 0, 0])]
     s = [f'[model]\nname = "{name}"\ngravity = {gravity}\nstop_time = {sc["t_end"]!r}\n'
-         f'interval = {sc["t_end"] / 10!r}\n\n[solver]\nmethod = "dopri5"\n{VARIANTS[variant]}\n'
+         f'interval = {sc["t_end"] / 10!r}\n\n[solver]\n{ALL_VARIANTS[variant]}\n'
          '[[material]]\nname = "steel"\nyoungs_modulus = 210e9\npoisson_ratio = 0.3\n']
     for b in sc["bodies"]:
         s.append(f'[[body]]\nname = "{b["name"]}"\nmass = {b["mass"]!r}\ninertia = [{b["inertia"]!r}, {b["inertia"]!r}, '
@@ -134,7 +140,8 @@ def toml(name, sc, variant="today"):
 
 # ---------------------------------------------------------------- contact-fmu
 def ours(path, method, tol, repeats=REPEATS):
-    sets = [f"solver.method={method}"]
+    """`method` None: the scene's own (its default when the scene sets none)."""
+    sets = [f"solver.method={method}"] if method else []
     if method == "rk4":
         sets.append(f"solver.max_step={tol!r}")
     else:
@@ -273,30 +280,39 @@ def main():
             with open(paths[variant], "w") as f:
                 f.write(toml(name, sc, variant))
         truth = sc["truth"]
+        # "today" (the first three scenes) forces dopri5; the ball_plane_10 variants keep the
+        # scene's method (auto under the defaults)
+        def method_of(variant):
+            return "dopri5" if variant == "today" else None
+
         if truth is None:
             ref_tol = sc.get("reference_rtol", 1e-12)
-            ref = ours(paths["today"], "dopri5", ref_tol, repeats=1)
+            ref_variant = sc.get("reference_variant", "today")
+            ref = ours(paths[ref_variant], method_of(ref_variant), ref_tol, repeats=1)
             truth = {b["name"]: [ref["final"](b["name"], k) for k in range(3)] for b in sc["bodies"]}
             for variant, path in paths.items():
-                r = ours(path, "dopri5", ref_tol, repeats=1)
-                print(f"{name}: reference (dopri5 rtol {ref_tol:.0e}, today) against [{variant}] at that rtol: "
+                r = ours(path, method_of(variant), ref_tol, repeats=1)
+                print(f"{name}: reference (rtol {ref_tol:.0e}, [{ref_variant}]) against [{variant}] at that rtol: "
                       f"{error(r['final'], truth, sc['v_scale']):.1e}")
+            r = ours(paths[ref_variant], "dopri5", ref_tol, repeats=1)
+            print(f"{name}: reference against dopri5 forced, [{ref_variant}], rtol {ref_tol:.0e}: "
+                  f"{error(r['final'], truth, sc['v_scale']):.1e}")
         points = []
         for variant, path in paths.items():
-            label = "dopri5" if variant == "today" else f"dopri5 [{variant}]"
+            label = "dopri5" if variant == "today" else variant
             for tol in sc.get("tols", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]):
-                r = ours(path, "dopri5", tol)
+                r = ours(path, method_of(variant), tol)
                 if r:
                     points.append(("contact-fmu", label, tol, error(r["final"], truth, sc["v_scale"]), r["seconds"],
                                    r["cpu"], r["steps"], r["status"]))
                     print(f"  contact-fmu {label} {tol:.0e}: err {points[-1][3]:.3e} cpu {r['cpu']:.3e} s", flush=True)
         for h in sc.get("rk4", [1e-5, 3e-6, 1e-6, 3e-7, 1e-7]):
-            r = ours(paths["today"], "rk4", h)
+            r = ours(paths.get("today", next(iter(paths.values()))), "rk4", h)
             if r:
                 points.append(("contact-fmu", "rk4", h, error(r["final"], truth, sc["v_scale"]), r["seconds"], r["cpu"],
                                r["steps"], r["status"]))
-        for solver, tols in [("DOPRI5", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]),
-                             ("DOPRI5-h10us", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]),
+        ex_tols = sc.get("exudyn_tols", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11])
+        for solver, tols in [("DOPRI5", ex_tols), ("DOPRI5-h10us", ex_tols),
                              ("RK44", sc.get("rk44", [1e-5, 3e-6, 1e-6, 3e-7, 1e-7]))]:
             for tol in tols:
                 dt, ok, fin, cpu = exudyn_timed(sc, solver, tol)

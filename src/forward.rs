@@ -116,6 +116,23 @@ pub fn evaluate_outputs(m: &Model, d: &mut Data) {
     planned_kinematics_and_forces(m, d);
 }
 
+/// The kinematics part of [`evaluate_outputs`] alone (the same functions at the same state),
+/// for reads of body positions, orientations and velocities; false (nothing done) when
+/// [`evaluate_outputs`] would take the full evaluation (loops, resting contacts).
+pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
+    if m.loop_rows() > 0 || any_resting(m, d) {
+        return false;
+    }
+    d.eval_state.copy_from_slice(&d.state);
+    for &ji in &m.plan.general.joints {
+        joint_kinematics(m, d, ji);
+    }
+    for fb in &m.plan.free {
+        free_body_kinematics(m, d, fb);
+    }
+    true
+}
+
 /// Kinematics through the plan (the general joints', then the free bodies' lean ones), the
 /// applied and contact forces, and the dissipated power, at `d.eval_state`.
 fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {

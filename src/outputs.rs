@@ -2,15 +2,16 @@
 //! model's data in one place. The data is evaluated once at the current state when an
 //! output is first read after a step ([`refresh`]); later reads cost nothing.
 //!
-//! [`output`] matches every [`VarRef`] without a catch-all arm, so a variable added to the
-//! table and not wired here does not compile.
+//! [`evaluated`] and [`needs`] match every [`VarRef`] without a catch-all arm, so a variable
+//! added to the table and not wired here does not compile.
 
 use crate::contact;
 use crate::dynamics;
-use crate::forward::evaluate_outputs;
+use crate::forward::{evaluate_output_kinematics, evaluate_outputs};
 use crate::kinematics::com_velocity;
 use crate::model::{Data, Model};
 use crate::variables::VarRef;
+use nalgebra::Vector3;
 
 /// The energies of the energy balance [J]: `total() + dissipated` stays at its initial value.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -41,6 +42,123 @@ pub fn refresh(m: &Model, d: &mut Data) {
             contact_totals(m, d);
         }
         d.outputs_valid = true;
+        d.kinematics_valid = true;
+    }
+}
+
+/// What reading a variable needs evaluated at the current state (ordered: each level
+/// includes the ones before it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Needs {
+    /// Nothing: a parameter, an input, a counter, a constant of the compiled model.
+    Nothing,
+    /// The bodies' kinematics (positions, orientations, velocities).
+    Kinematics,
+    /// Everything [`refresh`] evaluates (contact forces, energies, loop joints).
+    Everything,
+}
+
+/// What reading `target` needs ([`prepare`]).
+pub fn needs(target: VarRef) -> Needs {
+    match target {
+        VarRef::BodyPosition(..)
+        | VarRef::BodyVelocity(..)
+        | VarRef::BodyAngularVelocity(..)
+        | VarRef::BodyQuaternion(..) => Needs::Kinematics,
+        VarRef::JointQ(_)
+        | VarRef::JointQd(_)
+        | VarRef::ContactDelta(_)
+        | VarRef::ContactDeltaDot(_)
+        | VarRef::ContactForce(_)
+        | VarRef::ContactActive(_)
+        | VarRef::ContactImpacts(_)
+        | VarRef::ContactFrictionForce(..)
+        | VarRef::ContactSlipVelocity(_)
+        | VarRef::EnergyKinetic
+        | VarRef::EnergyPotential
+        | VarRef::EnergyContact
+        | VarRef::EnergyTotal
+        | VarRef::EnergyDissipated => Needs::Everything,
+        VarRef::YoungsModulus(_)
+        | VarRef::PoissonRatio(_)
+        | VarRef::Mass(_)
+        | VarRef::Inertia(..)
+        | VarRef::SphereRadius(_)
+        | VarRef::OtherRadius(_)
+        | VarRef::PlaneSize(..)
+        | VarRef::CylinderRadius(_)
+        | VarRef::CylinderLength(_)
+        | VarRef::ContactLaw(_)
+        | VarRef::Restitution(_)
+        | VarRef::Exponent(_)
+        | VarRef::Damping(_)
+        | VarRef::MaxPenetration(_)
+        | VarRef::MinImpactVelocity(_)
+        | VarRef::Friction(_)
+        | VarRef::StaticFriction(_)
+        | VarRef::StribeckVelocity(_)
+        | VarRef::ViscousFriction(_)
+        | VarRef::StictionVelocity(_)
+        | VarRef::SolverMethod
+        | VarRef::SolverRtol
+        | VarRef::SolverAtol
+        | VarRef::SolverMaxStep
+        | VarRef::SolverMaxSteps
+        | VarRef::SpringStiffness(_)
+        | VarRef::SpringDamping(_)
+        | VarRef::SpringFreeLength(_)
+        | VarRef::InitialVelocity(..)
+        | VarRef::InitialAngularVelocity(..)
+        | VarRef::Input(_)
+        | VarRef::Stiffness(_)
+        | VarRef::SolverSteps
+        | VarRef::SolverRhsEvals => Needs::Nothing,
+    }
+}
+
+/// Evaluates what a batch of reads `needs` at the current state, unless that was done since
+/// the state changed; then [`evaluated`] gives each value.
+pub fn prepare(m: &Model, d: &mut Data, needs: Needs) {
+    match needs {
+        Needs::Nothing => {}
+        Needs::Kinematics => {
+            if !d.kinematics_valid {
+                if evaluate_output_kinematics(m, d) {
+                    d.kinematics_valid = true;
+                } else {
+                    refresh(m, d);
+                }
+            }
+        }
+        Needs::Everything => refresh(m, d),
+    }
+}
+
+/// Reads outputs one after the other from data prepared for them ([`prepare`]), as
+/// [`evaluated`] does, computing a body's centre-of-mass velocity once for its three
+/// components (the same numbers).
+#[derive(Debug, Default)]
+pub struct Reader {
+    /// The last body whose centre-of-mass velocity was computed, and that velocity.
+    com: Option<(usize, Vector3<f64>)>,
+}
+
+impl Reader {
+    /// [`evaluated`]`(m, d, target)`.
+    #[inline]
+    pub fn read(&mut self, m: &Model, d: &Data, target: VarRef) -> Option<f64> {
+        if let VarRef::BodyVelocity(b, k) = target {
+            let v = match self.com {
+                Some((last, v)) if last == b => v,
+                _ => {
+                    let v = com_velocity(d, b);
+                    self.com = Some((b, v));
+                    v
+                }
+            };
+            return Some(v[k]);
+        }
+        evaluated(m, d, target)
     }
 }
 
@@ -83,6 +201,11 @@ fn contact_totals(m: &Model, d: &mut Data) {
 /// The energies at the current state.
 pub fn energies(m: &Model, d: &mut Data) -> Energies {
     refresh(m, d);
+    energies_evaluated(m, d)
+}
+
+/// The energies, from data evaluated at the current state ([`refresh`]).
+fn energies_evaluated(m: &Model, d: &Data) -> Energies {
     Energies {
         kinetic: dynamics::kinetic_energy(m, d),
         potential: dynamics::potential_energy(m, d),
@@ -105,6 +228,11 @@ pub fn constraint_residual(m: &Model, d: &mut Data) -> f64 {
 /// variables whose value the host sets (parameters and inputs: the caller holds those).
 pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
     refresh(m, d);
+    evaluated(m, d, target)
+}
+
+/// [`output`] from data prepared for it ([`prepare`] with at least [`needs`]`(target)`).
+pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
     let value = match target {
         VarRef::YoungsModulus(_)
         | VarRef::PoissonRatio(_)
@@ -173,11 +301,11 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
         VarRef::ContactImpacts(i) => d.contact_memory[i].impacts as f64,
         VarRef::ContactFrictionForce(i, k) => d.contact_out[i].friction_force[k],
         VarRef::ContactSlipVelocity(i) => d.contact_out[i].slip_speed,
-        VarRef::EnergyKinetic => energies(m, d).kinetic,
-        VarRef::EnergyPotential => energies(m, d).potential,
-        VarRef::EnergyContact => energies(m, d).contact,
-        VarRef::EnergyTotal => energies(m, d).total(),
-        VarRef::EnergyDissipated => energies(m, d).dissipated,
+        VarRef::EnergyKinetic => energies_evaluated(m, d).kinetic,
+        VarRef::EnergyPotential => energies_evaluated(m, d).potential,
+        VarRef::EnergyContact => energies_evaluated(m, d).contact,
+        VarRef::EnergyTotal => energies_evaluated(m, d).total(),
+        VarRef::EnergyDissipated => energies_evaluated(m, d).dissipated,
         VarRef::SolverSteps => d.counters.steps as f64,
         VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,
         VarRef::BodyContactForce(b, k) => d.body_contact[b][k],

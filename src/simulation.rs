@@ -294,6 +294,7 @@ impl Simulation {
         let c = self.running()?;
         c.model = model;
         c.data.outputs_valid = false;
+        c.data.kinematics_valid = false;
         // the right-hand side changed: the method restarts at the current state, with the
         // step size it would have tried next
         c.data.solver.next_h = c.data.solver.pending_step();
@@ -316,6 +317,7 @@ impl Simulation {
 
     /// Reads a variable. Outputs and calculated parameters need a compiled engine: before
     /// initialisation one is compiled from the current parameter values (the initial state).
+    /// Only what the variable needs is evaluated at the current state ([`outputs::needs`]).
     pub fn get(&mut self, vr: usize) -> Result<f64, SimError> {
         let var = variable(&self.table, vr)?;
         match var.causality {
@@ -323,9 +325,57 @@ impl Simulation {
             _ => {
                 let target = var.target;
                 let c = self.ensure_compiled()?;
-                Ok(outputs::output(&c.model, &mut c.data, target).unwrap_or(f64::NAN))
+                outputs::prepare(&c.model, &mut c.data, outputs::needs(target));
+                Ok(outputs::evaluated(&c.model, &c.data, target).unwrap_or(f64::NAN))
             }
         }
+    }
+
+    /// Reads several variables at once, as `fmi2GetReal` receives them: `values[k]` is
+    /// [`Simulation::get`]`(vrs[k])`, the same number, for one check of the compiled model
+    /// and one evaluation, at the current state, of what the outputs among them need. An
+    /// unknown value reference is an error before anything is read.
+    pub fn get_many(&mut self, vrs: &[usize], values: &mut [f64]) -> Result<(), SimError> {
+        if values.len() != vrs.len() {
+            return Err(SimError::Variable(format!(
+                "{} value references and {} values",
+                vrs.len(),
+                values.len()
+            )));
+        }
+        self.get_each(vrs.iter().copied(), |k, x| values[k] = x)
+    }
+
+    /// [`Simulation::get_many`] for value references of any integer type: calls `put(k, x)`
+    /// with the value `x` of the `k`-th variable of `vrs`.
+    pub fn get_each<I>(&mut self, vrs: I, mut put: impl FnMut(usize, f64)) -> Result<(), SimError>
+    where
+        I: Iterator<Item = usize> + Clone,
+    {
+        let mut needs: Option<outputs::Needs> = None;
+        for vr in vrs.clone() {
+            let var = variable(&self.table, vr)?;
+            if !matches!(var.causality, Causality::Parameter | Causality::Input) {
+                let n = outputs::needs(var.target);
+                needs = Some(needs.map_or(n, |m| m.max(n)));
+            }
+        }
+        if let Some(n) = needs {
+            let c = self.ensure_compiled()?;
+            outputs::prepare(&c.model, &mut c.data, n);
+        }
+        let compiled = self.compiled.as_ref();
+        let mut reader = outputs::Reader::default();
+        for (k, vr) in vrs.enumerate() {
+            let var = &self.table.vars[vr];
+            let x = match (var.causality, compiled) {
+                (Causality::Parameter | Causality::Input, _) => self.value(vr),
+                (_, Some(c)) => reader.read(&c.model, &c.data, var.target).unwrap_or(f64::NAN),
+                (_, None) => return Err(SimError::NotInitialized),
+            };
+            put(k, x);
+        }
+        Ok(())
     }
 
     /// The value of parameter or input `vr`: the value set, except that a
@@ -808,6 +858,7 @@ fn set_input(d: &mut Data, i: usize, value: f64) {
     if d.inputs[i] != value {
         d.inputs[i] = value;
         d.outputs_valid = false;
+        d.kinematics_valid = false;
         // the right-hand side changed: the method restarts at the current state
         d.solver.started = false;
     }

@@ -110,6 +110,7 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
     }
     d.outputs_valid = false;
+    d.kinematics_valid = false;
     let continuation = m.solver.continuation;
     if !d.solver.started || !continuation {
         // An input changed at this communication point may have made a resting contact pull.

@@ -171,6 +171,9 @@ pub struct Instance {
     /// Set after a panic inside a call: the simulation may be half-updated, so restoring a
     /// state rebuilds it first.
     pub(crate) poisoned: bool,
+    /// The values of one getter call (kept to be reused: a call allocates nothing once it has
+    /// grown to the longest list).
+    read_buffer: Vec<f64>,
 }
 
 impl Instance {
@@ -214,6 +217,7 @@ impl Instance {
             start_time: 0.0,
             stop_time: None,
             poisoned: false,
+            read_buffer: Vec::new(),
         };
         inst.log_event(&format!(
             "fmi2Instantiate: model {} from {}",
@@ -419,13 +423,25 @@ impl Instance {
         mut put: impl FnMut(usize, f64),
     ) -> FmiResult {
         no_strings(access, vrs)?;
-        for (k, &vr) in vrs.iter().enumerate() {
+        for &vr in vrs {
             self.variable(vr, access)?;
-            let x = self.sim.get(vr as usize)?;
-            self.finite(vr as usize, x)?;
-            put(k, x);
         }
-        Ok(())
+        // one batch read (one evaluation of what the outputs among them need), then the checks
+        let mut values = std::mem::take(&mut self.read_buffer);
+        values.clear();
+        values.resize(vrs.len(), 0.0);
+        let read = self
+            .sim
+            .get_each(vrs.iter().map(|&vr| vr as usize), |k, x| values[k] = x);
+        let result = read.map_err(Failure::from).and_then(|()| {
+            for (k, (&vr, &x)) in vrs.iter().zip(&values).enumerate() {
+                self.finite(vr as usize, x)?;
+                put(k, x);
+            }
+            Ok(())
+        });
+        self.read_buffer = values;
+        result
     }
 
     /// An output or calculated parameter is never handed to the host as NaN or infinity:

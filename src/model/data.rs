@@ -186,6 +186,9 @@ pub struct Data {
     pub eval_state: Vec<f64>,
     /// True when the workspace (outputs) was evaluated at `state`.
     pub outputs_valid: bool,
+    /// True when the bodies' kinematics (positions, orientations, velocities) were evaluated
+    /// at `state` (implied by `outputs_valid`; cleared with it).
+    pub kinematics_valid: bool,
     /// Event location.
     pub events: EventWork,
     /// Impulse-law mode changes.
@@ -311,6 +314,7 @@ impl Data {
             log_peaks: false,
             event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
             outputs_valid: false,
+            kinematics_valid: false,
             events: EventWork {
                 g: vec![0.0; 3 * ncontacts],
                 g_new: vec![0.0; 3 * ncontacts],

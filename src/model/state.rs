@@ -320,5 +320,6 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         d.solver.started = false;
     }
     d.outputs_valid = false;
+    d.kinematics_valid = false;
     Ok(())
 }

@@ -1,0 +1,95 @@
+//! Reading variables in a batch (`Simulation::get_many`, as `fmi2GetReal` receives them) gives
+//! the same numbers, bit for bit, as reading them one by one and as the full evaluation of the
+//! outputs; a batch of body kinematics evaluates only the kinematics, with the same values;
+//! and reading changes nothing in the run.
+
+mod common;
+
+use common::bundled_scenes;
+use contact_fmu::outputs::{needs, Needs};
+use contact_fmu::simulation::Simulation;
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits()
+}
+
+/// Runs `path` over its first `horizon` seconds at its own interval; at every communication
+/// point calls `each`. Returns every output at the end.
+fn run(path: &std::path::Path, mut each: impl FnMut(&mut Simulation)) -> Vec<f64> {
+    let mut s = Simulation::from_file(path).unwrap_or_else(|e| panic!("{e}"));
+    s.initialize(0.0).unwrap();
+    let m = &s.scene().model;
+    let (stop, interval) = (m.stop_time.min(0.5), m.interval);
+    s.run(stop, interval, |s| {
+        each(s);
+        Ok(())
+    })
+    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let all = s.output_indices();
+    all.iter().map(|&i| s.get(i).unwrap()).collect()
+}
+
+#[test]
+fn batch_reads_equal_single_reads_and_the_full_evaluation() {
+    for (name, path) in bundled_scenes() {
+        let mut points = 0;
+        let with_reads = run(&path, |s| {
+            let all: Vec<usize> = (0..s.variables().len()).collect();
+            let kinematic: Vec<usize> = s
+                .output_indices()
+                .into_iter()
+                .filter(|&i| needs(s.variables()[i].target) == Needs::Kinematics)
+                .collect();
+            // first at this point: only the kinematics are evaluated
+            let mut fast = vec![0.0; kinematic.len()];
+            s.get_many(&kinematic, &mut fast).unwrap();
+            // the full evaluation of every output (what a single read did before batches)
+            let full: Vec<f64> = kinematic
+                .iter()
+                .map(|&i| {
+                    let target = s.variables()[i].target;
+                    s.output(target).unwrap().unwrap()
+                })
+                .collect();
+            for (k, &i) in kinematic.iter().enumerate() {
+                assert!(
+                    same(fast[k], full[k]),
+                    "{name}: {} = {} from the kinematics alone, {} from the full evaluation",
+                    s.variables()[i].name,
+                    fast[k],
+                    full[k]
+                );
+            }
+            // every variable in one batch against one by one
+            let mut batch = vec![0.0; all.len()];
+            s.get_many(&all, &mut batch).unwrap();
+            for &i in &all {
+                let one = s.get(i).unwrap();
+                assert!(
+                    same(batch[i], one),
+                    "{name}: {} = {} in a batch, {} alone",
+                    s.variables()[i].name,
+                    batch[i],
+                    one
+                );
+            }
+            points += 1;
+        });
+        assert!(points > 0, "{name}: no communication point");
+        let without_reads = run(&path, |_| {});
+        for (k, (a, b)) in with_reads.iter().zip(&without_reads).enumerate() {
+            assert!(same(*a, *b), "{name}: output {k} is {a} with reads, {b} without");
+        }
+    }
+}
+
+#[test]
+fn a_bad_value_reference_fails_the_batch() {
+    let (_, path) = bundled_scenes().into_iter().next().unwrap();
+    let mut s = Simulation::from_file(&path).unwrap();
+    s.initialize(0.0).unwrap();
+    let n = s.variables().len();
+    let mut out = vec![0.0; 2];
+    assert!(s.get_many(&[0, n], &mut out).is_err());
+    assert!(s.get_many(&[0], &mut out).is_err(), "lengths differ");
+}
