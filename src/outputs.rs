@@ -78,7 +78,11 @@ pub fn needs(target: VarRef) -> Needs {
         | VarRef::EnergyPotential
         | VarRef::EnergyContact
         | VarRef::EnergyTotal
-        | VarRef::EnergyDissipated => Needs::Everything,
+        | VarRef::EnergyDissipated
+        | VarRef::BodyContactForce(..)
+        | VarRef::BodyContactTorque(..)
+        | VarRef::GroupActive(_)
+        | VarRef::GroupLargestPenetration(_) => Needs::Everything,
         VarRef::YoungsModulus(_)
         | VarRef::PoissonRatio(_)
         | VarRef::Mass(_)
@@ -111,6 +115,7 @@ pub fn needs(target: VarRef) -> Needs {
         | VarRef::InitialAngularVelocity(..)
         | VarRef::Input(_)
         | VarRef::Stiffness(_)
+        | VarRef::Group(..)
         | VarRef::SolverSteps
         | VarRef::SolverRhsEvals => Needs::Nothing,
     }
