@@ -13,6 +13,7 @@
 
 pub mod core;
 pub mod dopri5;
+pub mod linear;
 pub mod newton;
 pub mod radau;
 pub mod rk4;
@@ -110,6 +111,10 @@ pub trait Integrator {
     /// [`Integrator::set_warm_state`] continues bit for bit. Explicit methods just reset.
     fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.reset(sys, t, y, h);
+    }
+    /// What the implicit methods' linear algebra did (None for explicit methods).
+    fn linear_stats(&self) -> Option<linear::LinearStats> {
+        None
     }
     /// Appends the memory that [`Integrator::restart`] carries over (nothing for explicit
     /// methods; see [`WARM_JACOBIAN_MAX`] for the implicit ones).

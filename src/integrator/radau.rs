@@ -3,8 +3,9 @@
 //! solution, where the stage order 1 of SDIRK4 costs it accuracy (order reduction).
 //!
 //! - The stage increments `Zᵢ = Yᵢ − y₀` are solved together by simplified Newton on the real
-//!   3n × 3n matrix `I − h A⊗J` (an in-place LU on a preallocated buffer; no complex
-//!   transformation — the systems here are small), `J` by forward differences.
+//!   3n × 3n matrix `I − h A⊗J` (no complex transformation), `J` by forward differences:
+//!   dense in-place LU on a preallocated buffer for small systems, faer's sparse LU of the
+//!   3n × 3n matrix with a coloured Jacobian for large ones ([`super::linear`]).
 //! - Jacobian and LU reuse, `J = 0` after a reset, `J` and controller memory kept across a
 //!   plain restart (and saved through `warm_state`), and the step-size controller are those of
 //!   SDIRK4, shared in [`super::newton`].
@@ -14,9 +15,9 @@
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
+use super::linear::{self, LinearStats, Lu};
 use super::newton::{ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
-use crate::linalg;
 use crate::scene::Method;
 
 const SQ6: f64 = 2.449_489_742_783_178;
@@ -57,35 +58,35 @@ pub struct Radau5 {
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
     /// LU of `I − hA⊗J` (3n × 3n) and of `I − hγ₀J` (n × n).
-    lu_big: Vec<f64>,
-    perm_big: Vec<usize>,
-    lu_err: Vec<f64>,
-    perm_err: Vec<usize>,
+    lu_big: Lu,
+    lu_err: Lu,
     err: Vec<f64>,
     work: Vec<f64>,
-    work_big: Vec<f64>,
 }
 
 impl Radau5 {
-    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`.
+    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`;
+    /// dense or sparse linear algebra by [`linear::sparse_for`].
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> Radau5 {
+        Self::with_linear(n, rtol, atol, hmax, linear::sparse_for(n))
+    }
+
+    /// [`Radau5::new`] with the linear algebra chosen: sparse or dense.
+    pub fn with_linear(n: usize, rtol: f64, atol: f64, hmax: f64, sparse: bool) -> Radau5 {
         let v = |k: usize| vec![0.0; k];
         let hmax = if hmax > 0.0 { hmax } else { f64::INFINITY };
         Radau5 {
             core: StepCore::new(n, rtol, atol, hmax),
-            newton: NewtonCore::new(n, rtol),
+            newton: NewtonCore::new(n, rtol, sparse),
             z_prev: [v(n), v(n), v(n)],
             z: v(3 * n),
             dz: v(3 * n),
             stage: v(n),
             fz: [v(n), v(n), v(n)],
-            lu_big: v(9 * n * n),
-            perm_big: vec![0; 3 * n],
-            lu_err: v(n * n),
-            perm_err: vec![0; n],
+            lu_big: Lu::new(3 * n, sparse),
+            lu_err: Lu::new(n, sparse),
             err: v(n),
             work: v(n),
-            work_big: v(3 * n),
         }
     }
 
@@ -136,7 +137,7 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            linalg::lu_solve(&self.lu_big, 3 * n, &self.perm_big, dz, &mut self.work_big);
+            self.lu_big.solve(dz);
             let mut sum = 0.0;
             let mut at_roundoff = true;
             for s in 0..3 {
@@ -163,7 +164,7 @@ impl Radau5 {
             self.work[m] = g0 * (DD[0] * self.z[m] + DD[1] * self.z[n + m] + DD[2] * self.z[2 * n + m]);
             self.err[m] = self.work[m] + g0 * h * core.f[m];
         }
-        linalg::lu_solve(&self.lu_err, n, &self.perm_err, &mut self.err, &mut self.stage);
+        self.lu_err.solve(&mut self.err);
         for m in 0..n {
             self.stage[m] = core.y[m] + self.z[2 * n + m];
         }
@@ -178,7 +179,7 @@ impl Radau5 {
             for m in 0..n {
                 self.err[m] = self.work[m] + g0 * h * self.fz[0][m];
             }
-            linalg::lu_solve(&self.lu_err, n, &self.perm_err, &mut self.err, &mut self.stage);
+            self.lu_err.solve(&mut self.err);
             for m in 0..n {
                 self.stage[m] = core.y[m] + self.z[2 * n + m];
             }
@@ -219,27 +220,19 @@ impl ImplicitMethod for Radau5 {
 
     /// `I − h A⊗J` and `I − hγ₀J`.
     fn factor(&mut self, h: f64) -> bool {
-        let n = self.core.y.len();
-        self.newton.factor(h, |jac| {
-            let m = 3 * n;
-            for (bi, a_row) in A.iter().enumerate() {
-                for (bj, aij) in a_row.iter().enumerate() {
-                    let a = h * aij;
-                    for i in 0..n {
-                        let row = (bi * n + i) * m + bj * n;
-                        let (dst, src) = (&mut self.lu_big[row..row + n], &jac[i * n..(i + 1) * n]);
-                        for (d, j) in dst.iter_mut().zip(src) {
-                            *d = -a * j;
-                        }
-                    }
-                }
-            }
-            for i in 0..m {
-                self.lu_big[i * m + i] += 1.0;
-            }
-            linalg::lu_in_place(&mut self.lu_big, m, &mut self.perm_big)
-                && NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
-        })
+        let (big, err) = (&mut self.lu_big, &mut self.lu_err);
+        self.newton
+            .factor(h, |jac| big.factor_kron(jac, h, &A) && err.factor_shifted(jac, h * gamma0()))
+    }
+
+    fn linear_stats(&self) -> LinearStats {
+        let (f1, a1) = self.lu_big.sparse_counts();
+        let (f2, a2) = self.lu_err.sparse_counts();
+        LinearStats {
+            sparse_factorisations: f1 + f2,
+            analyses: a1 + a2,
+            ..self.newton.linear_stats()
+        }
     }
 
     fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, refine: bool) -> Option<(f64, f64)> {
