@@ -8,9 +8,9 @@
 //! - **Sparse** (from [`SPARSE_MIN_N`] states on): the Jacobian's pattern is probed once by
 //!   `n` forward differences (the values of that probe are the first Jacobian), coloured
 //!   greedily (Curtis-Powell-Reid: columns that share no row are perturbed together), and each
-//!   later Jacobian costs one evaluation per colour. faer's sparse LU analyses the pattern of
-//!   each iteration matrix once (fill-reducing ordering, symbolic factorisation) and factors
-//!   numerically while the pattern holds. RADAU5's `I − h A⊗J` is factored as the real
+//!   later Jacobian costs one evaluation per colour. faer's sparse LU (supernodal) analyses
+//!   the pattern of each iteration matrix once (fill-reducing ordering, symbolic
+//!   factorisation) and factors numerically while the pattern holds. RADAU5's `I − h A⊗J` is factored as the real
 //!   `3n × 3n` sparse matrix (nine copies of J's pattern).
 //! - The pattern lives as long as the Jacobian: it is dropped with it (a reset, a restart that
 //!   does not keep the Jacobian) and probed afresh when Newton next needs a Jacobian. A pattern
@@ -26,6 +26,7 @@ use super::{OdeSystem, Stats};
 use crate::linalg;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu};
+pub use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -105,6 +106,15 @@ pub struct SparseJacobian {
     /// Columns grouped by colour: those of colour `c` are `colour_cols[colour_ptr[c]..colour_ptr[c + 1]]`.
     colour_ptr: Vec<usize>,
     colour_cols: Vec<usize>,
+    /// Rows with more than twice as many entries as the longest column (and more than 16): a
+    /// quadrature state such as the dissipated energy, which depends on every velocity, and
+    /// would force as many colours as it has entries. Left out of the colouring,
+    /// their values stay those of the last probe (Newton converges for them whatever their
+    /// row holds, since no other equation depends on them through it).
+    dense_row: Vec<bool>,
+    /// Largest |entry| of each row in the values held (the scale against which a change in a
+    /// row outside the pattern counts as a grown pattern).
+    row_scale: Vec<f64>,
     /// The pattern was probed (false: J = 0 on the diagonal; probe before use).
     pub valid: bool,
     /// The values come from a coloured evaluation (not from a probe).
@@ -156,6 +166,7 @@ impl SparseJacobian {
         self.val.resize(self.n, 0.0);
         self.colour_ptr.clear();
         self.colour_cols.clear();
+        self.dense_row.clear();
         self.valid = false;
         self.last_coloured = false;
         self.generation += 1;
@@ -244,9 +255,19 @@ impl SparseJacobian {
         self.generation += 1;
     }
 
+    /// Sets `row_scale` from the values.
+    fn scale_rows(&mut self) {
+        self.row_scale.clear();
+        self.row_scale.resize(self.n, 0.0);
+        for (&i, v) in self.row_idx.iter().zip(&self.val) {
+            self.row_scale[i] = self.row_scale[i].max(v.abs());
+        }
+    }
+
     /// Greedy colouring of the columns in their natural order: a column takes the smallest
-    /// colour no column sharing a row with it has.
+    /// colour no column sharing a row (other than a dense row) with it has.
     fn colour(&mut self) {
+        self.scale_rows();
         let n = self.n;
         // rows → columns (CSR of the pattern)
         let nnz = self.row_idx.len();
@@ -254,6 +275,10 @@ impl SparseJacobian {
         for &i in &self.row_idx {
             row_ptr[i + 1] += 1;
         }
+        let longest_col = (0..n).map(|j| self.col_ptr[j + 1] - self.col_ptr[j]).max().unwrap_or(0);
+        let dense_min = (2 * longest_col).max(16);
+        self.dense_row.clear();
+        self.dense_row.extend((0..n).map(|i| row_ptr[i + 1] > dense_min));
         for i in 0..n {
             row_ptr[i + 1] += row_ptr[i];
         }
@@ -271,6 +296,9 @@ impl SparseJacobian {
         let mut count = 0;
         for j in 0..n {
             for &i in &self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]] {
+                if self.dense_row[i] {
+                    continue;
+                }
                 for &k in &col_idx[row_ptr[i]..row_ptr[i + 1]] {
                     if colour[k] != usize::MAX {
                         forbidden[colour[k]] = j;
@@ -300,7 +328,10 @@ impl SparseJacobian {
     }
 
     /// One evaluation per colour. False (values half written) if a row outside the pattern of
-    /// a colour's columns changed: the pattern has grown.
+    /// a colour's columns changed by more than 1e-6 of what its largest entry (at least 1)
+    /// would change it by: the pattern has grown (an entry below that changes `I − hγJ` by
+    /// less than 1e-6 for steps hγ ≤ 1). (Smaller changes are second-order terms of two columns
+    /// perturbed together where each derivative is zero, e.g. `ω × Iω` at `ω = 0`.)
     #[allow(clippy::too_many_arguments)]
     fn coloured_evaluation(
         &mut self,
@@ -317,9 +348,11 @@ impl SparseJacobian {
         let colours = self.colours();
         for c in 0..colours {
             let cols = &self.colour_cols[self.colour_ptr[c]..self.colour_ptr[c + 1]];
+            let mut dy_max = 0.0_f64;
             for &j in cols {
                 self.dy[j] = Self::increment(y[j]);
                 y_pert[j] = y[j] + self.dy[j];
+                dy_max = dy_max.max(self.dy[j]);
             }
             sys.rhs(t, y_pert, f1);
             stats.rhs_evals += 1;
@@ -328,12 +361,20 @@ impl SparseJacobian {
                 let dy = self.dy[j];
                 for k in self.col_ptr[j]..self.col_ptr[j + 1] {
                     let i = self.row_idx[k];
-                    self.val[k] = (f1[i] - f0[i]) / dy;
-                    self.mark[i] = c;
+                    if !self.dense_row[i] {
+                        self.val[k] = (f1[i] - f0[i]) / dy;
+                        self.mark[i] = c;
+                    }
                 }
             }
             for i in 0..n {
-                if self.mark[i] != c && f1[i] != f0[i] {
+                if self.mark[i] != c
+                    && !self.dense_row[i]
+                    && (f1[i] - f0[i]).abs() > 1e-6 * self.row_scale[i].max(1.0) * dy_max
+                {
+                    if std::env::var_os("LINEAR_DEBUG").is_some() {
+                        eprintln!("grown: row {i} colour {c}: {} vs {} scale {} dy {}", f1[i], f0[i], self.row_scale[i], dy_max);
+                    }
                     return false;
                 }
             }
@@ -344,6 +385,7 @@ impl SparseJacobian {
                 }
             }
         }
+        self.scale_rows();
         self.coloured += 1;
         true
     }
@@ -451,6 +493,10 @@ pub struct SparseLu {
     symbolic: Option<SymbolicLu<usize>>,
     numeric: NumericLu<usize, f64>,
     mem: MemBuffer,
+    /// faer's choice between its simplicial and supernodal factorisations: supernodal
+    /// (faer's own rule picks the simplicial one for the smaller multibody matrices, 2-7×
+    /// slower there: `contact-fmu bench lu`).
+    pub threshold: SupernodalThreshold,
     /// The Jacobian pattern generation analysed (u64::MAX: none).
     generation: u64,
     /// Numeric factorisations and symbolic analyses so far.
@@ -469,6 +515,7 @@ impl SparseLu {
             symbolic: None,
             numeric: NumericLu::new(),
             mem: MemBuffer::new(StackReq::EMPTY),
+            threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             generation: u64::MAX,
             factorisations: 0,
             analyses: 0,
@@ -478,7 +525,11 @@ impl SparseLu {
     /// Analyses the pattern in `col_ptr`, `row_idx` (sorted rows; `val` of the same length).
     fn analyse(&mut self) -> bool {
         let a = SymbolicSparseColMatRef::new_checked(self.m, self.m, &self.col_ptr, None, &self.row_idx);
-        let Ok(symbolic) = factorize_symbolic_lu(a, LuSymbolicParams::default()) else {
+        let params = LuSymbolicParams {
+            supernodal_flop_ratio_threshold: self.threshold,
+            ..LuSymbolicParams::default()
+        };
+        let Ok(symbolic) = factorize_symbolic_lu(a, params) else {
             return false;
         };
         let req = StackReq::any_of(&[

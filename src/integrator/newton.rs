@@ -535,6 +535,9 @@ impl<M: ImplicitMethod> Integrator for M {
                     newton.jacobian(sys, core);
                 } else if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) {
                     // a coloured Jacobian may miss entries the pattern has gained: probe
+                    if std::env::var_os("LINEAR_DEBUG").is_some() {
+                        eprintln!("newton failure with a coloured jacobian at t = {}", core.t);
+                    }
                     newton.jacobian_with(sys, core, true);
                 } else {
                     core.h = h * 0.5;
