@@ -130,7 +130,7 @@ pub enum BenchCommand {
         #[arg(long, value_delimiter = ',', default_value = "18,100,1000,5000,20000")]
         n: Vec<usize>,
         /// Largest matrix factored densely.
-        #[arg(long, default_value_t = 3000)]
+        #[arg(long, default_value_t = 1500)]
         dense_max: usize,
         /// Timed batches per point.
         #[arg(long, default_value_t = 5)]

@@ -16,8 +16,9 @@
 //!   does not keep the Jacobian) and probed afresh when Newton next needs a Jacobian. A pattern
 //!   that has grown since the probe (a contact that touched with zero stiffness at the probe,
 //!   a rate that was zero) is caught in two ways: a coloured evaluation that changes a row no
-//!   column of its colour touches, and a Newton failure with a fresh coloured Jacobian; both
-//!   probe again and join the new pattern to the old.
+//!   column of its colour touches (by more than second-order rounding), and a second Newton
+//!   failure within one step with a fresh coloured Jacobian; both probe again and join the
+//!   new pattern to the old.
 //!
 //! The sparse path allocates when it analyses a new pattern (probe, colouring, symbolic
 //! factorisation); numeric factorisations and solves on an analysed pattern do not.
@@ -372,9 +373,6 @@ impl SparseJacobian {
                     && !self.dense_row[i]
                     && (f1[i] - f0[i]).abs() > 1e-6 * self.row_scale[i].max(1.0) * dy_max
                 {
-                    if std::env::var_os("LINEAR_DEBUG").is_some() {
-                        eprintln!("grown: row {i} colour {c}: {} vs {} scale {} dy {}", f1[i], f0[i], self.row_scale[i], dy_max);
-                    }
                     return false;
                 }
             }
@@ -789,6 +787,31 @@ mod tests {
             }
             assert_eq!(s.sparse_counts(), (1, 1));
         }
+    }
+
+    #[test]
+    fn sparse_factorisations_and_solves_on_an_analysed_pattern_do_not_allocate() {
+        let n = 60;
+        let y: Vec<f64> = (0..n).map(|i| 0.1 + 0.01 * i as f64).collect();
+        let mut f0 = vec![0.0; n];
+        Band.rhs(0.0, &y, &mut f0);
+        let (mut yp, mut f1, mut st) = (vec![0.0; n], vec![0.0; n], Stats::default());
+        let mut jac = SparseJacobian::new(n);
+        jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+        let a = [[0.2, -0.05, 0.01], [0.4, 0.3, -0.02], [0.37, 0.5, 0.11]];
+        let (mut s1, mut s3) = (Lu::new(n, true), Lu::new(3 * n, true));
+        assert!(s1.factor_shifted(JacRef::Sparse(&jac), 1e-2) && s3.factor_kron(JacRef::Sparse(&jac), 1e-2, &a));
+        let (mut x1, mut x3) = (vec![1.0; n], vec![1.0; 3 * n]);
+        let before = super::super::alloc_counter::count();
+        for k in 0..5 {
+            let c = 1e-2 * (1.0 + k as f64);
+            assert!(s1.factor_shifted(JacRef::Sparse(&jac), c) && s3.factor_kron(JacRef::Sparse(&jac), c, &a));
+            s1.solve(&mut x1);
+            s3.solve(&mut x3);
+            jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+        }
+        assert_eq!(super::super::alloc_counter::count() - before, 0);
+        assert_eq!(jac.coloured, 5);
     }
 
     #[test]

@@ -522,6 +522,8 @@ impl<M: ImplicitMethod> Integrator for M {
             return Ok(());
         }
         let mut rejected_before = false;
+        // Newton failures with a fresh coloured Jacobian in this step (sparse path)
+        let mut coloured_failures = 0;
         loop {
             let (h, last) = self.parts().0.trial_step(t_max)?;
             let refine = rejected_before || self.parts().1.mem.h_acc == 0.0;
@@ -533,13 +535,14 @@ impl<M: ImplicitMethod> Integrator for M {
                 rejected_before = true;
                 if !newton.jac_fresh {
                     newton.jacobian(sys, core);
-                } else if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) {
-                    // a coloured Jacobian may miss entries the pattern has gained: probe
-                    if std::env::var_os("LINEAR_DEBUG").is_some() {
-                        eprintln!("newton failure with a coloured jacobian at t = {}", core.t);
-                    }
+                } else if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) && coloured_failures == 1 {
+                    // twice: a coloured Jacobian may miss entries the pattern has gained, so
+                    // probe it (a first failure halves the step, as a dense Jacobian does)
                     newton.jacobian_with(sys, core, true);
                 } else {
+                    if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) {
+                        coloured_failures += 1;
+                    }
                     core.h = h * 0.5;
                 }
                 continue;
