@@ -73,18 +73,29 @@ fn run(count: usize, method: Method, sparse: bool, t_end: f64, tol: f64) -> (Vec
         Method::Radau5 => Box::new(Radau5::with_linear(n, rtol, atol, 0.0, sparse)),
         _ => Box::new(Sdirk::with_linear(n, rtol, atol, 0.0, sparse)),
     };
-    let mut sys = Rhs { model: &m, data: &mut d };
+    let mut sys = Rhs {
+        model: &m,
+        data: &mut d,
+    };
     integ.reset(&mut sys, 0.0, &y0, 0.0);
     while integ.t() < t_end {
         integ.step(&mut sys, t_end).expect("step");
     }
     let s = integ.stats();
-    (integ.y().to_vec(), s.steps, s.jac_evals, integ.linear_stats().expect("implicit"))
+    (
+        integ.y().to_vec(),
+        s.steps,
+        s.jac_evals,
+        integ.linear_stats().expect("implicit"),
+    )
 }
 
 /// Largest difference relative to 1 mm (or m/s) plus the value.
 fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs() / (1e-3 + x.abs())).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs() / (1e-3 + x.abs()))
+        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -97,13 +108,19 @@ fn sparse_path_agrees_with_the_dense_path() {
         let (ys, steps_s, jac_s, ls) = run(count, method, true, t_end, 1e-6);
         assert!(!ld.sparse && ld.sparse_factorisations == 0, "{method:?}: {ld:?}");
         assert!(ls.sparse && ls.sparse_factorisations > 0, "{method:?}: {ls:?}");
-        assert!(ls.probes >= 1 && ls.coloured >= 1 && ls.colours <= 3 * 13, "{method:?}: {ls:?}");
+        assert!(
+            ls.probes >= 1 && ls.coloured >= 1 && ls.colours <= 3 * 13,
+            "{method:?}: {ls:?}"
+        );
         let (err_d, err_s, between) = (rel_diff(&reference, &yd), rel_diff(&reference, &ys), rel_diff(&yd, &ys));
         println!(
             "{method:?}: dense {steps_d} steps {jac_d} Jacobians, error {err_d:.2e}; sparse {steps_s} steps {jac_s} Jacobians, error {err_s:.2e}, {ls:?}; dense - sparse {between:.2e}"
         );
         // both paths solve the same equations to the same tolerance: equally accurate
-        assert!(err_s <= 2.0 * err_d + 1e-7, "{method:?}: sparse error {err_s:e}, dense {err_d:e}");
+        assert!(
+            err_s <= 2.0 * err_d + 1e-7,
+            "{method:?}: sparse error {err_s:e}, dense {err_d:e}"
+        );
         assert!(between <= 2.0 * err_d.max(err_s) + 1e-7, "{method:?}: {between:e}");
     }
 }
@@ -115,7 +132,10 @@ fn sparse_path_runs_a_large_stiff_system() {
         let (y, steps, jac, ls) = run(count, method, true, 0.002, 1e-6);
         println!("{method:?}: n = {}, {steps} steps, {jac} Jacobians, {ls:?}", y.len());
         assert!(y.iter().all(|v| v.is_finite()));
-        assert!(ls.sparse && ls.sparse_factorisations > 0 && ls.colours < 100, "{method:?}: {ls:?}");
+        assert!(
+            ls.sparse && ls.sparse_factorisations > 0 && ls.colours < 100,
+            "{method:?}: {ls:?}"
+        );
         assert!(jac >= 1);
     }
 }
@@ -136,7 +156,10 @@ fn a_sparse_state_continues_bit_for_bit() {
             }
         };
         let mut a = make();
-        let mut sys = Rhs { model: &m, data: &mut d };
+        let mut sys = Rhs {
+            model: &m,
+            data: &mut d,
+        };
         a.reset(&mut sys, 0.0, &y0, 0.0);
         let mut saved_with_coloured = false;
         let mut checked = 0;

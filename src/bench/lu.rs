@@ -48,7 +48,14 @@ pub fn multibody_jacobian(n: usize) -> SparseJacobian {
         }
         let (i, j, l) = (b % side, (b / side) % side, b / (side * side));
         let mut partners = vec![b];
-        for (di, dj, dl) in [(1i64, 0i64, 0i64), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
+        for (di, dj, dl) in [
+            (1i64, 0i64, 0i64),
+            (-1, 0, 0),
+            (0, 1, 0),
+            (0, -1, 0),
+            (0, 0, 1),
+            (0, 0, -1),
+        ] {
             let (i2, j2, l2) = (i as i64 + di, j as i64 + dj, l as i64 + dl);
             let s = side as i64;
             if (0..s).contains(&i2) && (0..s).contains(&j2) && (0..s).contains(&l2) {
@@ -69,10 +76,10 @@ pub fn multibody_jacobian(n: usize) -> SparseJacobian {
             }
         }
     }
-    for r in nb * BODY..n {
-        rows[r].extend(nb * BODY..n);
+    for row in rows.iter_mut().skip(nb * BODY) {
+        row.extend(nb * BODY..n);
         if nb > 0 {
-            rows[r].extend(body(0));
+            row.extend(body(0));
         }
     }
     // to columns, with the diagonal and values
@@ -81,9 +88,10 @@ pub fn multibody_jacobian(n: usize) -> SparseJacobian {
         r.push(i);
         r.sort_unstable();
         r.dedup();
-        let accel = i < nb * BODY && i % BODY >= 7 || i >= nb * BODY;
+        // accelerations: the bodies' last six rows and the joint block
+        let accel = !(i < nb * BODY && i % BODY < 7);
         for &j in r.iter() {
-            let of_position = j < nb * BODY && j % BODY < 7 || j >= nb * BODY;
+            let of_position = !(j < nb * BODY && j % BODY >= 7);
             let scale = match (accel, of_position) {
                 (true, true) => 1e6,
                 (true, false) => 1e2,
@@ -188,32 +196,33 @@ pub fn run(ns: &[usize], dense_max: usize, repeats: usize, csv_path: &Path) -> R
         "{:>7} {:>6} {:>6} {:>9} {:>12} {:>12} {:>12} {:>12} {:>9}",
         "form", "n", "size", "nnz", "solver", "analyse [µs]", "factor [µs]", "solve [µs]", "residual"
     );
-    let mut emit = |form: &str, n: usize, m: usize, nnz: usize, solver: &str, an: Option<f64>, tf: f64, ts: f64, res: f64| {
-        let us = |x: f64| format!("{:.2}", x * 1e6);
-        println!(
-            "{:>7} {:>6} {:>6} {:>9} {:>12} {:>12} {:>12} {:>12} {:>9.1e}",
-            form,
-            n,
-            m,
-            nnz,
-            solver,
-            an.map(us).unwrap_or_else(|| "-".into()),
-            us(tf),
-            us(ts),
-            res
-        );
-        csv.push(vec![
-            form.into(),
-            n.to_string(),
-            m.to_string(),
-            nnz.to_string(),
-            solver.into(),
-            an.map(f).unwrap_or_default(),
-            f(tf),
-            f(ts),
-            f(res),
-        ]);
-    };
+    let mut emit =
+        |form: &str, n: usize, m: usize, nnz: usize, solver: &str, an: Option<f64>, tf: f64, ts: f64, res: f64| {
+            let us = |x: f64| format!("{:.2}", x * 1e6);
+            println!(
+                "{:>7} {:>6} {:>6} {:>9} {:>12} {:>12} {:>12} {:>12} {:>9.1e}",
+                form,
+                n,
+                m,
+                nnz,
+                solver,
+                an.map(us).unwrap_or_else(|| "-".into()),
+                us(tf),
+                us(ts),
+                res
+            );
+            csv.push(vec![
+                form.into(),
+                n.to_string(),
+                m.to_string(),
+                nnz.to_string(),
+                solver.into(),
+                an.map(f).unwrap_or_default(),
+                f(tf),
+                f(ts),
+                f(res),
+            ]);
+        };
     for &n in ns {
         let jac = multibody_jacobian(n);
         let reps = if n >= 5000 { repeats.min(3) } else { repeats };
@@ -297,36 +306,36 @@ pub fn run(ns: &[usize], dense_max: usize, repeats: usize, csv_path: &Path) -> R
                 ("sparse_auto", SupernodalThreshold::AUTO),
                 ("sparse_simplicial", SupernodalThreshold::FORCE_SIMPLICIAL),
             ] {
-            if threshold != SupernodalThreshold::FORCE_SUPERNODAL && m > 3000 {
-                continue; // the alternatives, measured up to 3,000 rows, only lose more above
-            }
-            let mut lu = Lu::new(m, true);
-            if let Lu::Sparse(s) = &mut lu {
-                s.threshold = threshold;
-            }
-            let t0 = Instant::now();
-            let ok = if kron {
-                lu.factor_kron(JacRef::Sparse(&jac), C, &A)
-            } else {
-                lu.factor_shifted(JacRef::Sparse(&jac), C)
-            };
-            assert!(ok, "sparse LU failed at n = {n}");
-            let first = t0.elapsed().as_secs_f64();
-            let mut x = b.clone();
-            let tf = time_one(reps, || {
+                if threshold != SupernodalThreshold::FORCE_SUPERNODAL && m > 3000 {
+                    continue; // the alternatives, measured up to 3,000 rows, only lose more above
+                }
+                let mut lu = Lu::new(m, true);
+                if let Lu::Sparse(s) = &mut lu {
+                    s.threshold = threshold;
+                }
+                let t0 = Instant::now();
                 let ok = if kron {
                     lu.factor_kron(JacRef::Sparse(&jac), C, &A)
                 } else {
                     lu.factor_shifted(JacRef::Sparse(&jac), C)
                 };
-                assert!(ok);
-            });
-            let ts = time_one(reps, || {
-                x.copy_from_slice(&b);
-                lu.solve(&mut x);
-            });
-            // the analysis: the first call minus a numeric factorisation
-            emit(form, n, m, nnz, name, Some((first - tf).max(0.0)), tf, ts, check(&x));
+                assert!(ok, "sparse LU failed at n = {n}");
+                let first = t0.elapsed().as_secs_f64();
+                let mut x = b.clone();
+                let tf = time_one(reps, || {
+                    let ok = if kron {
+                        lu.factor_kron(JacRef::Sparse(&jac), C, &A)
+                    } else {
+                        lu.factor_shifted(JacRef::Sparse(&jac), C)
+                    };
+                    assert!(ok);
+                });
+                let ts = time_one(reps, || {
+                    x.copy_from_slice(&b);
+                    lu.solve(&mut x);
+                });
+                // the analysis: the first call minus a numeric factorisation
+                emit(form, n, m, nnz, name, Some((first - tf).max(0.0)), tf, ts, check(&x));
             }
         }
     }
@@ -361,7 +370,20 @@ pub fn run_scenes(ns: &[usize], time: f64, repeats: usize, dense_budget: f64, cs
     ]);
     println!(
         "{:>5} {:>6} {:>7} {:>7} {:>12} {:>7} {:>9} {:>6} {:>8} {:>6} {:>8} {:>7} {:>8} {:>14}",
-        "N", "n", "method", "path", "s per sim s", "steps", "rhs", "jac", "sp.fact", "probes", "coloured", "colours", "nnz", "s0.r[1] at end"
+        "N",
+        "n",
+        "method",
+        "path",
+        "s per sim s",
+        "steps",
+        "rhs",
+        "jac",
+        "sp.fact",
+        "probes",
+        "coloured",
+        "colours",
+        "nnz",
+        "s0.r[1] at end"
     );
     for &nsph in ns {
         let states = 13 * nsph;
@@ -398,8 +420,13 @@ pub fn run_scenes(ns: &[usize], time: f64, repeats: usize, dense_budget: f64, cs
                     continue;
                 }
                 set_policy(if sparse { Policy::Sparse } else { Policy::Dense });
-                let spec = RunSpec::new(scenes::sphere_box(nsph, time), &format!("sphere_box_{nsph}"), time, time / 10.0)
-                    .method(method);
+                let spec = RunSpec::new(
+                    scenes::sphere_box(nsph, time),
+                    &format!("sphere_box_{nsph}"),
+                    time,
+                    time / 10.0,
+                )
+                .method(method);
                 let reps = if sparse { repeats } else { repeats.min(3) };
                 // timed runs; the counters, the linear algebra's counters and the final state
                 // from the last

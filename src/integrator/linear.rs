@@ -842,7 +842,10 @@ mod tests {
         assert!(SparseJacobian::check(&v, 4).is_ok());
         let mut back = SparseJacobian::new(4);
         back.load(&v);
-        assert_eq!((back.col_ptr.clone(), back.row_idx.clone()), (jac.col_ptr.clone(), jac.row_idx.clone()));
+        assert_eq!(
+            (back.col_ptr.clone(), back.row_idx.clone()),
+            (jac.col_ptr.clone(), jac.row_idx.clone())
+        );
         assert_eq!(back.colours(), jac.colours());
         let mut bad = v.clone();
         bad[2 + 5 + 1] = 3.0; // a row index out of order

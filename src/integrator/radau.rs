@@ -221,8 +221,9 @@ impl ImplicitMethod for Radau5 {
     /// `I − h A⊗J` and `I − hγ₀J`.
     fn factor(&mut self, h: f64) -> bool {
         let (big, err) = (&mut self.lu_big, &mut self.lu_err);
-        self.newton
-            .factor(h, |jac| big.factor_kron(jac, h, &A) && err.factor_shifted(jac, h * gamma0()))
+        self.newton.factor(h, |jac| {
+            big.factor_kron(jac, h, &A) && err.factor_shifted(jac, h * gamma0())
+        })
     }
 
     fn linear_stats(&self) -> LinearStats {
