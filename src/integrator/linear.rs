@@ -4,7 +4,8 @@
 //!
 //! - **Dense** (systems below [`SPARSE_MIN_N`] states): the row-major Jacobian by `n` forward
 //!   differences and the in-place LU of [`crate::linalg`], as before this module existed
-//!   (measured faster than faer's dense LU at these sizes: docs/integrators.md).
+//!   (as fast as faer's dense LU at the bundled scenes' sizes, and bit for bit the results of
+//!   before: docs/integrators.md).
 //! - **Sparse** (from [`SPARSE_MIN_N`] states on): the Jacobian's pattern is probed once by
 //!   `n` forward differences (the values of that probe are the first Jacobian), coloured
 //!   greedily (Curtis-Powell-Reid: columns that share no row are perturbed together), and each
@@ -35,10 +36,11 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 use std::sync::atomic::{AtomicU8, Ordering};
 
-/// Systems with at least this many states take the sparse path (under [`Policy::Auto`]):
-/// `contact-fmu bench lu` puts faer's sparse LU ahead of the dense one for the multibody
-/// pattern from about n = 100 on (docs/integrators.md); the threshold is set above the
-/// bundled scenes (n ≤ 60), whose results stay those of the dense path.
+/// Systems with at least this many states take the sparse path (under [`Policy::Auto`]).
+/// `contact-fmu bench lu` on the multibody pattern: sparse and dense LU even around
+/// n = 100-500, sparse solves faster from n ≈ 100, sparse 4× faster to factor at n = 1,000
+/// (docs/integrators.md). Above the bundled scenes (n ≤ 60), whose results stay those of
+/// the dense path.
 pub const SPARSE_MIN_N: usize = 200;
 
 /// Which linear algebra the implicit methods built by `new` use.
