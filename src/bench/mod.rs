@@ -12,6 +12,8 @@
 //! - `scaling`: N free spheres in a box, time per simulated second against N ([`scaling`]).
 //! - `targets`: the rail vehicle's speed and accuracy targets, RHS cost, allocations
 //!   ([`targets`]).
+//! - `lu`: dense and sparse LU of the implicit methods' iteration matrices ([`lu`]); with
+//!   `--scenes`, N spheres in a box with sdirk and radau5 on the dense and the sparse path.
 //! - `rhs`: the cost of one right-hand-side evaluation of each bundled scene ([`rhs`]).
 //! - `run`: one scene, repeated, with its median time, counters and a trajectory CSV (used by
 //!   the Python peer comparison in `scripts/`).
@@ -22,6 +24,7 @@
 
 pub mod defaults;
 pub mod groups;
+pub mod lu;
 pub mod rhs;
 pub mod scaling;
 pub mod scenes;
@@ -167,6 +170,31 @@ pub enum BenchCommand {
         #[arg(long, default_value = "docs/rhs.csv")]
         csv: PathBuf,
     },
+    /// Dense (own, faer) and sparse (faer) LU of iteration matrices shaped like a multibody
+    /// Jacobian: factorisation and solve times.
+    Lu {
+        /// System sizes n.
+        #[arg(long, value_delimiter = ',', default_value = "18,100,1000,5000,20000")]
+        n: Vec<usize>,
+        /// Largest matrix factored densely.
+        #[arg(long, default_value_t = 1500)]
+        dense_max: usize,
+        /// Timed batches per point.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/lu_compare.csv")]
+        csv: PathBuf,
+        /// Instead: N spheres in a box (these N) with sdirk and radau5, dense against sparse.
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<usize>,
+        /// Simulated time of the scene runs [s].
+        #[arg(long, default_value_t = 0.01)]
+        time: f64,
+        /// Skip a dense scene run whose estimated factorisation time exceeds this [s].
+        #[arg(long, default_value_t = 30.0)]
+        dense_budget: f64,
+    },
     /// One scene, repeated: median time, counters, and the outputs at every communication
     /// point written to a CSV.
     Run {
@@ -219,6 +247,21 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             run_time,
             csv,
         } => groups::run(&n, repeats, run_time, &csv),
+        BenchCommand::Lu {
+            n,
+            dense_max,
+            repeats,
+            csv,
+            scenes,
+            time,
+            dense_budget,
+        } => {
+            if scenes.is_empty() {
+                lu::run(&n, dense_max, repeats, &csv)
+            } else {
+                lu::run_scenes(&scenes, time, repeats, dense_budget, &csv)
+            }
+        }
         BenchCommand::Targets { scenes, repeats, csv } => targets::run(&scenes, repeats, &csv),
         BenchCommand::Rhs {
             scenes,

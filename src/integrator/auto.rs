@@ -15,13 +15,16 @@
 //! - A switch happens at the start of a step, so the dense output of the last step stays that
 //!   of the method that took it. The counters carry over (one [`Stats`] for the run).
 //! - Resets (after events) and restarts keep the active method and the switching memory.
-//! - Systems larger than [`IMPLICIT_MAX_SIZE`] get no implicit method (its dense matrices
-//!   would take `4n²` numbers): `auto` is Dormand-Prince alone there.
+//! - The implicit method brings its own linear algebra: dense for small systems, faer's sparse
+//!   LU with a coloured Jacobian for large ones ([`super::linear`]); ρ(J) is computed from
+//!   either form. (A caller may still build `auto` without an implicit method: it is then
+//!   Dormand-Prince alone.)
 //! - Saved state: the tag, the switching memory, then the active method's own state; the other
 //!   method is not saved since it starts afresh at a switch.
 
 use super::core::{StateReader, StepCore};
 use super::dopri5::Dopri5;
+use super::linear::JacRef;
 use super::newton::ImplicitMethod;
 use super::{Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
@@ -38,9 +41,6 @@ pub const CALM_STEPS: u32 = 6;
 pub const CALM_LIMIT: f64 = 0.5 * STIFF_LIMIT;
 /// Non-stiff implicit steps in a row that switch back to Dormand-Prince.
 pub const CALM_STEPS_IMPLICIT: u32 = 10;
-/// Largest system for which `auto` holds an implicit method (dense Jacobian and factors: 4n²
-/// numbers, 32 MB at this size).
-pub const IMPLICIT_MAX_SIZE: usize = 1_000;
 /// Power iterations for ρ(J).
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
@@ -49,7 +49,7 @@ pub const MEMORY_LEN: usize = 7;
 /// The automatic method (scene name `"auto"`) over Dormand-Prince and the implicit method `I`.
 pub struct Auto<I: ImplicitMethod + Integrator> {
     explicit: Dopri5,
-    /// None for systems above [`IMPLICIT_MAX_SIZE`].
+    /// None: Dormand-Prince alone.
     implicit: Option<I>,
     /// The implicit method is the active one.
     stiff: bool,
@@ -164,7 +164,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         } else {
             let jac_evals = implicit.stats().jac_evals;
             if self.rho_jac != jac_evals {
-                self.rho = spectral_radius(&newton.jac, &mut self.x, &mut self.jx);
+                self.rho = spectral_radius(newton.jac_ref(), &mut self.x, &mut self.jx);
                 self.rho_jac = jac_evals;
             }
             implicit.next_step() * self.rho < CALM_LIMIT
@@ -180,10 +180,11 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     }
 }
 
-/// Spectral radius of the row-major n×n matrix `jac` by power iteration from a fixed start
-/// (deterministic): `sqrt(‖J²x‖/‖x‖)` after [`POWER_ITERATIONS`] iterations, which is exact
-/// for a dominant real eigenvalue and for a dominant complex pair `±iω` of an oscillation.
-pub fn spectral_radius(jac: &[f64], x: &mut [f64], jx: &mut [f64]) -> f64 {
+/// Spectral radius of the n×n Jacobian `jac` (dense row-major or sparse) by power iteration
+/// from a fixed start (deterministic): `sqrt(‖J²x‖/‖x‖)` after [`POWER_ITERATIONS`]
+/// iterations, which is exact for a dominant real eigenvalue and for a dominant complex pair
+/// `±iω` of an oscillation.
+pub fn spectral_radius(jac: JacRef, x: &mut [f64], jx: &mut [f64]) -> f64 {
     let n = x.len();
     if n == 0 {
         return 0.0;
@@ -196,9 +197,21 @@ pub fn spectral_radius(jac: &[f64], x: &mut [f64], jx: &mut [f64]) -> f64 {
     x.iter_mut().for_each(|v| *v /= scale);
     let mut norms = [0.0; 2];
     for k in 0..POWER_ITERATIONS {
-        for (i, out) in jx.iter_mut().enumerate() {
-            let row = &jac[i * n..(i + 1) * n];
-            *out = row.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
+        match jac {
+            JacRef::Dense(jac) => {
+                for (i, out) in jx.iter_mut().enumerate() {
+                    let row = &jac[i * n..(i + 1) * n];
+                    *out = row.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
+                }
+            }
+            JacRef::Sparse(jac) => {
+                jx.iter_mut().for_each(|v| *v = 0.0);
+                for (j, xj) in x.iter().enumerate() {
+                    for k in jac.col_ptr[j]..jac.col_ptr[j + 1] {
+                        jx[jac.row_idx[k]] += jac.val[k] * xj;
+                    }
+                }
+            }
         }
         let nj = norm(jx);
         if !(nj > 0.0 && nj.is_finite()) {
@@ -236,6 +249,11 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
 
     fn interpolate(&self, t: f64, out: &mut [f64]) {
         self.active().interpolate(t, out);
+    }
+
+    /// The implicit method's, whichever is active (None without one).
+    fn linear_stats(&self) -> Option<super::linear::LinearStats> {
+        self.implicit.as_ref().and_then(|i| Integrator::linear_stats(i))
     }
 
     fn core(&self) -> &StepCore {
@@ -379,15 +397,15 @@ mod tests {
     fn the_spectral_radius_of_a_real_and_of_an_oscillating_dominant_mode() {
         let (mut x, mut jx) = (vec![0.0; 3], vec![0.0; 3]);
         let diag = [-5.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0];
-        let rho = spectral_radius(&diag, &mut x, &mut jx);
+        let rho = spectral_radius(JacRef::Dense(&diag), &mut x, &mut jx);
         assert!((rho - 5.0).abs() < 1e-3, "{rho}");
         // x'' = −ω²x − c x' with light damping: eigenvalues −c/2 ± i√(ω² − c²/4), |λ| = ω
         let (mut x, mut jx) = (vec![0.0; 2], vec![0.0; 2]);
         let w = 1e4;
         let osc = [0.0, 1.0, -w * w, 0.0];
-        let rho = spectral_radius(&osc, &mut x, &mut jx);
+        let rho = spectral_radius(JacRef::Dense(&osc), &mut x, &mut jx);
         assert!((rho / w - 1.0).abs() < 1e-12, "{rho}");
-        assert_eq!(spectral_radius(&[0.0; 4], &mut x, &mut jx), 0.0);
+        assert_eq!(spectral_radius(JacRef::Dense(&[0.0; 4]), &mut x, &mut jx), 0.0);
     }
 
     /// Stiff at first: auto switches to the implicit method within the first steps, then
@@ -444,19 +462,12 @@ mod tests {
         assert!(max_diff(m.y(), &exact) < 1e-9, "{:?} vs {exact:?}", m.y());
     }
 
-    /// Above [`IMPLICIT_MAX_SIZE`] there is no implicit method: a stiff system stays with
-    /// Dormand-Prince (at its stability limit), and a state claiming an implicit method is
-    /// refused.
+    /// A large stiff system (above the dense threshold of [`super::super::linear`]) switches
+    /// to the implicit method on its sparse path, with ρ(J) from the sparse Jacobian, and meets
+    /// the tolerance; without an implicit method auto stays with Dormand-Prince (at its
+    /// stability limit) and refuses a state that claims the implicit one.
     #[test]
-    fn a_system_too_large_for_the_dense_implicit_method_stays_explicit() {
-        let n = IMPLICIT_MAX_SIZE + 1;
-        let s = crate::scene::SolverSection {
-            method: Method::Auto,
-            rtol: 1e-6,
-            atol: 1e-8,
-            ..Default::default()
-        };
-        let mut m = super::super::create(&s, n);
+    fn a_large_stiff_system_switches_to_the_sparse_implicit_method() {
         struct Many(FadingStiffness);
         impl OdeSystem for Many {
             fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
@@ -467,14 +478,41 @@ mod tests {
                 }
             }
         }
+        let n = 300;
+        let s = crate::scene::SolverSection {
+            method: Method::Auto,
+            rtol: 1e-6,
+            atol: 1e-8,
+            ..Default::default()
+        };
+        let mut m = super::super::create(&s, n);
         let mut many = Many(FadingStiffness);
-        let y = run(m.as_mut(), &mut many, 0.0, &vec![0.0; n], 0.02);
+        m.reset(&mut many, 0.0, &vec![0.0; n], 0.0);
+        let mut was_stiff = false;
+        while m.t() < 0.02 {
+            m.step(&mut many, 0.02).unwrap();
+            let mut w = Vec::new();
+            m.save_state(&mut w);
+            was_stiff |= w[1] == 1.0;
+        }
+        assert!(was_stiff, "{:?}", m.stats());
+        assert!((m.y()[n - 1] - 0.02f64.sin()).abs() < 1e-5);
+        let ls = m.linear_stats().expect("an implicit method");
+        assert!(ls.sparse, "{ls:?}");
+
+        let mut alone: Auto<Radau5> = Auto::new(n, 1e-6, 1e-8, f64::INFINITY, None);
+        let y = run(&mut alone, &mut many, 0.0, &vec![0.0; n], 0.02);
         assert!((y[0] - 0.02f64.sin()).abs() < 1e-5);
+        assert!(
+            alone.stats().steps > 100,
+            "{:?}: stability-limited steps",
+            alone.stats()
+        );
         let mut w = Vec::new();
-        m.save_state(&mut w);
+        alone.save_state(&mut w);
         assert_eq!(w[1], 0.0, "explicit throughout");
-        assert!(m.stats().steps > 100, "{:?}: stability-limited steps", m.stats());
         w[1] = 1.0;
-        assert!(m.load_state(&w).is_err());
+        assert!(alone.load_state(&w).is_err());
+        assert!(alone.linear_stats().is_none());
     }
 }

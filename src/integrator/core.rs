@@ -230,6 +230,11 @@ impl<'a> StateReader<'a> {
         }
     }
 
+    /// The next number, not taken.
+    pub fn peek(&self) -> Option<f64> {
+        self.v.get(self.pos).copied()
+    }
+
     /// The next `k` numbers.
     pub fn take(&mut self, k: usize) -> Result<&'a [f64], String> {
         let end = self.pos.checked_add(k).filter(|&e| e <= self.v.len()).ok_or_else(|| {

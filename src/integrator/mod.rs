@@ -14,6 +14,7 @@
 pub mod auto;
 pub mod core;
 pub mod dopri5;
+pub mod linear;
 pub mod newton;
 pub mod radau;
 pub mod rk4;
@@ -112,6 +113,10 @@ pub trait Integrator {
     fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.reset(sys, t, y, h);
     }
+    /// What the implicit methods' linear algebra did (None for explicit methods).
+    fn linear_stats(&self) -> Option<linear::LinearStats> {
+        None
+    }
     /// Appends the memory that [`Integrator::restart`] carries over (nothing for explicit
     /// methods; see [`WARM_JACOBIAN_MAX`] for the implicit ones).
     fn warm_state(&self, _out: &mut Vec<f64>) {}
@@ -165,7 +170,7 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
             s.rtol,
             s.atol,
             hmax,
-            (n <= auto::IMPLICIT_MAX_SIZE).then(|| radau::Radau5::new(n, s.rtol, s.atol, hmax)),
+            Some(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
         )),
     }
 }

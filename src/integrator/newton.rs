@@ -16,8 +16,8 @@
 //!   bits.
 
 use super::core::{restore_blocks, save_blocks, StateReader, StepCore};
+use super::linear::{JacRef, LinearStats, SparseJacobian};
 use super::{Integrator, IntegratorError, OdeSystem, WARM_JACOBIAN_MAX};
-use crate::linalg;
 use crate::scene::Method;
 
 /// Most Newton iterations per solve.
@@ -54,9 +54,10 @@ impl WarmMemory {
         n.saturating_mul(n) <= WARM_JACOBIAN_MAX
     }
 
-    /// Writes the memory and, when present and small enough, the row-major Jacobian `jac`.
-    pub fn write(&self, jac: &[f64], n: usize, out: &mut Vec<f64>) {
-        let with_jac = self.jac_valid && Self::keeps_jacobian(n);
+    /// Writes the memory and, when present and kept (`keep`: see
+    /// [`NewtonCore::keeps_jacobian`]), the row-major Jacobian `jac`.
+    pub fn write(&self, jac: &[f64], keep: bool, out: &mut Vec<f64>) {
+        let with_jac = self.jac_valid && keep;
         out.extend_from_slice(&[
             self.h_acc,
             self.err_acc,
@@ -70,8 +71,8 @@ impl WarmMemory {
     }
 
     /// Parses what [`WarmMemory::write`] wrote (empty: the memory after a reset) and copies
-    /// the Jacobian into `jac` (zeros when absent).
-    pub fn read(v: &[f64], jac: &mut [f64], n: usize) -> Result<WarmMemory, String> {
+    /// the Jacobian into `jac` (zeros when absent); `keep` as for the write.
+    pub fn read(v: &[f64], jac: &mut [f64], n: usize, keep: bool) -> Result<WarmMemory, String> {
         if v.is_empty() {
             jac.iter_mut().for_each(|x| *x = 0.0);
             return Ok(WarmMemory::cold());
@@ -87,7 +88,7 @@ impl WarmMemory {
         }
         let with_jac = v[4] != 0.0;
         let len = WARM_HEADER + if with_jac { n * n } else { 0 };
-        if v.len() != len {
+        if v.len() != len || (with_jac && !keep) {
             return Err(bad());
         }
         if with_jac {
@@ -137,8 +138,11 @@ pub struct NewtonCore {
     pub newton_tol: f64,
     /// Most Newton iterations per solve.
     pub max_newton: usize,
-    /// Row-major Jacobian ∂f/∂y (zero after a reset until Newton first needs one).
+    /// Row-major Jacobian ∂f/∂y (zero after a reset until Newton first needs one); empty on
+    /// the sparse path.
     pub jac: Vec<f64>,
+    /// The Jacobian on the sparse path (see [`super::linear`]).
+    pub sparse: Option<SparseJacobian>,
     /// What a warm restart keeps besides `jac`.
     pub mem: WarmMemory,
     /// The Jacobian was evaluated at the current state.
@@ -152,12 +156,14 @@ pub struct NewtonCore {
 }
 
 impl NewtonCore {
-    /// The state for a system of size `n` and relative tolerance `rtol`, as after a reset.
-    pub fn new(n: usize, rtol: f64) -> NewtonCore {
+    /// The state for a system of size `n` and relative tolerance `rtol`, as after a reset;
+    /// the Jacobian dense or sparse.
+    pub fn new(n: usize, rtol: f64, sparse: bool) -> NewtonCore {
         NewtonCore {
             newton_tol: (10.0 * f64::EPSILON / rtol.max(1e-300)).max(0.03_f64.min(rtol.sqrt())),
             max_newton: MAX_NEWTON,
-            jac: vec![0.0; n * n],
+            jac: if sparse { Vec::new() } else { vec![0.0; n * n] },
+            sparse: sparse.then(|| SparseJacobian::new(n)),
             mem: WarmMemory::cold(),
             jac_fresh: false,
             lu_h: 0.0,
@@ -172,8 +178,38 @@ impl NewtonCore {
         self.f0.len()
     }
 
+    /// Whether the Jacobian is kept across warm restarts (and written into warm states): a
+    /// dense one of at most [`WARM_JACOBIAN_MAX`] numbers.
+    pub fn keeps_jacobian(&self) -> bool {
+        self.sparse.is_none() && WarmMemory::keeps_jacobian(self.n())
+    }
+
+    /// The Jacobian as the factorisations read it.
+    pub fn jac_ref(&self) -> JacRef<'_> {
+        match &self.sparse {
+            Some(s) => JacRef::Sparse(s),
+            None => JacRef::Dense(&self.jac),
+        }
+    }
+
+    /// What the sparse Jacobian did (the factorisation counts are the method's).
+    pub fn linear_stats(&self) -> LinearStats {
+        match &self.sparse {
+            Some(s) => LinearStats {
+                sparse: true,
+                probes: s.probes,
+                coloured: s.coloured,
+                colours: s.colours(),
+                nnz: s.nnz(),
+                ..LinearStats::default()
+            },
+            None => LinearStats::default(),
+        }
+    }
+
     /// Appends the Newton state: the [`SAVED_NEWTON_HEADER`] numbers, then the row-major
-    /// Jacobian (n²) when one is held. Without one (`jac_valid` = 0) the Jacobian is all
+    /// Jacobian (n²) when one is held (on the sparse path its pattern and values instead:
+    /// [`SparseJacobian::save`]). Without one (`jac_valid` = 0) the Jacobian is all
     /// zeros (functional iteration: [`NewtonCore::new`], `drop_jacobian`, a cold warm state)
     /// and is not written. The settings `newton_tol` and `max_newton` come from the
     /// construction; the LU factors are left to the method (they are a function of the
@@ -191,7 +227,10 @@ impl NewtonCore {
             self.lu_h,
         ]);
         if m.jac_valid {
-            out.extend_from_slice(&self.jac);
+            match &self.sparse {
+                Some(s) => s.save(out),
+                None => out.extend_from_slice(&self.jac),
+            }
         }
     }
 
@@ -202,7 +241,19 @@ impl NewtonCore {
         let [h_acc, err_acc, eta] = [r.value()?, r.value()?, r.value()?];
         let [jac_stale, jac_valid, jac_fresh] = [r.flag()?, r.flag()?, r.flag()?];
         let lu_h = r.step_size()?;
-        let jac = if jac_valid { Some(r.take(n * n)?) } else { None };
+        let jac = match (jac_valid, &self.sparse) {
+            (false, _) => None,
+            (true, None) => Some(r.take(n * n)?),
+            (true, Some(_)) => {
+                let len = r
+                    .peek()
+                    .and_then(|first| SparseJacobian::saved_len(first, n))
+                    .ok_or("sparse Jacobian in the state: no entry count")?;
+                let block = r.take(len)?;
+                SparseJacobian::check(block, n)?;
+                Some(block)
+            }
+        };
         Ok(SavedNewton {
             mem: WarmMemory {
                 h_acc,
@@ -221,9 +272,11 @@ impl NewtonCore {
     /// (`lu_h` = 0); returns the step size the saved factorisation was for (0: none), for
     /// [`ImplicitMethod::factor`].
     pub fn restore(&mut self, s: &SavedNewton) -> f64 {
-        match s.jac {
-            Some(j) => self.jac.copy_from_slice(j),
-            None => self.jac.iter_mut().for_each(|x| *x = 0.0),
+        match (s.jac, &mut self.sparse) {
+            (Some(j), None) => self.jac.copy_from_slice(j),
+            (None, None) => self.jac.iter_mut().for_each(|x| *x = 0.0),
+            (Some(j), Some(sp)) => sp.load(j),
+            (None, Some(sp)) => sp.clear(),
         }
         self.mem = s.mem;
         self.jac_fresh = s.jac_fresh;
@@ -233,10 +286,30 @@ impl NewtonCore {
 
     /// Forward-difference Jacobian at `(core.t, core.y)` (n + 1 evaluations: `f(t, y)` is
     /// evaluated afresh, since `core.f` may satisfy a stage equation only to the Newton
-    /// tolerance).
+    /// tolerance). On the sparse path one evaluation per colour plus one, or n + 1 when the
+    /// pattern is probed ([`SparseJacobian::evaluate`]; `probe` forces a probe).
     pub fn jacobian(&mut self, sys: &mut dyn OdeSystem, core: &mut StepCore) {
+        self.jacobian_with(sys, core, false);
+    }
+
+    fn jacobian_with(&mut self, sys: &mut dyn OdeSystem, core: &mut StepCore, probe: bool) {
         let n = self.n();
         sys.rhs(core.t, &core.y, &mut self.f0);
+        if let Some(s) = &mut self.sparse {
+            let (f0, yp, f1) = (&self.f0, &mut self.y_pert, &mut self.f1);
+            if probe {
+                s.probe(sys, core.t, &core.y, f0, yp, f1, &mut core.stats);
+            } else {
+                s.evaluate(sys, core.t, &core.y, f0, yp, f1, &mut core.stats);
+            }
+            core.stats.rhs_evals += 1;
+            core.stats.jac_evals += 1;
+            self.jac_fresh = true;
+            self.mem.jac_stale = false;
+            self.mem.jac_valid = true;
+            self.lu_h = 0.0;
+            return;
+        }
         self.y_pert.copy_from_slice(&core.y);
         for j in 0..n {
             let yj = core.y[j];
@@ -259,25 +332,13 @@ impl NewtonCore {
 
     /// Factors the iteration matrices for step `h` with `factor(jac)` unless they are
     /// factored for this `h` and the current Jacobian. False if singular.
-    pub fn factor(&mut self, h: f64, factor: impl FnOnce(&[f64]) -> bool) -> bool {
+    pub fn factor(&mut self, h: f64, factor: impl FnOnce(JacRef) -> bool) -> bool {
         if self.lu_h == h {
             return true;
         }
-        let ok = factor(&self.jac);
+        let ok = factor(self.jac_ref());
         self.lu_h = if ok { h } else { 0.0 };
         ok
-    }
-
-    /// Writes `I − c·jac` into `lu` and factors it in place (see [`linalg::lu_in_place`]).
-    pub fn factor_shifted(jac: &[f64], c: f64, lu: &mut [f64], perm: &mut [usize]) -> bool {
-        let n = perm.len();
-        for (l, j) in lu.iter_mut().zip(jac) {
-            *l = -c * j;
-        }
-        for i in 0..n {
-            lu[i * n + i] += 1.0;
-        }
-        linalg::lu_in_place(lu, n, perm)
     }
 
     /// Simplified Newton iterations: each call of `correct` applies one correction and returns
@@ -316,9 +377,13 @@ impl NewtonCore {
         None
     }
 
-    /// Forgets the Jacobian: J = 0 (functional iteration) until Newton needs one.
+    /// Forgets the Jacobian (and a sparse one's pattern): J = 0 (functional iteration) until
+    /// Newton needs one.
     fn drop_jacobian(&mut self) {
         self.jac.iter_mut().for_each(|x| *x = 0.0);
+        if let Some(s) = &mut self.sparse {
+            s.clear();
+        }
         self.mem.jac_valid = false;
         self.lu_h = 0.0;
     }
@@ -360,6 +425,8 @@ pub trait ImplicitMethod {
     /// [`NewtonCore::factor`] (nothing when they are factored for `h` already). False if
     /// singular. The factors depend on nothing but the Jacobian and `h`.
     fn factor(&mut self, h: f64) -> bool;
+    /// What the linear algebra did (see [`LinearStats`]).
+    fn linear_stats(&self) -> LinearStats;
 
     /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
     fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
@@ -393,20 +460,23 @@ impl<M: ImplicitMethod> Integrator for M {
         // identically after a restore), Newton and controller memory: all of it is in
         // `warm_state`, except a Jacobian too big to save, which is dropped here
         let newton = self.parts_mut().1;
-        if !WarmMemory::keeps_jacobian(newton.n()) {
+        if !newton.keeps_jacobian() {
             newton.drop_jacobian();
         }
     }
 
     fn warm_state(&self, out: &mut Vec<f64>) {
         let newton = self.parts().1;
-        newton.mem.write(&newton.jac, newton.n(), out);
+        newton.mem.write(&newton.jac, newton.keeps_jacobian(), out);
     }
 
     fn set_warm_state(&mut self, v: &[f64]) -> Result<(), String> {
         let newton = self.parts_mut().1;
-        let n = newton.n();
-        let m = WarmMemory::read(v, &mut newton.jac, n)?;
+        let (n, keep) = (newton.n(), newton.keeps_jacobian());
+        let m = WarmMemory::read(v, &mut newton.jac, n, keep)?;
+        if let Some(s) = &mut newton.sparse {
+            s.clear();
+        }
         newton.set_memory(m);
         Ok(())
     }
@@ -452,6 +522,8 @@ impl<M: ImplicitMethod> Integrator for M {
             return Ok(());
         }
         let mut rejected_before = false;
+        // Newton failures with a fresh coloured Jacobian in this step (sparse path)
+        let mut coloured_failures = 0;
         loop {
             let (h, last) = self.parts().0.trial_step(t_max)?;
             let refine = rejected_before || self.parts().1.mem.h_acc == 0.0;
@@ -463,7 +535,14 @@ impl<M: ImplicitMethod> Integrator for M {
                 rejected_before = true;
                 if !newton.jac_fresh {
                     newton.jacobian(sys, core);
+                } else if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) && coloured_failures == 1 {
+                    // twice: a coloured Jacobian may miss entries the pattern has gained, so
+                    // probe it (a first failure halves the step, as a dense Jacobian does)
+                    newton.jacobian_with(sys, core, true);
                 } else {
+                    if newton.sparse.as_ref().is_some_and(|s| s.last_coloured) {
+                        coloured_failures += 1;
+                    }
                     core.h = h * 0.5;
                 }
                 continue;
@@ -511,6 +590,10 @@ impl<M: ImplicitMethod> Integrator for M {
 
     fn interpolate(&self, t: f64, out: &mut [f64]) {
         self.dense_output(t, out);
+    }
+
+    fn linear_stats(&self) -> Option<LinearStats> {
+        Some(ImplicitMethod::linear_stats(self))
     }
 
     fn core(&self) -> &StepCore {

@@ -3,12 +3,14 @@
 //! solution, where the stage order 1 of SDIRK4 costs it accuracy (order reduction).
 //!
 //! - The stage increments `Zᵢ = Yᵢ − y₀` are solved together by simplified Newton with the
-//!   matrix `I − h A⊗J`, `J` by forward differences. As in RADAU5, the correction is computed
-//!   in the eigenbasis of `A⁻¹` (one real eigenvalue γ, one complex pair α ± iβ; the basis `T`
-//!   is computed once per method from `A`): one real n × n system `I − (h/γ) J` (the matrix
-//!   the error estimate needs anyway) and one complex n × n system `I − h/(α + iβ) J` instead
-//!   of the real 3n × 3n one, about 5× fewer operations per factorisation (in-place LUs on
-//!   preallocated buffers).
+//!   matrix `I − h A⊗J`, `J` by forward differences. For small systems (dense linear algebra)
+//!   the correction is computed, as in RADAU5, in the eigenbasis of `A⁻¹` (one real eigenvalue
+//!   γ, one complex pair α ± iβ; the basis `T` is computed once per method from `A`): one real
+//!   n × n system `I − (h/γ) J` (the matrix the error estimate needs anyway) and one complex
+//!   n × n system `I − h/(α + iβ) J` instead of the real 3n × 3n one, about 5× fewer
+//!   operations per factorisation (in-place LUs on preallocated buffers). For large systems
+//!   the real 3n × 3n matrix is factored by faer's sparse LU with a coloured Jacobian
+//!   ([`super::linear`]).
 //! - Jacobian and LU reuse, `J = 0` after a reset, `J` and controller memory kept across a
 //!   plain restart (and saved through `warm_state`), and the step-size controller are those of
 //!   SDIRK4, shared in [`super::newton`].
@@ -18,6 +20,7 @@
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
+use super::linear::{self, JacRef, LinearStats, Lu};
 use super::newton::{ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
 use crate::linalg;
@@ -136,37 +139,45 @@ pub struct Radau5 {
     /// Stage values and right-hand sides.
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
-    /// LU of `I − hγ₀J` (n × n, real) and of `I − h/(α + iβ) J` (n × n, complex, interleaved).
-    lu_err: Vec<f64>,
-    perm_err: Vec<usize>,
+    /// LU of `I − hγ₀J` (n × n, real; dense or sparse), of `I − h/(α + iβ) J` (n × n,
+    /// complex, interleaved; the dense path only, empty on the sparse one) and of
+    /// `I − hA⊗J` (3n × 3n; the sparse path only).
+    lu_err: Lu,
     lu_complex: Vec<f64>,
     perm_complex: Vec<usize>,
+    work_complex: Vec<f64>,
+    lu_big: Option<Lu>,
     err: Vec<f64>,
     work: Vec<f64>,
-    work_complex: Vec<f64>,
     basis: Eigenbasis,
 }
 
 impl Radau5 {
-    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`.
+    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`;
+    /// dense or sparse linear algebra by [`linear::sparse_for`].
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> Radau5 {
+        Self::with_linear(n, rtol, atol, hmax, linear::sparse_for(n))
+    }
+
+    /// [`Radau5::new`] with the linear algebra chosen: sparse or dense.
+    pub fn with_linear(n: usize, rtol: f64, atol: f64, hmax: f64, sparse: bool) -> Radau5 {
         let v = |k: usize| vec![0.0; k];
         let hmax = if hmax > 0.0 { hmax } else { f64::INFINITY };
         Radau5 {
             core: StepCore::new(n, rtol, atol, hmax),
-            newton: NewtonCore::new(n, rtol),
+            newton: NewtonCore::new(n, rtol, sparse),
             z_prev: [v(n), v(n), v(n)],
             z: v(3 * n),
             dz: v(3 * n),
             stage: v(n),
             fz: [v(n), v(n), v(n)],
-            lu_err: v(n * n),
-            perm_err: vec![0; n],
-            lu_complex: v(2 * n * n),
-            perm_complex: vec![0; n],
+            lu_err: Lu::new(n, sparse),
+            lu_complex: v(if sparse { 0 } else { 2 * n * n }),
+            perm_complex: vec![0; if sparse { 0 } else { n }],
+            work_complex: v(if sparse { 0 } else { 2 * n }),
+            lu_big: sparse.then(|| Lu::new(3 * n, true)),
             err: v(n),
             work: v(n),
-            work_complex: v(2 * n),
             basis: Eigenbasis::new(),
         }
     }
@@ -218,24 +229,28 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the real
-            // system for W₁ and the complex one for W₂ + iW₃ (both scaled so that their
-            // right-hand sides are W itself), then dz = (T⊗I) W
-            let (ti, t) = (&self.basis.t_inv, &self.basis.t);
-            for m in 0..n {
-                let r = [dz[m], dz[n + m], dz[2 * n + m]];
-                for (s, row) in ti.iter().enumerate() {
-                    dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
+            if let Some(big) = self.lu_big.as_mut() {
+                big.solve(dz);
+            } else {
+                // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the
+                // real system for W₁ and the complex one for W₂ + iW₃ (both scaled so that
+                // their right-hand sides are W itself), then dz = (T⊗I) W
+                let (ti, t) = (&self.basis.t_inv, &self.basis.t);
+                for m in 0..n {
+                    let r = [dz[m], dz[n + m], dz[2 * n + m]];
+                    for (s, row) in ti.iter().enumerate() {
+                        dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
+                    }
                 }
-            }
-            let (w1, w23) = dz.split_at_mut(n);
-            let (w2, w3) = w23.split_at_mut(n);
-            linalg::lu_solve(&self.lu_err, n, &self.perm_err, w1, &mut self.work);
-            linalg::lu_solve_complex(&self.lu_complex, n, &self.perm_complex, w2, w3, &mut self.work_complex);
-            for m in 0..n {
-                let w = [dz[m], dz[n + m], dz[2 * n + m]];
-                for (s, row) in t.iter().enumerate() {
-                    dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
+                let (w1, w23) = dz.split_at_mut(n);
+                let (w2, w3) = w23.split_at_mut(n);
+                self.lu_err.solve(w1);
+                linalg::lu_solve_complex(&self.lu_complex, n, &self.perm_complex, w2, w3, &mut self.work_complex);
+                for m in 0..n {
+                    let w = [dz[m], dz[n + m], dz[2 * n + m]];
+                    for (s, row) in t.iter().enumerate() {
+                        dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
+                    }
                 }
             }
             let mut sum = 0.0;
@@ -264,7 +279,7 @@ impl Radau5 {
             self.work[m] = g0 * (DD[0] * self.z[m] + DD[1] * self.z[n + m] + DD[2] * self.z[2 * n + m]);
             self.err[m] = self.work[m] + g0 * h * core.f[m];
         }
-        linalg::lu_solve(&self.lu_err, n, &self.perm_err, &mut self.err, &mut self.stage);
+        self.lu_err.solve(&mut self.err);
         for m in 0..n {
             self.stage[m] = core.y[m] + self.z[2 * n + m];
         }
@@ -279,7 +294,7 @@ impl Radau5 {
             for m in 0..n {
                 self.err[m] = self.work[m] + g0 * h * self.fz[0][m];
             }
-            linalg::lu_solve(&self.lu_err, n, &self.perm_err, &mut self.err, &mut self.stage);
+            self.lu_err.solve(&mut self.err);
             for m in 0..n {
                 self.stage[m] = core.y[m] + self.z[2 * n + m];
             }
@@ -322,22 +337,35 @@ impl ImplicitMethod for Radau5 {
     fn factor(&mut self, h: f64) -> bool {
         let n = self.core.y.len();
         let (alpha, beta) = (self.basis.alpha, self.basis.beta);
-        let lu_complex = &mut self.lu_complex;
-        let perm_complex = &mut self.perm_complex;
-        self.newton.factor(h, |jac| {
-            // h/(α + iβ) = h (α − iβ)/(α² + β²)
-            let d = alpha * alpha + beta * beta;
-            let (cr, ci) = (h * alpha / d, -h * beta / d);
-            for (k, j) in jac.iter().enumerate() {
-                lu_complex[2 * k] = -cr * j;
-                lu_complex[2 * k + 1] = -ci * j;
+        let (err, big) = (&mut self.lu_err, &mut self.lu_big);
+        let (lu_complex, perm_complex) = (&mut self.lu_complex, &mut self.perm_complex);
+        self.newton.factor(h, |jac| match (jac, big) {
+            (JacRef::Dense(dense), None) => {
+                // h/(α + iβ) = h (α − iβ)/(α² + β²)
+                let d = alpha * alpha + beta * beta;
+                let (cr, ci) = (h * alpha / d, -h * beta / d);
+                for (k, j) in dense.iter().enumerate() {
+                    lu_complex[2 * k] = -cr * j;
+                    lu_complex[2 * k + 1] = -ci * j;
+                }
+                for i in 0..n {
+                    lu_complex[2 * (i * n + i)] += 1.0;
+                }
+                err.factor_shifted(jac, h * gamma0()) && linalg::lu_in_place_complex(lu_complex, n, perm_complex)
             }
-            for i in 0..n {
-                lu_complex[2 * (i * n + i)] += 1.0;
-            }
-            NewtonCore::factor_shifted(jac, h * gamma0(), &mut self.lu_err, &mut self.perm_err)
-                && linalg::lu_in_place_complex(lu_complex, n, perm_complex)
+            (_, Some(big)) => big.factor_kron(jac, h, &A) && err.factor_shifted(jac, h * gamma0()),
+            (JacRef::Sparse(_), None) => unreachable!("a sparse Jacobian on the dense path"),
         })
+    }
+
+    fn linear_stats(&self) -> LinearStats {
+        let (f1, a1) = self.lu_big.as_ref().map_or((0, 0), Lu::sparse_counts);
+        let (f2, a2) = self.lu_err.sparse_counts();
+        LinearStats {
+            sparse_factorisations: f1 + f2,
+            analyses: a1 + a2,
+            ..self.newton.linear_stats()
+        }
     }
 
     fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, refine: bool) -> Option<(f64, f64)> {

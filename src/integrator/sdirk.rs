@@ -14,9 +14,9 @@
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
+use super::linear::{self, LinearStats, Lu};
 use super::newton::{ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
-use crate::linalg;
 use crate::scene::Method;
 
 /// Number of stages.
@@ -55,9 +55,8 @@ pub struct Sdirk {
     dense: [Vec<f64>; 3],
     /// Stage derivatives.
     k: [Vec<f64>; S],
-    /// LU factors of `I − hγJ` with row permutation.
-    lu: Vec<f64>,
-    perm: Vec<usize>,
+    /// LU factors of `I − hγJ`.
+    lu: Lu,
     base: Vec<f64>,
     stage: Vec<f64>,
     delta: Vec<f64>,
@@ -67,17 +66,22 @@ pub struct Sdirk {
 }
 
 impl Sdirk {
-    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`.
+    /// A method for systems of size `n` with tolerances `rtol`, `atol` and largest step `hmax`;
+    /// dense or sparse linear algebra by [`linear::sparse_for`].
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> Sdirk {
+        Self::with_linear(n, rtol, atol, hmax, linear::sparse_for(n))
+    }
+
+    /// [`Sdirk::new`] with the linear algebra chosen: sparse or dense.
+    pub fn with_linear(n: usize, rtol: f64, atol: f64, hmax: f64, sparse: bool) -> Sdirk {
         let v = || vec![0.0; n];
         let hmax = if hmax > 0.0 { hmax } else { f64::INFINITY };
         Sdirk {
             core: StepCore::new(n, rtol, atol, hmax),
-            newton: NewtonCore::new(n, rtol),
+            newton: NewtonCore::new(n, rtol, sparse),
             dense: [v(), v(), v()],
             k: [v(), v(), v(), v(), v()],
-            lu: vec![0.0; n * n],
-            perm: vec![0; n],
+            lu: Lu::new(n, sparse),
             base: v(),
             stage: v(),
             delta: v(),
@@ -126,7 +130,7 @@ impl Sdirk {
             for m in 0..n {
                 delta[m] = base[m] + hg * fz[m] - stage[m];
             }
-            linalg::lu_solve(&self.lu, n, &self.perm, delta, &mut self.work);
+            self.lu.solve(delta);
             let norm = error_norm(delta, &core.y, &core.y, core.rtol, core.atol);
             if !norm.is_finite() {
                 return (norm, false);
@@ -178,9 +182,17 @@ impl ImplicitMethod for Sdirk {
     /// `I − hγJ`.
     fn factor(&mut self, h: f64) -> bool {
         let hg = h * GAMMA;
-        self.newton.factor(h, |jac| {
-            NewtonCore::factor_shifted(jac, hg, &mut self.lu, &mut self.perm)
-        })
+        let lu = &mut self.lu;
+        self.newton.factor(h, |jac| lu.factor_shifted(jac, hg))
+    }
+
+    fn linear_stats(&self) -> LinearStats {
+        let (f, a) = self.lu.sparse_counts();
+        LinearStats {
+            sparse_factorisations: f,
+            analyses: a,
+            ..self.newton.linear_stats()
+        }
     }
 
     fn attempt(&mut self, sys: &mut dyn OdeSystem, h: f64, _refine: bool) -> Option<(f64, f64)> {
@@ -199,7 +211,7 @@ impl ImplicitMethod for Sdirk {
             }
             self.err[m] = h * e;
         }
-        linalg::lu_solve(&self.lu, n, &self.perm, &mut self.err, &mut self.work);
+        self.lu.solve(&mut self.err);
         // the last stage is the new solution (stiffly accurate)
         let err = error_norm(&self.err, &self.core.y, &self.stage, self.core.rtol, self.core.atol);
         Some((err, theta))
