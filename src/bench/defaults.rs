@@ -15,7 +15,7 @@
 
 use super::scaling::rhs_and_event_cost;
 use super::work_precision::{closed_form, error_of, position_outputs, Truth};
-use super::{bundled_scenes, f, median, record, sweep_point, time_runs, Counters, Csv, RunSpec, SweepArgs};
+use super::{f, median, record, sweep_point, time_runs, Counters, Csv, RunSpec, SweepArgs};
 use crate::compile::compile;
 use crate::scene::{Method, Scene};
 use std::path::Path;
@@ -87,13 +87,7 @@ fn row(
 
 /// Runs the benchmark and writes the CSV.
 pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
-    let SweepArgs {
-        scenes: dir,
-        only,
-        repeats,
-        budget,
-    } = args;
-    let (only, repeats, budget) = (only.as_deref(), *repeats, *budget);
+    let (repeats, budget) = (args.repeats, args.budget);
     let mut csv = Csv::new(&[
         "part",
         "scene",
@@ -108,10 +102,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         "note",
     ]);
     let mut summary = Vec::new();
-    for (name, path) in bundled_scenes(dir)? {
-        if only.is_some_and(|o| !name.contains(o)) {
-            continue;
-        }
+    for (name, path) in args.selected_scenes()? {
         let origin = path.display().to_string();
         let scene = Scene::from_file(&path).map_err(|e| e.to_string())?;
         let ratio = scene.solver.atol / scene.solver.rtol;

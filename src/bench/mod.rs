@@ -59,6 +59,17 @@ pub struct SweepArgs {
     pub budget: f64,
 }
 
+impl SweepArgs {
+    /// The bundled scenes to sweep (`--only` applied): name and scene file.
+    pub fn selected_scenes(&self) -> Result<Vec<(String, PathBuf)>, String> {
+        let only = self.only.as_deref();
+        Ok(bundled_scenes(&self.scenes)?
+            .into_iter()
+            .filter(|(name, _)| only.is_none_or(|o| name.contains(o)))
+            .collect())
+    }
+}
+
 /// The run of `method` at tolerance `tol` (rk4: step `tol`) of a sweep from `base`, with
 /// `atol = tol · atol_ratio`.
 pub fn sweep_point(base: &RunSpec, method: Method, tol: f64, atol_ratio: f64) -> RunSpec {

@@ -4,7 +4,7 @@
 //! reference is confirmed by the other methods converging to it); the median run time and
 //! the work counters.
 
-use super::{bundled_scenes, f, record, sweep_point, time_runs, Csv, RunSpec, SweepArgs, Trajectory};
+use super::{f, record, sweep_point, time_runs, Csv, RunSpec, SweepArgs, Trajectory};
 use crate::scene::{Method, Scene};
 use std::path::Path;
 
@@ -143,13 +143,7 @@ struct Point {
 
 /// Runs the benchmark and writes the CSV.
 pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
-    let SweepArgs {
-        scenes: dir,
-        only,
-        repeats,
-        budget,
-    } = args;
-    let (only, repeats, budget) = (only.as_deref(), *repeats, *budget);
+    let (repeats, budget) = (args.repeats, args.budget);
     let mut csv = Csv::new(&[
         "scene",
         "method",
@@ -167,10 +161,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         "status",
     ]);
     let mut summary: Vec<String> = Vec::new();
-    for (name, path) in bundled_scenes(dir)? {
-        if only.is_some_and(|o| !name.contains(o)) {
-            continue;
-        }
+    for (name, path) in args.selected_scenes()? {
         let origin = path.display().to_string();
         let scene = match Scene::from_file(&path) {
             Ok(s) => s,
