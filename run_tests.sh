@@ -17,13 +17,17 @@ else
     echo "(clippy not installed: skipped)"
 fi
 
+# (the shared-library test dlopens target/release/libcontact_fmu.so)
+echo "== cargo build --release"
+cargo build --release
+
 echo "== cargo test --release"
 cargo test --release
 
-# after the tests: `cargo build` rebuilds the library after `cargo test` has built it (the
-# test build leaves it different), so it is built here, before the FMU library: `export`
-# below then finds it up to date, and the `dist` library is the newest
-echo "== cargo build --release"
+# `cargo build` rebuilds the library after `cargo test` has built it (the test build leaves it
+# different), so it is built again here, before the FMU library: `export` below then finds it
+# up to date, and the `dist` library is the newest
+echo "== cargo build --release, after the tests"
 cargo build --release
 
 echo "== the FMU library: cargo profile dist (stripped, LTO), glibc 2.17 through cargo-zigbuild"
