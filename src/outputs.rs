@@ -58,66 +58,18 @@ pub enum Needs {
     Everything,
 }
 
-/// What reading `target` needs ([`prepare`]).
+/// What reading `target` needs ([`prepare`]): the bodies' kinematics for their positions,
+/// orientations and velocities; nothing for the counters and the compiled stiffness; a full
+/// evaluation for every other output (and for anything added later that says otherwise
+/// nowhere). Parameters and inputs are read from the settings and do not come here.
 pub fn needs(target: VarRef) -> Needs {
     match target {
         VarRef::BodyPosition(..)
         | VarRef::BodyVelocity(..)
         | VarRef::BodyAngularVelocity(..)
         | VarRef::BodyQuaternion(..) => Needs::Kinematics,
-        VarRef::JointQ(_)
-        | VarRef::JointQd(_)
-        | VarRef::ContactDelta(_)
-        | VarRef::ContactDeltaDot(_)
-        | VarRef::ContactForce(_)
-        | VarRef::ContactActive(_)
-        | VarRef::ContactImpacts(_)
-        | VarRef::ContactFrictionForce(..)
-        | VarRef::ContactSlipVelocity(_)
-        | VarRef::EnergyKinetic
-        | VarRef::EnergyPotential
-        | VarRef::EnergyContact
-        | VarRef::EnergyTotal
-        | VarRef::EnergyDissipated
-        | VarRef::BodyContactForce(..)
-        | VarRef::BodyContactTorque(..)
-        | VarRef::GroupActive(_)
-        | VarRef::GroupLargestPenetration(_) => Needs::Everything,
-        VarRef::YoungsModulus(_)
-        | VarRef::PoissonRatio(_)
-        | VarRef::Mass(_)
-        | VarRef::Inertia(..)
-        | VarRef::SphereRadius(_)
-        | VarRef::OtherRadius(_)
-        | VarRef::PlaneSize(..)
-        | VarRef::CylinderRadius(_)
-        | VarRef::CylinderLength(_)
-        | VarRef::ContactLaw(_)
-        | VarRef::Restitution(_)
-        | VarRef::Exponent(_)
-        | VarRef::Damping(_)
-        | VarRef::MaxPenetration(_)
-        | VarRef::MinImpactVelocity(_)
-        | VarRef::Friction(_)
-        | VarRef::StaticFriction(_)
-        | VarRef::StribeckVelocity(_)
-        | VarRef::ViscousFriction(_)
-        | VarRef::StictionVelocity(_)
-        | VarRef::SolverMethod
-        | VarRef::SolverRtol
-        | VarRef::SolverAtol
-        | VarRef::SolverMaxStep
-        | VarRef::SolverMaxSteps
-        | VarRef::SpringStiffness(_)
-        | VarRef::SpringDamping(_)
-        | VarRef::SpringFreeLength(_)
-        | VarRef::InitialVelocity(..)
-        | VarRef::InitialAngularVelocity(..)
-        | VarRef::Input(_)
-        | VarRef::Stiffness(_)
-        | VarRef::Group(..)
-        | VarRef::SolverSteps
-        | VarRef::SolverRhsEvals => Needs::Nothing,
+        VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::Stiffness(_) => Needs::Nothing,
+        _ => Needs::Everything,
     }
 }
 
