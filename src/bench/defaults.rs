@@ -312,12 +312,22 @@ fn rail_defaults(
         c_old.rhs_evals as f64 / c_new.rhs_evals as f64,
         co / cn
     );
+    // auto as bundled at another tolerance (atol = rtol/100) and largest step (0: none):
+    // (error, wall, CPU, counters)
+    let measure = |tol: f64, max_step: f64| -> Result<(f64, f64, f64, Counters), String> {
+        let spec = bundled
+            .clone()
+            .with("solver.rtol", tol)
+            .with("solver.atol", tol * 1e-2)
+            .with("solver.max_step", max_step);
+        let e = err(&spec)?;
+        let (wall, cpu, c, _) = time_runs(&spec, repeats)?;
+        Ok((e, wall, cpu, c))
+    };
     // auto tightened until it is as accurate as the former defaults
     println!("\nauto at tighter tolerances (atol = rtol/100), until as accurate as the former defaults:");
     for tol in [1e-9, 1e-10, 1e-11] {
-        let spec = bundled.clone().with("solver.rtol", tol).with("solver.atol", tol * 1e-2);
-        let e = err(&spec)?;
-        let (wall, cpu, c, _) = time_runs(&spec, repeats)?;
+        let (e, wall, cpu, c) = measure(tol, 0.0)?;
         println!(
             "auto rtol {tol:.0e}: error {e:.3e}, cpu {:.2} ms ({:.2}× less than the former defaults), {} RHS ({:.2}× fewer)",
             cpu * 1e3,
@@ -362,13 +372,7 @@ fn rail_defaults(
         (1e-4, 0.01),
     ];
     for (tol, max_step) in settings {
-        let spec = bundled
-            .clone()
-            .with("solver.rtol", tol)
-            .with("solver.atol", tol * 1e-2)
-            .with("solver.max_step", max_step);
-        let e = err(&spec)?;
-        let (wall, cpu, c, _) = time_runs(&spec, repeats)?;
+        let (e, wall, cpu, c) = measure(tol, max_step)?;
         let rhs_time = c.rhs_evals as f64 * rhs_cost;
         let line = format!(
             "auto rtol {tol:.0e}, max_step {max_step}: error {e:.3e}, cpu {:.2} ms, {} steps, {} RHS × {:.2} µs = {:.2} ms ({:.0} % of the run), {} Jacobians",
