@@ -134,19 +134,23 @@ impl Groups {
         [c - half, c + half]
     }
 
-    /// The candidate pairs at the body poses `pose(body)` (position of the centre of mass,
-    /// rotation), sorted (pair, sphere, other): every pair whose bounding boxes, grown by
-    /// half the margin each, overlap (and, for two ball bounds, whose balls come within the
-    /// margin).
-    pub fn find(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
-        let boxes: Vec<[Vector3<f64>; 2]> = self
-            .shapes
+    /// Every shape's bounding box at the body poses `pose(body)`, grown by half the margin.
+    fn grown_boxes(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<[Vector3<f64>; 2]> {
+        self.shapes
             .iter()
             .map(|s| {
                 let (p, r) = pose(s.body);
                 self.aabb(s, &p, &r, 0.5 * self.margin)
             })
-            .collect();
+            .collect()
+    }
+
+    /// The candidate pairs at the body poses `pose(body)` (position of the centre of mass,
+    /// rotation), sorted (pair, sphere, other): every pair whose bounding boxes, grown by
+    /// half the margin each, overlap (and, for two ball bounds, whose balls come within the
+    /// margin).
+    pub fn find(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
+        let boxes = self.grown_boxes(pose);
         let mut out = match self.method {
             BroadPhaseMethod::Sweep => self.sweep(&boxes),
             BroadPhaseMethod::Grid => self.grid(&boxes),
@@ -258,14 +262,7 @@ impl Groups {
     /// Every pair whose grown boxes overlap, by testing all pairs (for tests and as a
     /// reference).
     pub fn find_all_pairs(&self, pose: &dyn Fn(Option<usize>) -> (Vector3<f64>, Matrix3<f64>)) -> Vec<Candidate> {
-        let boxes: Vec<[Vector3<f64>; 2]> = self
-            .shapes
-            .iter()
-            .map(|s| {
-                let (p, r) = pose(s.body);
-                self.aabb(s, &p, &r, 0.5 * self.margin)
-            })
-            .collect();
+        let boxes = self.grown_boxes(pose);
         let mut out = Vec::new();
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
