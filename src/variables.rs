@@ -678,23 +678,8 @@ impl VariableTable {
                 depends_on_inputs: false,
             });
         }
-        let out = |name: String, vtype: VarType, unit, target, description: String| Variable {
-            name,
-            vtype,
-            causality: Causality::Output,
-            variability: if vtype == VarType::Real {
-                Variability::Continuous
-            } else {
-                Variability::Discrete
-            },
-            start: None,
-            unit,
-            display_unit: None,
-            description,
-            range: None,
-            target,
-            depends_on_inputs: false,
-        };
+        let out =
+            |name, vtype, unit, target, description| output_variable(name, vtype, unit, target, description, false);
         let with_display = |mut var: Variable, display: &'static str| {
             var.display_unit = Some(display);
             var
@@ -1238,22 +1223,9 @@ fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
             ));
         }
     }
-    let out = |name: String, vtype: VarType, unit, target, description: String| Variable {
-        name,
-        vtype,
-        causality: Causality::Output,
-        variability: if vtype == VarType::Real {
-            Variability::Continuous
-        } else {
-            Variability::Discrete
-        },
-        start: None,
-        unit,
-        display_unit: None,
-        description,
-        range: None,
-        target,
-        depends_on_inputs: !scene.input.is_empty(),
+    let depends_on_inputs = !scene.input.is_empty();
+    let out = |name, vtype, unit, target, description| {
+        output_variable(name, vtype, unit, target, description, depends_on_inputs)
     };
     for (b, body) in scene.body.iter().enumerate() {
         for (k, axis) in AXES.iter().enumerate() {
@@ -1295,6 +1267,34 @@ fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
 
 /// An Integer parameter that sets the enumeration `enum_name` (of type `e`): 0 leaves it, an
 /// item's value overrides it.
+/// An output: continuous when Real, discrete otherwise.
+fn output_variable(
+    name: String,
+    vtype: VarType,
+    unit: Option<&'static str>,
+    target: VarRef,
+    description: String,
+    depends_on_inputs: bool,
+) -> Variable {
+    Variable {
+        name,
+        vtype,
+        causality: Causality::Output,
+        variability: if vtype == VarType::Real {
+            Variability::Continuous
+        } else {
+            Variability::Discrete
+        },
+        start: None,
+        unit,
+        display_unit: None,
+        description,
+        range: None,
+        target,
+        depends_on_inputs,
+    }
+}
+
 fn integer_twin(name: String, e: EnumType, enum_name: &str, target: VarRef) -> Variable {
     let items: Vec<String> = e.items().iter().map(|(n, i)| format!("{i} = {n}")).collect();
     Variable {
