@@ -6,7 +6,8 @@
 //! - [`integrator`]: the time-stepping methods behind one trait;
 //! - [`model`]: the compiled, read-only `Model`, the mutable `Data` and the state spec;
 //! - [`kinematics`], [`dynamics`], [`contact`], [`forward`] (the right-hand side pipeline);
-//! - [`compile`] (scene → model and data), [`engine`] (the driver: steps, events, modes);
+//! - [`compile`] (scene → model and data), [`engine`] (the driver: steps, events, modes),
+//!   [`islands`] (independent parts of a scene, each with its own engine);
 //! - [`outputs`], [`checkpoint`], [`variables`], [`simulation`]: the facade that the FMI
 //!   layer, the command line, the benchmarks and the tests all drive;
 //! - [`fmi`], [`export`], [`run`], [`bench`]: the hosts.
@@ -27,6 +28,7 @@ pub mod fmi;
 pub mod forward;
 pub mod guid;
 pub mod integrator;
+pub mod islands;
 pub mod kinematics;
 pub mod linalg;
 pub mod model;

@@ -216,6 +216,11 @@ pub struct SolverSection {
     /// outputs there come from its dense output) instead of restarting it at each (default).
     #[serde(default = "default_continuation")]
     pub continuation: bool,
+    /// Advance independent islands (bodies coupled through joints, spring-dampers, inputs
+    /// or contacts that can act) each with its own integrator, meeting at the communication
+    /// points (default), instead of the whole scene with one integrator (scene key only).
+    #[serde(default = "default_islands")]
+    pub islands: bool,
 }
 
 fn default_rtol() -> f64 {
@@ -225,6 +230,9 @@ fn default_atol() -> f64 {
     1e-10
 }
 fn default_continuation() -> bool {
+    true
+}
+fn default_islands() -> bool {
     true
 }
 fn default_max_steps() -> u64 {
@@ -240,6 +248,7 @@ impl Default for SolverSection {
             max_step: 0.0,
             max_steps: default_max_steps(),
             continuation: default_continuation(),
+            islands: default_islands(),
         }
     }
 }

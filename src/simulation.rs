@@ -7,6 +7,7 @@ use crate::checkpoint::Snapshot;
 use crate::compile::{self, compile_with, Parameters};
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
+use crate::islands::{Islands, Source};
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
@@ -128,10 +129,26 @@ pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
 /// more work).
 const ENERGY_CHECK_EVALS: u64 = 100;
 
-/// A compiled model and its data.
+/// A compiled model and its data (and, when the scene runs as independent islands, the
+/// islands: the data then receives their state at every communication point).
 struct Compiled {
     model: Model,
     data: Data,
+    islands: Option<Islands>,
+    /// The scene runs as islands ([`crate::islands::wanted`], decided once per model).
+    split: bool,
+}
+
+impl Compiled {
+    fn new(model: Model, data: Data) -> Compiled {
+        let split = crate::islands::wanted(&model);
+        Compiled {
+            model,
+            data,
+            islands: None,
+            split,
+        }
+    }
 }
 
 impl Simulation {
@@ -159,7 +176,34 @@ impl Simulation {
     /// Contact groups: how often the candidate pairs were found again since this simulation
     /// was created (a diagnostic, not part of the state).
     pub fn candidate_refreshes(&self) -> u64 {
-        self.refreshes
+        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
+        self.refreshes + islands.map_or(0, |is| is.rebuilds)
+    }
+
+    /// Diagnostics of the islands: (rounds, islands compiled, CPU seconds forming them).
+    pub fn island_diagnostics(&self) -> (u64, u64, f64) {
+        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
+        islands.map_or((0, 0, 0.0), |is| (is.rounds, is.compiled, is.forming_seconds))
+    }
+
+    /// The independent islands the scene runs as (empty when it runs as one: a single
+    /// island, or `solver.islands = false`, or before the first step).
+    pub fn islands(&mut self) -> Vec<IslandReport> {
+        let Some(c) = self.compiled.as_mut() else {
+            return Vec::new();
+        };
+        let Some(is) = c.islands.as_mut() else {
+            return Vec::new();
+        };
+        is.parts
+            .iter_mut()
+            .map(|i| IslandReport {
+                bodies: i.bodies.iter().map(|&b| self.scene.body[b].name.clone()).collect(),
+                counters: i.data.counters,
+                energies: outputs::energies(&i.model, &mut i.data),
+                time: i.data.time,
+            })
+            .collect()
     }
 
     /// Reads, parses and validates a scene file.
@@ -293,6 +337,8 @@ impl Simulation {
         };
         let c = self.running()?;
         c.model = model;
+        // the islands are formed again, with the new value, at the next step
+        c.islands = None;
         c.data.outputs_valid = false;
         c.data.kinematics_valid = false;
         // the right-hand side changed: the method restarts at the current state, with the
@@ -444,7 +490,7 @@ impl Simulation {
                 )
             })?;
             data.log_peaks = self.log_peaks;
-            self.compiled = Some(Compiled { model, data });
+            self.compiled = Some(Compiled::new(model, data));
             self.compiled_fresh = true;
         }
         // (a match, not `ok_or`: that builds and drops an error on every successful call)
@@ -545,27 +591,62 @@ impl Simulation {
         if !self.watch.started {
             self.start_watch()?;
         }
+        let c = self.running()?;
+        if c.islands.is_none() && c.split {
+            let params = self.parameters();
+            let (scene, origin) = (&self.scene, &self.origin);
+            let Some(c) = self.compiled.as_mut() else {
+                return Err(SimError::NotInitialized);
+            };
+            let src = Source { scene, origin };
+            c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
+        }
+        if self.running()?.islands.is_some() {
+            self.step_islands(t_end)?;
+            return self.watch_energy();
+        }
         loop {
             let c = self.running()?;
-            engine::advance(&c.model, &mut c.data, t_end).map_err(
-                |EngineError {
-                     time,
-                     message,
-                     step_limit,
-                 }| {
-                    if step_limit {
-                        SimError::StepLimit { time, message }
-                    } else {
-                        SimError::Step { time, message }
-                    }
-                },
-            )?;
+            engine::advance(&c.model, &mut c.data, t_end).map_err(step_error)?;
             if !groups::stale(&c.model, &c.data) {
                 break;
             }
             self.refresh_candidates()?;
         }
         self.watch_energy()
+    }
+
+    /// [`Simulation::step_to`] for a scene that runs as islands: they advance, the model gets
+    /// their candidate pairs (compiled again when they changed) and the data their state.
+    fn step_islands(&mut self, t_end: f64) -> Result<(), SimError> {
+        let (scene, origin) = (&self.scene, &self.origin);
+        let Some(Compiled {
+            model, data, islands, ..
+        }) = self.compiled.as_mut()
+        else {
+            return Err(SimError::NotInitialized);
+        };
+        let Some(is) = islands.as_mut() else {
+            return Err(SimError::NotInitialized);
+        };
+        let src = Source { scene, origin };
+        let result = is.advance(&src, model, data, t_end);
+        if is.candidates != model.groups.candidates {
+            let (m2, mut d2) = compile::compile_with_candidates(scene, is.params(), origin, Some(&is.candidates))?;
+            d2.time = data.time;
+            d2.state.copy_from_slice(&data.state);
+            d2.inputs.copy_from_slice(&data.inputs);
+            d2.counters = data.counters;
+            d2.clamp_events = data.clamp_events;
+            d2.log_peaks = data.log_peaks;
+            d2.event_log = std::mem::take(&mut data.event_log);
+            d2.broad_reference.copy_from_slice(&data.broad_reference);
+            d2.solver.base = data.solver.base;
+            *model = m2;
+            *data = d2;
+        }
+        is.gather(model, data);
+        result.map_err(step_error)
     }
 
     /// Contact groups: finds the candidate pairs again at the current state, compiles the
@@ -666,11 +747,16 @@ impl Simulation {
         if let (true, Some(c)) = (self.initialized, &self.compiled) {
             state::get(&c.model, &c.data, state::FULL, &mut st);
         }
+        let mut islands = Vec::new();
+        if let (true, Some(Compiled { islands: Some(is), .. })) = (self.initialized, &self.compiled) {
+            is.save(&mut islands);
+        }
         Snapshot {
             host,
             values: self.values.clone(),
             initialized: self.initialized,
             state: st,
+            islands,
         }
     }
 
@@ -709,11 +795,20 @@ impl Simulation {
             if let Some(found) = state::group_candidates(&c.model, &s.state) {
                 if found != c.model.groups.candidates {
                     let (m, d) = compile::compile_with_candidates(&scene, &params, &origin, Some(&found))?;
-                    *c = Compiled { model: m, data: d };
+                    *c = Compiled::new(m, d);
                 }
             }
             state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
             engine::resync(&c.model, &mut c.data);
+            c.islands = None;
+            if !s.islands.is_empty() {
+                let src = Source {
+                    scene: &scene,
+                    origin: &origin,
+                };
+                let islands = Islands::load(&src, params.clone(), &c.model, &c.data, &s.islands);
+                c.islands = Some(islands.map_err(SimError::Variable)?);
+            }
             Ok(())
         });
         if let Err(e) = restored {
@@ -788,6 +883,10 @@ impl Simulation {
         self.log_peaks = on;
         if let Some(c) = self.compiled.as_mut() {
             c.data.log_peaks = on;
+            let clamp = c.data.clamp_events;
+            if let Some(is) = c.islands.as_mut() {
+                is.set_flags(on, clamp);
+            }
         }
     }
 
@@ -798,6 +897,10 @@ impl Simulation {
         let c = self.ensure_compiled()?;
         c.data.clamp_events = on;
         c.data.solver.started = false;
+        let peaks = c.data.log_peaks;
+        if let Some(is) = c.islands.as_mut() {
+            is.set_flags(peaks, on);
+        }
         Ok(())
     }
 }
@@ -862,6 +965,33 @@ fn set_input(d: &mut Data, i: usize, value: f64) {
         // the right-hand side changed: the method restarts at the current state
         d.solver.started = false;
     }
+}
+
+/// An engine's error as the facade's.
+fn step_error(e: EngineError) -> SimError {
+    let EngineError {
+        time,
+        message,
+        step_limit,
+    } = e;
+    if step_limit {
+        SimError::StepLimit { time, message }
+    } else {
+        SimError::Step { time, message }
+    }
+}
+
+/// One independent island at the current state (see [`Simulation::islands`]).
+#[derive(Debug, Clone)]
+pub struct IslandReport {
+    /// Its bodies, in scene order.
+    pub bodies: Vec<String>,
+    /// Its work counters since it was formed.
+    pub counters: Counters,
+    /// Its energies (its dissipated energy: since it was formed).
+    pub energies: Energies,
+    /// Its time [s].
+    pub time: f64,
 }
 
 /// A failed [`Simulation::run`].

@@ -109,6 +109,7 @@ pub(super) fn compile_groups(
         method: scene.broad_phase.method,
         reach,
         has_shape,
+        stale_fraction: crate::contact::broad::STALE_FRACTION,
     };
     groups.candidates = match candidates {
         Some(c) => {

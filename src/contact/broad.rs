@@ -72,7 +72,14 @@ pub struct Groups {
     pub reach: Vec<f64>,
     /// Per body: carries a group shape.
     pub has_shape: Vec<bool>,
+    /// The candidate list is made again once a body's shapes moved this fraction of the
+    /// margin ([`STALE_FRACTION`]; more for an island, see [`crate::islands`]).
+    pub stale_fraction: f64,
 }
+
+/// The fraction of the margin a body's shapes may move before the candidate list is made
+/// again (the steps are bounded so that none moves half of it).
+pub const STALE_FRACTION: f64 = 0.25;
 
 impl Groups {
     /// True when the model has group shapes.

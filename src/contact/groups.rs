@@ -48,11 +48,11 @@ pub fn margin_values(m: &Model, d: &Data) -> (f64, f64) {
     (largest, time)
 }
 
-/// True when a body's group shapes have moved more than a quarter of the margin since the
-/// candidate list was made (from the event values at the current state): time to make it
-/// again.
+/// True when a body's group shapes have moved more than the stale fraction (a quarter) of
+/// the margin since the candidate list was made (from the event values at the current
+/// state): time to make it again.
 pub fn stale(m: &Model, d: &Data) -> bool {
-    m.groups.is_active() && d.events.aux[m.contacts.len()].1 > 0.25 * m.groups.margin
+    m.groups.is_active() && d.events.aux[m.contacts.len()].1 > m.groups.stale_fraction * m.groups.margin
 }
 
 /// The least time in which a body's group shapes could move half the margin from the

@@ -1,0 +1,973 @@
+//! Independent islands: the bodies coupled through joints, spring-dampers, joint-force inputs
+//! and contacts that can act (the declared contacts, and the contact groups' candidate pairs)
+//! form islands. Each island is a model of its own, compiled from its part of the scene, with
+//! its own integrator, step-size control and located events, so that an impact in one corner
+//! of a scene does not restart the integration of the rest.
+//!
+//! The islands advance in *rounds* and meet at each round's end (the communication point, or
+//! earlier where the contact groups' candidate pairs must be found again):
+//!
+//! 1. the round's length: up to the communication point, or, with contact groups, the time in
+//!    which no body's shapes can move [`ROUND_FRACTION`] of the broad-phase margin at its
+//!    present speed under gravity. A collision can speed a body up: an island then stops by itself once one
+//!    of its bodies moved [`ISLAND_STALE_FRACTION`] of the margin, and the islands that went
+//!    further are taken back to its time from the state saved at the round's start;
+//! 2. every island advances to the round's end with the engine's `advance` (continuing its
+//!    last step: meeting costs an interpolation, not a restart);
+//! 3. the coordinates are gathered into the scene's data; once a body moved an eighth of the
+//!    margin, the candidate pairs are found again for the whole scene and the islands formed
+//!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
+//!    the others are compiled anew with their contacts' memory carried over.
+//!
+//! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
+//! farther apart than the margin, and neither body moves half of it before the list is made
+//! again (the same bound as for one integrator, see [`crate::contact::broad`]).
+//!
+//! The scene's own model and data (held by [`crate::simulation`]) receive the gathered state
+//! at the communication points ([`Islands::gather`]): every output, energy and saved state
+//! reads them as before. A saved state adds each island's whole state ([`Islands::save`]), so
+//! a restored simulation continues bit for bit.
+
+use crate::compile::{compile_with_candidates, Parameters};
+use crate::contact::broad::Candidate;
+use crate::contact::element::ContactMemory;
+use crate::contact::{self, groups};
+use crate::engine::{self, EngineError};
+use crate::kinematics::kinematics;
+use crate::model::data::EVENT_LOG_CAPACITY;
+use crate::model::{nq_of, nv_of, state, ContactEvent, Counters, Data, Input, Model};
+use crate::scene::{Scene, GROUND};
+use std::collections::{HashMap, HashSet};
+use std::sync::Arc;
+
+/// The fraction of the broad-phase margin after which an island stops inside a round (more
+/// than the round is planned for: it only stops when a collision sped a body up; less than
+/// the half that bounds every step).
+pub const ISLAND_STALE_FRACTION: f64 = 0.45;
+
+/// The fraction of the margin the bodies may have moved at a round's end before the
+/// candidate pairs are found again.
+const REBUILD_FRACTION: f64 = 0.125;
+
+/// The fraction of the margin a round is planned for (0.25 and 0.35 measured: 0.35 takes 25 %
+/// fewer rounds at the same steps).
+pub const ROUND_FRACTION: f64 = 0.35;
+
+fn fail(time: f64, message: impl Into<String>) -> EngineError {
+    EngineError {
+        time,
+        message: message.into(),
+        step_limit: false,
+    }
+}
+
+/// One island: a model compiled from its part of the scene, and its data.
+pub struct Island {
+    /// The island's model.
+    pub model: Model,
+    /// The island's data.
+    pub data: Data,
+    /// The scene's index of each of the island's bodies (its own order, sorted).
+    pub bodies: Vec<usize>,
+    /// (island, scene) index pairs of the position and velocity coordinates.
+    coords: Vec<(usize, usize)>,
+    /// The scene's index of each of the island's declared contacts.
+    explicit: Vec<usize>,
+    /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
+    candidates: Vec<Candidate>,
+    /// The scene's index of each of the island's inputs.
+    inputs: Vec<usize>,
+    /// Its whole state at the start of the round.
+    saved: Vec<f64>,
+    /// The length of its event log then.
+    saved_log: usize,
+}
+
+/// Per scene body, the scene items that name it (to cut an island's part of the scene in
+/// time proportional to its size).
+struct SceneIndex {
+    joints: Vec<Vec<usize>>,
+    springs: Vec<Vec<usize>>,
+    contacts: Vec<Vec<usize>>,
+    inputs: Vec<Vec<usize>>,
+    shapes: Vec<Vec<usize>>,
+    /// Shapes on the ground (in every island).
+    ground_shapes: Vec<usize>,
+}
+
+impl SceneIndex {
+    fn of(scene: &Scene) -> SceneIndex {
+        let nb = scene.body.len();
+        let body: HashMap<&str, usize> = scene
+            .body
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (b.name.as_str(), i))
+            .collect();
+        let joint_child: HashMap<&str, usize> = scene
+            .joint
+            .iter()
+            .filter_map(|j| Some((j.name.as_str(), *body.get(j.child.as_str())?)))
+            .collect();
+        let mut ix = SceneIndex {
+            joints: vec![Vec::new(); nb],
+            springs: vec![Vec::new(); nb],
+            contacts: vec![Vec::new(); nb],
+            inputs: vec![Vec::new(); nb],
+            shapes: vec![Vec::new(); nb],
+            ground_shapes: Vec::new(),
+        };
+        let put = |list: &mut Vec<Vec<usize>>, name: &str, i: usize| {
+            if let Some(&b) = body.get(name) {
+                list[b].push(i);
+            }
+        };
+        for (i, j) in scene.joint.iter().enumerate() {
+            put(&mut ix.joints, &j.child, i);
+        }
+        for (i, s) in scene.spring_damper.iter().enumerate() {
+            put(&mut ix.springs, &s.body_a, i);
+            put(&mut ix.springs, &s.body_b, i);
+        }
+        for (i, c) in scene.contact.iter().enumerate() {
+            put(&mut ix.contacts, &c.sphere_body, i);
+            put(&mut ix.contacts, &c.body, i);
+        }
+        for (i, inp) in scene.input.iter().enumerate() {
+            if let Some(b) = &inp.body {
+                put(&mut ix.inputs, b, i);
+            }
+            for n in inp.joint.iter().chain(inp.joints.iter().flatten()) {
+                if let Some(&b) = joint_child.get(n.as_str()) {
+                    ix.inputs[b].push(i);
+                }
+            }
+        }
+        for (i, s) in scene.shape.iter().enumerate() {
+            if s.body == GROUND {
+                ix.ground_shapes.push(i);
+            } else {
+                put(&mut ix.shapes, &s.body, i);
+            }
+        }
+        ix
+    }
+}
+
+/// The islands of a scene, and what they do not hold.
+pub struct Islands {
+    /// The islands, ordered by their first body.
+    pub parts: Vec<Island>,
+    /// The counters of the scene before the islands, and of islands that no longer exist.
+    retired: Counters,
+    /// Dissipated energy not held by a present island [J].
+    dissipated_base: f64,
+    /// The candidate pairs of the whole scene (its shape numbering), as the broad phase
+    /// found them last (sorted).
+    pub candidates: Vec<Candidate>,
+    /// The index of each candidate pair in that list.
+    candidate_index: HashMap<Candidate, usize>,
+    /// Contact events of islands that ended since the last gathering (the scene's contact
+    /// numbering of the candidate list then).
+    retired_log: Vec<ContactEvent>,
+    /// How often the candidate pairs were found again.
+    pub rebuilds: u64,
+    /// Islands compiled (a diagnostic).
+    pub compiled: u64,
+    /// Rounds (a diagnostic).
+    pub rounds: u64,
+    /// CPU seconds spent forming islands (a diagnostic).
+    pub forming_seconds: f64,
+    /// The time of the islands [s].
+    time: f64,
+    /// Per scene body: (first position, first velocity) index of its joint in the scene's state.
+    joint_coords: Vec<(usize, usize)>,
+    /// Per scene body: the island it is in.
+    island_of: Vec<usize>,
+    /// The scene's declared contacts (before the candidate pairs' contacts).
+    n_explicit: usize,
+    index: SceneIndex,
+    params: Arc<Parameters>,
+}
+
+/// The scene and its origin: what an island is compiled from (with the parameter values the
+/// islands keep).
+pub struct Source<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its file (for errors).
+    pub origin: &'a str,
+}
+
+/// Union-find over the bodies.
+struct Sets(Vec<usize>);
+
+impl Sets {
+    fn root(&mut self, mut a: usize) -> usize {
+        while self.0[a] != a {
+            self.0[a] = self.0[self.0[a]];
+            a = self.0[a];
+        }
+        a
+    }
+    fn join(&mut self, a: Option<usize>, b: Option<usize>) {
+        if let (Some(a), Some(b)) = (a, b) {
+            let (ra, rb) = (self.root(a), self.root(b));
+            if ra != rb {
+                self.0[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+}
+
+/// The islands of model `m` with the candidate pairs `candidates`: the bodies of each, in
+/// scene order, the islands ordered by their first body.
+pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
+    let nb = m.bodies.len();
+    let mut sets = Sets((0..nb).collect());
+    for j in &m.joints {
+        sets.join(j.parent, Some(j.child));
+    }
+    for l in &m.loops {
+        sets.join(l.body_a, Some(l.body_b));
+    }
+    for s in &m.springs {
+        sets.join(s.body_a, s.body_b);
+    }
+    for c in &m.contacts[..m.groups.n_explicit] {
+        sets.join(c.sphere_body, c.body);
+    }
+    let shapes = &m.groups.shapes;
+    for k in candidates {
+        sets.join(shapes[k.sphere].body, shapes[k.other].body);
+    }
+    for input in &m.inputs {
+        if let Input::JointForce { qvels } = input {
+            let mut bodies = qvels
+                .iter()
+                .filter(|&&v| v < m.nv)
+                .map(|&v| m.joints[m.dof_joint[v]].child);
+            if let Some(first) = bodies.next() {
+                for b in bodies {
+                    sets.join(Some(first), Some(b));
+                }
+            }
+        }
+    }
+    let mut slot = vec![usize::MAX; nb];
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for b in 0..nb {
+        let r = sets.root(b);
+        if slot[r] == usize::MAX {
+            slot[r] = out.len();
+            out.push(Vec::new());
+        }
+        out[slot[r]].push(b);
+    }
+    out
+}
+
+/// True when model `m` runs as islands: the scene asks for them (`solver.islands`, the
+/// default) and either has contact groups (whose islands change as the bodies move) or more
+/// than one island.
+pub fn wanted(m: &Model) -> bool {
+    m.solver.islands && !m.bodies.is_empty() && (m.groups.is_active() || partition(m, &m.groups.candidates).len() > 1)
+}
+
+/// The body of a candidate pair that is not the ground.
+fn candidate_body(m: &Model, k: &Candidate) -> Option<usize> {
+    let shapes = &m.groups.shapes;
+    shapes[k.sphere].body.or(shapes[k.other].body)
+}
+
+/// What an island is cut from the scene: its part of the scene and of the parameter values,
+/// its candidates in its own shape numbering, the scene indices of its declared contacts and
+/// inputs.
+struct Cut {
+    scene: Scene,
+    params: Parameters,
+    candidates: Vec<Candidate>,
+    explicit: Vec<usize>,
+    inputs: Vec<usize>,
+}
+
+/// The sorted, deduplicated items of `lists` over `bodies`.
+fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
+    let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
+    let joints = items(&ix.joints, bodies);
+    let springs = items(&ix.springs, bodies);
+    let explicit = items(&ix.contacts, bodies);
+    let inputs = items(&ix.inputs, bodies);
+    let mut shapes = items(&ix.shapes, bodies);
+    shapes.extend(&ix.ground_shapes);
+    shapes.sort_unstable();
+    let s = Scene {
+        model: scene.model.clone(),
+        solver: scene.solver.clone(),
+        material: scene.material.clone(),
+        body: bodies.iter().map(|&b| scene.body[b].clone()).collect(),
+        joint: joints.iter().map(|&i| scene.joint[i].clone()).collect(),
+        spring_damper: springs.iter().map(|&i| scene.spring_damper[i].clone()).collect(),
+        contact: explicit.iter().map(|&i| scene.contact[i].clone()).collect(),
+        input: inputs.iter().map(|&i| scene.input[i].clone()).collect(),
+        shape: shapes.iter().map(|&i| scene.shape[i].clone()).collect(),
+        contact_group: scene.contact_group.clone(),
+        broad_phase: scene.broad_phase.clone(),
+    };
+    let params = Parameters {
+        materials: p.materials.clone(),
+        masses: bodies.iter().map(|&b| p.masses[b]).collect(),
+        inertias: bodies.iter().map(|&b| p.inertias[b]).collect(),
+        velocities: bodies.iter().map(|&b| p.velocities[b]).collect(),
+        angular_velocities: bodies.iter().map(|&b| p.angular_velocities[b]).collect(),
+        springs: springs.iter().map(|&i| p.springs[i]).collect(),
+        contacts: explicit.iter().map(|&i| p.contacts[i]).collect(),
+        groups: p.groups.clone(),
+        solver: p.solver.clone(),
+        input_start: inputs.iter().map(|&i| p.input_start[i]).collect(),
+    };
+    let local = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
+    let candidates = candidates
+        .iter()
+        .map(|k| Candidate {
+            pair: k.pair,
+            sphere: local(k.sphere),
+            other: local(k.other),
+        })
+        .collect();
+    Cut {
+        scene: s,
+        params,
+        candidates,
+        explicit,
+        inputs,
+    }
+}
+
+/// The contacts' memory, by the scene's numbering: declared contacts by index, candidate
+/// pairs by their shapes.
+struct Memory {
+    explicit: Vec<ContactMemory>,
+    candidates: HashMap<Candidate, ContactMemory>,
+}
+
+fn add(a: Counters, b: Counters) -> Counters {
+    Counters {
+        steps: a.steps + b.steps,
+        rejected: a.rejected + b.rejected,
+        rhs_evals: a.rhs_evals + b.rhs_evals,
+        jac_evals: a.jac_evals + b.jac_evals,
+        events: a.events + b.events,
+    }
+}
+
+impl Island {
+    /// Sets the island's coordinates from the scene's state and evaluates its event values
+    /// there (its integrator restarts at the next advance).
+    fn take_coordinates(&mut self, d: &Data) {
+        let dl = &mut self.data;
+        for &(l, g) in &self.coords {
+            dl.state[l] = d.state[g];
+        }
+        dl.time = d.time;
+        dl.solver.started = false;
+        engine::resync(&self.model, dl);
+    }
+
+    /// Copies the island's coordinates into the scene's state.
+    fn put_coordinates(&self, state: &mut [f64]) {
+        for &(l, g) in &self.coords {
+            state[g] = self.data.state[l];
+        }
+    }
+
+    /// Takes the scene's input values; an input that changed restarts the integrator.
+    fn take_inputs(&mut self, d: &Data) {
+        for (k, &g) in self.inputs.iter().enumerate() {
+            if self.data.inputs[k] != d.inputs[g] {
+                self.data.inputs[k] = d.inputs[g];
+                self.data.solver.started = false;
+            }
+        }
+    }
+
+    /// The island's dissipated energy [J].
+    pub fn dissipated(&self) -> f64 {
+        self.data.state[self.model.dissipated_index()]
+    }
+
+    /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
+    /// index of a candidate pair.
+    fn scene_contact(&self, k: usize, n_explicit: usize, candidate_index: &HashMap<Candidate, usize>) -> Option<usize> {
+        match self.explicit.get(k) {
+            Some(&g) => Some(g),
+            None => {
+                let c = self.candidates.get(k - self.explicit.len())?;
+                candidate_index.get(c).map(|i| n_explicit + i)
+            }
+        }
+    }
+}
+
+impl Islands {
+    /// Forms the islands of the scene's model `m` (compiled from `src` with `params`) at its
+    /// data `d` (its candidate pairs and contact memory as they are).
+    pub fn new(src: &Source, params: Parameters, m: &Model, d: &Data) -> Result<Islands, EngineError> {
+        let mut is = Islands::bare(src, params, m, d);
+        let memory = is.memory_of_scene(m, d);
+        let candidates = is.candidates.clone();
+        is.form(src, m, d, &candidates, &memory, Vec::new())?;
+        Ok(is)
+    }
+
+    /// No islands yet, the rest from the scene's model and data.
+    fn bare(src: &Source, params: Parameters, m: &Model, d: &Data) -> Islands {
+        let mut joint_coords = vec![(0, 0); m.bodies.len()];
+        for j in &m.joints {
+            joint_coords[j.child] = (j.qpos, m.nq + j.qvel);
+        }
+        Islands {
+            parts: Vec::new(),
+            retired: d.counters,
+            dissipated_base: d.state[m.dissipated_index()],
+            candidates: m.groups.candidates.clone(),
+            candidate_index: m.groups.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
+            retired_log: Vec::new(),
+            rebuilds: 0,
+            compiled: 0,
+            rounds: 0,
+            forming_seconds: 0.0,
+            time: d.time,
+            joint_coords,
+            island_of: vec![0; m.bodies.len()],
+            n_explicit: m.groups.n_explicit,
+            index: SceneIndex::of(src.scene),
+            params: Arc::new(params),
+        }
+    }
+
+    /// The memory of the scene's data `d` (model `m`).
+    fn memory_of_scene(&self, m: &Model, d: &Data) -> Memory {
+        let n = m.groups.n_explicit;
+        Memory {
+            explicit: d.contact_memory[..n].to_vec(),
+            candidates: m
+                .groups
+                .candidates
+                .iter()
+                .zip(&d.contact_memory[n..])
+                .map(|(k, mem)| (*k, *mem))
+                .collect(),
+        }
+    }
+
+    /// The memory the islands hold.
+    fn memory_of_islands(&self, m: &Model) -> Memory {
+        let mut memory = Memory {
+            explicit: vec![ContactMemory::default(); m.groups.n_explicit],
+            candidates: HashMap::new(),
+        };
+        for island in &self.parts {
+            let mem = &island.data.contact_memory;
+            for (k, &g) in island.explicit.iter().enumerate() {
+                memory.explicit[g] = mem[k];
+            }
+            let n = island.explicit.len();
+            for (k, c) in island.candidates.iter().enumerate() {
+                memory.candidates.insert(*c, mem[n + k]);
+            }
+        }
+        memory
+    }
+
+    /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
+    /// coordinates and reference poses), keeping those of `old` whose bodies and candidate
+    /// pairs are unchanged (with their integrators) and compiling the others with the
+    /// contact memory `memory`. A candidate pair new to the list that already touches is an
+    /// error (the bounds on the step were broken).
+    fn form(
+        &mut self,
+        src: &Source,
+        m: &Model,
+        d: &Data,
+        candidates: &[Candidate],
+        memory: &Memory,
+        old: Vec<Island>,
+    ) -> Result<(), EngineError> {
+        let was: HashSet<Candidate> = self.candidates.iter().copied().collect();
+        let fresh = old.is_empty();
+        // per body: the step its island would have taken next (a new island starts with the
+        // least of its bodies')
+        let mut next_h = vec![0.0; m.bodies.len()];
+        for island in &old {
+            let h = island.data.solver.pending_step();
+            for &b in &island.bodies {
+                next_h[b] = h;
+            }
+        }
+        let parts = partition(m, candidates);
+        for (k, bodies) in parts.iter().enumerate() {
+            for &b in bodies {
+                self.island_of[b] = k;
+            }
+        }
+        let mut per_island: Vec<Vec<Candidate>> = vec![Vec::new(); parts.len()];
+        for c in candidates {
+            if let Some(b) = candidate_body(m, c) {
+                per_island[self.island_of[b]].push(*c);
+            }
+        }
+        let mut kept: HashMap<usize, Island> = old.into_iter().map(|i| (i.bodies[0], i)).collect();
+        let mut out = Vec::with_capacity(parts.len());
+        for (bodies, cands) in parts.into_iter().zip(per_island) {
+            if let Some(mut island) = kept.remove(&bodies[0]) {
+                if island.bodies == bodies && island.candidates == cands {
+                    for (lb, &gb) in island.bodies.iter().enumerate() {
+                        island.data.broad_reference[lb] = d.broad_reference[gb];
+                    }
+                    engine::resync(&island.model, &mut island.data);
+                    out.push(island);
+                    continue;
+                }
+                self.retire(&island);
+            }
+            let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
+            let mut island = self.compile_island(src, d, bodies, cands, memory)?;
+            if h.is_finite() {
+                island.data.solver.next_h = h;
+            }
+            self.compiled += 1;
+            if !fresh {
+                let n = island.explicit.len();
+                for (k, c) in island.candidates.iter().enumerate() {
+                    if was.contains(c) {
+                        continue;
+                    }
+                    let g = contact::gap(&island.model, &island.data, n + k);
+                    if contact::event_function(&island.model.contacts[n + k], &g) > 0.0 {
+                        return Err(fail(
+                            d.time,
+                            format!(
+                                "contact {:?} touched before the broad phase listed it: a body moved more than \
+                                 half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
+                                island.model.contacts[n + k].name,
+                                m.groups.margin
+                            ),
+                        ));
+                    }
+                }
+            }
+            out.push(island);
+        }
+        for island in kept.into_values() {
+            self.retire(&island);
+        }
+        self.parts = out;
+        self.candidates = candidates.to_vec();
+        self.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
+        Ok(())
+    }
+
+    /// Keeps the counters and the dissipated energy of an island that ends.
+    fn retire(&mut self, island: &Island) {
+        self.retired = add(self.retired, island.data.counters);
+        self.dissipated_base += island.dissipated();
+        for e in &island.data.event_log {
+            if let Some(g) = island.scene_contact(e.contact, self.n_explicit, &self.candidate_index) {
+                self.retired_log.push(ContactEvent { contact: g, ..*e });
+            }
+        }
+    }
+
+    /// Compiles the island of `bodies` with the candidate pairs `candidates` (scene
+    /// numbering) and sets its data from the scene's data `d` (coordinates, inputs, flags, the
+    /// broad phase's reference poses) and the contacts' memory.
+    fn compile_island(
+        &self,
+        src: &Source,
+        d: &Data,
+        bodies: Vec<usize>,
+        candidates: Vec<Candidate>,
+        memory: &Memory,
+    ) -> Result<Island, EngineError> {
+        let cut = cut(src.scene, &self.params, &self.index, &bodies, &candidates);
+        let (mut model, mut data) = compile_with_candidates(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
+            .map_err(|e| fail(d.time, format!("an island could not be compiled: {e}")))?;
+        model.groups.stale_fraction = ISLAND_STALE_FRACTION;
+        let mut coords = Vec::new();
+        for j in &model.joints {
+            let (qpos, qvel) = self.joint_coords[bodies[j.child]];
+            coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
+            coords.extend((0..nv_of(j.kind)).map(|k| (model.nq + j.qvel + k, qvel + k)));
+        }
+        let diss = model.dissipated_index();
+        data.state[diss] = 0.0;
+        data.clamp_events = d.clamp_events;
+        data.log_peaks = d.log_peaks;
+        for (k, &g) in cut.inputs.iter().enumerate() {
+            data.inputs[k] = d.inputs[g];
+        }
+        for (k, &g) in cut.explicit.iter().enumerate() {
+            data.contact_memory[k] = memory.explicit[g];
+        }
+        let n = cut.explicit.len();
+        for (k, c) in candidates.iter().enumerate() {
+            data.contact_memory[n + k] = memory.candidates.get(c).copied().unwrap_or_default();
+        }
+        for (lb, &gb) in bodies.iter().enumerate() {
+            data.broad_reference[lb] = d.broad_reference[gb];
+        }
+        let mut island = Island {
+            model,
+            data,
+            bodies,
+            coords,
+            explicit: cut.explicit,
+            candidates,
+            inputs: cut.inputs,
+            saved: Vec::new(),
+            saved_log: 0,
+        };
+        island.take_coordinates(d);
+        Ok(island)
+    }
+
+    /// Advances every island to `t_end` in rounds (see the module's text), the scene's model
+    /// `m` and data `d` receiving the coordinates at each round's end (the rest of the state
+    /// is gathered by [`Islands::gather`]). On failure every island is taken back to the start
+    /// of the round, whose time the error carries.
+    pub fn advance(&mut self, src: &Source, m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+        if t_end.is_nan() || t_end < self.time {
+            return Err(fail(self.time, format!("cannot integrate backwards to {t_end}")));
+        }
+        for island in &mut self.parts {
+            island.take_inputs(d);
+        }
+        let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
+        let grouped = m.groups.is_active();
+        let mut rounds = 0u64;
+        while t_end - self.time > t_close {
+            rounds += 1;
+            self.rounds += 1;
+            if rounds > m.solver.max_steps {
+                return Err(EngineError {
+                    time: self.time,
+                    message: format!(
+                        "solver.max_steps = {} rounds of the islands did not reach t = {t_end} (stopped at t = {}); \
+                         take shorter communication steps or raise solver.max_steps",
+                        m.solver.max_steps, self.time
+                    ),
+                    step_limit: true,
+                });
+            }
+            let mut t_round = t_end;
+            if grouped {
+                let t = self.time + round_length(m, d);
+                if t < t_end - t_close {
+                    t_round = t;
+                }
+            }
+            for island in &mut self.parts {
+                island.saved.clear();
+                state::get(&island.model, &island.data, state::FULL, &mut island.saved);
+                island.saved_log = island.data.event_log.len();
+            }
+            let mut t_met = t_round;
+            for k in 0..self.parts.len() {
+                let island = &mut self.parts[k];
+                if let Err(e) = engine::advance(&island.model, &mut island.data, t_round) {
+                    return Err(self.take_back(src, m, k, e));
+                }
+                t_met = t_met.min(island.data.time);
+            }
+            // An island stopped early (a body moved farther than planned): the others are
+            // taken back to its time.
+            while self.parts.iter().any(|i| i.data.time > t_met) {
+                for k in 0..self.parts.len() {
+                    let island = &mut self.parts[k];
+                    if island.data.time <= t_met {
+                        continue;
+                    }
+                    restore(island);
+                    if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
+                        return Err(self.take_back(src, m, k, e));
+                    }
+                }
+                t_met = self.parts.iter().map(|i| i.data.time).fold(t_met, f64::min);
+            }
+            self.time = t_met;
+            self.put_coordinates(d);
+            if grouped {
+                d.eval_state.copy_from_slice(&d.state);
+                kinematics(m, d);
+                let moved = (0..m.bodies.len())
+                    .filter(|&b| m.groups.has_shape[b])
+                    .map(|b| groups::displacement(m, d, b))
+                    .fold(0.0, f64::max);
+                if moved >= REBUILD_FRACTION * m.groups.margin || t_met < t_round {
+                    self.rebuild(src, m, d)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// After island `k` failed with `e`: every island back to the start of the round (its
+    /// saved state) and the error, naming the island, at that time.
+    fn take_back(&mut self, src: &Source, m: &Model, k: usize, e: EngineError) -> EngineError {
+        let first = self.parts[k].bodies[0];
+        let name = src.scene.body.get(first).map_or("?", |b| b.name.as_str());
+        let _ = m;
+        for island in &mut self.parts {
+            restore(island);
+        }
+        EngineError {
+            time: self.time,
+            message: format!("in the island of body {name:?}: {}", e.message),
+            step_limit: e.step_limit,
+        }
+    }
+
+    /// Finds the candidate pairs again at the scene's data `d` (kinematics evaluated at the
+    /// gathered coordinates), makes the present poses the reference and forms the islands
+    /// again.
+    fn rebuild(&mut self, src: &Source, m: &Model, d: &mut Data) -> Result<(), EngineError> {
+        let found = m.groups.find(&|b| groups::pose(d, b));
+        for b in 0..m.bodies.len() {
+            d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
+        }
+        d.time = self.time;
+        let memory = self.memory_of_islands(m);
+        let old = std::mem::take(&mut self.parts);
+        self.rebuilds += 1;
+        let t0 = std::time::Instant::now();
+        let r = self.form(src, m, d, &found, &memory, old);
+        self.forming_seconds += t0.elapsed().as_secs_f64();
+        r
+    }
+
+    /// Writes the islands' coordinates and time into the scene's data.
+    fn put_coordinates(&self, d: &mut Data) {
+        for island in &self.parts {
+            island.put_coordinates(&mut d.state);
+        }
+        d.time = self.time;
+    }
+
+    /// Writes everything the islands hold into the scene's data `d` of model `m` (which must
+    /// have the islands' candidate pairs): coordinates, time, dissipated energy, contact
+    /// memory, counters and the contact events logged since the last gathering.
+    pub fn gather(&mut self, m: &Model, d: &mut Data) {
+        self.put_coordinates(d);
+        let candidate_index = &self.candidate_index;
+        let n_explicit = m.groups.n_explicit;
+        let (mut dissipated, mut counters) = (self.dissipated_base, self.retired);
+        let mut logged = !self.retired_log.is_empty();
+        d.event_log.append(&mut self.retired_log);
+        for island in &mut self.parts {
+            dissipated += island.dissipated();
+            counters = add(counters, island.data.counters);
+            for (k, mem) in island.data.contact_memory.iter().enumerate() {
+                if let Some(g) = island.scene_contact(k, n_explicit, candidate_index) {
+                    d.contact_memory[g] = *mem;
+                }
+            }
+            for e in &island.data.event_log {
+                if let Some(g) = island.scene_contact(e.contact, n_explicit, candidate_index) {
+                    d.event_log.push(ContactEvent { contact: g, ..*e });
+                    logged = true;
+                }
+            }
+            island.data.event_log.clear();
+        }
+        if logged {
+            // (unstable sorts allocate nothing; ties broken by the contact: deterministic)
+            d.event_log
+                .sort_unstable_by(|a, b| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact)));
+            let excess = d.event_log.len().saturating_sub(EVENT_LOG_CAPACITY);
+            d.event_log.drain(..excess);
+        }
+        d.state[m.dissipated_index()] = dissipated;
+        d.counters = counters;
+        d.outputs_valid = false;
+        d.kinematics_valid = false;
+    }
+
+    /// The parameter values the islands are compiled with.
+    pub fn params(&self) -> &Parameters {
+        &self.params
+    }
+
+    /// Sets the peak logging and the force-cut events of every island.
+    pub fn set_flags(&mut self, log_peaks: bool, clamp_events: bool) {
+        for island in &mut self.parts {
+            island.data.log_peaks = log_peaks;
+            if island.data.clamp_events != clamp_events {
+                island.data.clamp_events = clamp_events;
+                island.data.solver.started = false;
+            }
+        }
+    }
+
+    /// Appends the islands' own state: the retired counters, the dissipated energy not held
+    /// by an island, then per island its bodies and its whole state.
+    pub fn save(&self, out: &mut Vec<f64>) {
+        let r = self.retired;
+        out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
+        out.push(self.dissipated_base);
+        out.push(self.rebuilds as f64);
+        out.push(self.parts.len() as f64);
+        let mut v = Vec::new();
+        for island in &self.parts {
+            out.push(island.bodies.len() as f64);
+            out.extend(island.bodies.iter().map(|&b| b as f64));
+            v.clear();
+            state::get(&island.model, &island.data, state::FULL, &mut v);
+            out.push(v.len() as f64);
+            out.extend_from_slice(&v);
+        }
+    }
+
+    /// The islands saved by [`Islands::save`], for the scene's model `m` and data `d` (both
+    /// restored from the same saved state). Anything that does not fit is refused.
+    pub fn load(src: &Source, params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
+        let mut r = Numbers { v, pos: 0 };
+        let mut counts = [0u64; 5];
+        for c in &mut counts {
+            *c = r.count(u64::MAX)? as u64;
+        }
+        let dissipated_base = r.next()?;
+        let rebuilds = r.count(u64::MAX)? as u64;
+        let nb = m.bodies.len();
+        let n = r.count(nb as u64)?;
+        let mut lists = Vec::with_capacity(n);
+        let mut seen = vec![false; nb];
+        let mut states = Vec::with_capacity(n);
+        for _ in 0..n {
+            let len = r.count(nb as u64)?;
+            let mut bodies = Vec::with_capacity(len);
+            for _ in 0..len {
+                let b = r.count(nb as u64 - 1)?;
+                if seen[b] || bodies.last().is_some_and(|&l| l >= b) {
+                    return Err("saved islands: a body is listed twice or out of order".into());
+                }
+                seen[b] = true;
+                bodies.push(b);
+            }
+            let len = r.count(v.len() as u64)?;
+            states.push(r.take(len)?);
+            lists.push(bodies);
+        }
+        if r.pos != v.len() || seen.iter().any(|s| !s) {
+            return Err("saved islands: they do not hold every body once".into());
+        }
+        let mut is = Islands::bare(src, params, m, d);
+        let memory = is.memory_of_scene(m, d);
+        let mut parts = Vec::with_capacity(n);
+        for (bodies, st) in lists.into_iter().zip(states) {
+            let cands: Vec<Candidate> = is
+                .candidates
+                .iter()
+                .filter(|c| candidate_body(m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
+                .copied()
+                .collect();
+            let mut island = is
+                .compile_island(src, d, bodies, cands, &memory)
+                .map_err(|e| e.message)?;
+            if state::group_candidates(&island.model, st).as_ref() != Some(&island.model.groups.candidates)
+                && island.model.groups.is_active()
+            {
+                return Err("saved islands: an island's candidate pairs are not the scene's".into());
+            }
+            state::set(&island.model, &mut island.data, state::FULL, st)?;
+            engine::resync(&island.model, &mut island.data);
+            parts.push(island);
+        }
+        for (k, island) in parts.iter().enumerate() {
+            for &b in &island.bodies {
+                is.island_of[b] = k;
+            }
+        }
+        is.parts = parts;
+        is.retired = Counters {
+            steps: counts[0],
+            rejected: counts[1],
+            rhs_evals: counts[2],
+            jac_evals: counts[3],
+            events: counts[4],
+        };
+        is.dissipated_base = dissipated_base;
+        is.rebuilds = rebuilds;
+        is.time = d.time;
+        Ok(is)
+    }
+}
+
+/// Island `island` back to its state at the start of the round.
+fn restore(island: &mut Island) {
+    // (a state the island saved itself always fits)
+    if state::set(&island.model, &mut island.data, state::FULL, &island.saved).is_ok() {
+        engine::resync(&island.model, &mut island.data);
+    }
+    island.data.event_log.truncate(island.saved_log);
+}
+
+/// The time in which no body's group shapes can move [`ROUND_FRACTION`] of the margin from
+/// the reference poses at their present speed under gravity (the scene's data `d` evaluated
+/// at the islands' coordinates).
+fn round_length(m: &Model, d: &mut Data) -> f64 {
+    let g = &m.groups;
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics(m, d);
+    let a = m.gravity.norm();
+    let mut time = f64::INFINITY;
+    for b in 0..m.bodies.len() {
+        if !g.has_shape[b] {
+            continue;
+        }
+        let moved = groups::displacement(m, d, b);
+        let v = d.body_vel[b].point_velocity(&d.body_pos[b]).norm() + d.body_vel[b].ang.norm() * g.reach[b];
+        let slack = (ROUND_FRACTION * g.margin - moved).max(0.5 * REBUILD_FRACTION * g.margin);
+        let t = 2.0 * slack / (v + (v * v + 2.0 * a * slack).sqrt());
+        if t.is_finite() {
+            time = time.min(t);
+        }
+    }
+    time
+}
+
+/// Reads numbers with checks.
+struct Numbers<'a> {
+    v: &'a [f64],
+    pos: usize,
+}
+
+impl<'a> Numbers<'a> {
+    fn next(&mut self) -> Result<f64, String> {
+        let x = *self.v.get(self.pos).ok_or("saved islands are truncated")?;
+        self.pos += 1;
+        Ok(x)
+    }
+    /// A whole number in 0..=max.
+    fn count(&mut self, max: u64) -> Result<usize, String> {
+        let x = self.next()?;
+        if !(x >= 0.0 && x.fract() == 0.0 && x <= max as f64) {
+            return Err(format!("saved islands: {x} is not a count up to {max}"));
+        }
+        Ok(x as usize)
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [f64], String> {
+        let s = self
+            .v
+            .get(self.pos..self.pos + n)
+            .ok_or("saved islands are truncated")?;
+        self.pos += n;
+        Ok(s)
+    }
+}
