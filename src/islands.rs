@@ -600,6 +600,10 @@ impl Islands {
         let (mut model, mut data) = compile_with_candidates(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
             .map_err(|e| fail(d.time, format!("an island could not be compiled: {e}")))?;
         model.groups.stale_fraction = ISLAND_STALE_FRACTION;
+        // (the scene's data keeps the log; an island's holds the events of one advance and
+        // starts small: a full log's buffer would cost more to clear than the island to
+        // compile)
+        data.event_log = Vec::new();
         let mut coords = Vec::new();
         for j in &model.joints {
             let (qpos, qvel) = self.joint_coords[bodies[j.child]];
@@ -760,26 +764,20 @@ impl Islands {
         d.time = self.time;
     }
 
-    /// Writes everything the islands hold into the scene's data `d` of model `m` (which must
-    /// have the islands' candidate pairs): coordinates, time, dissipated energy, contact
-    /// memory, counters and the contact events logged since the last gathering.
+    /// Writes the islands' motion into the scene's data `d` of model `m`: coordinates, time,
+    /// dissipated energy, counters and the contact events logged since the last gathering
+    /// (numbered by the islands' candidate list, [`Islands::candidates`]).
     pub fn gather(&mut self, m: &Model, d: &mut Data) {
         self.put_coordinates(d);
-        let candidate_index = &self.candidate_index;
-        let n_explicit = m.groups.n_explicit;
+        let n_explicit = self.n_explicit;
         let (mut dissipated, mut counters) = (self.dissipated_base, self.retired);
         let mut logged = !self.retired_log.is_empty();
         d.event_log.append(&mut self.retired_log);
         for island in &mut self.parts {
             dissipated += island.dissipated();
             counters = add(counters, island.data.counters);
-            for (k, mem) in island.data.contact_memory.iter().enumerate() {
-                if let Some(g) = island.scene_contact(k, n_explicit, candidate_index) {
-                    d.contact_memory[g] = *mem;
-                }
-            }
             for e in &island.data.event_log {
-                if let Some(g) = island.scene_contact(e.contact, n_explicit, candidate_index) {
+                if let Some(g) = island.scene_contact(e.contact, n_explicit, &self.candidate_index) {
                     d.event_log.push(ContactEvent { contact: g, ..*e });
                     logged = true;
                 }
@@ -797,6 +795,37 @@ impl Islands {
         d.counters = counters;
         d.outputs_valid = false;
         d.kinematics_valid = false;
+    }
+
+    /// Writes the islands' contact memory into the scene's data `d` of model `m`, which must
+    /// have the islands' candidate pairs.
+    pub fn gather_contacts(&self, m: &Model, d: &mut Data) {
+        debug_assert!(m.groups.candidates == self.candidates);
+        for island in &self.parts {
+            for (k, mem) in island.data.contact_memory.iter().enumerate() {
+                if let Some(g) = island.scene_contact(k, self.n_explicit, &self.candidate_index) {
+                    d.contact_memory[g] = *mem;
+                }
+            }
+        }
+        d.outputs_valid = false;
+    }
+
+    /// The energies of the scene: the islands' summed, the dissipated energy of islands that
+    /// ended added.
+    pub fn energies(&mut self) -> crate::outputs::Energies {
+        let mut e = crate::outputs::Energies {
+            dissipated: self.dissipated_base,
+            ..Default::default()
+        };
+        for island in &mut self.parts {
+            let i = crate::outputs::energies(&island.model, &mut island.data);
+            e.kinetic += i.kinetic;
+            e.potential += i.potential;
+            e.contact += i.contact;
+            e.dissipated += i.dissipated;
+        }
+        e
     }
 
     /// The parameter values the islands are compiled with.
@@ -822,6 +851,10 @@ impl Islands {
         out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
         out.push(self.dissipated_base);
         out.push(self.rebuilds as f64);
+        out.push(self.candidates.len() as f64);
+        for c in &self.candidates {
+            out.extend([c.pair, c.sphere, c.other].map(|x| x as f64));
+        }
         out.push(self.parts.len() as f64);
         let mut v = Vec::new();
         for island in &self.parts {
@@ -844,6 +877,18 @@ impl Islands {
         }
         let dissipated_base = r.next()?;
         let rebuilds = r.count(u64::MAX)? as u64;
+        let (np, ns) = (m.groups.pair_names.len() as u64, m.groups.shapes.len() as u64);
+        let nc = r.count(v.len() as u64)?;
+        if nc > 0 && (np == 0 || ns == 0) {
+            return Err("saved islands hold candidate pairs, the scene has no contact groups".into());
+        }
+        let mut candidates = Vec::with_capacity(nc);
+        for _ in 0..nc {
+            let pair = r.count(np.saturating_sub(1))?;
+            let sphere = r.count(ns.saturating_sub(1))?;
+            let other = r.count(ns.saturating_sub(1))?;
+            candidates.push(Candidate { pair, sphere, other });
+        }
         let nb = m.bodies.len();
         let n = r.count(nb as u64)?;
         let mut lists = Vec::with_capacity(n);
@@ -868,6 +913,8 @@ impl Islands {
             return Err("saved islands: they do not hold every body once".into());
         }
         let mut is = Islands::bare(src, params, m, d);
+        is.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
+        is.candidates = candidates;
         let memory = is.memory_of_scene(m, d);
         let mut parts = Vec::with_capacity(n);
         for (bodies, st) in lists.into_iter().zip(states) {

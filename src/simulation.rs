@@ -309,6 +309,8 @@ impl Simulation {
             return Ok(());
         }
         let before = if self.watch.started { self.balance()? } else { 0.0 };
+        // the islands end here: the model first gets their candidate pairs and memory
+        self.sync_islands()?;
         let old = std::mem::replace(&mut self.values[vr], value);
         // the contact groups keep their candidate pairs (the data's contact memory is theirs)
         let candidates = self.running()?.model.groups.candidates.clone();
@@ -370,6 +372,9 @@ impl Simulation {
             Causality::Parameter | Causality::Input => Ok(self.value(vr)),
             _ => {
                 let target = var.target;
+                if outputs::needs(target) == outputs::Needs::Everything {
+                    self.sync_islands()?;
+                }
                 let c = self.ensure_compiled()?;
                 outputs::prepare(&c.model, &mut c.data, outputs::needs(target));
                 Ok(outputs::evaluated(&c.model, &c.data, target).unwrap_or(f64::NAN))
@@ -405,6 +410,9 @@ impl Simulation {
                 let n = outputs::needs(var.target);
                 needs = Some(needs.map_or(n, |m| m.max(n)));
             }
+        }
+        if needs == Some(outputs::Needs::Everything) {
+            self.sync_islands()?;
         }
         if let Some(n) = needs {
             let c = self.ensure_compiled()?;
@@ -631,22 +639,44 @@ impl Simulation {
         };
         let src = Source { scene, origin };
         let result = is.advance(&src, model, data, t_end);
-        if is.candidates != model.groups.candidates {
-            let (m2, mut d2) = compile::compile_with_candidates(scene, is.params(), origin, Some(&is.candidates))?;
-            d2.time = data.time;
-            d2.state.copy_from_slice(&data.state);
-            d2.inputs.copy_from_slice(&data.inputs);
-            d2.counters = data.counters;
-            d2.clamp_events = data.clamp_events;
-            d2.log_peaks = data.log_peaks;
-            d2.event_log = std::mem::take(&mut data.event_log);
-            d2.broad_reference.copy_from_slice(&data.broad_reference);
-            d2.solver.base = data.solver.base;
-            *model = m2;
-            *data = d2;
-        }
         is.gather(model, data);
+        if is.candidates == model.groups.candidates {
+            is.gather_contacts(model, data);
+        }
         result.map_err(step_error)
+    }
+
+    /// With islands: when the islands' candidate pairs changed since the model was compiled,
+    /// compiles it with theirs and gives its data their contact memory (done when something
+    /// reads the contacts, not at every communication point).
+    fn sync_islands(&mut self) -> Result<(), SimError> {
+        let (scene, origin) = (&self.scene, &self.origin);
+        let Some(Compiled {
+            model,
+            data,
+            islands: Some(is),
+            ..
+        }) = self.compiled.as_mut()
+        else {
+            return Ok(());
+        };
+        if is.candidates == model.groups.candidates {
+            return Ok(());
+        }
+        let (m2, mut d2) = compile::compile_with_candidates(scene, is.params(), origin, Some(&is.candidates))?;
+        d2.time = data.time;
+        d2.state.copy_from_slice(&data.state);
+        d2.inputs.copy_from_slice(&data.inputs);
+        d2.counters = data.counters;
+        d2.clamp_events = data.clamp_events;
+        d2.log_peaks = data.log_peaks;
+        d2.event_log = std::mem::take(&mut data.event_log);
+        d2.broad_reference.copy_from_slice(&data.broad_reference);
+        d2.solver.base = data.solver.base;
+        is.gather_contacts(&m2, &mut d2);
+        *model = m2;
+        *data = d2;
+        Ok(())
     }
 
     /// Contact groups: finds the candidate pairs again at the current state, compiles the
@@ -828,12 +858,14 @@ impl Simulation {
     /// The value of an output or calculated parameter at the current state (`None` for
     /// parameters and inputs: read those with [`Simulation::get`]).
     pub fn output(&mut self, target: VarRef) -> Result<Option<f64>, SimError> {
+        self.sync_islands()?;
         let c = self.ensure_compiled()?;
         Ok(outputs::output(&c.model, &mut c.data, target))
     }
 
     /// The compiled model (compiled from the current parameter values if needed).
     pub fn model(&mut self) -> Result<&Model, SimError> {
+        self.sync_islands()?;
         Ok(&self.ensure_compiled()?.model)
     }
 
@@ -855,11 +887,15 @@ impl Simulation {
     /// The energies at the current state.
     pub fn energies(&mut self) -> Result<Energies, SimError> {
         let c = self.ensure_compiled()?;
+        if let Some(is) = c.islands.as_mut() {
+            return Ok(is.energies());
+        }
         Ok(outputs::energies(&c.model, &mut c.data))
     }
 
     /// Largest constraint residual |Φ| at the current state.
     pub fn constraint_residual(&mut self) -> Result<f64, SimError> {
+        self.sync_islands()?;
         let c = self.ensure_compiled()?;
         Ok(outputs::constraint_residual(&c.model, &mut c.data))
     }

@@ -24,6 +24,7 @@
 
 pub mod defaults;
 pub mod groups;
+pub mod islands;
 pub mod lu;
 pub mod rhs;
 pub mod scaling;
@@ -129,6 +130,32 @@ pub enum BenchCommand {
         /// Write the generated scene for this N to a file and exit (for profiling).
         #[arg(long)]
         write_scene: Option<PathBuf>,
+    },
+    /// Independent islands at scale (spheres in a box with contact groups, the default
+    /// method) against the former pair list with one integrator: run time per simulated
+    /// second, counters, islands, fitted exponent.
+    Islands {
+        /// Sphere counts.
+        #[arg(long, value_delimiter = ',', default_value = "100,300,1000,3000")]
+        n: Vec<usize>,
+        /// Simulated time per run [s].
+        #[arg(long, default_value_t = 0.05)]
+        time: f64,
+        /// Timed runs per point.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// The former way and one integrator are timed up to this N.
+        #[arg(long, default_value_t = 1000)]
+        compare_max: usize,
+        /// Their simulated time [s].
+        #[arg(long, default_value_t = 0.05)]
+        compare_time: f64,
+        /// Broad-phase margin [m].
+        #[arg(long, default_value_t = 0.0015)]
+        margin: f64,
+        /// Output CSV.
+        #[arg(long, default_value = "docs/islands.csv")]
+        csv: PathBuf,
     },
     /// Contact groups against the explicit pair list (spheres in a box): compile time, one
     /// RHS, broad phase by sweep and prune and by grid.
@@ -252,6 +279,25 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             }
             None => scaling::run(&n, time, repeats, &csv),
         },
+        BenchCommand::Islands {
+            n,
+            time,
+            repeats,
+            compare_max,
+            compare_time,
+            margin,
+            csv,
+        } => islands::run(
+            &n,
+            &islands::Settings {
+                time,
+                repeats,
+                compare_max,
+                compare_time,
+                margin,
+            },
+            &csv,
+        ),
         BenchCommand::Groups {
             n,
             repeats,
@@ -449,7 +495,7 @@ fn step_error(e: SimError) -> String {
 
 /// Steps `sim` through the communication points of `spec` (the last one at its stop time),
 /// calling `each` after every point reached. Returns the failure, if a step failed.
-fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&mut Simulation)) -> Option<String> {
+pub fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&mut Simulation)) -> Option<String> {
     let result = sim.run(spec.stop_time, spec.interval, |s| {
         each(s);
         Ok(())
