@@ -4,16 +4,18 @@
 //! its own integrator, step-size control and located events, so that an impact in one corner
 //! of a scene does not restart the integration of the rest.
 //!
-//! The islands advance in *rounds* and meet at each round's end (the communication point, or
-//! earlier where the contact groups' candidate pairs must be found again):
+//! The islands advance in *rounds* and meet at each round's end, where the contact groups'
+//! candidate pairs may be found again (they also meet at the communication points, and go on
+//! across them: the rounds, like the steps, do not depend on the communication step):
 //!
-//! 1. the round's length: up to the communication point, or, with contact groups, the time in
+//! 1. the round's length: without contact groups, unbounded; with them, the time in
 //!    which no body's shapes can move [`ROUND_FRACTION`] of the broad-phase margin at its
 //!    present speed under gravity. A collision can speed a body up: an island then stops by itself once one
 //!    of its bodies moved [`ISLAND_STALE_FRACTION`] of the margin, and the islands that went
 //!    further are taken back to its time from the state saved at the round's start;
-//! 2. every island advances to the round's end with the engine's `advance` (continuing its
-//!    last step: meeting costs an interpolation, not a restart);
+//! 2. every island advances to the round's end (or the communication point before it) with
+//!    the engine's `advance` (continuing its last step: meeting costs an interpolation, not a
+//!    restart); the state saved for taking islands back is the one at the last meeting;
 //! 3. the coordinates are gathered into the scene's data; once a body moved an eighth of the
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
@@ -180,6 +182,8 @@ pub struct Islands {
     pub forming_seconds: f64,
     /// The time of the islands [s].
     time: f64,
+    /// The end of the present round [s] (infinite: none planned yet).
+    round_end: f64,
     /// Per scene body: (first position, first velocity) index of its joint in the scene's state.
     joint_coords: Vec<(usize, usize)>,
     /// Per scene body: the island it is in.
@@ -444,6 +448,7 @@ impl Islands {
             rounds: 0,
             forming_seconds: 0.0,
             time: d.time,
+            round_end: f64::INFINITY,
             joint_coords,
             island_of: vec![0; m.bodies.len()],
             n_explicit: m.groups.n_explicit,
@@ -670,12 +675,18 @@ impl Islands {
                     step_limit: true,
                 });
             }
+            // (the rounds do not depend on the communication points: a round planned from the
+            // state at its start goes on across them)
+            if grouped && !self.round_end.is_finite() {
+                self.round_end = self.time + round_length(m, d);
+            }
             let mut t_round = t_end;
-            if grouped {
-                let t = self.time + round_length(m, d);
-                if t < t_end - t_close {
-                    t_round = t;
-                }
+            let mut ends_round = false;
+            if self.round_end < t_end - t_close {
+                t_round = self.round_end;
+                ends_round = true;
+            } else if self.round_end <= t_end + t_close {
+                ends_round = true;
             }
             for island in &mut self.parts {
                 island.saved.clear();
@@ -707,7 +718,8 @@ impl Islands {
             }
             self.time = t_met;
             self.put_coordinates(d);
-            if grouped {
+            if grouped && (ends_round || t_met < t_round) {
+                self.round_end = f64::INFINITY;
                 d.eval_state.copy_from_slice(&d.state);
                 kinematics(m, d);
                 let moved = (0..m.bodies.len())
@@ -845,12 +857,14 @@ impl Islands {
     }
 
     /// Appends the islands' own state: the retired counters, the dissipated energy not held
-    /// by an island, then per island its bodies and its whole state.
+    /// by an island, the rebuilds, the end of the present round, the candidate pairs, then per
+    /// island its bodies and its whole state.
     pub fn save(&self, out: &mut Vec<f64>) {
         let r = self.retired;
         out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
         out.push(self.dissipated_base);
         out.push(self.rebuilds as f64);
+        out.push(self.round_end);
         out.push(self.candidates.len() as f64);
         for c in &self.candidates {
             out.extend([c.pair, c.sphere, c.other].map(|x| x as f64));
@@ -877,6 +891,13 @@ impl Islands {
         }
         let dissipated_base = r.next()?;
         let rebuilds = r.count(u64::MAX)? as u64;
+        let round_end = r.next()?;
+        if round_end.is_nan() || round_end < d.time {
+            return Err(format!(
+                "saved islands: round end {round_end} before their time {}",
+                d.time
+            ));
+        }
         let (np, ns) = (m.groups.pair_names.len() as u64, m.groups.shapes.len() as u64);
         let nc = r.count(v.len() as u64)?;
         if nc > 0 && (np == 0 || ns == 0) {
@@ -951,6 +972,7 @@ impl Islands {
         };
         is.dissipated_base = dissipated_base;
         is.rebuilds = rebuilds;
+        is.round_end = round_end;
         is.time = d.time;
         Ok(is)
     }
