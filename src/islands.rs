@@ -661,6 +661,8 @@ impl Islands {
         let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
         let grouped = m.groups.is_active();
         let mut rounds = 0u64;
+        // the steps of every island together are held to solver.max_steps per advance
+        let steps_start = self.total_steps();
         while t_end - self.time > t_close {
             rounds += 1;
             self.rounds += 1;
@@ -694,10 +696,23 @@ impl Islands {
                 island.saved_log = island.data.event_log.len();
             }
             let mut t_met = t_round;
+            let mut used = self.total_steps() - steps_start;
             for k in 0..self.parts.len() {
                 let island = &mut self.parts[k];
-                if let Err(e) = engine::advance(&island.model, &mut island.data, t_round) {
-                    return Err(self.take_back(src, m, k, e));
+                island.model.solver.max_steps = m.solver.max_steps.saturating_sub(used);
+                let before = island.data.counters.steps;
+                let result = engine::advance(&island.model, &mut island.data, t_round);
+                used += island.data.counters.steps - before;
+                if let Err(e) = result {
+                    let mut e = self.take_back(src, m, k, e);
+                    if e.step_limit {
+                        e.message = format!(
+                            "solver.max_steps = {} integrator steps of the islands together did not reach t = {t_end} \
+                             (stopped at t = {}); take shorter communication steps or raise solver.max_steps",
+                            m.solver.max_steps, self.time
+                        );
+                    }
+                    return Err(e);
                 }
                 t_met = t_met.min(island.data.time);
             }
@@ -710,6 +725,8 @@ impl Islands {
                         continue;
                     }
                     restore(island);
+                    // (the same steps again, counted once)
+                    island.model.solver.max_steps = m.solver.max_steps;
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
                         return Err(self.take_back(src, m, k, e));
                     }
@@ -732,6 +749,12 @@ impl Islands {
             }
         }
         Ok(())
+    }
+
+    /// The steps of every island since the islands were formed, with those of the islands
+    /// that ended.
+    fn total_steps(&self) -> u64 {
+        self.retired.steps + self.parts.iter().map(|i| i.data.counters.steps).sum::<u64>()
     }
 
     /// After island `k` failed with `e`: every island back to the start of the round (its
