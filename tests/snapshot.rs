@@ -93,6 +93,12 @@ fn implicit_methods_carry_their_jacobian_in_the_state_and_continue_bit_identical
     for method in [Method::Sdirk, Method::Radau5] {
         let mut carried = 0;
         for p in scenes() {
+            if p.parent().is_some_and(|d| d.ends_with("pile_of_balls")) {
+                // it runs as islands, whose integrators are saved in their own section
+                // (tests/islands.rs restores them bit for bit); the state's size below is the
+                // scene's alone; and the implicit methods on its stiff steel contacts take minutes
+                continue;
+            }
             let (plain, _) = check_scene(&p, Some(Method::Dopri5), Some(Method::Dopri5));
             // the fresh simulation starts with another method: the snapshot's parameters rule
             let (warm, n) = check_scene(&p, Some(method), Some(Method::Dopri5));
