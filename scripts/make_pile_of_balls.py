@@ -30,7 +30,7 @@ name = "pile_of_balls"
 description = "{n} steel balls dropped into a square box (contact groups, independent islands)"
 gravity = [0.0, 0.0, -9.81]
 stop_time = 0.4
-interval = 1e-2
+interval = 1e-3
 
 [broad_phase]
 margin = 0.002

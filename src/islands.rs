@@ -178,8 +178,7 @@ pub struct Islands {
     pub compiled: u64,
     /// Rounds (a diagnostic).
     pub rounds: u64,
-    /// CPU seconds spent forming islands (a diagnostic).
-    pub forming_seconds: f64,
+
     /// The time of the islands [s].
     time: f64,
     /// The end of the present round [s] (infinite: none planned yet).
@@ -446,7 +445,6 @@ impl Islands {
             rebuilds: 0,
             compiled: 0,
             rounds: 0,
-            forming_seconds: 0.0,
             time: d.time,
             round_end: f64::INFINITY,
             joint_coords,
@@ -785,10 +783,7 @@ impl Islands {
         let memory = self.memory_of_islands(m);
         let old = std::mem::take(&mut self.parts);
         self.rebuilds += 1;
-        let t0 = std::time::Instant::now();
-        let r = self.form(src, m, d, &found, &memory, old);
-        self.forming_seconds += t0.elapsed().as_secs_f64();
-        r
+        self.form(src, m, d, &found, &memory, old)
     }
 
     /// Writes the islands' coordinates and time into the scene's data.

@@ -180,10 +180,10 @@ impl Simulation {
         self.refreshes + islands.map_or(0, |is| is.rebuilds)
     }
 
-    /// Diagnostics of the islands: (rounds, islands compiled, CPU seconds forming them).
-    pub fn island_diagnostics(&self) -> (u64, u64, f64) {
+    /// Diagnostics of the islands: (rounds, islands compiled).
+    pub fn island_diagnostics(&self) -> (u64, u64) {
         let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
-        islands.map_or((0, 0, 0.0), |is| (is.rounds, is.compiled, is.forming_seconds))
+        islands.map_or((0, 0), |is| (is.rounds, is.compiled))
     }
 
     /// The independent islands the scene runs as (empty when it runs as one: a single

@@ -98,7 +98,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         }
         let islands = sim.islands();
         let largest = islands.iter().map(|i| i.bodies.len()).max().unwrap_or(0);
-        let (rounds, compiled, _) = sim.island_diagnostics();
+        let (rounds, compiled) = sim.island_diagnostics();
         let rebuilds = sim.candidate_refreshes();
         let (former, one) = if n <= s.compare_max {
             let t0 = Instant::now();
