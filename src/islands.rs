@@ -702,7 +702,7 @@ impl Islands {
                 let result = engine::advance(&island.model, &mut island.data, t_round);
                 used += island.data.counters.steps - before;
                 if let Err(e) = result {
-                    let mut e = self.take_back(src, m, k, e);
+                    let mut e = self.take_back(src, k, e);
                     if e.step_limit {
                         e.message = format!(
                             "solver.max_steps = {} integrator steps of the islands together did not reach t = {t_end} \
@@ -726,7 +726,7 @@ impl Islands {
                     // (the same steps again, counted once)
                     island.model.solver.max_steps = m.solver.max_steps;
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
-                        return Err(self.take_back(src, m, k, e));
+                        return Err(self.take_back(src, k, e));
                     }
                 }
                 t_met = self.parts.iter().map(|i| i.data.time).fold(t_met, f64::min);
@@ -757,10 +757,9 @@ impl Islands {
 
     /// After island `k` failed with `e`: every island back to the start of the round (its
     /// saved state) and the error, naming the island, at that time.
-    fn take_back(&mut self, src: &Source, m: &Model, k: usize, e: EngineError) -> EngineError {
+    fn take_back(&mut self, src: &Source, k: usize, e: EngineError) -> EngineError {
         let first = self.parts[k].bodies[0];
         let name = src.scene.body.get(first).map_or("?", |b| b.name.as_str());
-        let _ = m;
         for island in &mut self.parts {
             restore(island);
         }
