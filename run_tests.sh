@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The project's test command: build, Rust tests, build the library the FMUs ship with, export
-# the bundled FMUs, then test the exported .fmu files through real FMI hosts (fmpy in a Python
-# venv, libcosim through libcosimpy, and the FMU Compliance Checker where present: FMU_CHECK, see
-# docs/fmi.md).
+# The project's test command: build, Rust tests, the main job (which builds the libraries the
+# FMUs ship with, for linux64 and win64, and exports the bundled FMUs), then test the exported
+# .fmu files through real FMI hosts (fmpy in a Python venv, libcosim through libcosimpy, the
+# project's own C host for both platforms, the win64 one under wine, and the FMU Compliance
+# Checker where present: FMU_CHECK, see docs/fmi.md).
 #
 #   ./run_tests.sh            everything
 #   ./run_tests.sh -k guid    extra arguments go to pytest
@@ -17,6 +18,30 @@ else
     echo "(clippy not installed: skipped)"
 fi
 
+echo "== tools for the win64 library and its tests: the Rust target, MinGW-w64, wine"
+# The FMUs carry a win64 library beside the linux64 one (scripts/build_fmu_library.sh), and
+# tests/python/test_windows.py runs it under wine. Installed here where missing (rustup; apt-get
+# as root); where that is impossible the script says what is missing and stops.
+if ! rustup target list --installed 2>/dev/null | grep -qx x86_64-pc-windows-gnu; then
+    rustup target add x86_64-pc-windows-gnu
+fi
+missing=()
+command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1 || missing+=(gcc-mingw-w64-x86-64)
+[ -x /usr/lib/wine/wine64 ] || command -v wine64 >/dev/null 2>&1 || missing+=(wine64)
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+        echo "   apt-get install ${missing[*]}"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get install -y -q "${missing[@]}" >/dev/null 2>&1 ||
+            { apt-get update -q >/dev/null && apt-get install -y -q "${missing[@]}" >/dev/null; }
+    else
+        echo "error: missing Debian/Ubuntu packages: ${missing[*]} (apt-get install ${missing[*]}, as root)" >&2
+        exit 1
+    fi
+fi
+# with the tools present, the Windows tests must run (not skip)
+export CONTACT_FMU_WINDOWS_TESTS=required
+
 # (the shared-library test dlopens target/release/libcontact_fmu.so)
 echo "== cargo build --release"
 cargo build --release
@@ -24,21 +49,9 @@ cargo build --release
 echo "== cargo test --release"
 cargo test --release
 
-# `cargo build` rebuilds the library after `cargo test` has built it (the test build leaves it
-# different), so it is built again here, before the FMU library: `export` below then finds it
-# up to date, and the `dist` library is the newest
-echo "== cargo build --release, after the tests"
-cargo build --release
-
-echo "== the FMU library: cargo profile dist (stripped, LTO), glibc 2.17 through cargo-zigbuild"
-scripts/build_fmu_library.sh
-
-echo "== export the bundled FMUs"
-mkdir -p target/fmu
-for scene in fmu/*/scene.toml; do
-    name="$(basename "$(dirname "$scene")")"
-    cargo run --release --quiet -- export "$scene" -o "target/fmu/$name.fmu"
-done
+echo "== the main job (cargo run --release): builds the FMU libraries (linux64, win64) when they"
+echo "   are not built from these sources, exports target/fmu/<name>.fmu, runs each default experiment"
+cargo run --release
 
 echo "== Python venv (.venv)"
 if [ ! -x .venv/bin/python ]; then

@@ -621,7 +621,7 @@ pub fn loop_joint_coordinate(m: &Model, d: &Data, li: usize) -> (f64, f64) {
     match lc.kind {
         JointType::Revolute => {
             let (ua, ub) = (ta.column(1).into_owned(), tb.column(1).into_owned());
-            let angle = ua.cross(&ub).dot(&axis).atan2(ua.dot(&ub));
+            let angle = crate::math::atan2(ua.cross(&ub).dot(&axis), ua.dot(&ub));
             (angle, (fb.vel.ang - fa.vel.ang).dot(&axis))
         }
         JointType::Prismatic => {

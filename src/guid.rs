@@ -9,6 +9,21 @@ use sha2::{Digest, Sha256};
 /// The crate version, mixed into the GUID (and written into `generationTool` by the exporter).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
+/// The fingerprint of the sources this build was compiled from (16 hex digits, computed by
+/// `build.rs`): equal in the command line and in a library built from the same sources.
+pub const SOURCES: &str = env!("CONTACT_FMU_SOURCES");
+
+/// What a library says of itself in its first log message, and what the exporter looks for
+/// in a library file before packing it ([`crate::export::build_of`]): the version and the
+/// sources' fingerprint, as one string constant (so it stands in the file as written).
+pub const BUILD: &str = concat!(
+    "contact-fmu ",
+    env!("CARGO_PKG_VERSION"),
+    " (sources ",
+    env!("CONTACT_FMU_SOURCES"),
+    ")"
+);
+
 /// SHA-256 of the scene text followed by the crate version.
 fn digest(scene_text: &str) -> [u8; 32] {
     let mut h = Sha256::new();

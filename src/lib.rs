@@ -2,7 +2,7 @@
 //! shipped as FMI 2.0 Co-Simulation FMUs.
 //!
 //! The layers, bottom up (docs/architecture.md has the whole map):
-//! - [`scene`] (the TOML scene), [`spatial`], [`linalg`]: no physics state;
+//! - [`scene`] (the TOML scene), [`spatial`], [`linalg`], [`math`]: no physics state;
 //! - [`integrator`]: the time-stepping methods behind one trait;
 //! - [`model`]: the compiled, read-only `Model`, the mutable `Data` and the state spec;
 //! - [`kinematics`], [`dynamics`], [`contact`], [`forward`] (the right-hand side pipeline);
@@ -31,6 +31,7 @@ pub mod integrator;
 pub mod islands;
 pub mod kinematics;
 pub mod linalg;
+pub mod math;
 pub mod model;
 pub mod outputs;
 pub mod run;

@@ -228,9 +228,9 @@ pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool 
     let at = |i: usize, j: usize| 2 * (i * n + j);
     for k in 0..n {
         let mut piv = k;
-        let mut best = a[at(k, k)].hypot(a[at(k, k) + 1]);
+        let mut best = crate::math::hypot(a[at(k, k)], a[at(k, k) + 1]);
         for i in k + 1..n {
-            let v = a[at(i, k)].hypot(a[at(i, k) + 1]);
+            let v = crate::math::hypot(a[at(i, k)], a[at(i, k) + 1]);
             if v > best {
                 best = v;
                 piv = i;

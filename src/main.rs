@@ -1,4 +1,5 @@
-//! The `contact-fmu` command line: the main job (no arguments), `export` and `simulate`.
+//! The `contact-fmu` command line: the main job (no arguments), `export`, `variables`,
+//! `simulate` and `bench`.
 
 use clap::{Parser, Subcommand};
 use contact_fmu::run::{self, RunOptions};
@@ -18,18 +19,29 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build one FMU from a scene file.
+    /// Build one FMU from a scene file, with the libraries for linux64 and win64.
     Export {
         /// Scene file (TOML).
         scene: PathBuf,
         /// Output .fmu (default target/fmu/<name>.fmu).
-        #[arg(short, long)]
-        o: Option<PathBuf>,
+        #[arg(short, long, value_name = "OUT.fmu")]
+        output: Option<PathBuf>,
         /// Also pack a library built for another platform (win64, win32, linux64, linux32,
-        /// darwin64) as binaries/<PLATFORM>/<name>.<dll|so|dylib>; repeatable. One for this
-        /// platform replaces the library the exporter would find.
+        /// darwin64) as binaries/<PLATFORM>/<name>.<dll|so|dylib>; repeatable. One for a
+        /// platform of --platforms replaces the library the exporter would find.
         #[arg(long = "binary", value_name = "PLATFORM=PATH")]
         binary: Vec<String>,
+        /// The platforms whose `dist` library (built by scripts/build_fmu_library.sh from these
+        /// sources) the FMU carries, comma-separated [default: linux64,win64].
+        #[arg(long, value_name = "LIST")]
+        platforms: Option<String>,
+    },
+    /// List a scene's FMU variables (names for --set, causality, start values, units).
+    Variables {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        #[command(flatten)]
+        options: contact_fmu::run::VariablesOptions,
     },
     /// Run a scene natively (no FMI host), same engine and variable names as the FMU.
     Simulate {
@@ -49,11 +61,15 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         None => run::main_job(std::path::Path::new("fmu"), std::path::Path::new("target/fmu")),
-        Some(Command::Export { scene, o, binary }) => {
-            contact_fmu::export::export_command(&scene, o.as_deref(), &binary)
-                .map(|e| println!("wrote {}", e.path.display()))
-                .map_err(|e| e.to_string())
-        }
+        Some(Command::Export {
+            scene,
+            output,
+            binary,
+            platforms,
+        }) => contact_fmu::export::export_command(&scene, output.as_deref(), &binary, platforms.as_deref())
+            .map(|e| println!("wrote {}", e.path.display()))
+            .map_err(|e| e.to_string()),
+        Some(Command::Variables { scene, options }) => run::variables_command(&scene, &options),
         Some(Command::Simulate { scene, options }) => run::simulate_command(&scene, &options).map(|_| ()),
         Some(Command::Bench { what }) => contact_fmu::bench::bench_command(what),
     };

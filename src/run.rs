@@ -44,6 +44,15 @@ pub struct RunOptions {
     pub resume: Option<PathBuf>,
 }
 
+/// Options of `contact-fmu variables`.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct VariablesOptions {
+    /// Only variables of these causalities (comma-separated: parameter, calculatedParameter,
+    /// input, output).
+    #[arg(long, value_name = "LIST")]
+    pub causality: Option<String>,
+}
+
 /// Summary of a run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSummary {
@@ -57,6 +66,9 @@ pub struct RunSummary {
     pub rhs_evals: u64,
     /// Wall-clock run time [s].
     pub seconds: f64,
+    /// CPU time of the run [s] (the calling thread's; the wall-clock time where the platform
+    /// has no thread CPU clock).
+    pub cpu_seconds: f64,
     /// Relative energy-balance error at the end: |ΔE_total + E_dissipated| / E_scale, with
     /// E_scale the larger of |E_total(0)| and the largest kinetic energy seen.
     pub energy_error: f64,
@@ -116,6 +128,7 @@ pub fn run_simulation(
     let mut scale = e0.total().abs().max(e0.kinetic);
     each(sim)?;
     let start = Instant::now();
+    let cpu_start = crate::bench::thread_cpu_seconds();
     let result = sim.run(stop_time, interval, |sim| {
         each(sim)?;
         let e = sim.energies().map_err(|e| e.to_string())?;
@@ -131,6 +144,7 @@ pub fn run_simulation(
         other => other.to_string(),
     })?;
     let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = crate::bench::thread_cpu_seconds() - cpu_start;
     let e1 = sim.energies().map_err(|e| e.to_string())?;
     let c = sim.counters();
     let err = ((e1.total() + e1.dissipated) - (e0.total() + e0.dissipated)).abs() / scale.max(f64::MIN_POSITIVE);
@@ -140,12 +154,19 @@ pub fn run_simulation(
         steps: c.steps,
         rhs_evals: c.rhs_evals,
         seconds,
+        cpu_seconds,
         energy_error: err,
     })
 }
 
 /// `contact-fmu simulate`.
 pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, String> {
+    simulate(scene, o, !o.quiet)
+}
+
+/// [`simulate_command`], with the progress lines (`t = ... s of ... s`, every 2 s on standard
+/// error) on or off apart from `quiet`.
+fn simulate(scene: &Path, o: &RunOptions, progress: bool) -> Result<RunSummary, String> {
     let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
     for w in warnings_of(&mut sim) {
         eprintln!("warning: {w}");
@@ -180,7 +201,6 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
         None => None,
     };
     let mut last_report = Instant::now();
-    let quiet = o.quiet;
     // one row at a time, in one buffer: shortest round-trip digits (ryu), no allocation
     let (mut line, mut numbers) = (String::new(), ryu::Buffer::new());
     let summary = run_simulation(
@@ -201,8 +221,12 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
             Ok(())
         },
         |t| {
-            if !quiet && last_report.elapsed().as_secs_f64() > 2.0 {
-                eprintln!("  t = {t:.6} s of {stop} s ({:.0} %)", 100.0 * t / stop);
+            if progress && last_report.elapsed().as_secs_f64() > 2.0 {
+                eprintln!(
+                    "  {}: t = {t:.6} s of {stop} s ({:.0} %)",
+                    scene.display(),
+                    100.0 * t / stop
+                );
                 last_report = Instant::now();
             }
         },
@@ -226,32 +250,128 @@ pub fn simulate_command(scene: &Path, o: &RunOptions) -> Result<RunSummary, Stri
     Ok(summary)
 }
 
+/// `contact-fmu variables`: the scene's FMU variables (as the exported FMU has them), one line
+/// each: name, causality, variability, type, start value (enumerations by item name), unit and
+/// description.
+pub fn variables_command(scene: &Path, o: &VariablesOptions) -> Result<(), String> {
+    let sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
+    let wanted: Option<Vec<&str>> = o.causality.as_deref().map(|l| l.split(',').map(str::trim).collect());
+    if let Some(w) = &wanted {
+        let known = ["parameter", "calculatedParameter", "input", "output"];
+        if let Some(bad) = w.iter().find(|c| !known.contains(c)) {
+            return Err(format!(
+                "--causality: unknown causality {bad:?} (known: {})",
+                known.join(", ")
+            ));
+        }
+    }
+    let mut rows = vec![[
+        "name".to_string(),
+        "causality".into(),
+        "variability".into(),
+        "type".into(),
+        "start".into(),
+        "unit".into(),
+        "description".into(),
+    ]];
+    for v in sim.variables() {
+        if wanted.as_ref().is_some_and(|w| !w.contains(&v.causality.name())) {
+            continue;
+        }
+        let (type_name, start) = match v.vtype {
+            VarType::Real => ("Real".to_string(), v.start.map(crate::export::format_real)),
+            VarType::Integer => ("Integer".into(), v.start.map(|x| format!("{x}"))),
+            VarType::Boolean => ("Boolean".into(), v.start.map(|x| (x != 0.0).to_string())),
+            VarType::Enumeration(e) => (
+                e.type_name().to_string(),
+                v.start.map(|x| {
+                    e.items()
+                        .iter()
+                        .find(|(_, i)| *i as f64 == x)
+                        .map_or(format!("{x}"), |(n, _)| n.to_string())
+                }),
+            ),
+        };
+        rows.push([
+            v.name.clone(),
+            v.causality.name().into(),
+            v.variability.name().into(),
+            type_name,
+            start.unwrap_or_default(),
+            v.unit.unwrap_or("").into(),
+            crate::export::describe(v),
+        ]);
+    }
+    let mut widths = [0usize; 6];
+    for r in &rows {
+        for (w, cell) in widths.iter_mut().zip(r.iter()) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let mut out = String::new();
+    for r in &rows {
+        for (w, cell) in widths.iter().zip(r.iter()) {
+            out.push_str(&format!("{cell:<w$}  "));
+        }
+        out.push_str(&r[6]);
+        out.push('\n');
+    }
+    print!("{out}");
+    Ok(())
+}
+
 fn warnings_of(sim: &mut Simulation) -> Vec<String> {
     sim.warnings().unwrap_or_default()
 }
 
-/// Prints the summary table.
+/// Prints the summary table: per run the simulated time, accepted steps, RHS evaluations, CPU
+/// time, the real-time factor (simulated over CPU time) and the energy-balance error.
 pub fn print_table(rows: &[RunSummary]) {
     println!(
-        "{:<16} {:>10} {:>9} {:>10} {:>10} {:>10} {:>12}",
-        "scene", "sim time", "steps", "rhs evals", "run time", "RT factor", "energy err"
+        "{:<16} {:>10} {:>9} {:>10} {:>12} {:>10} {:>12}",
+        "scene", "sim time", "steps", "rhs evals", "cpu time", "RT factor", "energy err"
     );
     for r in rows {
         println!(
-            "{:<16} {:>9.3}s {:>9} {:>10} {:>9.3}s {:>10.1} {:>12.3e}",
+            "{:<16} {:>9.3}s {:>9} {:>10} {:>12} {:>10} {:>12.3e}",
             r.name,
             r.simulated,
             r.steps,
             r.rhs_evals,
-            r.seconds,
-            r.simulated / r.seconds.max(1e-9),
+            cpu_text(r.cpu_seconds),
+            significant(r.simulated / r.cpu_seconds.max(1e-9)),
             r.energy_error
         );
     }
 }
 
-/// The main job: export every `fmu/<name>/scene.toml` to `out_dir/<name>.fmu`, run each
-/// default experiment natively and print one table.
+/// A CPU time with three significant digits in s or ms (`1.23 s`, `45.6 ms`, `0.789 ms`).
+fn cpu_text(seconds: f64) -> String {
+    if seconds >= 1.0 {
+        format!("{} s", significant(seconds))
+    } else {
+        format!("{} ms", significant(seconds * 1e3))
+    }
+}
+
+/// `x` with three significant digits (at least one decimal below 100).
+fn significant(x: f64) -> String {
+    let decimals = if x >= 100.0 {
+        0
+    } else if x >= 10.0 {
+        1
+    } else if x >= 1.0 {
+        2
+    } else {
+        3
+    };
+    format!("{x:.decimals$}")
+}
+
+/// The main job: make sure the FMU libraries of every default platform (linux64, win64) are
+/// built from these sources (else build them with `scripts/build_fmu_library.sh`), export every
+/// `fmu/<name>/scene.toml` to `out_dir/<name>.fmu` with them, run each default experiment
+/// natively and print one table. Progress goes to standard error.
 pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(fmu_dir)
         .map_err(|e| format!("{}: {e} (run from the repository root)", fmu_dir.display()))?
@@ -260,8 +380,13 @@ pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
         .filter(|p| p.is_file())
         .collect();
     scenes.sort();
+    let libraries = ensure_libraries()?;
+    let binaries: Vec<String> = libraries
+        .iter()
+        .map(|(platform, path)| format!("{platform}={}", path.display()))
+        .collect();
     let mut rows = Vec::new();
-    for scene in &scenes {
+    for (k, scene) in scenes.iter().enumerate() {
         let sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
         let name = sim.scene().model.name.clone();
         let folder = scene
@@ -276,14 +401,77 @@ pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
             ));
         }
         let out = out_dir.join(format!("{name}.fmu"));
-        let exported = crate::export::export_command(scene, Some(&out), &[]).map_err(|e| e.to_string())?;
-        eprintln!("exported {}", exported.path.display());
+        let exported = crate::export::export_command(scene, Some(&out), &binaries, None).map_err(|e| e.to_string())?;
+        eprintln!(
+            "[{}/{}] exported {} ({} kB); running its default experiment ({} s)",
+            k + 1,
+            scenes.len(),
+            exported.path.display(),
+            std::fs::metadata(&exported.path).map_or(0, |m| m.len()) / 1000,
+            sim.scene().model.stop_time
+        );
         let opts = RunOptions {
             quiet: true,
             ..Default::default()
         };
-        rows.push(simulate_command(scene, &opts)?);
+        rows.push(simulate(scene, &opts, true)?);
     }
     print_table(&rows);
     Ok(())
+}
+
+/// The `dist` library of every default platform built from these sources: found, or built by
+/// `scripts/build_fmu_library.sh` (run from the current directory, the repository root), or
+/// an error naming the step that failed.
+fn ensure_libraries() -> Result<Vec<(String, PathBuf)>, String> {
+    use crate::export::{dist_library, missing_message, platform, DEFAULT_PLATFORMS};
+    let find = || -> Vec<(String, Result<PathBuf, crate::export::Missing>)> {
+        DEFAULT_PLATFORMS
+            .iter()
+            .filter_map(|&p| platform(p))
+            .map(|p| (p.name.to_string(), dist_library(p)))
+            .collect()
+    };
+    let mut found = find();
+    if found.iter().any(|(_, r)| r.is_err()) {
+        let script = Path::new("scripts").join("build_fmu_library.sh");
+        if !script.is_file() {
+            let (platform, why) = found
+                .iter()
+                .find_map(|(p, r)| r.as_ref().err().map(|w| (p, w)))
+                .unwrap();
+            return Err(format!(
+                "{} (and {} is not here: run from the repository root)",
+                missing_message(platform, why),
+                script.display()
+            ));
+        }
+        let which: Vec<&str> = found
+            .iter()
+            .filter(|(_, r)| r.is_err())
+            .map(|(p, _)| p.as_str())
+            .collect();
+        eprintln!(
+            "== building the FMU libraries ({}) from these sources: {} (cargo profile dist; the first build takes a few minutes)",
+            which.join(", "),
+            script.display()
+        );
+        let status = std::process::Command::new("bash")
+            .arg(&script)
+            .args(&which)
+            .status()
+            .map_err(|e| format!("cannot run {}: {e}", script.display()))?;
+        if !status.success() {
+            return Err(format!(
+                "building the FMU libraries failed ({} {}: {status}); its message above names the step",
+                script.display(),
+                which.join(" ")
+            ));
+        }
+        found = find();
+    }
+    found
+        .into_iter()
+        .map(|(p, r)| r.map(|path| (p.clone(), path)).map_err(|why| missing_message(&p, &why)))
+        .collect()
 }

@@ -73,6 +73,30 @@ pub enum Variability {
     Continuous,
 }
 
+impl Causality {
+    /// The name FMI gives it (`causality` attribute).
+    pub fn name(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+        }
+    }
+}
+
+impl Variability {
+    /// The name FMI gives it (`variability` attribute).
+    pub fn name(self) -> &'static str {
+        match self {
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
 /// What a variable refers to inside the simulation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum VarRef {

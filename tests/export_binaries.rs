@@ -89,11 +89,21 @@ fn libraries_for_three_platforms_are_packed_under_their_names() {
 }
 
 #[test]
-fn another_platform_comes_in_addition_to_this_one() {
+fn another_platform_comes_in_addition_to_the_chosen_ones() {
     let s = Scratch::new("added");
     let fmu = s.0.join("added.fmu");
-    let o = export(&fmu, &[format!("win32={}", s.path("contact_fmu.dll"))]);
+    // this platform's library named by CONTACT_FMU_LIBRARY, only this platform by --platforms
+    let o = Command::new(env!("CARGO_BIN_EXE_contact-fmu"))
+        .args(["export", SCENE, "-o"])
+        .arg(&fmu)
+        .args(["--platforms", contact_fmu::export::PLATFORM])
+        .args(["--binary", &format!("win32={}", s.path("contact_fmu.dll"))])
+        .env("CONTACT_FMU_LIBRARY", s.path("libcontact_fmu.so"))
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // a stand-in is no contact-fmu library: the exporter says so (and packs it, as named)
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is not a contact-fmu library"));
     let names: Vec<String> = binaries_in(&fmu).into_iter().map(|(n, _)| n).collect();
     let this = format!(
         "binaries/{}/bouncing_ball.{}",
@@ -106,6 +116,90 @@ fn another_platform_comes_in_addition_to_this_one() {
     );
     assert!(names.contains(&this), "{names:?}");
     assert_eq!(names.len(), 2);
+}
+
+/// A copy of the exporter in `<scratch>/target/release/`, so that its `dist` libraries are
+/// looked for in `<scratch>/target/<triple>/dist/`, where the test puts files of its choice.
+fn exporter_in(s: &Scratch) -> PathBuf {
+    let exe = s.0.join("target").join("release").join("contact-fmu");
+    std::fs::create_dir_all(exe.parent().unwrap()).unwrap();
+    std::fs::copy(env!("CARGO_BIN_EXE_contact-fmu"), &exe).unwrap();
+    exe
+}
+
+fn dist_file(s: &Scratch, triple: &str, file: &str) -> PathBuf {
+    let p = s.0.join("target").join(triple).join("dist").join(file);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn the_default_libraries_are_the_dist_builds_of_these_sources_or_nothing() {
+    let s = Scratch::new("defaults");
+    let exe = exporter_in(&s);
+    let fmu = s.0.join("defaults.fmu");
+    let run = || {
+        Command::new(&exe)
+            .args(["export", SCENE, "-o"])
+            .arg(&fmu)
+            .env_remove("CONTACT_FMU_LIBRARY")
+            .output()
+            .unwrap()
+    };
+    let so = dist_file(&s, "x86_64-unknown-linux-gnu", "libcontact_fmu.so");
+    let dll = dist_file(&s, "x86_64-pc-windows-gnu", "contact_fmu.dll");
+    // nothing built: refused, saying how to build them and how to name another library
+    let o = run();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("no linux64 library")
+            && err.contains("scripts/build_fmu_library.sh")
+            && err.contains("CONTACT_FMU_LIBRARY")
+            && err.contains("--platforms"),
+        "{err}"
+    );
+    assert!(!fmu.exists());
+    // built from other sources: refused, whatever the file times
+    let other = b"\0\0contact-fmu 0.0.9 (sources 0123456789abcdef)\0".to_vec();
+    let mine = format!("\0ELF..{}..\0", contact_fmu::guid::BUILD).into_bytes();
+    std::fs::write(&so, &mine).unwrap();
+    std::fs::write(&dll, &other).unwrap();
+    let o = run();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("was built from other sources") && err.contains("contact_fmu.dll"),
+        "{err}"
+    );
+    assert!(!fmu.exists());
+    // both built from these sources: packed, one per default platform
+    std::fs::write(&dll, &mine).unwrap();
+    let o = run();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let names: Vec<String> = binaries_in(&fmu).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(
+        names,
+        ["binaries/linux64/bouncing_ball.so", "binaries/win64/bouncing_ball.dll"]
+    );
+    // --platforms leaves one out
+    std::fs::remove_file(&dll).unwrap();
+    let o = Command::new(&exe)
+        .args(["export", SCENE, "--platforms", "linux64", "-o"])
+        .arg(&fmu)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(binaries_in(&fmu).len(), 1);
+}
+
+#[test]
+fn the_build_string_is_found_in_a_library_file() {
+    use contact_fmu::export::build_of;
+    let text = format!("xx contact-fmu 1.2.3 ... {} yy", contact_fmu::guid::BUILD);
+    assert_eq!(build_of(text.as_bytes()).as_deref(), Some(contact_fmu::guid::BUILD));
+    assert_eq!(build_of(b"contact-fmu 0.1.0 (sources 0123)"), None);
+    assert_eq!(build_of(b"(sources 0123456789abcdef)"), None);
 }
 
 #[test]

@@ -66,7 +66,7 @@ pub fn dry_coefficient(f: &Friction, s: f64) -> f64 {
         f.mu
     } else {
         let x = s / f.stribeck_velocity;
-        f.mu + (f.mu_static - f.mu) * (-x * x).exp()
+        f.mu + (f.mu_static - f.mu) * crate::math::exp(-x * x)
     }
 }
 

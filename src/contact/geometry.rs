@@ -69,7 +69,7 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
             let mut margin = half_length - s.abs();
             if let Some(range) = theta_range {
                 let refw = fo.rot * reference;
-                let theta = er.dot(&k.cross(&refw)).atan2(er.dot(&refw));
+                let theta = crate::math::atan2(er.dot(&k.cross(&refw)), er.dot(&refw));
                 margin = margin.min(radius * angular_margin(theta, *range));
             }
             let surface = a0 + k * s + er * *radius;

@@ -336,16 +336,16 @@ fn block_scale(a: &[f64], n: usize) -> f64 {
 /// `κ > 0` that puts it on the rim (slip; `|p|` falls monotonically with κ, found by
 /// bisection in `(0, |b|/radius]`).
 pub fn disc_minimum([a0, a1, a2]: [f64; 3], b: [f64; 2], radius: f64) -> [f64; 2] {
-    let bn = b[0].hypot(b[1]);
+    let bn = crate::math::hypot(b[0], b[1]);
     if radius <= 0.0 || bn == 0.0 || !radius.is_finite() {
         return [0.0; 2];
     }
     // eigen decomposition of the symmetric 2 × 2 matrix
     let (mean, half_diff) = (0.5 * (a0 + a2), 0.5 * (a0 - a2));
-    let root = half_diff.hypot(a1);
+    let root = crate::math::hypot(half_diff, a1);
     let lambda = [(mean + root).max(0.0), (mean - root).max(0.0)];
-    let angle = 0.5 * a1.atan2(half_diff);
-    let (sn, cs) = angle.sin_cos();
+    let angle = 0.5 * crate::math::atan2(a1, half_diff);
+    let (sn, cs) = crate::math::sin_cos(angle);
     let e = [[cs, sn], [-sn, cs]];
     let bt = [e[0][0] * b[0] + e[0][1] * b[1], e[1][0] * b[0] + e[1][1] * b[1]];
     let small = 1e-12 * lambda[0].max(1e-300);
@@ -361,7 +361,7 @@ pub fn disc_minimum([a0, a1, a2]: [f64; 3], b: [f64; 2], radius: f64) -> [f64; 2
     let unbounded = (0..2).any(|i| lambda[i] <= small && bt[i].abs() > 1e-12 * bn);
     if !unbounded {
         let p = at(0.0);
-        if p[0].hypot(p[1]) <= radius {
+        if crate::math::hypot(p[0], p[1]) <= radius {
             return back(p);
         }
     }
@@ -372,14 +372,14 @@ pub fn disc_minimum([a0, a1, a2]: [f64; 3], b: [f64; 2], radius: f64) -> [f64; 2
             break;
         }
         let p = at(mid);
-        if p[0].hypot(p[1]) > radius {
+        if crate::math::hypot(p[0], p[1]) > radius {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     let p = at(hi);
-    let norm = p[0].hypot(p[1]);
+    let norm = crate::math::hypot(p[0], p[1]);
     if norm == 0.0 {
         return [0.0; 2];
     }

@@ -57,7 +57,11 @@ pub fn force(c: &ContactElement, delta: f64, delta_dot: f64, impact_velocity: f6
         _ => {
             let delta = delta.max(0.0);
             // δ·√δ for the Hertz exponent: exact and several times cheaper than powf
-            let p = if n == 1.5 { delta * delta.sqrt() } else { delta.powf(n) };
+            let p = if n == 1.5 {
+                delta * delta.sqrt()
+            } else {
+                crate::math::powf(delta, n)
+            };
             (k * p, k * p * delta / (n + 1.0))
         }
     };

@@ -220,7 +220,8 @@ impl Instance {
             read_buffer: Vec::new(),
         };
         inst.log_event(&format!(
-            "fmi2Instantiate: model {} from {}",
+            "fmi2Instantiate: {}: model {} from {}",
+            crate::guid::BUILD,
             inst.sim.scene().model.name,
             inst.origin
         ));

@@ -161,8 +161,8 @@ impl Integrator for Dopri5 {
                 continue;
             }
             // PI controller (Hairer's dopri5: beta = 0.04)
-            let fac11 = err.powf(0.2 - 0.04 * 0.75);
-            let fac = (fac11 / self.err_old.powf(0.04) / 0.9).clamp(0.1, 5.0);
+            let fac11 = crate::math::powf(err, 0.2 - 0.04 * 0.75);
+            let fac = (fac11 / crate::math::powf(self.err_old, 0.04) / 0.9).clamp(0.1, 5.0);
             // no increase right after a rejection (Hairer)
             let h_new = if rejected_before { (h / fac).min(h) } else { h / fac };
             if err <= 1.0 {

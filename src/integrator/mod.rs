@@ -211,7 +211,7 @@ pub fn initial_step(
     let h1 = if d1.max(d2) <= 1e-15 {
         (h0 * 1e-3).max(1e-6)
     } else {
-        (0.01 / d1.max(d2)).powf(1.0 / (order as f64 + 1.0))
+        crate::math::powf(0.01 / d1.max(d2), 1.0 / (order as f64 + 1.0))
     };
     (100.0 * h0).min(h1).min(hmax)
 }

@@ -348,7 +348,7 @@ impl NewtonCore {
     pub fn iterate(&mut self, mut correct: impl FnMut() -> (f64, bool)) -> Option<f64> {
         let mut norm_old = 0.0;
         let mut theta_max: f64 = 0.0;
-        let mut eta = self.mem.eta.max(f64::EPSILON).powf(0.8);
+        let mut eta = crate::math::powf(self.mem.eta.max(f64::EPSILON), 0.8);
         for iter in 0..self.max_newton {
             let (norm, at_roundoff) = correct();
             if !norm.is_finite() {
@@ -363,7 +363,7 @@ impl NewtonCore {
                 }
                 // predicted error after the remaining iterations is too large: give up early
                 let left = (self.max_newton - 1 - iter) as i32;
-                if theta.powi(left) / (1.0 - theta) * norm > self.newton_tol {
+                if crate::math::powi(theta, left) / (1.0 - theta) * norm > self.newton_tol {
                     return None;
                 }
                 eta = theta / (1.0 - theta);
@@ -554,11 +554,11 @@ impl<M: ImplicitMethod> Integrator for M {
                 continue;
             }
             // step-size proposal (RADAU5's controller with Gustafsson's prediction)
-            let mut quot = (err.powf(0.25) / SAFETY).clamp(1.0 / MAX_GROW, MAX_SHRINK);
+            let mut quot = (crate::math::powf(err, 0.25) / SAFETY).clamp(1.0 / MAX_GROW, MAX_SHRINK);
             if err <= 1.0 {
                 let mem = &mut newton.mem;
                 if mem.h_acc > 0.0 {
-                    let gus = (mem.h_acc / h) * (err * err / mem.err_acc).powf(0.25) / SAFETY;
+                    let gus = (mem.h_acc / h) * crate::math::powf(err * err / mem.err_acc, 0.25) / SAFETY;
                     quot = quot.max(gus.clamp(1.0 / MAX_GROW, MAX_SHRINK));
                 }
                 mem.h_acc = h;

@@ -3,8 +3,8 @@
 The FMUs under test are the real exported files `target/fmu/<name>.fmu` (one per
 `fmu/<name>/scene.toml`). `./run_tests.sh` builds and exports them before pytest runs; when
 pytest is run on its own, the session fixture builds (the command line, and the library the
-FMUs ship with, by `scripts/build_fmu_library.sh`) and (re-)exports whatever is missing or
-older than the libraries or the scene.
+FMUs ship with, for linux64 and win64, by `scripts/build_fmu_library.sh`) and (re-)exports
+whatever is missing or older than the libraries or the scene.
 """
 
 import ctypes
@@ -30,6 +30,7 @@ BINARY = TARGET / "contact-fmu"
 LIBRARY = TARGET / "libcontact_fmu.so"
 # The library packed into the FMUs (cargo profile `dist`, built by scripts/build_fmu_library.sh).
 DIST_LIBRARY = ROOT / "target" / "x86_64-unknown-linux-gnu" / "dist" / "libcontact_fmu.so"
+DIST_DLL = ROOT / "target" / "x86_64-pc-windows-gnu" / "dist" / "contact_fmu.dll"
 FMU_DIR = ROOT / "target" / "fmu"
 SCENES = sorted(p.parent.name for p in (ROOT / "fmu").glob("*/scene.toml"))
 
@@ -60,7 +61,7 @@ def fmus():
     paths = {}
     for name in SCENES:
         fmu = FMU_DIR / f"{name}.fmu"
-        libraries = [p.stat().st_mtime for p in (LIBRARY, DIST_LIBRARY) if p.exists()]
+        libraries = [p.stat().st_mtime for p in (LIBRARY, DIST_LIBRARY, DIST_DLL) if p.exists()]
         newest_input = max(*libraries, scene_path(name).stat().st_mtime)
         if not fmu.exists() or fmu.stat().st_mtime < newest_input:
             export(scene_path(name), fmu)

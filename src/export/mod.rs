@@ -18,7 +18,7 @@ use crate::fmi::LOG_CATEGORIES;
 use crate::guid::guid;
 use crate::scene::{Scene, SceneError};
 use crate::simulation::Simulation;
-use crate::variables::{Causality, EnumType, Range, Unit, VarType, Variability, Variable, VariableTable, UNITS};
+use crate::variables::{Causality, EnumType, Range, Unit, VarType, Variable, VariableTable, UNITS};
 use quick_xml::events::attributes::Attribute;
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::name::QName;
@@ -30,88 +30,12 @@ use std::path::{Path, PathBuf};
 /// The crate version, written into `generationTool` (and mixed into the GUID).
 pub use crate::guid::VERSION;
 
-/// The FMI platform folder of this build (`binaries/<PLATFORM>/`).
-pub const PLATFORM: &str = if cfg!(target_os = "windows") {
-    if cfg!(target_pointer_width = "64") {
-        "win64"
-    } else {
-        "win32"
-    }
-} else if cfg!(target_os = "macos") {
-    "darwin64"
-} else if cfg!(target_pointer_width = "64") {
-    "linux64"
-} else {
-    "linux32"
+mod library;
+pub use library::{
+    build_of, dist_library, find_library, glibc_needed, library_file, missing_message, parse_platforms, platform,
+    Binary, Library, Missing, Platform, DEFAULT_PLATFORMS, DIST_PROFILE, GLIBC_FLOOR, LIBRARY_EXTENSION, PLATFORM,
+    PLATFORMS,
 };
-
-/// The shared-library file extension of this platform.
-pub const LIBRARY_EXTENSION: &str = if cfg!(target_os = "windows") {
-    "dll"
-} else if cfg!(target_os = "macos") {
-    "dylib"
-} else {
-    "so"
-};
-
-/// The platforms of FMI 2.0 (`binaries/<platform>/`) and their shared-library extensions.
-pub const PLATFORMS: [(&str, &str); 5] = [
-    ("win64", "dll"),
-    ("win32", "dll"),
-    ("linux64", "so"),
-    ("linux32", "so"),
-    ("darwin64", "dylib"),
-];
-
-/// A shared library to pack for one platform (the CLI's `--binary PLATFORM=PATH`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Binary {
-    /// The FMI platform folder, one of [`PLATFORMS`].
-    pub platform: String,
-    /// The library file.
-    pub path: PathBuf,
-}
-
-impl Binary {
-    /// Parses `PLATFORM=PATH`; an unknown platform or a missing file is refused with a
-    /// message naming it.
-    pub fn parse(arg: &str) -> Result<Binary, ExportError> {
-        let refuse = |why: String| ExportError::Binary(format!("--binary {arg}: {why}"));
-        let (platform, path) = arg
-            .split_once('=')
-            .ok_or_else(|| refuse("expected PLATFORM=PATH, e.g. win64=contact_fmu.dll".into()))?;
-        if !PLATFORMS.iter().any(|(p, _)| *p == platform) {
-            let known: Vec<&str> = PLATFORMS.iter().map(|(p, _)| *p).collect();
-            return Err(refuse(format!(
-                "unknown platform {platform:?} (known: {})",
-                known.join(", ")
-            )));
-        }
-        let path = PathBuf::from(path);
-        if !path.is_file() {
-            return Err(refuse(format!("{}: no such file", path.display())));
-        }
-        Ok(Binary {
-            platform: platform.to_string(),
-            path,
-        })
-    }
-
-    /// Where the library goes in the FMU: `binaries/<platform>/<model identifier>.<ext>`.
-    pub fn entry(&self, model_identifier: &str) -> String {
-        let ext = PLATFORMS
-            .iter()
-            .find(|(p, _)| *p == self.platform)
-            .map_or(LIBRARY_EXTENSION, |(_, e)| *e);
-        format!("binaries/{}/{model_identifier}.{ext}", self.platform)
-    }
-}
-
-/// The file name cargo gives this crate's shared library.
-pub fn library_file() -> String {
-    let prefix = if cfg!(target_os = "windows") { "" } else { "lib" };
-    format!("{prefix}contact_fmu.{LIBRARY_EXTENSION}")
-}
 
 /// An export that did not succeed; the message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -196,24 +120,6 @@ fn attrs<'k, V: AsRef<str>>(pairs: impl IntoIterator<Item = (&'k str, V)>) -> Ve
         .collect()
 }
 
-fn causality_name(c: Causality) -> &'static str {
-    match c {
-        Causality::Parameter => "parameter",
-        Causality::CalculatedParameter => "calculatedParameter",
-        Causality::Input => "input",
-        Causality::Output => "output",
-    }
-}
-
-fn variability_name(v: Variability) -> &'static str {
-    match v {
-        Variability::Fixed => "fixed",
-        Variability::Tunable => "tunable",
-        Variability::Discrete => "discrete",
-        Variability::Continuous => "continuous",
-    }
-}
-
 /// The `initial` attribute: exact for parameters, calculated for calculated parameters and
 /// for outputs without a start value, none for inputs.
 fn initial_of(v: &Variable) -> Option<&'static str> {
@@ -239,7 +145,9 @@ fn range_text(r: &Range) -> String {
     }
 }
 
-fn describe(v: &Variable) -> String {
+/// A variable's description as the model description gives it: the table's text, and for a
+/// parameter with a range, the range in words.
+pub fn describe(v: &Variable) -> String {
     match (v.causality, v.range) {
         (Causality::Parameter, Some(r)) if !matches!(v.vtype, VarType::Enumeration(_)) => {
             if r.max.is_finite() {
@@ -569,8 +477,8 @@ fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Resul
     if !description.is_empty() {
         attributes.push(("description", description.as_str()));
     }
-    attributes.push(("causality", causality_name(v.causality)));
-    attributes.push(("variability", variability_name(v.variability)));
+    attributes.push(("causality", v.causality.name()));
+    attributes.push(("variability", v.variability.name()));
     if let Some(initial) = initial_of(v) {
         attributes.push(("initial", initial));
     }
@@ -677,7 +585,7 @@ pub fn documentation_html(scene: &Scene) -> String {
         h.push_str(&format!(
             "<tr><td>{vr}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
             escape_html(&v.name),
-            causality_name(v.causality),
+            v.causality.name(),
             escape_html(&vtype),
             escape_html(v.unit.unwrap_or("")),
             escape_html(&start),
@@ -706,16 +614,7 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
 /// names, so the FMU does not depend on the order given). Two libraries for one platform
 /// are refused.
 pub fn export_fmu_binaries(scene_path: &Path, out: &Path, binaries: &[Binary]) -> Result<ExportedFmu, ExportError> {
-    let mut binaries = binaries.to_vec();
-    binaries.sort_by(|a, b| a.platform.cmp(&b.platform));
-    if let Some(w) = binaries.windows(2).find(|w| w[0].platform == w[1].platform) {
-        return Err(ExportError::Binary(format!(
-            "two libraries for the platform {}: {} and {}",
-            w[0].platform,
-            w[0].path.display(),
-            w[1].path.display()
-        )));
-    }
+    let binaries = one_per_platform(binaries)?;
     let text = std::fs::read_to_string(scene_path).map_err(io_error(scene_path))?;
     let origin = scene_path.display().to_string();
     let scene = Scene::from_str(&text, &origin)?;
@@ -751,6 +650,21 @@ pub fn export_fmu_binaries(scene_path: &Path, out: &Path, binaries: &[Binary]) -
         guid: guid(&text),
         variables: VariableTable::from_scene(&scene).vars.len(),
     })
+}
+
+/// `binaries` in the order of their platform names; two for one platform are refused.
+fn one_per_platform(binaries: &[Binary]) -> Result<Vec<Binary>, ExportError> {
+    let mut binaries = binaries.to_vec();
+    binaries.sort_by(|a, b| a.platform.cmp(&b.platform));
+    if let Some(w) = binaries.windows(2).find(|w| w[0].platform == w[1].platform) {
+        return Err(ExportError::Binary(format!(
+            "two libraries for the platform {}: {} and {}",
+            w[0].platform,
+            w[0].path.display(),
+            w[1].path.display()
+        )));
+    }
+    Ok(binaries)
 }
 
 /// Writes the zip; every entry carries the time `epoch` (zip times are local times without a
@@ -800,208 +714,38 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)], epoch: u64) -> io::R
     Ok(())
 }
 
-/// The cargo profile of the library packed into FMUs (`[profile.dist]` in `Cargo.toml`).
-pub const DIST_PROFILE: &str = "dist";
-
-/// The newest glibc symbol version the packed library may need: (2, 17), the floor of the
-/// portable build (`x86_64-unknown-linux-gnu.2.17` through cargo-zigbuild).
-pub const GLIBC_FLOOR: (u32, u32) = (2, 17);
-
-/// The folder, under the target directory, of the portable build of this platform (cargo
-/// puts a `--target` build into `target/<triple>/<profile>/`).
-const DIST_TRIPLE: &str = if cfg!(all(target_os = "linux", target_arch = "x86_64", target_env = "gnu")) {
-    "x86_64-unknown-linux-gnu"
-} else {
-    ""
-};
-
-/// The library an export packs, and what the exporter has to tell about it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Library {
-    /// The file to pack.
-    pub path: PathBuf,
-    /// Notes for the user: why this file, what it needs (printed by [`export_command`]).
-    pub notes: Vec<String>,
-}
-
-fn modified(path: &Path) -> Option<std::time::SystemTime> {
-    std::fs::metadata(path).ok().filter(|m| m.is_file())?.modified().ok()
-}
-
-/// The newest existing file among `candidates`, with its time.
-fn newest(candidates: &[PathBuf]) -> Option<(std::time::SystemTime, PathBuf)> {
-    candidates
-        .iter()
-        .filter_map(|c| Some((modified(c)?, c.clone())))
-        .max_by_key(|(time, _)| *time)
-}
-
-/// Chooses the shared library to pack:
-///
-/// 1. `CONTACT_FMU_LIBRARY`, when set, names it;
-/// 2. else the library of the cargo profile [`DIST_PROFILE`] in the target directory of the
-///    running executable (`target/x86_64-unknown-linux-gnu/dist/`, where
-///    `scripts/build_fmu_library.sh` builds it, or `target/dist/`), when it is not older than
-///    the development library of step 3 (or, without one, the executable): an older one may
-///    lack the latest changes of the sources;
-/// 3. else the development build beside the executable (`target/release/`: with debug
-///    information, several times larger), with a note saying so.
-///
-/// On Linux the chosen library's glibc symbol versions are read: one newer than
-/// [`GLIBC_FLOOR`] gets a note (the FMU then does not load on older systems).
-pub fn find_library() -> Result<Library, ExportError> {
-    let mut notes = Vec::new();
-    let path = match std::env::var_os("CONTACT_FMU_LIBRARY").filter(|p| !p.is_empty()) {
-        Some(p) => {
-            let p = PathBuf::from(p);
-            if modified(&p).is_none() {
-                return Err(ExportError::Library(format!(
-                    "CONTACT_FMU_LIBRARY = {}: no such file",
-                    p.display()
-                )));
-            }
-            p
-        }
-        None => search_library(&mut notes)?,
-    };
-    if cfg!(target_os = "linux") {
-        match std::fs::read(&path).ok().and_then(|bytes| glibc_needed(&bytes)) {
-            Some((major, minor)) if (major, minor) > GLIBC_FLOOR => notes.push(format!(
-                "{} needs glibc {major}.{minor}: the FMU will not load where glibc is older (the portable build needs at most {}.{}; scripts/build_fmu_library.sh makes it where cargo-zigbuild can be installed)",
-                path.display(),
-                GLIBC_FLOOR.0,
-                GLIBC_FLOOR.1
-            )),
-            _ => {}
-        }
-    }
-    Ok(Library { path, notes })
-}
-
-/// Steps 2 and 3 of [`find_library`].
-fn search_library(notes: &mut Vec<String>) -> Result<PathBuf, ExportError> {
-    let exe = std::env::current_exe()
-        .map_err(|e| ExportError::Library(format!("cannot locate the running executable: {e}")))?;
-    let dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
-    // The executable is `target/<profile>/contact-fmu` (test binaries: `.../deps/`).
-    let mut dist = Vec::new();
-    for target in dir.ancestors().skip(1).take(3) {
-        if !DIST_TRIPLE.is_empty() {
-            dist.push(target.join(DIST_TRIPLE).join(DIST_PROFILE).join(library_file()));
-        }
-        dist.push(target.join(DIST_PROFILE).join(library_file()));
-    }
-    let candidates = [
-        dir.join(library_file()),
-        dir.join("deps").join(library_file()),
-        dir.join("..").join(library_file()),
-    ];
-    // `cargo run` and `cargo test` rebuild the library in `deps/` without copying it up to
-    // `target/<profile>/`, so the copy next to the executable can be stale: take the newest.
-    let development = newest(&candidates);
-    // The development library is rebuilt whenever the library's sources change (the
-    // executable also when only its own do): a `dist` library older than it may lack changes.
-    let reference = development.as_ref().map(|(time, _)| *time).or_else(|| modified(&exe));
-    match newest(&dist) {
-        Some((time, path)) if reference.is_none_or(|r| time >= r) => return Ok(path),
-        Some((_, path)) => notes.push(format!(
-            "{} is older than the development build and may lack changes of the sources (scripts/build_fmu_library.sh rebuilds it): packing the development build",
-            path.display()
-        )),
-        None => notes.push(format!(
-            "no library of the cargo profile `{DIST_PROFILE}` (small, portable; scripts/build_fmu_library.sh builds it): packing the development build"
-        )),
-    }
-    if let Some((_, path)) = development {
-        return Ok(path);
-    }
-    Err(ExportError::Library(format!(
-        "cannot find the FMU library {} (looked in {}); build it with scripts/build_fmu_library.sh or `cargo build --release`",
-        library_file(),
-        dist.iter()
-            .chain(&candidates)
-            .map(|c| c.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    )))
-}
-
-/// The newest `GLIBC_x.y` version an ELF64 little-endian shared library requires (from its
-/// `.gnu.version_r` section, which the dynamic loader checks); `None` for anything else or a
-/// library that requires no glibc version.
-pub fn glibc_needed(elf: &[u8]) -> Option<(u32, u32)> {
-    let u16_at = |o: usize| Some(u16::from_le_bytes(elf.get(o..o + 2)?.try_into().ok()?));
-    let u32_at = |o: usize| Some(u32::from_le_bytes(elf.get(o..o + 4)?.try_into().ok()?));
-    let u64_at = |o: usize| Some(u64::from_le_bytes(elf.get(o..o + 8)?.try_into().ok()?));
-    // ELF magic, 64-bit class, little-endian data.
-    if elf.get(..6)? != b"\x7fELF\x02\x01" {
-        return None;
-    }
-    let shoff = usize::try_from(u64_at(0x28)?).ok()?;
-    let shentsize = usize::from(u16_at(0x3a)?);
-    let shnum = usize::from(u16_at(0x3c)?);
-    let section = |i: usize| -> Option<(u32, usize, usize, usize, usize)> {
-        let h = shoff.checked_add(i.checked_mul(shentsize)?)?;
-        Some((
-            u32_at(h + 4)?,                         // sh_type
-            usize::try_from(u64_at(h + 24)?).ok()?, // sh_offset
-            usize::try_from(u64_at(h + 32)?).ok()?, // sh_size
-            usize::try_from(u32_at(h + 40)?).ok()?, // sh_link
-            usize::try_from(u32_at(h + 44)?).ok()?, // sh_info
-        ))
-    };
-    const SHT_GNU_VERNEED: u32 = 0x6fff_fffe;
-    let mut newest: Option<(u32, u32)> = None;
-    for i in 0..shnum {
-        let (kind, offset, _, link, count) = section(i)?;
-        if kind != SHT_GNU_VERNEED {
-            continue;
-        }
-        let (_, strings, string_size, _, _) = section(link)?;
-        let name = |o: usize| -> Option<&[u8]> {
-            let bytes = elf.get(strings..strings.checked_add(string_size)?)?.get(o..)?;
-            Some(&bytes[..bytes.iter().position(|&b| b == 0)?])
-        };
-        // Verneed entries (one per library), each with its Vernaux entries (one per version).
-        let mut need = offset;
-        for _ in 0..count {
-            let aux_count = u16_at(need + 2)?;
-            let mut aux = need.checked_add(usize::try_from(u32_at(need + 8)?).ok()?)?;
-            for _ in 0..aux_count {
-                let version = name(usize::try_from(u32_at(aux + 8)?).ok()?)?;
-                if let Some(v) = version.strip_prefix(b"GLIBC_") {
-                    let text = std::str::from_utf8(v).ok()?;
-                    let mut parts = text.split('.').map(|p| p.parse::<u32>());
-                    if let (Some(Ok(major)), Some(Ok(minor))) = (parts.next(), parts.next()) {
-                        newest = newest.max(Some((major, minor)));
-                    }
-                }
-                aux = aux.checked_add(usize::try_from(u32_at(aux + 12)?).ok()?)?;
-            }
-            need = need.checked_add(usize::try_from(u32_at(need + 12)?).ok()?)?;
-        }
-    }
-    newest
-}
-
-/// The CLI's `export` command: the libraries of `binaries` (`PLATFORM=PATH`, see
-/// [`Binary::parse`]) and, unless one of them is for this platform, the library from
+/// The CLI's `export` command: packs the libraries of `binaries` (`PLATFORM=PATH`, see
+/// [`Binary::parse`]) and, for every platform of `platforms` (default
+/// [`DEFAULT_PLATFORMS`]: linux64 and win64) that no `--binary` names, the library from
 /// [`find_library`] (its notes go to standard error); when no output is given,
 /// `target/fmu/<model name>.fmu` (where the main job puts the bundled FMUs).
-pub fn export_command(scene_path: &Path, out: Option<&Path>, binaries: &[String]) -> Result<ExportedFmu, ExportError> {
+pub fn export_command(
+    scene_path: &Path,
+    out: Option<&Path>,
+    binaries: &[String],
+    platforms: Option<&str>,
+) -> Result<ExportedFmu, ExportError> {
     // a scene that does not parse or validate gets its one message before anything else
     let scene = Scene::from_file(scene_path)?;
     let mut binaries = binaries
         .iter()
         .map(|b| Binary::parse(b))
         .collect::<Result<Vec<_>, _>>()?;
-    if !binaries.iter().any(|b| b.platform == PLATFORM) {
-        let library = find_library()?;
+    one_per_platform(&binaries)?;
+    let platforms = match platforms {
+        Some(list) => parse_platforms(list)?,
+        None => DEFAULT_PLATFORMS.iter().map(|p| p.to_string()).collect(),
+    };
+    for platform in &platforms {
+        if binaries.iter().any(|b| &b.platform == platform) {
+            continue;
+        }
+        let library = find_library(platform)?;
         for note in &library.notes {
             eprintln!("note: {note}");
         }
         binaries.push(Binary {
-            platform: PLATFORM.to_string(),
+            platform: platform.clone(),
             path: library.path,
         });
     }
