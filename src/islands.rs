@@ -659,8 +659,12 @@ impl Islands {
         let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
         let grouped = m.groups.is_active();
         let mut rounds = 0u64;
-        // the steps of every island together are held to solver.max_steps per advance
+        // solver.max_steps bounds each island's steps per advance, and the steps of all islands
+        // together to that many per island (the most islands there were in this advance): a
+        // many-body scene gets a budget that grows with its islands, and no advance is unbounded
         let steps_start = self.total_steps();
+        let per_island = m.solver.max_steps;
+        let mut budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
         while t_end - self.time > t_close {
             rounds += 1;
             self.rounds += 1;
@@ -695,19 +699,24 @@ impl Islands {
             }
             let mut t_met = t_round;
             let mut used = self.total_steps() - steps_start;
+            budget = budget.max(per_island.saturating_mul(self.parts.len() as u64));
             for k in 0..self.parts.len() {
                 let island = &mut self.parts[k];
-                island.model.solver.max_steps = m.solver.max_steps.saturating_sub(used);
+                island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
                 let before = island.data.counters.steps;
                 let result = engine::advance(&island.model, &mut island.data, t_round);
                 used += island.data.counters.steps - before;
                 if let Err(e) = result {
+                    let n = self.parts.len();
+                    let name = self.island_name(src, k);
                     let mut e = self.take_back(src, k, e);
                     if e.step_limit {
                         e.message = format!(
-                            "solver.max_steps = {} integrator steps of the islands together did not reach t = {t_end} \
-                             (stopped at t = {}); take shorter communication steps or raise solver.max_steps",
-                            m.solver.max_steps, self.time
+                            "solver.max_steps = {per_island} integrator steps per island and communication step \
+                             ({n} islands, {used} steps in all in this one) did not reach t = {t_end} (stopped at \
+                             t = {}, in the island of body {name:?}); take shorter communication steps or raise \
+                             solver.max_steps",
+                            self.time
                         );
                     }
                     return Err(e);
@@ -755,11 +764,16 @@ impl Islands {
         self.retired.steps + self.parts.iter().map(|i| i.data.counters.steps).sum::<u64>()
     }
 
+    /// The name of island `k`: that of its first body.
+    fn island_name<'s>(&self, src: &Source<'s>, k: usize) -> &'s str {
+        let first = self.parts[k].bodies[0];
+        src.scene.body.get(first).map_or("?", |b| b.name.as_str())
+    }
+
     /// After island `k` failed with `e`: every island back to the start of the round (its
     /// saved state) and the error, naming the island, at that time.
     fn take_back(&mut self, src: &Source, k: usize, e: EngineError) -> EngineError {
-        let first = self.parts[k].bodies[0];
-        let name = src.scene.body.get(first).map_or("?", |b| b.name.as_str());
+        let name = self.island_name(src, k);
         for island in &mut self.parts {
             restore(island);
         }

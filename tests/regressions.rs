@@ -41,3 +41,33 @@ fn mass_matrix_of_sibling_branches_is_rebuilt_each_evaluation() {
     }
     assert!(worst < 1e-8, "relative energy drift {worst:e} over 2 s");
 }
+
+/// A scene with contact groups and a body without any `[[shape]]`: its island holds no shape
+/// of the group pairs' groups. Compiling that island looked the groups up by its own shapes
+/// and panicked ("no entry found for key"); now it runs, with islands and without, and the
+/// shapeless body falls freely.
+#[test]
+fn a_body_without_shapes_beside_contact_groups_runs() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/pile_of_balls/scene.toml");
+    let text = std::fs::read_to_string(path).unwrap().replacen(
+        "\n[[shape]]\n",
+        "\n[[body]]\nname = \"loose\"\nmass = 1.0\ninertia = [0.01, 0.01, 0.01]\nposition = [1.0, 1.0, 0.5]\n\n[[shape]]\n",
+        1,
+    );
+    for islands in [true, false] {
+        let text = text.replacen(
+            "\n[broad_phase]",
+            &format!("\n[solver]\nislands = {islands}\n\n[broad_phase]"),
+            1,
+        );
+        let mut sim = contact_fmu::simulation::Simulation::from_scene_str(&text, "loose.toml").unwrap();
+        sim.initialize(0.0).unwrap();
+        sim.step_to(0.05).unwrap_or_else(|e| panic!("islands = {islands}: {e}"));
+        let z = common::get(&mut sim, "loose.r[3]");
+        let exact = 0.5 - 0.5 * 9.81 * 0.05 * 0.05;
+        assert!(
+            (z - exact).abs() < 1e-9,
+            "islands = {islands}: z = {z}, free fall {exact}"
+        );
+    }
+}

@@ -38,10 +38,13 @@ pub(super) fn compile_groups(
         ));
     }
     let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
+    // the groups of the shapes, then those a group pair names that have no shape here (a
+    // part of a scene cut for an island may hold none of a group's shapes)
     let mut group_index: HashMap<&str, usize> = HashMap::new();
-    for s in &scene.shape {
+    let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
+    for group in scene.shape.iter().map(|s| &s.group).chain(named) {
         let n = group_index.len();
-        group_index.entry(s.group.as_str()).or_insert(n);
+        group_index.entry(group.as_str()).or_insert(n);
     }
     let ngroups = group_index.len();
     let mut touch = vec![None; ngroups * ngroups];

@@ -1,0 +1,207 @@
+//! Mutated bundled scenes: 1,000 scenes, each a bundled scene with a few random mutations
+//! (items removed, among them shapes, contact groups, bodies and joints; values negated,
+//! zeroed, made huge or non-finite; names swapped; keys removed), are parsed, validated,
+//! initialised and stepped a little through the facade every host uses. Each is either refused
+//! with a message or runs; none panics.
+//!
+//! `cargo test --release --test scene_fuzz -- --nocapture` prints the tally.
+
+mod common;
+
+use contact_fmu::simulation::Simulation;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use toml::Value;
+
+const SCENES: usize = 1000;
+
+/// xorshift64: the mutations depend on the seed only.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+    fn chance(&mut self, p: f64) -> bool {
+        ((self.next() >> 11) as f64 / (1u64 << 53) as f64) < p
+    }
+}
+
+/// The arrays of tables of a scene (`[[body]]`, `[[shape]]`, ...), by key.
+fn table_arrays(v: &Value) -> Vec<String> {
+    v.as_table()
+        .map(|t| {
+            t.iter()
+                .filter(|(_, x)| x.as_array().is_some_and(|a| a.iter().all(Value::is_table)))
+                .map(|(k, _)| k.clone())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Every name in the scene (a value of a `name` key), to swap references among them.
+fn names(v: &Value, out: &mut Vec<String>) {
+    match v {
+        Value::Table(t) => {
+            for (k, x) in t {
+                if k == "name" {
+                    if let Some(s) = x.as_str() {
+                        out.push(s.to_string());
+                    }
+                }
+                names(x, out);
+            }
+        }
+        Value::Array(a) => a.iter().for_each(|x| names(x, out)),
+        _ => {}
+    }
+}
+
+/// A random leaf (number, string, boolean, or array of numbers) of `v`, mutated.
+fn mutate_leaf(v: &mut Value, rng: &mut Rng, all_names: &[String]) {
+    match v {
+        Value::Table(t) => {
+            if t.is_empty() {
+                return;
+            }
+            let keys: Vec<String> = t.keys().cloned().collect();
+            let k = &keys[rng.below(keys.len())];
+            if rng.chance(0.15) {
+                t.remove(k);
+            } else if let Some(x) = t.get_mut(k) {
+                mutate_leaf(x, rng, all_names);
+            }
+        }
+        Value::Array(a) => {
+            if a.is_empty() {
+                return;
+            }
+            let i = rng.below(a.len());
+            if rng.chance(0.1) {
+                a.remove(i);
+            } else {
+                mutate_leaf(&mut a[i], rng, all_names);
+            }
+        }
+        Value::Float(x) => {
+            *x = [-*x, 0.0, *x * 1e12, *x * 1e-12, f64::NAN, f64::INFINITY, -1.0, 1e300][rng.below(8)];
+        }
+        Value::Integer(i) => *i = [-*i, 0, 1, i64::MAX, -1, 7][rng.below(6)],
+        Value::String(s) => {
+            *s = match rng.below(3) {
+                0 if !all_names.is_empty() => all_names[rng.below(all_names.len())].clone(),
+                1 => String::new(),
+                _ => format!("{s}_x"),
+            }
+        }
+        Value::Boolean(b) => *b = !*b,
+        Value::Datetime(_) => {}
+    }
+}
+
+/// One mutated scene text from `base`.
+fn mutated(base: &Value, rng: &mut Rng) -> String {
+    let mut v = base.clone();
+    let mut all_names = Vec::new();
+    names(&v, &mut all_names);
+    for _ in 0..1 + rng.below(3) {
+        let arrays = table_arrays(&v);
+        if !arrays.is_empty() && rng.chance(0.5) {
+            // remove one item of an array of tables (a shape, a group pair, a body, ...)
+            let key = &arrays[rng.below(arrays.len())];
+            if let Some(a) = v.get_mut(key).and_then(Value::as_array_mut) {
+                if !a.is_empty() {
+                    let i = rng.below(a.len());
+                    a.remove(i);
+                }
+            }
+        } else {
+            mutate_leaf(&mut v, rng, &all_names);
+        }
+    }
+    toml::to_string(&v).unwrap_or_default()
+}
+
+/// What became of one scene.
+#[derive(Debug, PartialEq)]
+enum Outcome {
+    Refused,
+    Ran,
+    FailedToStep,
+}
+
+/// Parses, initialises and steps `text` for a short time with a small step budget.
+fn exercise(text: &str) -> Outcome {
+    let Ok(mut sim) = Simulation::from_scene_str(text, "mutated.toml") else {
+        return Outcome::Refused;
+    };
+    if let Some(vr) = sim.table().index_of("solver.max_steps") {
+        if sim.set(vr, 200.0).is_err() {
+            return Outcome::Refused;
+        }
+    }
+    if sim.initialize(0.0).is_err() {
+        return Outcome::Refused;
+    }
+    let outputs = sim.output_indices();
+    for k in 1..=3 {
+        if sim.step_to(k as f64 * 1e-4).is_err() {
+            return Outcome::FailedToStep;
+        }
+        let mut values = vec![0.0; outputs.len()];
+        if sim.get_many(&outputs, &mut values).is_err() {
+            return Outcome::FailedToStep;
+        }
+    }
+    let _ = sim.snapshot(Vec::new());
+    Outcome::Ran
+}
+
+#[test]
+fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
+    // no panic message on standard error for the ones caught: the test reports them itself
+    std::panic::set_hook(Box::new(|_| {}));
+    let bases: Vec<(String, Value)> = common::bundled_scenes()
+        .into_iter()
+        .map(|(name, path)| {
+            let text = std::fs::read_to_string(&path).unwrap();
+            (name, text.parse::<Value>().unwrap())
+        })
+        .collect();
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut tally = [0usize; 3];
+    let mut panics = Vec::new();
+    for k in 0..SCENES {
+        let (name, base) = &bases[k % bases.len()];
+        let text = mutated(base, &mut rng);
+        match catch_unwind(AssertUnwindSafe(|| exercise(&text))) {
+            Ok(o) => tally[o as usize] += 1,
+            Err(payload) => {
+                let why = payload
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default();
+                let file = std::env::temp_dir().join(format!("scene_fuzz_{k}.toml"));
+                let _ = std::fs::write(&file, &text);
+                panics.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
+            }
+        }
+    }
+    let _ = std::panic::take_hook();
+    println!(
+        "{SCENES} mutated scenes: {} refused with a message, {} ran, {} stopped with a step error, {} panicked",
+        tally[0],
+        tally[1],
+        tally[2],
+        panics.len()
+    );
+    assert!(panics.is_empty(), "{}", panics.join("\n"));
+    // the mutations reach every stage: some are refused, some run
+    assert!(tally[0] > 50 && tally[1] > 50, "{tally:?}");
+}
