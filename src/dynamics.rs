@@ -18,7 +18,7 @@ use crate::scene::JointType;
 use crate::spatial::{point_acceleration, Spatial};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-/// Fills the constraint rows after the loops' (rows `m.loop_rows()..m.nc` of `d.phi_q`,
+/// Fills the constraint rows after the loops' (rows `m.fixed_rows()..m.nc` of `d.phi_q`,
 /// `d.phi`, `d.gamma`, already zeroed) at the evaluated kinematics.
 pub type ConstraintRows = fn(&Model, &mut Data);
 
@@ -51,23 +51,45 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
             d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-e * tension), &pb));
         }
     }
+    let mut input_power = 0.0;
     for (i, inp) in m.inputs.iter().enumerate() {
-        let u = d.inputs[i];
+        let u = d.inputs[m.input_value[i]];
         match inp {
             Input::Force { body, direction } => {
-                d.body_force[*body] = d.body_force[*body].add(&Spatial::force_at(&(direction * u), &d.body_pos[*body]));
+                let b = *body;
+                d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(direction * u), &d.body_pos[b]));
+                input_power += u * direction.dot(&d.body_vel[b].point_velocity(&d.body_pos[b]));
             }
             Input::Torque { body, direction } => {
                 d.body_force[*body].ang += direction * u;
+                input_power += u * direction.dot(&d.body_vel[*body].ang);
             }
             Input::JointForce { qvels } => {
                 for &k in qvels {
                     d.tau[k] += u;
+                    input_power += u * d.eval_state[m.nq + k];
                 }
             }
+            // a drive's force is a multiplier of the constrained solve: its power is added
+            // there ([`drive_power`])
+            Input::JointMotion { .. } => {}
         }
     }
+    d.input_power = input_power;
     power
+}
+
+/// The generalised force of drive `k` at the last constrained solve (N or N m, along or
+/// about its joint's axis): minus the multiplier of its row (`M̄ q̈ = τ − C − Φ_qᵀ λ`).
+pub fn drive_force(m: &Model, d: &Data, k: usize) -> f64 {
+    -d.lambda[m.drives[k].row]
+}
+
+/// The power of the drives at the last constrained solve [W]: their forces times their rates.
+pub fn drive_power(m: &Model, d: &Data) -> f64 {
+    (0..m.drives.len())
+        .map(|k| drive_force(m, d, k) * d.eval_state[m.nq + m.drives[k].qvel])
+        .sum()
 }
 
 /// Assembles the packed mass-matrix blocks M̄ (composite-rigid-body method) and the
@@ -303,7 +325,7 @@ fn loop_rows(m: &Model, d: &Data, li: usize, mut emit: impl FnMut(usize, Row)) {
 /// kinematics: the loops' rows here, the rest by `extra_rows`.
 pub fn constraints(m: &Model, d: &mut Data, extra_rows: ConstraintRows) {
     let nv = m.nv;
-    let nl = m.loop_rows();
+    let nl = m.fixed_rows();
     d.phi_q.iter_mut().for_each(|x| *x = 0.0);
     d.phi[nl..].iter_mut().for_each(|x| *x = 0.0);
     d.gamma[nl..].iter_mut().for_each(|x| *x = 0.0);
@@ -323,10 +345,21 @@ pub fn constraints(m: &Model, d: &mut Data, extra_rows: ConstraintRows) {
             d.gamma[r] = -row.bias;
         }
     }
+    // the drives: q̈_k = qdd (their coordinate and rate are the prescribed ones: Φ = Φ̇ = 0)
+    for dr in &m.drives {
+        d.phi_q[dr.row * nv + dr.qvel] = 1.0;
+        d.phi[dr.row] = 0.0;
+        d.gamma[dr.row] = d.inputs[dr.value + 2];
+    }
     extra_rows(m, d);
     let alpha = m.baumgarte;
     let qvel = &d.eval_state[m.nq..m.nq + nv];
+    let drives = nl - m.drives.len()..nl;
     for r in 0..m.nc {
+        if drives.contains(&r) {
+            d.phi_dot[r] = 0.0;
+            continue;
+        }
         let rate: f64 = d.phi_q[r * nv..(r + 1) * nv].iter().zip(qvel).map(|(a, b)| a * b).sum();
         d.phi_dot[r] = rate;
         d.gamma[r] -= 2.0 * alpha * rate + alpha * alpha * d.phi[r];
@@ -520,7 +553,7 @@ pub fn project_state(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRo
 /// Jacobian is off by O(|Δq|), which only slows the already tiny corrections). Works on
 /// `d.eval_state` and copies the result to `d.state`.
 fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) -> bool {
-    let nl = m.loop_rows();
+    let nl = m.fixed_rows();
     if nl == 0 {
         return false;
     }

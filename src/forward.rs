@@ -43,9 +43,12 @@ pub fn evaluate(m: &Model, d: &mut Data) -> bool {
         // The constraint rows: the loops, and the rows of resting impulse contacts (skipped
         // when there are no loops and nothing rests).
         let resting = any_resting(m, d);
-        if m.nc > 0 && (resting || m.loop_rows() > 0) {
+        if m.nc > 0 && (resting || m.fixed_rows() > 0) {
             dynamics::constraints(m, d, contact::resting_rows);
             dynamics::solve_constrained(m, d);
+            if !m.drives.is_empty() {
+                d.input_power += dynamics::drive_power(m, d);
+            }
             if resting {
                 let friction = contact::resting_friction(m, d);
                 if friction != 0.0 {
@@ -82,7 +85,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
         ok = dynamics::factor_mass_trees(m, d, &general.trees);
         if !ok {
             d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
-        } else if m.loop_rows() > 0 {
+        } else if m.fixed_rows() > 0 {
             // A loop never touches a free body (the plan leaves such a body on the general
             // path), so the free bodies' columns of Φ_q are zero, and the solve over every block
             // leaves the general dofs as the solve over the general blocks would: the free
@@ -91,6 +94,9 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
             // overwritten below.
             dynamics::constraints(m, d, contact::resting_rows);
             dynamics::solve_constrained(m, d);
+            if !m.drives.is_empty() {
+                d.input_power += dynamics::drive_power(m, d);
+            }
         } else {
             dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
         }
@@ -108,7 +114,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
 /// multipliers and the rank of its constraint rows, as before) or while an impulse-law
 /// contact rests (its force is a multiplier): then this is [`evaluate_current`].
 pub fn evaluate_outputs(m: &Model, d: &mut Data) {
-    if m.loop_rows() > 0 || any_resting(m, d) {
+    if m.fixed_rows() > 0 || any_resting(m, d) {
         evaluate_current(m, d);
         return;
     }
@@ -120,7 +126,7 @@ pub fn evaluate_outputs(m: &Model, d: &mut Data) {
 /// for reads of body positions, orientations and velocities; false (nothing done) when
 /// [`evaluate_outputs`] would take the full evaluation (loops, resting contacts).
 pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
-    if m.loop_rows() > 0 || any_resting(m, d) {
+    if m.fixed_rows() > 0 || any_resting(m, d) {
         return false;
     }
     d.eval_state.copy_from_slice(&d.state);
@@ -156,12 +162,13 @@ pub fn evaluate_current(m: &Model, d: &mut Data) -> bool {
 }
 
 /// Writes `y' = f(y)` for the state evaluated last (`d.eval_state`): position rates, `q̈`,
-/// dissipated power.
+/// dissipated power, the inputs' power.
 pub fn state_derivative(m: &Model, d: &Data, dy: &mut [f64]) {
     let (nq, nv) = (m.nq, m.nv);
     position_derivative(m, &d.eval_state, &mut dy[..nq]);
     dy[nq..nq + nv].copy_from_slice(&d.qacc);
     dy[nq + nv] = d.dissipation;
+    dy[nq + nv + 1] = d.input_power;
 }
 
 /// True when some impulse-law contact is resting (its constraint row is on).

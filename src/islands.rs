@@ -77,8 +77,10 @@ pub struct Island {
     explicit: Vec<usize>,
     /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
     candidates: Vec<Candidate>,
-    /// The scene's index of each of the island's inputs.
-    inputs: Vec<usize>,
+    /// (island, scene) index pairs of the input values.
+    inputs: Vec<(usize, usize)>,
+    /// (island, scene) index pairs of the driven joints' coordinates and rates.
+    driven: Vec<(usize, usize)>,
     /// Its whole state at the start of the round.
     saved: Vec<f64>,
     /// The length of its event log then.
@@ -164,6 +166,8 @@ pub struct Islands {
     retired: Counters,
     /// Dissipated energy not held by a present island [J].
     dissipated_base: f64,
+    /// Input work not held by a present island [J].
+    input_work_base: f64,
     /// The candidate pairs of the whole scene (its shape numbering), as the broad phase
     /// found them last (sorted).
     pub candidates: Vec<Candidate>,
@@ -307,6 +311,7 @@ fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candida
     let springs = items(&ix.springs, bodies);
     let explicit = items(&ix.contacts, bodies);
     let inputs = items(&ix.inputs, bodies);
+    let (first_value, _) = scene.input_values();
     let mut shapes = items(&ix.shapes, bodies);
     shapes.extend(&ix.ground_shapes);
     shapes.sort_unstable();
@@ -333,7 +338,15 @@ fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candida
         contacts: explicit.iter().map(|&i| p.contacts[i]).collect(),
         groups: p.groups.clone(),
         solver: p.solver.clone(),
-        input_start: inputs.iter().map(|&i| p.input_start[i]).collect(),
+        input_start: inputs
+            .iter()
+            .flat_map(|&i| {
+                (0..scene.input[i].values())
+                    .map(|k| first_value[i] + k)
+                    .collect::<Vec<_>>()
+            })
+            .map(|v| p.input_start[v])
+            .collect(),
     };
     let local = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
     let candidates = candidates
@@ -390,19 +403,35 @@ impl Island {
         }
     }
 
-    /// Takes the scene's input values; an input that changed restarts the integrator.
+    /// Takes the scene's input values, and the driven joints' coordinates and rates (which a
+    /// host moves by setting them); a change restarts the integrator.
     fn take_inputs(&mut self, d: &Data) {
-        for (k, &g) in self.inputs.iter().enumerate() {
-            if self.data.inputs[k] != d.inputs[g] {
-                self.data.inputs[k] = d.inputs[g];
+        for &(l, g) in &self.inputs {
+            if self.data.inputs[l] != d.inputs[g] {
+                self.data.inputs[l] = d.inputs[g];
                 self.data.solver.started = false;
             }
+        }
+        let mut moved = false;
+        for &(l, g) in &self.driven {
+            if self.data.state[l] != d.state[g] {
+                self.data.state[l] = d.state[g];
+                moved = true;
+            }
+        }
+        if moved {
+            engine::resync(&self.model, &mut self.data);
         }
     }
 
     /// The island's dissipated energy [J].
     pub fn dissipated(&self) -> f64 {
         self.data.state[self.model.dissipated_index()]
+    }
+
+    /// The work of the island's inputs [J].
+    pub fn input_work(&self) -> f64 {
+        self.data.state[self.model.input_work_index()]
     }
 
     /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
@@ -439,6 +468,7 @@ impl Islands {
             parts: Vec::new(),
             retired: d.counters,
             dissipated_base: d.state[m.dissipated_index()],
+            input_work_base: d.state[m.input_work_index()],
             candidates: m.groups.candidates.clone(),
             candidate_index: m.groups.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
             retired_log: Vec::new(),
@@ -581,6 +611,7 @@ impl Islands {
     fn retire(&mut self, island: &Island) {
         self.retired = add(self.retired, island.data.counters);
         self.dissipated_base += island.dissipated();
+        self.input_work_base += island.input_work();
         for e in &island.data.event_log {
             if let Some(g) = island.scene_contact(e.contact, self.n_explicit, &self.candidate_index) {
                 self.retired_log.push(ContactEvent { contact: g, ..*e });
@@ -615,11 +646,27 @@ impl Islands {
         }
         let diss = model.dissipated_index();
         data.state[diss] = 0.0;
+        data.state[model.input_work_index()] = 0.0;
         data.clamp_events = d.clamp_events;
         data.log_peaks = d.log_peaks;
-        for (k, &g) in cut.inputs.iter().enumerate() {
-            data.inputs[k] = d.inputs[g];
+        let (scene_first, _) = src.scene.input_values();
+        let mut inputs = Vec::new();
+        for &g in &cut.inputs {
+            for k in 0..src.scene.input[g].values() {
+                inputs.push((inputs.len(), scene_first[g] + k));
+            }
         }
+        for &(l, g) in &inputs {
+            data.inputs[l] = d.inputs[g];
+        }
+        // a drive's coordinates: the scene's state index of the island's
+        let scene_index = |l: usize| coords.iter().find(|&&(a, _)| a == l).map(|&(_, b)| b);
+        let driven = model
+            .drives
+            .iter()
+            .flat_map(|dr| [dr.qpos, model.nq + dr.qvel])
+            .filter_map(|l| Some((l, scene_index(l)?)))
+            .collect();
         for (k, &g) in cut.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
         }
@@ -637,7 +684,8 @@ impl Islands {
             coords,
             explicit: cut.explicit,
             candidates,
-            inputs: cut.inputs,
+            inputs,
+            driven,
             saved: Vec::new(),
             saved_log: 0,
         };
@@ -814,10 +862,12 @@ impl Islands {
         self.put_coordinates(d);
         let n_explicit = self.n_explicit;
         let (mut dissipated, mut counters) = (self.dissipated_base, self.retired);
+        let mut input_work = self.input_work_base;
         let mut logged = !self.retired_log.is_empty();
         d.event_log.append(&mut self.retired_log);
         for island in &mut self.parts {
             dissipated += island.dissipated();
+            input_work += island.input_work();
             counters = add(counters, island.data.counters);
             for e in &island.data.event_log {
                 if let Some(g) = island.scene_contact(e.contact, n_explicit, &self.candidate_index) {
@@ -835,6 +885,7 @@ impl Islands {
             d.event_log.drain(..excess);
         }
         d.state[m.dissipated_index()] = dissipated;
+        d.state[m.input_work_index()] = input_work;
         d.counters = counters;
         d.outputs_valid = false;
         d.kinematics_valid = false;
@@ -859,6 +910,7 @@ impl Islands {
     pub fn energies(&mut self) -> crate::outputs::Energies {
         let mut e = crate::outputs::Energies {
             dissipated: self.dissipated_base,
+            input_work: self.input_work_base,
             ..Default::default()
         };
         for island in &mut self.parts {
@@ -867,8 +919,15 @@ impl Islands {
             e.potential += i.potential;
             e.contact += i.contact;
             e.dissipated += i.dissipated;
+            e.input_work += i.input_work;
         }
         e
+    }
+
+    /// Adds work of the inputs done outside the islands' integration (a host moving a driven
+    /// joint) [J].
+    pub fn add_input_work(&mut self, work: f64) {
+        self.input_work_base += work;
     }
 
     /// The parameter values the islands are compiled with.
@@ -887,13 +946,14 @@ impl Islands {
         }
     }
 
-    /// Appends the islands' own state: the retired counters, the dissipated energy not held
-    /// by an island, the rebuilds, the end of the present round, the candidate pairs, then per
+    /// Appends the islands' own state: the retired counters, the dissipated energy and the
+    /// input work not held by an island, the rebuilds, the end of the present round, the candidate pairs, then per
     /// island its bodies and its whole state.
     pub fn save(&self, out: &mut Vec<f64>) {
         let r = self.retired;
         out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
         out.push(self.dissipated_base);
+        out.push(self.input_work_base);
         out.push(self.rebuilds as f64);
         out.push(self.round_end);
         out.push(self.candidates.len() as f64);
@@ -921,6 +981,7 @@ impl Islands {
             *c = r.count(u64::MAX)? as u64;
         }
         let dissipated_base = r.next()?;
+        let input_work_base = r.next()?;
         let rebuilds = r.count(u64::MAX)? as u64;
         let round_end = r.next()?;
         if round_end.is_nan() || round_end < d.time {
@@ -1002,6 +1063,7 @@ impl Islands {
             events: counts[4],
         };
         is.dissipated_base = dissipated_base;
+        is.input_work_base = input_work_base;
         is.rebuilds = rebuilds;
         is.round_end = round_end;
         is.time = d.time;

@@ -24,12 +24,20 @@ pub struct Energies {
     pub contact: f64,
     /// Work removed by dampers, contact damping and impacts since initialisation.
     pub dissipated: f64,
+    /// Work done on the system by the inputs since initialisation.
+    pub input_work: f64,
 }
 
 impl Energies {
     /// Kinetic + potential + contact.
     pub fn total(&self) -> f64 {
         self.kinetic + self.potential + self.contact
+    }
+
+    /// The energy balance `total + dissipated − input_work`, which the equations of motion
+    /// hold at its initial value.
+    pub fn balance(&self) -> f64 {
+        self.total() + self.dissipated - self.input_work
     }
 }
 
@@ -168,6 +176,7 @@ fn energies_evaluated(m: &Model, d: &Data) -> Energies {
         potential: dynamics::potential_energy(m, d),
         contact: d.contact_out.iter().map(|o| o.elastic_energy).sum(),
         dissipated: d.state[m.dissipated_index()],
+        input_work: d.state[m.input_work_index()],
     }
 }
 
@@ -263,6 +272,8 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         VarRef::EnergyContact => energies_evaluated(m, d).contact,
         VarRef::EnergyTotal => energies_evaluated(m, d).total(),
         VarRef::EnergyDissipated => energies_evaluated(m, d).dissipated,
+        VarRef::EnergyInputWork => d.state[m.input_work_index()],
+        VarRef::DriveForce(k) => dynamics::drive_force(m, d, k),
         VarRef::SolverSteps => d.counters.steps as f64,
         VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,
         VarRef::BodyContactForce(b, k) => d.body_contact[b][k],

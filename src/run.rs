@@ -69,7 +69,7 @@ pub struct RunSummary {
     /// CPU time of the run [s] (the calling thread's; the wall-clock time where the platform
     /// has no thread CPU clock).
     pub cpu_seconds: f64,
-    /// Relative energy-balance error at the end: |ΔE_total + E_dissipated| / E_scale, with
+    /// Relative energy-balance error at the end: |Δ(E_total + E_dissipated − W_inputs)| / E_scale, with
     /// E_scale the larger of |E_total(0)| and the largest kinetic energy seen.
     pub energy_error: f64,
 }
@@ -147,7 +147,7 @@ pub fn run_simulation(
     let cpu_seconds = crate::bench::thread_cpu_seconds() - cpu_start;
     let e1 = sim.energies().map_err(|e| e.to_string())?;
     let c = sim.counters();
-    let err = ((e1.total() + e1.dissipated) - (e0.total() + e0.dissipated)).abs() / scale.max(f64::MIN_POSITIVE);
+    let err = (e1.balance() - e0.balance()).abs() / scale.max(f64::MIN_POSITIVE);
     Ok(RunSummary {
         name: sim.scene().model.name.clone(),
         simulated: stop_time,

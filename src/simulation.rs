@@ -59,10 +59,11 @@ pub struct Simulation {
     initialized: bool,
     /// Log contact peaks (a diagnostic).
     log_peaks: bool,
-    /// By value reference: for `<contact>.max_penetration` of a contact whose scene has no
-    /// `max_penetration` key, the value reference of `<contact>.radius`, which it follows while
-    /// it keeps its start value (the scene's default is the sphere radius).
-    max_penetration_follows: Vec<Option<usize>>,
+    /// By value reference: the parameter this one follows while it keeps its start value (the
+    /// scene's default for a key it does not give): `<contact>.max_penetration` follows
+    /// `<contact>.radius`, `<contact>.static_friction` follows `<contact>.friction` (and a
+    /// group pair's `static_friction` its `friction`).
+    follows: Vec<Option<usize>>,
     /// The energy balance, watched at communication points.
     watch: EnergyWatch,
     /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
@@ -71,7 +72,7 @@ pub struct Simulation {
     refreshes: u64,
 }
 
-/// The energy-balance watch: `energy.total + energy.dissipated` against its value at
+/// The energy-balance watch: `energy.total + energy.dissipated − energy.input_work` against its value at
 /// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
 /// and the largest kinetic energy seen (the scale of the command line's energy error). It
 /// starts at the first step (initialising evaluates nothing that a step would not).
@@ -94,7 +95,7 @@ struct EnergyWatch {
 struct Drift {
     /// Time [s].
     time: f64,
-    /// `energy.total + energy.dissipated` then [J].
+    /// `energy.total + energy.dissipated − energy.input_work` then [J].
     balance: f64,
     /// Its reference [J].
     reference: f64,
@@ -108,7 +109,7 @@ impl std::fmt::Display for Drift {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "at t = {}: the energy balance energy.total + energy.dissipated = {:.6e} J has drifted from {:.6e} J \
+            "at t = {}: the energy balance energy.total + energy.dissipated - energy.input_work = {:.6e} J has drifted from {:.6e} J \
              by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is inaccurate; tighten \
              solver.rtol and solver.atol or, with rk4, shorten solver.max_step (warned once per run)",
             self.time,
@@ -156,7 +157,7 @@ impl Simulation {
     pub fn new(scene: Scene, origin: &str) -> Simulation {
         let table = VariableTable::from_scene(&scene);
         let values = table.vars.iter().map(|v| v.start.unwrap_or(0.0)).collect();
-        let max_penetration_follows = max_penetration_follows(&scene, &table);
+        let follows = follows(&scene, &table);
         Simulation {
             scene,
             origin: origin.to_string(),
@@ -166,7 +167,7 @@ impl Simulation {
             compiled_fresh: false,
             initialized: false,
             log_peaks: false,
-            max_penetration_follows,
+            follows,
             watch: EnergyWatch::default(),
             drift: None,
             refreshes: 0,
@@ -286,8 +287,18 @@ impl Simulation {
                     )));
                 }
                 self.values[vr] = value;
-                if let (Some(c), VarRef::Input(i)) = (self.compiled.as_mut(), var.target) {
-                    set_input(&mut c.data, i, value);
+                let VarRef::Input(i) = var.target else {
+                    return Ok(());
+                };
+                let moves_a_drive = self
+                    .compiled
+                    .as_ref()
+                    .is_some_and(|c| c.model.drives.iter().any(|dr| i == dr.value || i == dr.value + 1));
+                if moves_a_drive && self.initialized {
+                    return self.move_drive(i, value);
+                }
+                if let Some(c) = self.compiled.as_mut() {
+                    set_input(&c.model, &mut c.data, i, value);
                 }
                 Ok(())
             }
@@ -296,6 +307,25 @@ impl Simulation {
                 var.name
             ))),
         }
+    }
+
+    /// Sets a driven joint's coordinate or rate (input value `i`) of an initialised
+    /// simulation: the joint moves there at once, and the energy that this changes (kinetic,
+    /// potential, contact) counts as work of the inputs, so that the energy balance holds
+    /// across the jump.
+    fn move_drive(&mut self, i: usize, value: f64) -> Result<(), SimError> {
+        self.sync_islands()?;
+        let Some(c) = self.compiled.as_mut() else {
+            return Err(SimError::NotInitialized);
+        };
+        let before = outputs::energies(&c.model, &mut c.data).total();
+        set_input(&c.model, &mut c.data, i, value);
+        let work = outputs::energies(&c.model, &mut c.data).total() - before;
+        match c.islands.as_mut() {
+            Some(is) => is.add_input_work(work),
+            None => c.data.state[c.model.input_work_index()] += work,
+        }
+        Ok(())
     }
 
     /// Changes the tunable parameter `vr` of an initialised simulation: checks the value
@@ -436,8 +466,8 @@ impl Simulation {
     /// `<contact>.max_penetration` that keeps its start value (the scene gives none) is the
     /// current `<contact>.radius`.
     fn value(&self, vr: usize) -> f64 {
-        match self.max_penetration_follows[vr] {
-            Some(radius) if self.values[vr].to_bits() == self.start(vr).to_bits() => self.values[radius],
+        match self.follows[vr] {
+            Some(leader) if self.values[vr].to_bits() == self.start(vr).to_bits() => self.value(leader),
             _ => self.values[vr],
         }
     }
@@ -536,10 +566,10 @@ impl Simulation {
         Ok(())
     }
 
-    /// `energy.total + energy.dissipated` at the current state.
+    /// The energy balance `energy.total + energy.dissipated − energy.input_work` at the
+    /// current state.
     fn balance(&mut self) -> Result<f64, SimError> {
-        let e = self.energies()?;
-        Ok(e.total() + e.dissipated)
+        Ok(self.energies()?.balance())
     }
 
     /// Starts watching the energy balance from the current state (the first step after
@@ -548,7 +578,7 @@ impl Simulation {
         let e = self.energies()?;
         self.watch = EnergyWatch {
             started: true,
-            reference: e.total() + e.dissipated,
+            reference: e.balance(),
             scale: e.total().abs().max(e.kinetic),
             checked_at: self.counters().rhs_evals,
             warned: false,
@@ -569,7 +599,7 @@ impl Simulation {
         let time = self.time();
         let w = &mut self.watch;
         w.scale = w.scale.max(e.kinetic);
-        let balance = e.total() + e.dissipated;
+        let balance = e.balance();
         let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
         if drift > ENERGY_DRIFT_WARNING {
             w.warned = true;
@@ -951,16 +981,25 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
 }
 
-/// By value reference: the value reference of `<contact>.radius` for the
-/// `<contact>.max_penetration` of each contact whose scene gives no `max_penetration` (one pass
-/// over the table).
-fn max_penetration_follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
+/// By value reference: the parameter each one follows while it keeps its start value (one pass
+/// over the table): a contact's `max_penetration` its `radius`, and its `static_friction` its
+/// `friction`, where the scene gives no such key; a group pair's `static_friction` its
+/// `friction`, likewise.
+fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
+    use crate::variables::GroupKey;
     let n = scene.contact.len();
     let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
+    let (mut static_friction, mut friction) = (vec![None; n], vec![None; n]);
+    let np = scene.contact_group.len();
+    let (mut pair_static, mut pair_friction) = (vec![None; np], vec![None; np]);
     for (vr, var) in table.vars.iter().enumerate() {
         match var.target {
             VarRef::MaxPenetration(i) => max_penetration[i] = Some(vr),
             VarRef::SphereRadius(i) => radius[i] = Some(vr),
+            VarRef::StaticFriction(i) => static_friction[i] = Some(vr),
+            VarRef::Friction(i) => friction[i] = Some(vr),
+            VarRef::Group(p, GroupKey::StaticFriction) => pair_static[p] = Some(vr),
+            VarRef::Group(p, GroupKey::Friction) => pair_friction[p] = Some(vr),
             _ => {}
         }
     }
@@ -968,6 +1007,14 @@ fn max_penetration_follows(scene: &Scene, table: &VariableTable) -> Vec<Option<u
     for (i, c) in scene.contact.iter().enumerate() {
         if let (None, Some(m), Some(r)) = (c.max_penetration, max_penetration[i], radius[i]) {
             follows[m] = Some(r);
+        }
+        if let (None, Some(s), Some(f)) = (c.static_friction, static_friction[i], friction[i]) {
+            follows[s] = Some(f);
+        }
+    }
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        if let (None, Some(s), Some(f)) = (g.static_friction, pair_static[p], pair_friction[p]) {
+            follows[s] = Some(f);
         }
     }
     follows
@@ -991,11 +1038,27 @@ fn variable(table: &VariableTable, vr: usize) -> Result<&Variable, SimError> {
         .ok_or_else(|| SimError::Variable(format!("unknown value reference {vr}")))
 }
 
-/// Sets input `i`; the integrator restarts at the next advance (inputs are piecewise constant
-/// between communication points).
-fn set_input(d: &mut Data, i: usize, value: f64) {
-    if d.inputs[i] != value {
-        d.inputs[i] = value;
+/// Sets input value `i`; the integrator restarts at the next advance (inputs are piecewise
+/// constant between communication points). A driven joint's coordinate or rate (`<drive>.q`,
+/// `<drive>.qd`) also moves the joint to it, every time it is set (its motion then goes on from
+/// there: `q + qd τ + qdd τ²/2`).
+fn set_input(m: &Model, d: &mut Data, i: usize, value: f64) {
+    let mut changed = d.inputs[i] != value;
+    d.inputs[i] = value;
+    for dr in &m.drives {
+        let at = if i == dr.value {
+            dr.qpos
+        } else if i == dr.value + 1 {
+            m.nq + dr.qvel
+        } else {
+            continue;
+        };
+        if d.state[at] != value {
+            d.state[at] = value;
+            changed = true;
+        }
+    }
+    if changed {
         d.outputs_valid = false;
         d.kinematics_valid = false;
         // the right-hand side changed: the method restarts at the current state

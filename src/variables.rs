@@ -200,6 +200,10 @@ pub enum VarRef {
     EnergyTotal,
     /// energy.dissipated
     EnergyDissipated,
+    /// energy.input_work
+    EnergyInputWork,
+    /// drive index (a `joint_motion` input, in scene order): `<input>.force`
+    DriveForce(usize),
     /// solver.steps
     SolverSteps,
     /// solver.rhs_evals
@@ -381,6 +385,16 @@ pub const UNITS: &[Unit] = &[
         ],
     },
     Unit {
+        name: "m/s2",
+        base: [0, 1, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "rad/s2",
+        base: [0, 0, -2, 1],
+        display: &[("deg/s2", 180.0 / std::f64::consts::PI)],
+    },
+    Unit {
         name: "kg",
         base: [1, 0, 0, 0],
         display: &[],
@@ -450,6 +464,9 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 pub struct VariableTable {
     /// The variables; index = value reference.
     pub vars: Vec<Variable>,
+    /// The value references of the inputs that move a driven joint when set (`<drive>.q`,
+    /// `<drive>.qd`): every output read from the state depends on them at once.
+    pub moving_inputs: Vec<usize>,
 }
 
 impl VariableTable {
@@ -649,7 +666,13 @@ impl VariableTable {
             VarRef::SolverMaxStep,
             "largest internal step; 0: none (rk4: its fixed step; 0: 1 ms)",
         ));
+        let (first_value, _) = scene.input_values();
+        let input_start = scene.input_start_values();
         for (i, inp) in scene.input.iter().enumerate() {
+            if inp.kind == InputType::JointMotion {
+                v.extend(motion_inputs(scene, inp, first_value[i], &input_start));
+                continue;
+            }
             let direction = inp.direction.unwrap_or([1.0, 0.0, 0.0]);
             let direction = format!("({}, {}, {})", direction[0], direction[1], direction[2]);
             let on = |key: &Option<String>| key.clone().unwrap_or_default();
@@ -668,6 +691,7 @@ impl VariableTable {
                         on(&inp.body)
                     ),
                 ),
+                InputType::JointMotion => unreachable!("handled above"),
                 InputType::JointForce => {
                     let names: Vec<String> = inp.joint.iter().chain(inp.joints.iter().flatten()).cloned().collect();
                     let revolute = scene
@@ -698,7 +722,7 @@ impl VariableTable {
                 display_unit: None,
                 description: format!("{description}; held constant over a communication step"),
                 range: None,
-                target: VarRef::Input(i),
+                target: VarRef::Input(first_value[i]),
                 depends_on_inputs: false,
             });
         }
@@ -1062,12 +1086,107 @@ impl VariableTable {
             }
         }
         group_variables(scene, &mut v);
-        VariableTable { vars: v }
+        motion_outputs(scene, &mut v);
+        let moving_inputs = v
+            .iter()
+            .enumerate()
+            .filter(|(_, var)| {
+                var.causality == Causality::Input
+                    && scene.input.iter().any(|i| {
+                        i.kind == InputType::JointMotion
+                            && (var.name == format!("{}.q", i.name) || var.name == format!("{}.qd", i.name))
+                    })
+            })
+            .map(|(vr, _)| vr)
+            .collect();
+        VariableTable { vars: v, moving_inputs }
     }
 
     /// Index of a variable by name.
     pub fn index_of(&self, name: &str) -> Option<usize> {
         self.vars.iter().position(|v| v.name == name)
+    }
+}
+
+/// The three inputs of a `joint_motion` input `inp` whose values start at `first` among the
+/// inputs' values: `<name>.q`, `<name>.qd`, `<name>.qdd`.
+fn motion_inputs(scene: &Scene, inp: &crate::scene::InputSpec, first: usize, start: &[f64]) -> Vec<Variable> {
+    let joint = inp.joint.clone().unwrap_or_default();
+    let revolute = scene
+        .joint
+        .iter()
+        .any(|j| j.name == joint && j.kind == JointType::Revolute);
+    let units: [&'static str; 3] = if revolute {
+        ["rad", "rad/s", "rad/s2"]
+    } else {
+        ["m", "m/s", "m/s2"]
+    };
+    let what = [
+        format!(
+            "coordinate of joint '{joint}' set at the start of the communication step (0: the scene's \
+             configuration); setting it moves the joint there at once"
+        ),
+        format!(
+            "rate of joint '{joint}' at the start of the communication step; setting it sets the joint's rate \
+             at once (a host that sets only the coordinate gets zero rate)"
+        ),
+        format!("acceleration of joint '{joint}' over the communication step: the joint follows q + qd t + qdd t^2/2"),
+    ];
+    (0..3)
+        .map(|k| Variable {
+            name: format!("{}.{}", inp.name, ["q", "qd", "qdd"][k]),
+            vtype: VarType::Real,
+            causality: Causality::Input,
+            variability: Variability::Continuous,
+            start: Some(start[first + k]),
+            unit: Some(units[k]),
+            display_unit: None,
+            description: what[k].clone(),
+            range: None,
+            target: VarRef::Input(first + k),
+            depends_on_inputs: false,
+        })
+        .collect()
+}
+
+/// The outputs added with motion inputs and input work, after every other variable (so that
+/// no value reference of an earlier scene moves): `energy.input_work`, and per `joint_motion`
+/// input its drive force `<name>.force`.
+fn motion_outputs(scene: &Scene, v: &mut Vec<Variable>) {
+    v.push(output_variable(
+        "energy.input_work".into(),
+        VarType::Real,
+        Some("J"),
+        VarRef::EnergyInputWork,
+        "work done on the system by every input since initialisation (forces, torques, joint forces, drives): \
+         energy.total + energy.dissipated - energy.input_work stays at its initial value"
+            .into(),
+        false,
+    ));
+    for (k, inp) in scene
+        .input
+        .iter()
+        .filter(|i| i.kind == InputType::JointMotion)
+        .enumerate()
+    {
+        let joint = inp.joint.clone().unwrap_or_default();
+        let revolute = scene
+            .joint
+            .iter()
+            .any(|j| j.name == joint && j.kind == JointType::Revolute);
+        let (unit, what) = if revolute {
+            ("N.m", "torque the drive exerts on the child body about the axis")
+        } else {
+            ("N", "force the drive exerts on the child body along the axis")
+        };
+        v.push(output_variable(
+            format!("{}.force", inp.name),
+            VarType::Real,
+            Some(unit),
+            VarRef::DriveForce(k),
+            format!("generalised {what} of joint '{joint}' (what an actuator supplies to follow the motion)"),
+            true,
+        ));
     }
 }
 
@@ -1429,6 +1548,8 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::EnergyContact
         | VarRef::EnergyTotal
         | VarRef::EnergyDissipated
+        | VarRef::EnergyInputWork
+        | VarRef::DriveForce(_)
         | VarRef::SolverSteps
         | VarRef::SolverRhsEvals
         | VarRef::BodyContactForce(..)

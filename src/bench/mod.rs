@@ -577,7 +577,7 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         traj.rows.push(row);
         let e = energies(sim);
         scale = scale.max(e.kinetic);
-        let balance = (e.total() + e.dissipated) - (e0.total() + e0.dissipated);
+        let balance = e.balance() - e0.balance();
         out.energy_error = out.energy_error.max(balance.abs() / scale.max(f64::MIN_POSITIVE));
         if let Ok(r) = sim.constraint_residual() {
             out.constraint_residual = out.constraint_residual.max(r);
@@ -608,6 +608,7 @@ pub fn energies(sim: &mut Simulation) -> Energies {
         potential: f64::NAN,
         contact: f64::NAN,
         dissipated: f64::NAN,
+        input_work: f64::NAN,
     })
 }
 

@@ -22,7 +22,7 @@ pub use parameters::Parameters;
 
 use crate::contact::broad::Candidate;
 use crate::kinematics::kinematics;
-use crate::model::{nq_of, nv_of, Body, Data, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
+use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -284,6 +284,37 @@ pub fn compile_with_candidates(
         .enumerate()
         .map(|(i, j)| (j.name.as_str(), i))
         .collect();
+
+    // Driven joints: one constraint row each, after the loops' rows.
+    let (input_value, _) = scene.input_values();
+    let mut drives = Vec::new();
+    for (i, inp) in scene.input.iter().enumerate() {
+        if inp.kind != InputType::JointMotion {
+            continue;
+        }
+        let ji = inp
+            .joint
+            .as_deref()
+            .and_then(|n| joint_index.get(n))
+            .copied()
+            .unwrap_or(0);
+        let Ok(t) = scene_joint[ji] else {
+            return Err(SceneError::new(
+                origin,
+                item_name("input", &inp.name),
+                "joint",
+                "the joint closes a loop; a joint_motion needs a tree joint (one with a coordinate)",
+            ));
+        };
+        drives.push(Drive {
+            name: inp.name.clone(),
+            qpos: joints[t].qpos,
+            qvel: joints[t].qvel,
+            row: nc,
+            value: input_value[i],
+        });
+        nc += 1;
+    }
     let local_point = |b: Option<usize>, p: Vector3<f64>| -> Vector3<f64> {
         let (r, q) = pose(b);
         q.inverse() * (p - r)
@@ -371,6 +402,12 @@ pub fn compile_with_candidates(
                 body: i.body.as_deref().and_then(to_body).unwrap_or(0),
                 direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
             },
+            InputType::JointMotion => Input::JointMotion {
+                drive: drives
+                    .iter()
+                    .position(|dr: &Drive| dr.name == i.name)
+                    .unwrap_or_default(),
+            },
             InputType::JointForce => {
                 let names = i.joint.iter().chain(i.joints.iter().flatten());
                 let qvels = names
@@ -399,6 +436,8 @@ pub fn compile_with_candidates(
         contacts,
         groups,
         inputs,
+        input_value,
+        drives,
         input_start: params.input_start.clone(),
         nq,
         nv,
@@ -425,6 +464,11 @@ pub fn compile_with_candidates(
         }
     }
     let mut data = Data::new(&model);
+    // the drives' coordinates start at their inputs' q (0: the scene's configuration), their
+    // rates at qd (the velocities below keep them)
+    for dr in &model.drives {
+        data.state[dr.qpos] = data.inputs[dr.value];
+    }
     let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, params);
     model.warnings.extend(warnings);
     data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);

@@ -104,7 +104,7 @@ pub struct Parameters {
     pub groups: Vec<GroupValues>,
     /// Solver settings.
     pub solver: SolverSection,
-    /// Per input: its value at the start.
+    /// Per input value (a `joint_motion` has three): its value at the start.
     pub input_start: Vec<f64>,
 }
 
@@ -170,7 +170,7 @@ impl Parameters {
                 })
                 .collect(),
             solver: scene.solver.clone(),
-            input_start: scene.input.iter().map(|i| i.start).collect(),
+            input_start: scene.input_start_values(),
         }
     }
 

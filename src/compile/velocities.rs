@@ -1,6 +1,6 @@
 //! The initial joint rates: the scene gives body velocities in the world frame; they are
 //! projected onto the joint coordinates by least squares (docs/physics.md (35)-(37)) and onto
-//! the loop constraints.
+//! the loop constraints; a driven joint's rate is its input's.
 
 use super::parameters::Parameters;
 use crate::contact::resting_rows;
@@ -63,13 +63,21 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, params: &Parameters) -
         }
         qvel[t0..t0 + n].copy_from_slice(sol.as_slice());
     }
+    // a driven joint's rate is its input's qd
+    for dr in &m.drives {
+        qvel[dr.qvel] = d.inputs[dr.value + 1];
+    }
     if m.nc > 0 {
         d.eval_state[m.nq..m.nq + m.nv].copy_from_slice(&qvel);
         kinematics(m, d);
         constraints(m, d, resting_rows);
         let j = DMatrix::from_row_slice(m.nc, m.nv, &d.phi_q);
         let v = DVector::from_column_slice(&qvel);
-        let viol = &j * &v;
+        // Φ_q q̇ = 0 for the loops, q̇_k = qd for the drives (kept: their rows hold them)
+        let mut viol = &j * &v;
+        for dr in &m.drives {
+            viol[dr.row] -= d.inputs[dr.value + 1];
+        }
         if viol.norm() > 0.0 {
             let jjt = &j * j.transpose();
             let corr = jjt

@@ -39,7 +39,7 @@ impl Projection {
     /// (the last evaluation computed them).
     pub(crate) fn factor(&mut self, m: &Model, d: &Data) {
         let nv = m.nv;
-        let nl = m.loop_rows();
+        let nl = m.fixed_rows();
         if self.nl != nl {
             *self = Projection::with_rows(nl);
         }
@@ -77,8 +77,8 @@ impl Projection {
 /// `restitution` (one each) at the current state. The data must have been evaluated at this
 /// configuration (mass matrix factorised; loop Jacobian and `M̄⁻¹Φ_qᵀ` computed). Updates the
 /// velocities in `d.state` and the kinematics (at `d.eval_state`, set to the new state),
-/// counts the impacts that took an impulse and returns the kinetic energy lost [J]; the
-/// impulses are left in [`ImpulseWork::impulses`]. Allocates nothing when `work` was made for
+/// counts the impacts that took an impulse and returns the energy dissipated and the drives'
+/// work ([`ImpactEnergy`]); the impulses are left in [`ImpulseWork::impulses`]. Allocates nothing when `work` was made for
 /// at least `contacts.len()` contacts of this model (except to report an error).
 pub fn resolve_with(
     m: &Model,
@@ -86,14 +86,17 @@ pub fn resolve_with(
     work: &mut ImpulseWork,
     contacts: &[usize],
     restitution: &[f64],
-) -> Result<f64, String> {
+) -> Result<ImpactEnergy, String> {
     let nv = m.nv;
     let k = contacts.len();
     work.last = 0;
     if k == 0 {
-        return Ok(0.0);
+        return Ok(ImpactEnergy {
+            dissipated: 0.0,
+            input_work: 0.0,
+        });
     }
-    work.reserve(m.nv, m.loop_rows(), k);
+    work.reserve(m.nv, m.fixed_rows(), k);
     let ImpulseWork {
         proj,
         jrows,
@@ -233,7 +236,43 @@ pub fn resolve_with(
         }
     }
     work.last = k;
-    Ok(ke_before - dynamics::kinetic_energy(m, d))
+    let ke_gain = dynamics::kinetic_energy(m, d) - ke_before;
+    if m.drives.is_empty() {
+        return Ok(ImpactEnergy {
+            dissipated: -ke_gain,
+            input_work: 0.0,
+        });
+    }
+    // With drives, whose impulses keep the driven rates, the kinetic energy changes by the
+    // work of the contacts' impulses and the drives': the contacts' (each impulse times the
+    // mean of its row's rate before and after) is what the impacts dissipate, the rest is the
+    // drives' work.
+    let v_after = &d.state[m.nq..m.nq + nv];
+    let mut contact_work = 0.0;
+    for (r, p) in impulses.iter().enumerate() {
+        if *p != 0.0 {
+            let after = linalg::dot(&jrows[r * nv..(r + 1) * nv], v_after);
+            contact_work += p * 0.5 * (rate[r] + after);
+        }
+    }
+    for i in 0..2 * friction.fric.len() {
+        let row = &friction.trows[i * nv..(i + 1) * nv];
+        let (before, after) = (linalg::dot(row, qvel), linalg::dot(row, v_after));
+        contact_work += friction.pt[i] * 0.5 * (before + after);
+    }
+    Ok(ImpactEnergy {
+        dissipated: -contact_work,
+        input_work: ke_gain - contact_work,
+    })
+}
+
+/// What a round of impacts did to the energy balance [J].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImpactEnergy {
+    /// The energy the impacts dissipated (the kinetic energy lost, without drives).
+    pub dissipated: f64,
+    /// The work of the drives' impulses (0 without drives).
+    pub input_work: f64,
 }
 
 /// The tangential impulses of the contacts with friction of a round, the normal impulses

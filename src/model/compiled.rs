@@ -143,6 +143,24 @@ pub struct SpringDamper {
     pub free_length: f64,
 }
 
+/// A driven 1-DOF tree joint (an input of type `joint_motion`): its coordinate follows the
+/// host's `q + qd τ + qdd τ²/2` through one constraint row `q̈_k = qdd` after the loops' rows,
+/// whose multiplier gives the drive force, and the host's `q`, `qd` written into the state
+/// when it sets them.
+#[derive(Debug, Clone)]
+pub struct Drive {
+    /// The input's name (`<name>.q`, `.qd`, `.qdd`, `.force`).
+    pub name: String,
+    /// Position index of the driven coordinate.
+    pub qpos: usize,
+    /// Velocity index of the driven coordinate.
+    pub qvel: usize,
+    /// Its constraint row.
+    pub row: usize,
+    /// Index of its first input value (`q`; then `qd`, `qdd`) in `Data::inputs`.
+    pub value: usize,
+}
+
 /// An input channel.
 #[derive(Debug, Clone)]
 pub enum Input {
@@ -164,6 +182,11 @@ pub enum Input {
     JointForce {
         /// Velocity indices.
         qvels: Vec<usize>,
+    },
+    /// Prescribed motion of a 1-DOF tree joint (three input values).
+    JointMotion {
+        /// Index in [`Model::drives`].
+        drive: usize,
     },
 }
 
@@ -276,9 +299,11 @@ pub struct Model {
     pub scene_joint: Vec<Result<usize, usize>>,
     /// Loop-closing constraints.
     pub loops: Vec<LoopConstraint>,
-    /// Total constraint rows: the loops' rows, then one row per impulse-law contact (its
-    /// resting mode; zero while the contact does not rest).
+    /// Total constraint rows: the loops' rows, one row per driven joint, then one row per
+    /// impulse-law contact (its resting mode; zero while the contact does not rest).
     pub nc: usize,
+    /// Driven joints (`joint_motion` inputs), in scene order.
+    pub drives: Vec<Drive>,
     /// Spring-dampers.
     pub springs: Vec<SpringDamper>,
     /// Contact elements.
@@ -288,7 +313,10 @@ pub struct Model {
     pub groups: crate::contact::broad::Groups,
     /// Inputs, in scene order.
     pub inputs: Vec<Input>,
-    /// Input start values.
+    /// For each input, the index of its first value in `Data::inputs` (a `joint_motion` has
+    /// three values, the others one).
+    pub input_value: Vec<usize>,
+    /// Start values of the input values.
     pub input_start: Vec<f64>,
     /// Number of position coordinates.
     pub nq: usize,
@@ -314,16 +342,25 @@ pub struct Model {
 }
 
 impl Model {
-    /// Size of the state vector: positions, velocities, dissipated energy.
+    /// Size of the state vector: positions, velocities, dissipated energy, work of the inputs.
     pub fn nstate(&self) -> usize {
-        self.nq + self.nv + 1
+        self.nq + self.nv + 2
     }
     /// Index of the dissipated-energy state.
     pub fn dissipated_index(&self) -> usize {
         self.nq + self.nv
     }
-    /// Number of loop-constraint rows: the first rows of Φ (rows of resting contacts follow).
-    pub fn loop_rows(&self) -> usize {
-        self.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
+    /// Index of the state of the inputs' work on the system since initialisation.
+    pub fn input_work_index(&self) -> usize {
+        self.nq + self.nv + 1
+    }
+    /// Number of input values (`Data::inputs`).
+    pub fn input_values(&self) -> usize {
+        self.input_start.len()
+    }
+    /// Number of the constraint rows that are always on: the loops' rows, then one row per
+    /// driven joint (the rows of resting contacts follow).
+    pub fn fixed_rows(&self) -> usize {
+        self.loops.last().map(|l| l.row + l.rows()).unwrap_or(0) + self.drives.len()
     }
 }

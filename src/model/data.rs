@@ -255,6 +255,9 @@ pub struct Data {
     pub friction_dlambda: Vec<f64>,
     /// Dissipated power at the last RHS evaluation [W].
     pub dissipation: f64,
+    /// The power of the inputs on the system at the last evaluation [W] (forces, torques,
+    /// joint forces, drives): the rate of the input-work state.
+    pub input_power: f64,
     /// Per-contact outputs of the last evaluation.
     pub contact_out: Vec<ContactOutput>,
     /// Contact groups: per body, the pose (centre of mass, orientation) where the candidate
@@ -322,7 +325,7 @@ impl Data {
                 aux_new: vec![(0.0, 0.0); ncontacts + 1],
             },
             impacts: ImpactWork {
-                solve: ImpulseWork::new(nv, model.loop_rows(), impulse_contacts),
+                solve: ImpulseWork::new(nv, model.fixed_rows(), impulse_contacts),
                 set: Vec::with_capacity(impulse_contacts),
                 restitution: Vec::with_capacity(impulse_contacts),
                 approach: Vec::with_capacity(impulse_contacts),
@@ -359,6 +362,7 @@ impl Data {
             friction_step: vec![0.0; nv],
             friction_dlambda: vec![0.0; nc],
             dissipation: 0.0,
+            input_power: 0.0,
             contact_out: vec![ContactOutput::default(); ncontacts],
             broad_reference: vec![(Vector3::zeros(), UnitQuaternion::identity()); nb],
             body_contact: vec![[0.0; 6]; if model.groups.is_active() { nb } else { 0 }],
