@@ -403,8 +403,8 @@ impl Island {
         }
     }
 
-    /// Takes the scene's input values, and the driven joints' coordinates and rates (which a
-    /// host moves by setting them); a change restarts the integrator.
+    /// Takes the scene's input values, and its coordinates when a host moved a driven joint;
+    /// a change restarts the integrator.
     fn take_inputs(&mut self, d: &Data) {
         for &(l, g) in &self.inputs {
             if self.data.inputs[l] != d.inputs[g] {
@@ -412,15 +412,10 @@ impl Island {
                 self.data.solver.started = false;
             }
         }
-        let mut moved = false;
-        for &(l, g) in &self.driven {
-            if self.data.state[l] != d.state[g] {
-                self.data.state[l] = d.state[g];
-                moved = true;
-            }
-        }
-        if moved {
-            engine::resync(&self.model, &mut self.data);
+        // a host moved a driven joint (and the rest of the scene's state followed it onto the
+        // loops): the island takes all its coordinates
+        if self.driven.iter().any(|&(l, g)| self.data.state[l] != d.state[g]) {
+            self.take_coordinates(d);
         }
     }
 

@@ -320,6 +320,7 @@ impl Simulation {
         };
         let before = outputs::energies(&c.model, &mut c.data).total();
         set_input(&c.model, &mut c.data, i, value);
+        engine::follow_drives(&c.model, &mut c.data);
         let work = outputs::energies(&c.model, &mut c.data).total() - before;
         match c.islands.as_mut() {
             Some(is) => is.add_input_work(work),

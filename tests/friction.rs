@@ -463,6 +463,7 @@ fn brake(torque: f64, t_end: f64) -> (f64, f64, f64, usize) {
     let contacts = ["fl1", "fl2", "fr1", "fr2", "rl1", "rl2", "rr1", "rr2"];
     let turned = |s: &mut Simulation| contacts.iter().map(|c| get(s, &format!("axle_{c}.q"))).sum::<f64>();
     let (e3, turned3) = (energy_balance(&mut s), turned(&mut s));
+    let input_work3 = get(&mut s, "energy.input_work");
     s.set_by_name("axle_torque", -torque).unwrap();
     advance(&mut s, 3.5);
     let v1 = get(&mut s, "car.v[1]");
@@ -480,6 +481,12 @@ fn brake(torque: f64, t_end: f64) -> (f64, f64, f64, usize) {
     // the brakes' work −T Σ Δθ is what total + dissipated energy changes by
     let work = -torque * (turned(&mut s) - turned3);
     let drift = (energy_balance(&mut s) - e3 - work).abs() / e0.abs();
+    // energy.input_work, integrated with the state, is the same work
+    let input_work = get(&mut s, "energy.input_work") - input_work3;
+    assert!(
+        (input_work - work).abs() <= 1e-6 * work.abs(),
+        "input work {input_work} J against the brakes' -T Σ Δθ = {work} J"
+    );
     ((v1 - v2) / (t_end - 3.5), delta, drift, sliding)
 }
 

@@ -100,6 +100,17 @@ pub fn resync(m: &Model, d: &mut Data) {
     }
 }
 
+/// After a host moved a driven joint (its coordinate or rate written into `d.state`): the rest
+/// of the state follows onto the loop constraints (positions, then velocities, in the mass
+/// metric, the drives held), and the integrator restarts there at the next advance.
+pub fn follow_drives(m: &Model, d: &mut Data) {
+    dynamics::project_state(m, d, dynamics::PROJECTION_TOL, contact::resting_rows);
+    d.solver.started = false;
+    d.outputs_valid = false;
+    d.kinematics_valid = false;
+    resync(m, d);
+}
+
 /// Integrates to `t_end`, locating and handling contact events. The method continues its last
 /// step when nothing changed since the previous advance; it may step past `t_end` (up to
 /// and the state at `t_end` then comes from its dense output (projected onto the loop

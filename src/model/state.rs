@@ -150,7 +150,7 @@ pub fn group_candidates(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
     if !m.groups.is_active() {
         return None;
     }
-    candidates_in(v.get(1 + m.nstate() + m.inputs.len()..)?)
+    candidates_in(v.get(1 + m.nstate() + m.input_values()..)?)
 }
 
 /// A count stored as a number: a whole number in range, or an error naming the part.
@@ -180,7 +180,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         let len = match part {
             StatePart::Time => 1,
             StatePart::Coordinates => m.nstate(),
-            StatePart::Inputs => m.inputs.len(),
+            StatePart::Inputs => m.input_values(),
             StatePart::ContactMemory => group_section_len(m) + MEMORY_LEN * m.contacts.len(),
             StatePart::Counters => COUNTERS_LEN,
             StatePart::Solver => {
