@@ -168,7 +168,9 @@ pub fn state_derivative(m: &Model, d: &Data, dy: &mut [f64]) {
     position_derivative(m, &d.eval_state, &mut dy[..nq]);
     dy[nq..nq + nv].copy_from_slice(&d.qacc);
     dy[nq + nv] = d.dissipation;
-    dy[nq + nv + 1] = d.input_power;
+    if let Some(i) = m.input_work_index() {
+        dy[i] = d.input_power;
+    }
 }
 
 /// True when some impulse-law contact is resting (its constraint row is on).

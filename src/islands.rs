@@ -426,7 +426,7 @@ impl Island {
 
     /// The work of the island's inputs [J].
     pub fn input_work(&self) -> f64 {
-        self.data.state[self.model.input_work_index()]
+        self.model.input_work(&self.data.state)
     }
 
     /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
@@ -463,7 +463,7 @@ impl Islands {
             parts: Vec::new(),
             retired: d.counters,
             dissipated_base: d.state[m.dissipated_index()],
-            input_work_base: d.state[m.input_work_index()],
+            input_work_base: m.input_work(&d.state),
             candidates: m.groups.candidates.clone(),
             candidate_index: m.groups.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
             retired_log: Vec::new(),
@@ -641,7 +641,9 @@ impl Islands {
         }
         let diss = model.dissipated_index();
         data.state[diss] = 0.0;
-        data.state[model.input_work_index()] = 0.0;
+        if let Some(i) = model.input_work_index() {
+            data.state[i] = 0.0;
+        }
         data.clamp_events = d.clamp_events;
         data.log_peaks = d.log_peaks;
         let (scene_first, _) = src.scene.input_values();
@@ -703,11 +705,11 @@ impl Islands {
         let grouped = m.groups.is_active();
         let mut rounds = 0u64;
         // solver.max_steps bounds each island's steps per advance, and the steps of all islands
-        // together to that many per island (the most islands there were in this advance): a
-        // many-body scene gets a budget that grows with its islands, and no advance is unbounded
+        // together to that many per island there is (counted at each round): a scene of many
+        // independent bodies gets a budget that grows with them, a pile whose islands merged
+        // the budget of one island, and no advance is unbounded
         let steps_start = self.total_steps();
         let per_island = m.solver.max_steps;
-        let mut budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
         while t_end - self.time > t_close {
             rounds += 1;
             self.rounds += 1;
@@ -742,7 +744,7 @@ impl Islands {
             }
             let mut t_met = t_round;
             let mut used = self.total_steps() - steps_start;
-            budget = budget.max(per_island.saturating_mul(self.parts.len() as u64));
+            let budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
             for k in 0..self.parts.len() {
                 let island = &mut self.parts[k];
                 island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
@@ -756,7 +758,7 @@ impl Islands {
                     if e.step_limit {
                         e.message = format!(
                             "solver.max_steps = {per_island} integrator steps per island and communication step \
-                             ({n} islands, {used} steps in all in this one) did not reach t = {t_end} (stopped at \
+                             ({n} islands now, {used} steps in all in this one) did not reach t = {t_end} (stopped at \
                              t = {}, in the island of body {name:?}); take shorter communication steps or raise \
                              solver.max_steps",
                             self.time
@@ -880,7 +882,9 @@ impl Islands {
             d.event_log.drain(..excess);
         }
         d.state[m.dissipated_index()] = dissipated;
-        d.state[m.input_work_index()] = input_work;
+        if let Some(i) = m.input_work_index() {
+            d.state[i] = input_work;
+        }
         d.counters = counters;
         d.outputs_valid = false;
         d.kinematics_valid = false;

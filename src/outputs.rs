@@ -176,7 +176,7 @@ fn energies_evaluated(m: &Model, d: &Data) -> Energies {
         potential: dynamics::potential_energy(m, d),
         contact: d.contact_out.iter().map(|o| o.elastic_energy).sum(),
         dissipated: d.state[m.dissipated_index()],
-        input_work: d.state[m.input_work_index()],
+        input_work: m.input_work(&d.state),
     }
 }
 
@@ -272,7 +272,7 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         VarRef::EnergyContact => energies_evaluated(m, d).contact,
         VarRef::EnergyTotal => energies_evaluated(m, d).total(),
         VarRef::EnergyDissipated => energies_evaluated(m, d).dissipated,
-        VarRef::EnergyInputWork => d.state[m.input_work_index()],
+        VarRef::EnergyInputWork => m.input_work(&d.state),
         VarRef::DriveForce(k) => dynamics::drive_force(m, d, k),
         VarRef::SolverSteps => d.counters.steps as f64,
         VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,

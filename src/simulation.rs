@@ -324,7 +324,7 @@ impl Simulation {
         let work = outputs::energies(&c.model, &mut c.data).total() - before;
         match c.islands.as_mut() {
             Some(is) => is.add_input_work(work),
-            None => c.data.state[c.model.input_work_index()] += work,
+            None => c.model.add_input_work(&mut c.data.state, work),
         }
         Ok(())
     }

@@ -194,7 +194,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         let resolved = impulse::resolve_with(m, d, &mut w.solve, &w.set, &w.restitution);
         if let Ok(energy) = resolved {
             d.state[m.dissipated_index()] += energy.dissipated;
-            d.state[m.input_work_index()] += energy.input_work;
+            m.add_input_work(&mut d.state, energy.input_work);
             for (k, &i) in w.set.iter().enumerate() {
                 let (delta, delta_dot) = w.approach[k];
                 d.log_event(i, ContactEventKind::Impact, delta, delta_dot, w.solve.impulses()[k]);

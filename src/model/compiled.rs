@@ -342,17 +342,32 @@ pub struct Model {
 }
 
 impl Model {
-    /// Size of the state vector: positions, velocities, dissipated energy, work of the inputs.
+    /// Size of the state vector: positions, velocities, dissipated energy, and with inputs the
+    /// work they did (a scene without inputs integrates no zero, so that its steps are those
+    /// of a state without it).
     pub fn nstate(&self) -> usize {
-        self.nq + self.nv + 2
+        self.nq + self.nv + 1 + usize::from(!self.inputs.is_empty())
     }
     /// Index of the dissipated-energy state.
     pub fn dissipated_index(&self) -> usize {
         self.nq + self.nv
     }
-    /// Index of the state of the inputs' work on the system since initialisation.
-    pub fn input_work_index(&self) -> usize {
-        self.nq + self.nv + 1
+    /// Index of the state of the inputs' work on the system since initialisation (none
+    /// without inputs).
+    pub fn input_work_index(&self) -> Option<usize> {
+        (!self.inputs.is_empty()).then_some(self.nq + self.nv + 1)
+    }
+
+    /// The inputs' work on the system since initialisation, from a state vector [J].
+    pub fn input_work(&self, state: &[f64]) -> f64 {
+        self.input_work_index().map_or(0.0, |i| state[i])
+    }
+
+    /// Adds `work` to the inputs' work in a state vector (nothing without inputs).
+    pub fn add_input_work(&self, state: &mut [f64], work: f64) {
+        if let Some(i) = self.input_work_index() {
+            state[i] += work;
+        }
     }
     /// Number of input values (`Data::inputs`).
     pub fn input_values(&self) -> usize {
