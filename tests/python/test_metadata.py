@@ -289,8 +289,9 @@ def test_every_enumeration_has_an_integer_twin(fmus, name):
         assert (twin.type, twin.causality, twin.variability, twin.start) == ("Integer", "parameter", "fixed", "0")
         assert (twin.min, twin.max) == ("0", str(len(e.declaredType.items)))
         # The twins come after every variable that was there before them, so no value reference
-        # moved; only the friction, inertia and contact-geometry variables, added later, follow,
-        # and the contact groups' variables (a group pair's law twin among them).
+        # moved; only the friction, inertia and contact-geometry variables and the input work,
+        # added later, follow, and the contact groups' variables (a group pair's law twin among
+        # them).
         groups = {v.name.rsplit(".", 1)[0] for v in md.modelVariables if v.name.endswith(".active_contacts")}
         later = [v.valueReference for v in md.modelVariables
                  if added_after_the_twins(v.name) or added_with_groups(v.name, groups)]
@@ -306,9 +307,11 @@ FRICTION = (".friction", ".static_friction", ".stribeck_velocity", ".viscous_fri
 
 
 def added_after_the_twins(name):
-    """The friction, inertia and contact-geometry variables, added after the Integer twins."""
+    """The friction, inertia and contact-geometry variables, added after the Integer twins, and
+    the input work (added last)."""
     return (".inertia[" in name or ".size[" in name or ".friction_force[" in name
-            or name.endswith((".radius", ".other_radius", ".cylinder_radius", ".length") + FRICTION))
+            or name.endswith((".radius", ".other_radius", ".cylinder_radius", ".length") + FRICTION)
+            or name == "energy.input_work")
 
 
 def added_with_groups(name, groups):
