@@ -125,6 +125,10 @@ impl std::fmt::Display for Drift {
 /// Relative drift of the energy balance beyond which the run warns (once).
 pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
 
+/// Relative drift of the energy balance beyond which the step is refused as a blow-up (no
+/// physical run gets near it: the balance counts dissipation and the inputs' work).
+pub const ENERGY_BLOW_UP: f64 = 10.0;
+
 /// The energy balance is checked at a communication point when at least this many RHS
 /// evaluations were made since the last check (a check costs one evaluation: at most 1 %
 /// more work).
@@ -592,7 +596,8 @@ impl Simulation {
     /// [`ENERGY_DRIFT_WARNING`] of its scale.
     fn watch_energy(&mut self) -> Result<(), SimError> {
         let evals = self.counters().rhs_evals;
-        if self.watch.warned || evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
+        // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
+        if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
             return Ok(());
         }
         self.watch.checked_at = evals;
@@ -602,7 +607,7 @@ impl Simulation {
         w.scale = w.scale.max(e.kinetic);
         let balance = e.balance();
         let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
-        if drift > ENERGY_DRIFT_WARNING {
+        if drift > ENERGY_DRIFT_WARNING && !w.warned {
             w.warned = true;
             // kept as numbers: a step allocates nothing; the text is made when it is taken
             self.drift = Some(Drift {
@@ -613,7 +618,23 @@ impl Simulation {
                 scale: w.scale,
             });
         }
+        if drift > ENERGY_BLOW_UP {
+            let w = &self.watch;
+            let what = format!(
+                "the energy balance drifted by {:.0} times its scale {:.6e} J",
+                drift, w.scale
+            );
+            let c = self.running()?;
+            let message = engine::blow_up(&c.model, time, &what);
+            return Err(SimError::Step { time, message });
+        }
         Ok(())
+    }
+
+    /// True when the energy balance drifted beyond [`ENERGY_DRIFT_WARNING`] in this run (the
+    /// warning was given, or is waiting in [`Simulation::take_warnings`]).
+    pub fn energy_drifted(&self) -> bool {
+        self.watch.warned
     }
 
     /// The warnings of the run since the last call (the energy-balance drift), oldest first.

@@ -229,11 +229,49 @@ fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
         stop_after_failure(d);
         return Err(fail(d, e.to_string()));
     }
-    if !d.solver.method().is_some_and(|i| i.y().iter().all(|v| v.is_finite())) {
+    if let Some(what) = d.solver.method().and_then(|i| runaway(m, i.y())) {
         stop_after_failure(d);
-        return Err(fail(d, "the state became non-finite"));
+        let message = format!("{}; the state is the last good one", blow_up(m, d.time, &what));
+        return Err(fail(d, message));
     }
     Ok(())
+}
+
+/// A speed no rigid mechanism reaches [m/s or rad/s]: a velocity coordinate beyond it is
+/// taken for an integration that blew up (before the kinetic energy overflows).
+pub const RUNAWAY_SPEED: f64 = 1e8;
+
+/// What makes the state `y` of a step's end a blow-up, if anything: a non-finite number, or a
+/// velocity beyond [`RUNAWAY_SPEED`]. (Positions are not bounded: bodies flying apart for a
+/// host's step of 1e300 s reach any distance without anything going wrong.)
+fn runaway(m: &Model, y: &[f64]) -> Option<String> {
+    if let Some(k) = y.iter().position(|v| !v.is_finite()) {
+        return Some(format!("state component {k} became {}", y[k]));
+    }
+    let (nq, nv) = (m.nq, m.nv);
+    y[nq..nq + nv]
+        .iter()
+        .find(|v| v.abs() > RUNAWAY_SPEED)
+        .map(|v| format!("a velocity reached {v:.3e}"))
+}
+
+/// The message for an integration that blew up in the step after `time` (`what` happened):
+/// the cause and the remedy for the method in use.
+pub fn blow_up(m: &Model, time: f64, what: &str) -> String {
+    use crate::scene::Method;
+    let s = &m.solver;
+    let remedy = match s.method {
+        Method::Rk4 => format!(
+            "the fixed-step method rk4 with a step of {} s is unstable here: use solver.method = auto (adaptive, \
+             the default) or a shorter solver.max_step",
+            if s.max_step > 0.0 { s.max_step } else { 1e-3 }
+        ),
+        _ => format!(
+            "tighten solver.rtol (now {:e}) and solver.atol (now {:e}), or bound the step with solver.max_step",
+            s.rtol, s.atol
+        ),
+    };
+    format!("the integration blew up in the step after t = {time} ({what}): {remedy}")
 }
 
 /// Accepts the whole step: the state moves to its end; the event functions there become the

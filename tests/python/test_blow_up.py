@@ -1,0 +1,69 @@
+"""A step that blows up is refused at that step (docs/robustness.md): an integration whose state
+runs away (the slider-crank under rk4 with a 10 ms step: its block's impact is far too stiff for
+it) or whose energy balance grows beyond ten times its scale (the bouncing ball at rtol 1e-2)
+ends the step with fmi2Error and a message naming the cause and the remedy, before any output
+carries inf; `contact-fmu simulate` stops there, writes no row of inf, and exits non-zero; a run
+that drifts by more than 1 % exits non-zero unless --allow-energy-drift."""
+
+import csv
+import math
+import subprocess
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from conftest import BINARY, ROOT, scene_path
+
+
+def real_outputs(inst):
+    return [v.name for v in inst.md.modelVariables if v.causality == "output" and v.type == "Real"]
+
+
+@pytest.mark.parametrize("scene,settings,says", [
+    ("slider_crank", {"solver.method": 3, "solver.max_step": 1e-2}, "rk4 with a step of 0.01 s is unstable"),
+    ("bouncing_ball", {"solver.rtol": 1e-2}, "tighten solver.rtol"),
+])
+def test_fmi2_do_step_refuses_the_step_that_blows_up(unzipped, make_instance, log, scene, settings, says):
+    inst = make_instance(unzipped[scene], "blow-up", callbacks=log.callbacks)
+    inst.init(settings)
+    names = real_outputs(inst)
+    h = 1e-3
+    refused = False
+    for _ in range(2000):
+        values = [inst.get(n) for n in names]
+        assert all(math.isfinite(x) for x in values), "an output is not finite after fmi2OK"
+        try:
+            inst.step(h)
+        except FMICallException as e:
+            assert e.status == 3  # fmi2Error
+            refused = True
+            break
+    assert refused, "the run did not blow up"
+    assert "blew up" in log.text() and says in log.text(), log.text()
+    # the outputs are still readable and finite
+    assert all(math.isfinite(inst.get(n)) for n in names)
+
+
+def test_simulate_stops_at_the_blow_up_without_inf_rows(tmp_path):
+    out = tmp_path / "rk4.csv"
+    result = subprocess.run(
+        [str(BINARY), "simulate", str(scene_path("slider_crank")), "--set", "solver.method=rk4",
+         "--set", "solver.max_step=1e-2", "--csv", str(out)],
+        cwd=ROOT, capture_output=True, text=True,
+    )
+    assert result.returncode != 0
+    assert "blew up" in result.stderr and "rk4" in result.stderr, result.stderr
+    rows = list(csv.reader(out.open()))
+    assert len(rows) > 10
+    assert not any("inf" in cell or "nan" in cell.lower() for row in rows[1:] for cell in row)
+
+
+def test_simulate_exits_non_zero_on_energy_drift_unless_allowed(tmp_path):
+    args = [str(BINARY), "simulate", str(scene_path("bouncing_ball")), "--set", "solver.method=rk4",
+            "--set", "solver.max_step=1e-4", "--stop-time", "0.5", "--csv", str(tmp_path / "drift.csv")]
+    result = subprocess.run(args, cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode != 0
+    assert "drifted" in result.stderr and "--allow-energy-drift" in result.stderr, result.stderr
+    allowed = subprocess.run(args + ["--allow-energy-drift"], cwd=ROOT, capture_output=True, text=True)
+    assert allowed.returncode == 0, allowed.stderr
+    assert "warning" in allowed.stderr and "drifted" in allowed.stderr
