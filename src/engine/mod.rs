@@ -106,6 +106,15 @@ pub fn resync(m: &Model, d: &mut Data) {
 /// constraints). Its steps do not depend on `t_end` nor on the stop time, so the results do
 /// not depend on the communication grid beyond the tolerance.
 pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+    advance_with(m, d, t_end, false).map(|_| ())
+}
+
+/// [`advance`], which with `stop_at_events` ends right after a located event before `t_end`
+/// at which a contact changed its mode (touch, separation, impact, rest, release; not a force
+/// cut, stick or slip): `Ok(true)`, `d.time` the event's time, the integrator restarted there.
+/// The next advance goes on from there as this one would have, so the steps, and the states at
+/// later times, do not depend on where an advance stopped.
+pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
     if t_end.is_nan() || t_end < d.time {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
     }
@@ -135,6 +144,10 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
                     return Err(fail(d, event_storm()));
                 }
                 stop_at_event(m, d, d.solver.pending_event)?;
+                if stop_at_events && t_end - d.time > t_close && mode_changed_now(d) {
+                    sync_counters(d);
+                    return Ok(true);
+                }
             } else if t_step <= t_end {
                 interrupted = 0;
                 accept_step(m, d)?;
@@ -162,7 +175,14 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
         }
     }
     sync_counters(d);
-    Ok(())
+    Ok(false)
+}
+
+/// True when the event just handled (at `d.time`) changed a contact's mode: the log's last
+/// entries at that time (the handling logs every change it makes there) name one.
+fn mode_changed_now(d: &Data) -> bool {
+    let mut at_event = d.event_log.iter().rev().take_while(|e| e.time == d.time);
+    at_event.any(|e| e.kind.changes_mode())
 }
 
 /// The advance stopped after `max_steps` steps short of `t_end`.
