@@ -292,7 +292,11 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     let found = unsafe { instance(c) };
     call(found, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| fmi2Boolean::from(x != 0.0)) }
+        unsafe {
+            glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| {
+                fmi2Boolean::from(x != 0.0)
+            })
+        }
     })
 }
 
@@ -368,7 +372,11 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| f64::from(u8::from(b != FMI2_FALSE))) }
+        unsafe {
+            glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| {
+                f64::from(u8::from(b != FMI2_FALSE))
+            })
+        }
     })
 }
 
@@ -582,7 +590,8 @@ pub unsafe extern "C" fn fmi2DoStep(
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
     let found = unsafe { instance(c) };
     call(found, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
-        inst.do_step(current_communication_point, communication_step_size).map(|_| ())
+        inst.do_step(current_communication_point, communication_step_size)
+            .map(|_| ())
     })
 }
 

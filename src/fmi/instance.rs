@@ -384,7 +384,7 @@ impl Instance {
             let scene_rtol = self.sim.get(vr)?;
             self.sim.set_by_name("solver.rtol", tol)?;
             if tol != scene_rtol {
-                    let setup = match self.version {
+                let setup = match self.version {
                     Version::Fmi2 => "fmi2SetupExperiment",
                     Version::Fmi3 => "fmi3EnterInitializationMode",
                 };
@@ -446,8 +446,20 @@ impl Instance {
         Ok(())
     }
 
+    /// FMI 3.0's independent variable `time`: its value reference, after every variable of
+    /// the table (so that the others keep FMI 2.0's).
+    pub fn time_vr(&self) -> Option<fmi2ValueReference> {
+        let n = self.sim.variables().len() as fmi2ValueReference;
+        (self.version == Version::Fmi3).then_some(n)
+    }
+
     fn variable(&self, vr: fmi2ValueReference, access: Access) -> FmiResult<&Variable> {
         let v = self.version;
+        if Some(vr) == self.time_vr() {
+            return Err(Failure::error(format!(
+                "value reference {vr} is the independent variable time: it is read with fmi3GetFloat64 and cannot be set"
+            )));
+        }
         let var = self.sim.variables().get(vr as usize).ok_or_else(|| {
             Failure::error(format!(
                 "unknown value reference {vr} (this model has {} variables)",
@@ -473,19 +485,32 @@ impl Instance {
         mut put: impl FnMut(usize, f64),
     ) -> FmiResult {
         no_strings(access, vrs)?;
+        // (FMI 3.0's time is read as a Float64 beside the table's variables)
+        let time = self.time_vr().filter(|_| access == Access::Real);
         for &vr in vrs {
-            self.variable(vr, access)?;
+            if Some(vr) != time {
+                self.variable(vr, access)?;
+            }
         }
         // one batch read (one evaluation of what the outputs among them need), then the checks
         let mut values = std::mem::take(&mut self.read_buffer);
         values.clear();
         values.resize(vrs.len(), 0.0);
+        let table_vrs = vrs.iter().filter(|&&vr| Some(vr) != time);
         let read = self
             .sim
-            .get_each(vrs.iter().map(|&vr| vr as usize), |k, x| values[k] = x);
+            .get_each(table_vrs.map(|&vr| vr as usize), |k, x| values[k] = x);
+        let now = self.time();
         let result = read.map_err(Failure::from).and_then(|()| {
-            for (k, (&vr, &x)) in vrs.iter().zip(&values).enumerate() {
-                self.finite(vr as usize, x)?;
+            let mut read = values.iter();
+            for (k, &vr) in vrs.iter().enumerate() {
+                let x = if Some(vr) == time {
+                    now
+                } else {
+                    let x = read.next().copied().unwrap_or(f64::NAN);
+                    self.finite(vr as usize, x)?;
+                    x
+                };
                 put(k, x);
             }
             Ok(())

@@ -140,7 +140,9 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
             return fail("fmi3InstantiateCoSimulation: instanceName and instantiationToken must not be NULL");
         };
         let Some(path) = path else {
-            return fail("fmi3InstantiateCoSimulation: resourcePath is NULL, but the scene is in the FMU's resources folder");
+            return fail(
+                "fmi3InstantiateCoSimulation: resourcePath is NULL, but the scene is in the FMU's resources folder",
+            );
         };
         if event_mode_used {
             return fail("fmi3InstantiateCoSimulation: eventModeUsed is true, but this FMU has no event mode (hasEventMode is false)");
@@ -351,7 +353,14 @@ macro_rules! accessors {
     };
 }
 
-accessors!(fmi3GetFloat64, fmi3SetFloat64, fmi3Float64, Access::Real, |x: f64| x, |x: f64| x);
+accessors!(
+    fmi3GetFloat64,
+    fmi3SetFloat64,
+    fmi3Float64,
+    Access::Real,
+    |x: f64| x,
+    |x: f64| x
+);
 accessors!(
     fmi3GetInt32,
     fmi3SetInt32,
