@@ -169,7 +169,10 @@ pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -
             }
             steps += 1;
             let limit = if continuation { f64::INFINITY } else { t_end };
-            let limit = limit.min(d.time + events::time_to_contact(m, d));
+            // (from the method's time, where the event values that bound the step are: after
+            // an advance that ended a rounding error short of its end, `d.time` is that end)
+            let t_method = d.solver.method().map_or(d.time, |i| i.t());
+            let limit = limit.min(t_method + events::time_to_contact(m, d));
             take_step(m, d, limit)?;
             d.solver.pending_event = events::first_event(m, d).unwrap_or(f64::INFINITY);
         }
