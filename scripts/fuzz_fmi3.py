@@ -58,7 +58,7 @@ class Sequence3(base.Sequence):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        from fmpy.fmi3 import fmi3LogMessageCallback
+        from fmpy.fmi3 import fmi3IntermediateUpdateCallback, fmi3LogMessageCallback
 
         def logger(env, status, category, message):
             self.log_count += 1
@@ -67,6 +67,9 @@ class Sequence3(base.Sequence):
                 print(f"      log[{status}] {category.decode() if category else None}: {self.last_message}")
 
         self._logger3 = fmi3LogMessageCallback(logger)
+        # NULL function pointers
+        self._no_logger3 = fmi3LogMessageCallback()
+        self._no_update = fmi3IntermediateUpdateCallback()
 
     def fn(self, name):
         return "fmi3" + RENAMED.get(name, name)
@@ -95,16 +98,16 @@ class Sequence3(base.Sequence):
             [b"", b"{00000000-0000-0000-0000-000000000000}", None, other.guid.encode()])
         path = self.rng.choice(info.uri_forms).encode() if not odd(0.3) else self.rng.choice(
             [None, b"", b"/nonexistent/resources/", b"file:///tmp/%zz", str(other.dir / "resources").encode() + b"/"])
-        logger = self._logger3 if not odd(0.5) else None
+        logger = self._logger3 if not odd(0.5) else self._no_logger3
         event_mode = odd(0.2)
         early = self.rng.random() < 0.5
         required, n_required = (c_uint32 * 1)(0), 0
         if odd(0.1):
             required, n_required = self.rng.choice([((c_uint32 * 1)(0), 1), (None, 2)])
         desc = (f"name={name!r}, token={'ok' if token == info.guid.encode() else token!r}, path={path!r}, "
-                f"log={logger is not None}, eventMode={event_mode}, early={early}, nRequired={n_required}")
+                f"log={logger is self._logger3}, eventMode={event_mode}, early={early}, nRequired={n_required}")
         handle = self.call(fmu, "fmi3InstantiateCoSimulation", name, token, path, False, self.rng.random() < 0.5,
-                           event_mode, early, required, n_required, None, logger, None, describe=desc)
+                           event_mode, early, required, n_required, None, logger, self._no_update, describe=desc)
         foreign = str(other.dir / "resources").encode() + b"/"
         model = len(self.fmus) - 1 if path == foreign else fmu
         inst = {"fmu": fmu, "model": model, "handle": ctypes.c_void_p(handle), "state": INSTANTIATED,

@@ -736,7 +736,7 @@ mod tests {
             let mut state: fmi2FMUstate = ptr::null_mut();
             assert_eq!(fmi2GetFMUstate(c, &mut state), fmi2Status::fmi2OK);
 
-            let status = call(instance(c), "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| {
+            let status: fmi2Status = call(instance(c), "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| {
                 panic!("deliberate")
             });
             assert_eq!(status, fmi2Status::fmi2Error);
