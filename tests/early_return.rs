@@ -101,7 +101,7 @@ fn continuous_laws_return_at_touch_and_separation() {
         .map(|e| (e.time, e.kind))
         .collect();
     assert_eq!(returns, modes.iter().map(|m| m.0).collect::<Vec<_>>());
-    assert!(modes.len() >= 4 && modes.len() % 2 == 0);
+    assert!(modes.len() >= 4 && modes.len().is_multiple_of(2));
     for pair in modes.chunks(2) {
         assert_eq!(
             [pair[0].1, pair[1].1],

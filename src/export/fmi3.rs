@@ -15,7 +15,7 @@
 
 use super::{
     attrs, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
-    used_enums, used_units, write_categories_and_experiment, write_units, xml_writer,
+    used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
 };
 use crate::fmi::lifecycle::Version;
 use crate::scene::Scene;
@@ -61,25 +61,7 @@ fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result
                 ]))
                 .write_empty()?;
             write_units(w, &table)?;
-            let enums = used_enums(&table);
-            if !enums.is_empty() {
-                w.create_element("TypeDefinitions").write_inner_content(|w| {
-                    for e in enums {
-                        w.create_element("EnumerationType")
-                            .with_attributes(attrs([("name", e.type_name())]))
-                            .write_inner_content(|w| {
-                                for (name, value) in e.items() {
-                                    let value = value.to_string();
-                                    w.create_element("Item")
-                                        .with_attributes(attrs([("name", name), ("value", value.as_str())]))
-                                        .write_empty()?;
-                                }
-                                Ok(())
-                            })?;
-                    }
-                    Ok(())
-                })?;
-            }
+            write_type_definitions(w, &table, Version::Fmi3)?;
             write_categories_and_experiment(w, scene, Version::Fmi3)?;
             w.create_element("ModelVariables").write_inner_content(|w| {
                 // FMI 3.0's one independent variable, after the table's value references

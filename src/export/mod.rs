@@ -395,6 +395,40 @@ fn write_units(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()>
     Ok(())
 }
 
+/// `TypeDefinitions`: the enumerations the table uses, with their items (FMI 2.0:
+/// `SimpleType/Enumeration/Item`, FMI 3.0: `EnumerationType/Item`).
+fn write_type_definitions(w: &mut Writer<Vec<u8>>, table: &VariableTable, version: Version) -> io::Result<()> {
+    let enums = used_enums(table);
+    if enums.is_empty() {
+        return Ok(());
+    }
+    w.create_element("TypeDefinitions").write_inner_content(|w| {
+        for e in enums {
+            let items = |w: &mut Writer<Vec<u8>>| -> io::Result<()> {
+                for (name, value) in e.items() {
+                    let value = value.to_string();
+                    w.create_element("Item")
+                        .with_attributes(attrs([("name", name), ("value", value.as_str())]))
+                        .write_empty()?;
+                }
+                Ok(())
+            };
+            let tag = match version {
+                Version::Fmi2 => "SimpleType",
+                Version::Fmi3 => "EnumerationType",
+            };
+            w.create_element(tag)
+                .with_attributes(attrs([("name", e.type_name())]))
+                .write_inner_content(|w| match version {
+                    Version::Fmi2 => w.create_element("Enumeration").write_inner_content(items).map(|_| ()),
+                    Version::Fmi3 => items(w),
+                })?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
 /// `LogCategories` and `DefaultExperiment` (the same in FMI 2.0 and 3.0 but for the version
 /// named in the categories' descriptions).
 fn write_categories_and_experiment(w: &mut Writer<Vec<u8>>, scene: &Scene, version: Version) -> io::Result<()> {
@@ -444,28 +478,7 @@ fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&s
                 ]))
                 .write_empty()?;
             write_units(w, &table)?;
-            let enums = used_enums(&table);
-            if !enums.is_empty() {
-                w.create_element("TypeDefinitions").write_inner_content(|w| {
-                    for e in enums {
-                        w.create_element("SimpleType")
-                            .with_attributes(attrs([("name", e.type_name())]))
-                            .write_inner_content(|w| {
-                                w.create_element("Enumeration").write_inner_content(|w| {
-                                    for (name, value) in e.items() {
-                                        let value = value.to_string();
-                                        w.create_element("Item")
-                                            .with_attributes(attrs([("name", name), ("value", value.as_str())]))
-                                            .write_empty()?;
-                                    }
-                                    Ok(())
-                                })?;
-                                Ok(())
-                            })?;
-                    }
-                    Ok(())
-                })?;
-            }
+            write_type_definitions(w, &table, Version::Fmi2)?;
             write_categories_and_experiment(w, scene, Version::Fmi2)?;
             w.create_element("ModelVariables").write_inner_content(|w| {
                 for (vr, v) in table.vars.iter().enumerate() {

@@ -16,7 +16,7 @@
 
 use super::types::*;
 use crate::fmi::glue::{self, call, string_arg};
-use crate::fmi::instance::{Access, Failure, Instance, InstantiateArgs, Sink};
+use crate::fmi::instance::{Access, Failure, FmiResult, Instance, InstantiateArgs, Sink};
 use crate::fmi::lifecycle::{self, LifeState, Version};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_char;
@@ -30,6 +30,21 @@ use std::ptr;
 unsafe fn lookup<'a>(instance: fmi3Instance) -> Option<&'a mut Instance> {
     // SAFETY: this function's contract.
     unsafe { glue::instance(instance, Version::Fmi3) }
+}
+
+/// Runs one call of an exported function on the FMI 3.0 instance behind `instance`: looked
+/// up, its state checked against `mask`, panics caught, a failure logged (see `glue::call`).
+/// (Only the exported functions call it, under FMI 3.0's rule that one instance is not used
+/// or freed on two threads at once.)
+pub(super) fn with(
+    instance: fmi3Instance,
+    func: &'static str,
+    mask: u32,
+    body: impl FnOnce(&mut Instance) -> FmiResult,
+) -> fmi3Status {
+    // SAFETY: the exported function calling this is under FMI 3.0's rule (see above).
+    let found = unsafe { lookup(instance) };
+    call(found, func, mask, body)
 }
 
 /// The [`Sink`] of an FMI 3.0 logger (none when the host gave none). The message is passed
@@ -90,9 +105,7 @@ pub unsafe extern "C" fn fmi3SetDebugLogging(
     n_categories: usize,
     categories: *const fmi3String,
 ) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
+    with(instance, "fmi3SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
         // SAFETY: `categories` holds `n_categories` strings (this function's contract).
         unsafe { glue::set_debug_logging(inst, logging_on, n_categories, categories) }
     })
@@ -246,10 +259,8 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
     stop_time_defined: fmi3Boolean,
     stop_time: fmi3Float64,
 ) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(
-        found,
+    with(
+        instance,
         "fmi3EnterInitializationMode",
         lifecycle::ENTER_INITIALIZATION_MODE,
         |inst| {
@@ -261,45 +272,6 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
             inst.enter_initialization_mode()
         },
     )
-}
-
-/// `fmi3ExitInitializationMode`: checks every parameter's range and compiles the model; the
-/// instance is then in Step Mode.
-///
-/// # Safety
-/// See the module docs (only `instance`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3ExitInitializationMode(instance: fmi3Instance) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(
-        found,
-        "fmi3ExitInitializationMode",
-        lifecycle::EXIT_INITIALIZATION_MODE,
-        |inst| inst.exit_initialization_mode(),
-    )
-}
-
-/// `fmi3Terminate`
-///
-/// # Safety
-/// See the module docs (only `instance`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3Terminate(instance: fmi3Instance) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3Terminate", lifecycle::TERMINATE, |inst| inst.terminate())
-}
-
-/// `fmi3Reset`: back to the instantiated state with the start values.
-///
-/// # Safety
-/// See the module docs (only `instance`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3Reset(instance: fmi3Instance) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3Reset", lifecycle::RESET, |inst| inst.reset())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -321,9 +293,7 @@ macro_rules! accessors {
             values: *mut $ty,
             n_values: usize,
         ) -> fmi3Status {
-            // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-            let found = unsafe { lookup(instance) };
-            call(found, stringify!($get), lifecycle::GET_VALUES, |inst| {
+            with(instance, stringify!($get), lifecycle::GET_VALUES, |inst| {
                 // SAFETY: `vr` holds `nvr` elements, `values` `n_values` (this function's
                 // contract).
                 unsafe { glue::get_values(inst, $access, vr, nvr, values.cast(), n_values, $to_c) }
@@ -342,9 +312,7 @@ macro_rules! accessors {
             values: *const $ty,
             n_values: usize,
         ) -> fmi3Status {
-            // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-            let found = unsafe { lookup(instance) };
-            call(found, stringify!($set), lifecycle::SET_VALUES, |inst| {
+            with(instance, stringify!($set), lifecycle::SET_VALUES, |inst| {
                 // SAFETY: `vr` holds `nvr` elements, `values` `n_values` (this function's
                 // contract).
                 unsafe { glue::set_values(inst, $access, vr, nvr, values.cast(), n_values, $from_c) }
@@ -387,150 +355,95 @@ accessors!(
     |b: u8| f64::from(byte(b != 0))
 );
 
-/// `fmi3GetString` (this model has no String variables: only an empty list succeeds)
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetString(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _values: *mut fmi3String,
-    _n_values: usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3GetString", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        unsafe { glue::no_strings(inst, vr, nvr, false) }
-    })
+/// Exported functions that check their instance and state and forward to the instance or to
+/// the bodies both FMI versions share (`crate::fmi::glue`): `fn name(arguments after the
+/// instance) [lifecycle mask] |instance| body;`.
+macro_rules! forward {
+    ($($(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty),*) [$mask:ident] |$inst:pat_param| $body:expr;)*) => {$(
+        $(#[$doc])*
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(instance: fmi3Instance, $($arg: $ty),*) -> fmi3Status {
+            with(instance, stringify!($name), lifecycle::$mask, |$inst| $body)
+        }
+    )*};
 }
 
-/// `fmi3SetString` (this model has no String variables: only an empty list succeeds)
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetString(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _values: *const fmi3String,
-    _n_values: usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3SetString", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        unsafe { glue::no_strings(inst, vr, nvr, true) }
-    })
-}
+forward! {
+    /// `fmi3ExitInitializationMode`: checks every parameter's range and compiles the model;
+    /// the instance is then in Step Mode.
+    ///
+    /// # Safety
+    /// See the module docs (only `instance`, which is looked up before use).
+    fn fmi3ExitInitializationMode() [EXIT_INITIALIZATION_MODE] |inst| inst.exit_initialization_mode();
 
-// ---------------------------------------------------------------------------------------
-// FMU states
-// ---------------------------------------------------------------------------------------
+    /// `fmi3Terminate`
+    ///
+    /// # Safety
+    /// See the module docs (only `instance`, which is looked up before use).
+    fn fmi3Terminate() [TERMINATE] |inst| inst.terminate();
 
-/// `fmi3GetFMUState`: allocates a state when `*state` is NULL, otherwise overwrites it.
-///
-/// # Safety
-/// `state` is NULL or valid for reading and writing one handle (looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetFMUState(instance: fmi3Instance, state: *mut fmi3FMUState) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3GetFMUState", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: `state` points to NULL or to a live state (this function's contract).
-        unsafe { glue::store_state(state, inst.save()) }
-    })
-}
+    /// `fmi3Reset`: back to the instantiated state with the start values.
+    ///
+    /// # Safety
+    /// See the module docs (only `instance`, which is looked up before use).
+    fn fmi3Reset() [RESET] |inst| inst.reset();
 
-/// `fmi3SetFMUState`: restores a state of this FMU saved by an FMI 3.0 instance (an FMI 2.0
-/// state is refused with a message).
-///
-/// # Safety
-/// See the module docs (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetFMUState(instance: fmi3Instance, state: fmi3FMUState) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3SetFMUState", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: the host does not free `state` during the call (FMI 3.0).
-        unsafe { glue::set_state(inst, state) }
-    })
-}
+    /// `fmi3GetString` (this model has no String variables: only an empty list succeeds)
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements.
+    fn fmi3GetString(vr: *const fmi3ValueReference, nvr: usize, _values: *mut fmi3String, _n_values: usize)
+        [GET_VALUES] |inst| unsafe { glue::no_strings(inst, vr, nvr, false) };
 
-/// `fmi3FreeFMUState`: frees `*state` (NULL is ignored) and sets it to NULL.
-///
-/// # Safety
-/// `state` is NULL or valid for reading and writing one handle (looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3FreeFMUState(instance: fmi3Instance, state: *mut fmi3FMUState) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3FreeFMUState", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `state` is NULL or a readable and writable handle; no other thread uses it.
-        unsafe { glue::free_state(state) }
-    })
-}
+    /// `fmi3SetString` (this model has no String variables: only an empty list succeeds)
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements.
+    fn fmi3SetString(vr: *const fmi3ValueReference, nvr: usize, _values: *const fmi3String, _n_values: usize)
+        [SET_VALUES] |inst| unsafe { glue::no_strings(inst, vr, nvr, true) };
 
-/// `fmi3SerializedFMUStateSize`
-///
-/// # Safety
-/// `size` is NULL or writable (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SerializedFMUStateSize(
-    instance: fmi3Instance,
-    state: fmi3FMUState,
-    size: *mut usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3SerializedFMUStateSize", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `size` is NULL or writable; the host does not free `state` during the call.
-        unsafe { glue::serialized_size(state, size) }
-    })
-}
+    /// `fmi3GetFMUState`: allocates a state when `*state` is NULL, otherwise overwrites it.
+    ///
+    /// # Safety
+    /// `state` is NULL or valid for reading and writing one handle (looked up before use).
+    fn fmi3GetFMUState(state: *mut fmi3FMUState) [FMU_STATE] |inst| unsafe { glue::store_state(state, inst.save()) };
 
-/// `fmi3SerializeFMUState`: the bytes of the one state format (docs/fmi.md, "FMU states"),
-/// marked as FMI 3.0's.
-///
-/// # Safety
-/// `serialized` holds `size` writable bytes (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SerializeFMUState(
-    instance: fmi3Instance,
-    state: fmi3FMUState,
-    serialized: *mut fmi3Byte,
-    size: usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3SerializeFMUState", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `serialized` holds `size` writable bytes; the host does not free `state`.
-        unsafe { glue::serialize(state, serialized, size) }
-    })
-}
+    /// `fmi3SetFMUState`: restores a state of this FMU saved by an FMI 3.0 instance (an FMI
+    /// 2.0 state is refused with a message).
+    ///
+    /// # Safety
+    /// The host does not free `state` during the call (it is looked up before use).
+    fn fmi3SetFMUState(state: fmi3FMUState) [FMU_STATE] |inst| unsafe { glue::set_state(inst, state) };
 
-/// `fmi3DeserializeFMUState`: checks the bytes (format, checksum, model, FMI version) and
-/// allocates a state (or overwrites `*state` when it is not NULL).
-///
-/// # Safety
-/// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
-/// handle (looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi3DeserializeFMUState(
-    instance: fmi3Instance,
-    serialized: *const fmi3Byte,
-    size: usize,
-    state: *mut fmi3FMUState,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3DeserializeFMUState", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: `serialized` holds `size` bytes; `state` is NULL or a valid handle slot.
-        unsafe { glue::deserialize(inst, serialized, size, state) }
-    })
+    /// `fmi3FreeFMUState`: frees `*state` (NULL is ignored) and sets it to NULL.
+    ///
+    /// # Safety
+    /// `state` is NULL or valid for reading and writing one handle (looked up before use).
+    fn fmi3FreeFMUState(state: *mut fmi3FMUState) [FMU_STATE] |_| unsafe { glue::free_state(state) };
+
+    /// `fmi3SerializedFMUStateSize`
+    ///
+    /// # Safety
+    /// `size` is NULL or writable (`state` is looked up before use).
+    fn fmi3SerializedFMUStateSize(state: fmi3FMUState, size: *mut usize)
+        [FMU_STATE] |_| unsafe { glue::serialized_size(state, size) };
+
+    /// `fmi3SerializeFMUState`: the bytes of the one state format (docs/fmi.md, "FMU
+    /// states"), marked as FMI 3.0's.
+    ///
+    /// # Safety
+    /// `serialized` holds `size` writable bytes (`state` is looked up before use).
+    fn fmi3SerializeFMUState(state: fmi3FMUState, serialized: *mut fmi3Byte, size: usize)
+        [FMU_STATE] |_| unsafe { glue::serialize(state, serialized, size) };
+
+    /// `fmi3DeserializeFMUState`: checks the bytes (format, checksum, model, FMI version) and
+    /// allocates a state (or overwrites `*state` when it is not NULL).
+    ///
+    /// # Safety
+    /// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
+    /// handle (looked up before use).
+    fn fmi3DeserializeFMUState(serialized: *const fmi3Byte, size: usize, state: *mut fmi3FMUState)
+        [FMU_STATE] |inst| unsafe { glue::deserialize(inst, serialized, size, state) };
 }
 
 // ---------------------------------------------------------------------------------------
@@ -559,9 +472,7 @@ pub unsafe extern "C" fn fmi3DoStep(
     early_return: *mut fmi3Boolean,
     last_successful_time: *mut fmi3Float64,
 ) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3DoStep", lifecycle::DO_STEP, |inst| {
+    with(instance, "fmi3DoStep", lifecycle::DO_STEP, |inst| {
         let outputs = [event_handling_needed, terminate_simulation, early_return];
         if outputs.iter().any(|p| p.is_null()) || last_successful_time.is_null() {
             return Err(Failure::error(
@@ -589,9 +500,7 @@ pub unsafe extern "C" fn fmi3DoStep(
 /// See the module docs (only `instance`, which is looked up before use).
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EnterStepMode(instance: fmi3Instance) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` on another thread meanwhile.
-    let found = unsafe { lookup(instance) };
-    call(found, "fmi3EnterStepMode", lifecycle::ENTER_STEP_MODE, |_| Ok(()))
+    with(instance, "fmi3EnterStepMode", lifecycle::ENTER_STEP_MODE, |_| Ok(()))
 }
 
 /// The state-machine state of an FMI 3.0 instance, or `None` when `instance` is not a live

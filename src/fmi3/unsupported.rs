@@ -7,19 +7,11 @@
 
 #![allow(non_snake_case)]
 
+use super::exports::with;
 use super::types::*;
-use crate::fmi::glue::{self, call};
-use crate::fmi::instance::{Failure, FmiResult, Instance};
-use crate::fmi::lifecycle::{self, Version};
-
-/// Borrows the FMI 3.0 instance behind a handle (see `glue::instance`).
-///
-/// # Safety
-/// While the borrow lasts, no other thread uses or frees `instance`.
-unsafe fn lookup<'a>(instance: fmi3Instance) -> Option<&'a mut Instance> {
-    // SAFETY: this function's contract.
-    unsafe { glue::instance(instance, Version::Fmi3) }
-}
+use crate::fmi::glue;
+use crate::fmi::instance::{Failure, FmiResult};
+use crate::fmi::lifecycle;
 
 /// A get or set of `type_name` variables, of which this model has none: an empty list
 /// succeeds, any value reference is refused.
@@ -37,135 +29,46 @@ unsafe fn none_of(type_name: &str, vr: *const fmi3ValueReference, nvr: usize) ->
     }
 }
 
-/// Getters and setters of the FMI 3.0 types this model does not use.
+/// Getters and setters of the FMI 3.0 types this model does not use: `(instance, vr, nvr,`
+/// then the type's own arguments, which are not read.
 macro_rules! no_variables {
-    ($($get:ident, $set:ident, $ty:ty, $name:literal;)*) => {$(
-        #[doc = concat!("`", stringify!($get), "`: this model has no ", $name, " variables.")]
+    ($($name:ident ($($arg:ident : $ty:ty),*) => $type_name:literal, $mask:ident;)*) => {$(
+        #[doc = concat!("`", stringify!($name), "`: this model has no ", $type_name, " variables.")]
         ///
         /// # Safety
         /// `vr` holds `nvr` elements.
         #[no_mangle]
-        pub unsafe extern "C" fn $get(
+        pub unsafe extern "C" fn $name(
             instance: fmi3Instance,
             vr: *const fmi3ValueReference,
             nvr: usize,
-            _values: *mut $ty,
-            _n_values: usize,
+            $($arg: $ty),*
         ) -> fmi3Status {
-            // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-            let found = unsafe { lookup(instance) };
             // SAFETY: `vr` holds `nvr` elements (this function's contract).
-            call(found, stringify!($get), lifecycle::GET_VALUES, |_| unsafe { none_of($name, vr, nvr) })
-        }
-
-        #[doc = concat!("`", stringify!($set), "`: this model has no ", $name, " variables.")]
-        ///
-        /// # Safety
-        /// `vr` holds `nvr` elements.
-        #[no_mangle]
-        pub unsafe extern "C" fn $set(
-            instance: fmi3Instance,
-            vr: *const fmi3ValueReference,
-            nvr: usize,
-            _values: *const $ty,
-            _n_values: usize,
-        ) -> fmi3Status {
-            // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-            let found = unsafe { lookup(instance) };
-            // SAFETY: `vr` holds `nvr` elements (this function's contract).
-            call(found, stringify!($set), lifecycle::SET_VALUES, |_| unsafe { none_of($name, vr, nvr) })
+            with(instance, stringify!($name), lifecycle::$mask, |_| unsafe { none_of($type_name, vr, nvr) })
         }
     )*};
 }
 
 no_variables! {
-    fmi3GetFloat32, fmi3SetFloat32, fmi3Float32, "Float32";
-    fmi3GetInt8, fmi3SetInt8, fmi3Int8, "Int8";
-    fmi3GetUInt8, fmi3SetUInt8, fmi3UInt8, "UInt8";
-    fmi3GetInt16, fmi3SetInt16, fmi3Int16, "Int16";
-    fmi3GetUInt16, fmi3SetUInt16, fmi3UInt16, "UInt16";
-    fmi3GetUInt32, fmi3SetUInt32, fmi3UInt32, "UInt32";
-    fmi3GetUInt64, fmi3SetUInt64, fmi3UInt64, "UInt64";
-}
-
-/// `fmi3GetBinary`: this model has no Binary variables.
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetBinary(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _value_sizes: *mut usize,
-    _values: *mut fmi3Binary,
-    _n_values: usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-    let found = unsafe { lookup(instance) };
-    // SAFETY: `vr` holds `nvr` elements (this function's contract).
-    call(found, "fmi3GetBinary", lifecycle::GET_VALUES, |_| unsafe {
-        none_of("Binary", vr, nvr)
-    })
-}
-
-/// `fmi3SetBinary`: this model has no Binary variables.
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetBinary(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _value_sizes: *const usize,
-    _values: *const fmi3Binary,
-    _n_values: usize,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-    let found = unsafe { lookup(instance) };
-    // SAFETY: `vr` holds `nvr` elements (this function's contract).
-    call(found, "fmi3SetBinary", lifecycle::SET_VALUES, |_| unsafe {
-        none_of("Binary", vr, nvr)
-    })
-}
-
-/// `fmi3GetClock`: this model has no clocks.
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetClock(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _values: *mut fmi3Clock,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-    let found = unsafe { lookup(instance) };
-    // SAFETY: `vr` holds `nvr` elements (this function's contract).
-    call(found, "fmi3GetClock", lifecycle::GET_VALUES, |_| unsafe {
-        none_of("Clock", vr, nvr)
-    })
-}
-
-/// `fmi3SetClock`: this model has no clocks.
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetClock(
-    instance: fmi3Instance,
-    vr: *const fmi3ValueReference,
-    nvr: usize,
-    _values: *const fmi3Clock,
-) -> fmi3Status {
-    // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-    let found = unsafe { lookup(instance) };
-    // SAFETY: `vr` holds `nvr` elements (this function's contract).
-    call(found, "fmi3SetClock", lifecycle::SET_VALUES, |_| unsafe {
-        none_of("Clock", vr, nvr)
-    })
+    fmi3GetFloat32(_values: *mut fmi3Float32, _n_values: usize) => "Float32", GET_VALUES;
+    fmi3SetFloat32(_values: *const fmi3Float32, _n_values: usize) => "Float32", SET_VALUES;
+    fmi3GetInt8(_values: *mut fmi3Int8, _n_values: usize) => "Int8", GET_VALUES;
+    fmi3SetInt8(_values: *const fmi3Int8, _n_values: usize) => "Int8", SET_VALUES;
+    fmi3GetUInt8(_values: *mut fmi3UInt8, _n_values: usize) => "UInt8", GET_VALUES;
+    fmi3SetUInt8(_values: *const fmi3UInt8, _n_values: usize) => "UInt8", SET_VALUES;
+    fmi3GetInt16(_values: *mut fmi3Int16, _n_values: usize) => "Int16", GET_VALUES;
+    fmi3SetInt16(_values: *const fmi3Int16, _n_values: usize) => "Int16", SET_VALUES;
+    fmi3GetUInt16(_values: *mut fmi3UInt16, _n_values: usize) => "UInt16", GET_VALUES;
+    fmi3SetUInt16(_values: *const fmi3UInt16, _n_values: usize) => "UInt16", SET_VALUES;
+    fmi3GetUInt32(_values: *mut fmi3UInt32, _n_values: usize) => "UInt32", GET_VALUES;
+    fmi3SetUInt32(_values: *const fmi3UInt32, _n_values: usize) => "UInt32", SET_VALUES;
+    fmi3GetUInt64(_values: *mut fmi3UInt64, _n_values: usize) => "UInt64", GET_VALUES;
+    fmi3SetUInt64(_values: *const fmi3UInt64, _n_values: usize) => "UInt64", SET_VALUES;
+    fmi3GetBinary(_value_sizes: *mut usize, _values: *mut fmi3Binary, _n_values: usize) => "Binary", GET_VALUES;
+    fmi3SetBinary(_value_sizes: *const usize, _values: *const fmi3Binary, _n_values: usize) => "Binary", SET_VALUES;
+    fmi3GetClock(_values: *mut fmi3Clock) => "Clock", GET_VALUES;
+    fmi3SetClock(_values: *const fmi3Clock) => "Clock", SET_VALUES;
 }
 
 /// Functions refused whatever their arguments (which are not read): each names what this FMU
@@ -178,9 +81,7 @@ macro_rules! refused {
         /// Only `instance` is read (looked up before use).
         #[no_mangle]
         pub unsafe extern "C" fn $name(instance: fmi3Instance, $($arg: $ty),*) -> fmi3Status {
-            // SAFETY: FMI 3.0: the host does not use or free `instance` meanwhile.
-            let found = unsafe { lookup(instance) };
-            call(found, stringify!($name), lifecycle::ANY_BUT_FATAL, |_| {
+            with(instance, stringify!($name), lifecycle::ANY_BUT_FATAL, |_| {
                 Err(Failure::error(concat!("not supported: ", $why)))
             })
         }
