@@ -474,8 +474,12 @@ class Sequence:
         current, h = self.step_args(inst)
         st = self.call(inst["fmu"], "fmi2DoStep", inst["handle"], current, h, self.rng.choice([0, 1]), inst=inst,
                        describe=f"{current!r}, {h!r}")
+        return self.after_step(inst, st, current + h)
+
+    def after_step(self, inst, st, reached):
+        """The shadow after a step that returned `st` (and, when OK, reached time `reached`)."""
         if st == 0 and inst["alive"]:
-            inst["time"] = current + h
+            inst["time"] = reached
             inst["state"] = COMPLETE
         elif st in (2, 3) and inst["alive"]:
             self.refresh_time(inst)
@@ -512,6 +516,10 @@ class Sequence:
         if self.rng.random() < 0.15 + 0.3 * self.chaos:
             # within the range of most parameters (> 0), but near the ends of double precision
             x = math.copysign(self.rng.choice([1.7976931348623157e308, 8e307, 1e305, 1e300, 1e-300, 5e-324]), start)
+        return self.set_real(inst, vr, x)
+
+    def set_real(self, inst, vr, x):
+        """Sets one Real variable (counted as a call)."""
         return self.call(inst["fmu"], "fmi2SetReal", inst["handle"], (c_uint * 1)(vr), 1, (c_double * 1)(x), inst=inst,
                          describe=f"[{vr}] = [{x}] (start value scaled)")
 

@@ -138,12 +138,8 @@ class Sequence3(base.Sequence):
             pointers[self.rng.randrange(4)] = None
         st = self.call(inst["fmu"], "fmi3DoStep", inst["handle"], current, h, self.rng.random() < 0.5, *pointers,
                        inst=inst, describe=f"{current!r}, {h!r}")
-        if st == 0 and inst["alive"]:
-            inst["time"] = last.value  # the time reached: the end, or a contact event before it
-            inst["state"] = COMPLETE
-        elif st in (2, 3) and inst["alive"]:
-            self.refresh_time(inst)
-        return st
+        # the time reached: the end, or a contact event before it
+        return self.after_step(inst, st, last.value)
 
     def refresh_time(self, inst):
         """The time from the independent variable `time` (FMI 3.0 has no status functions)."""
@@ -196,12 +192,7 @@ class Sequence3(base.Sequence):
         return self.call(inst["fmu"], f"fmi3Set{kind}", inst["handle"], arr, len(vrs), values, n_values, inst=inst,
                          describe=f"{vrs}, nValues={n_values}")
 
-    def set_plausible(self, inst):
-        info = self.fmus[inst["fmu"]][0]
-        if not info.plausible:
-            return None
-        vr, start = self.rng.choice(info.plausible)
-        x = start * self.rng.uniform(0.5, 2.0)
+    def set_real(self, inst, vr, x):
         return self.call(inst["fmu"], "fmi3SetFloat64", inst["handle"], (c_uint32 * 1)(vr), 1, (c_double * 1)(x), 1,
                          inst=inst, describe=f"[{vr}] = [{x}] (start value scaled)")
 

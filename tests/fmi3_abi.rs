@@ -63,6 +63,11 @@ impl Unpacked {
     }
 
     fn instantiate(&self, early_return: bool) -> fmi3Instance {
+        self.instantiate_with(false, early_return)
+    }
+
+    /// `fmi3InstantiateCoSimulation` with `eventModeUsed` and `earlyReturnAllowed`.
+    fn instantiate_with(&self, event_mode: bool, early_return: bool) -> fmi3Instance {
         let path = CString::new(format!("{}/", self.root.join("resources").display())).unwrap();
         let token = CString::new(guid(&self.text)).unwrap();
         // SAFETY: valid strings, no intermediate variables, a logger of the right signature.
@@ -73,7 +78,7 @@ impl Unpacked {
                 path.as_ptr(),
                 false,
                 false,
-                false,
+                event_mode,
                 early_return,
                 ptr::null(),
                 0,
@@ -155,25 +160,7 @@ fn the_calling_sequence_is_fmi3s_and_values_are_typed() {
         fmi3FreeInstance(c);
     }
     // event mode asked for: no instance
-    let path = CString::new(format!("{}/", u.root.join("resources").display())).unwrap();
-    let token = CString::new(guid(&u.text)).unwrap();
-    // SAFETY: valid strings; the function returns NULL without reading the rest.
-    let c = unsafe {
-        fmi3InstantiateCoSimulation(
-            c"abi".as_ptr(),
-            token.as_ptr(),
-            path.as_ptr(),
-            false,
-            false,
-            true,
-            false,
-            ptr::null(),
-            0,
-            ptr::null_mut(),
-            Some(logger),
-            None,
-        )
-    };
+    let c = u.instantiate_with(true, false);
     assert!(c.is_null() && logged("this FMU has no event mode"));
 }
 

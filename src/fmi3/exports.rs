@@ -60,7 +60,7 @@ fn sink(log: fmi3LogMessageCallback, environment: fmi3InstanceEnvironment) -> Op
 }
 
 /// Logs an instantiation failure through the host's logger (there is no instance yet).
-fn report(log: fmi3LogMessageCallback, environment: fmi3InstanceEnvironment, message: &str) {
+pub(super) fn report(log: fmi3LogMessageCallback, environment: fmi3InstanceEnvironment, message: &str) {
     if let Some(sink) = sink(log, environment) {
         sink(crate::fmi::fmi2Status::fmi2Error, c"logStatusError", message);
     }
@@ -185,49 +185,6 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
         }
     }));
     result.unwrap_or(ptr::null_mut())
-}
-
-/// `fmi3InstantiateModelExchange`: not supported (the model description has no
-/// `ModelExchange`); logs why and returns NULL.
-///
-/// # Safety
-/// Only the logger is called.
-#[no_mangle]
-pub unsafe extern "C" fn fmi3InstantiateModelExchange(
-    _instance_name: fmi3String,
-    _instantiation_token: fmi3String,
-    _resource_path: fmi3String,
-    _visible: fmi3Boolean,
-    _logging_on: fmi3Boolean,
-    instance_environment: fmi3InstanceEnvironment,
-    log_message: fmi3LogMessageCallback,
-) -> fmi3Instance {
-    let message = "fmi3InstantiateModelExchange: this FMU supports Co-Simulation only";
-    let _ = catch_unwind(|| report(log_message, instance_environment, message));
-    ptr::null_mut()
-}
-
-/// `fmi3InstantiateScheduledExecution`: not supported; logs why and returns NULL.
-///
-/// # Safety
-/// Only the logger is called.
-#[no_mangle]
-#[allow(clippy::too_many_arguments)]
-pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
-    _instance_name: fmi3String,
-    _instantiation_token: fmi3String,
-    _resource_path: fmi3String,
-    _visible: fmi3Boolean,
-    _logging_on: fmi3Boolean,
-    instance_environment: fmi3InstanceEnvironment,
-    log_message: fmi3LogMessageCallback,
-    _clock_update: fmi3ClockUpdateCallback,
-    _lock_preemption: fmi3PreemptionCallback,
-    _unlock_preemption: fmi3PreemptionCallback,
-) -> fmi3Instance {
-    let message = "fmi3InstantiateScheduledExecution: this FMU supports Co-Simulation only";
-    let _ = catch_unwind(|| report(log_message, instance_environment, message));
-    ptr::null_mut()
 }
 
 /// `fmi3FreeInstance`: frees everything the instance holds (allowed in every state). NULL, a

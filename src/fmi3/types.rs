@@ -7,48 +7,38 @@
 use crate::fmi::fmi2Status;
 use std::os::raw::{c_char, c_void};
 
-/// `fmi3Instance`: an opaque pointer to one instance.
-pub type fmi3Instance = *mut c_void;
-/// `fmi3InstanceEnvironment`: the host's pointer, handed back to the logger unchanged.
-pub type fmi3InstanceEnvironment = *mut c_void;
-/// `fmi3FMUState`: an opaque pointer to a saved state.
-pub type fmi3FMUState = *mut c_void;
-/// `fmi3ValueReference`: `uint32_t`.
-pub type fmi3ValueReference = u32;
-/// `fmi3Float32`
-pub type fmi3Float32 = f32;
-/// `fmi3Float64`
-pub type fmi3Float64 = f64;
-/// `fmi3Int8`
-pub type fmi3Int8 = i8;
-/// `fmi3UInt8`
-pub type fmi3UInt8 = u8;
-/// `fmi3Int16`
-pub type fmi3Int16 = i16;
-/// `fmi3UInt16`
-pub type fmi3UInt16 = u16;
-/// `fmi3Int32`
-pub type fmi3Int32 = i32;
-/// `fmi3UInt32`
-pub type fmi3UInt32 = u32;
-/// `fmi3Int64`
-pub type fmi3Int64 = i64;
-/// `fmi3UInt64`
-pub type fmi3UInt64 = u64;
-/// `fmi3Boolean`: C's `bool`, one byte. Passed by value it is the host's C `bool` (0 or 1);
-/// arrays of it are read as bytes, any nonzero byte true, so that no byte a host writes is an
-/// invalid Rust `bool`.
-pub type fmi3Boolean = bool;
-/// `fmi3Char`
-pub type fmi3Char = c_char;
-/// `fmi3String`: a NUL-terminated UTF-8 string.
-pub type fmi3String = *const c_char;
-/// `fmi3Byte`
-pub type fmi3Byte = u8;
-/// `fmi3Binary`: a pointer to bytes.
-pub type fmi3Binary = *const u8;
-/// `fmi3Clock`: C's `bool`.
-pub type fmi3Clock = bool;
+/// Declares type aliases, each documented with its C name.
+macro_rules! c_types {
+    ($($name:ident = $ty:ty),* $(,)?) => {$(
+        #[doc = concat!("`", stringify!($name), "`")]
+        pub type $name = $ty;
+    )*};
+}
+
+// `fmi3Instance`, `fmi3InstanceEnvironment` (the host's pointer, handed back to the logger)
+// and `fmi3FMUState` are opaque pointers; the numbers are C's fixed-width types.
+c_types!(fmi3Instance = *mut c_void, fmi3InstanceEnvironment = *mut c_void, fmi3FMUState = *mut c_void);
+c_types!(
+    fmi3ValueReference = u32,
+    fmi3Float32 = f32,
+    fmi3Float64 = f64,
+    fmi3Int8 = i8,
+    fmi3UInt8 = u8
+);
+c_types!(
+    fmi3Int16 = i16,
+    fmi3UInt16 = u16,
+    fmi3Int32 = i32,
+    fmi3UInt32 = u32,
+    fmi3Int64 = i64,
+    fmi3UInt64 = u64
+);
+// `fmi3Boolean` and `fmi3Clock` are C's `bool` (one byte). Passed by value an `fmi3Boolean` is
+// the host's C `bool` (0 or 1); arrays of it are read as bytes, any nonzero byte true, so that
+// no byte a host writes is an invalid Rust `bool`. Strings are NUL-terminated UTF-8; a binary
+// value is a pointer to bytes.
+c_types!(fmi3Boolean = bool, fmi3Clock = bool, fmi3Char = c_char, fmi3String = *const c_char);
+c_types!(fmi3Byte = u8, fmi3Binary = *const u8);
 
 /// `fmi3Status`. Only ever produced by this library, so a Rust enum is safe to return.
 #[repr(C)]

@@ -7,7 +7,7 @@
 
 #![allow(non_snake_case)]
 
-use super::exports::with;
+use super::exports::{report, with};
 use super::types::*;
 use crate::fmi::glue;
 use crate::fmi::instance::{Failure, FmiResult};
@@ -71,6 +71,34 @@ no_variables! {
     fmi3SetClock(_values: *const fmi3Clock) => "Clock", SET_VALUES;
 }
 
+/// The instantiation functions of the interfaces this FMU does not offer: they log why through
+/// the host's logger (the arguments named after `env` and `log`) and return NULL.
+macro_rules! not_offered {
+    ($($name:ident ($($arg:ident : $ty:ty),*) env $env:ident log $log:ident;)*) => {$(
+        #[doc = concat!("`", stringify!($name), "`: not offered (the model description has only `CoSimulation`); logs why and returns NULL.")]
+        ///
+        /// # Safety
+        /// Only the logger is called.
+        #[no_mangle]
+        #[allow(clippy::too_many_arguments)]
+        pub unsafe extern "C" fn $name($($arg: $ty),*) -> fmi3Instance {
+            let message = concat!(stringify!($name), ": this FMU supports Co-Simulation only");
+            let _ = std::panic::catch_unwind(|| report($log, $env, message));
+            std::ptr::null_mut()
+        }
+    )*};
+}
+
+not_offered! {
+    fmi3InstantiateModelExchange(_name: fmi3String, _token: fmi3String, _path: fmi3String, _visible: fmi3Boolean,
+        _logging_on: fmi3Boolean, environment: fmi3InstanceEnvironment, log_message: fmi3LogMessageCallback)
+        env environment log log_message;
+    fmi3InstantiateScheduledExecution(_name: fmi3String, _token: fmi3String, _path: fmi3String, _visible: fmi3Boolean,
+        _logging_on: fmi3Boolean, environment: fmi3InstanceEnvironment, log_message: fmi3LogMessageCallback,
+        _clock_update: fmi3ClockUpdateCallback, _lock: fmi3PreemptionCallback, _unlock: fmi3PreemptionCallback)
+        env environment log log_message;
+}
+
 /// Functions refused whatever their arguments (which are not read): each names what this FMU
 /// does not offer.
 macro_rules! refused {
@@ -111,26 +139,13 @@ refused! {
         _dependency_kinds: *mut fmi3DependencyKind,
         _n_dependencies: usize
     ) => "the dependencies are in the model description's ModelStructure";
-    fmi3GetDirectionalDerivative(
-        _unknowns: *const fmi3ValueReference,
-        _n_unknowns: usize,
-        _knowns: *const fmi3ValueReference,
-        _n_knowns: usize,
-        _seed: *const fmi3Float64,
-        _n_seed: usize,
-        _sensitivity: *mut fmi3Float64,
-        _n_sensitivity: usize
-    ) => "providesDirectionalDerivatives is false";
-    fmi3GetAdjointDerivative(
-        _unknowns: *const fmi3ValueReference,
-        _n_unknowns: usize,
-        _knowns: *const fmi3ValueReference,
-        _n_knowns: usize,
-        _seed: *const fmi3Float64,
-        _n_seed: usize,
-        _sensitivity: *mut fmi3Float64,
-        _n_sensitivity: usize
-    ) => "providesAdjointDerivatives is false";
+    // (unknowns, knowns, seed, sensitivity: each an array and its length)
+    fmi3GetDirectionalDerivative(_u: *const fmi3ValueReference, _nu: usize, _k: *const fmi3ValueReference, _nk: usize,
+        _seed: *const fmi3Float64, _ns: usize, _sensitivity: *mut fmi3Float64, _n: usize)
+        => "providesDirectionalDerivatives is false";
+    fmi3GetAdjointDerivative(_u: *const fmi3ValueReference, _nu: usize, _k: *const fmi3ValueReference, _nk: usize,
+        _seed: *const fmi3Float64, _ns: usize, _sensitivity: *mut fmi3Float64, _n: usize)
+        => "providesAdjointDerivatives is false";
     fmi3GetOutputDerivatives(
         _vr: *const fmi3ValueReference,
         _nvr: usize,
