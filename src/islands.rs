@@ -693,8 +693,17 @@ impl Islands {
     /// Advances every island to `t_end` in rounds (see the module's text), the scene's model
     /// `m` and data `d` receiving the coordinates at each round's end (the rest of the state
     /// is gathered by [`Islands::gather`]). On failure every island is taken back to the start
-    /// of the round, whose time the error carries.
-    pub fn advance(&mut self, src: &Source, m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+    /// of the round, whose time the error carries. With `stop_at_events` the islands stop at
+    /// the first contact event before `t_end` (see [`engine::advance_with`]): those that went
+    /// further are taken back to it, and the result is `Ok(true)`.
+    pub fn advance(
+        &mut self,
+        src: &Source,
+        m: &Model,
+        d: &mut Data,
+        t_end: f64,
+        stop_at_events: bool,
+    ) -> Result<bool, EngineError> {
         if t_end.is_nan() || t_end < self.time {
             return Err(fail(self.time, format!("cannot integrate backwards to {t_end}")));
         }
@@ -743,14 +752,19 @@ impl Islands {
                 island.saved_log = island.data.event_log.len();
             }
             let mut t_met = t_round;
+            // the earliest contact event an island stopped at
+            let mut t_event = f64::INFINITY;
             let mut used = self.total_steps() - steps_start;
             let budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
             for k in 0..self.parts.len() {
                 let island = &mut self.parts[k];
                 island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
                 let before = island.data.counters.steps;
-                let result = engine::advance(&island.model, &mut island.data, t_round);
+                let result = engine::advance_with(&island.model, &mut island.data, t_round, stop_at_events);
                 used += island.data.counters.steps - before;
+                if let Ok(true) = result {
+                    t_event = t_event.min(island.data.time);
+                }
                 if let Err(e) = result {
                     let n = self.parts.len();
                     let name = self.island_name(src, k);
@@ -768,8 +782,8 @@ impl Islands {
                 }
                 t_met = t_met.min(island.data.time);
             }
-            // An island stopped early (a body moved farther than planned): the others are
-            // taken back to its time.
+            // An island stopped early (a body moved farther than planned, or at a contact
+            // event): the others are taken back to its time.
             while self.parts.iter().any(|i| i.data.time > t_met) {
                 for k in 0..self.parts.len() {
                     let island = &mut self.parts[k];
@@ -787,7 +801,11 @@ impl Islands {
             }
             self.time = t_met;
             self.put_coordinates(d);
-            if grouped && (ends_round || t_met < t_round) {
+            // (a stop at a contact event leaves the round as planned: the rounds, like the
+            // steps, do not depend on where an advance ended)
+            let at_event = t_event <= t_met;
+            let stale = t_met < t_round && !at_event;
+            if grouped && ((ends_round && t_met >= t_round) || stale) {
                 self.round_end = f64::INFINITY;
                 d.eval_state.copy_from_slice(&d.state);
                 kinematics(m, d);
@@ -795,12 +813,15 @@ impl Islands {
                     .filter(|&b| m.groups.has_shape[b])
                     .map(|b| groups::displacement(m, d, b))
                     .fold(0.0, f64::max);
-                if moved >= REBUILD_FRACTION * m.groups.margin || t_met < t_round {
+                if moved >= REBUILD_FRACTION * m.groups.margin || stale {
                     self.rebuild(src, m, d)?;
                 }
             }
+            if at_event {
+                return Ok(true);
+            }
         }
-        Ok(())
+        Ok(false)
     }
 
     /// The steps of every island since the islands were formed, with those of the islands

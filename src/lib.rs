@@ -25,6 +25,7 @@ pub mod dynamics;
 pub mod engine;
 pub mod export;
 pub mod fmi;
+pub mod fmi3;
 pub mod forward;
 pub mod guid;
 pub mod integrator;

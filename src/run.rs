@@ -2,6 +2,8 @@
 //! bundled scene, print one summary table).
 
 use crate::checkpoint::Snapshot;
+use crate::export::{export_command, fmu_folder};
+use crate::fmi::lifecycle::Version;
 use crate::simulation::{RunError, SimError, Simulation};
 use crate::variables::VarType;
 use std::io::Write;
@@ -394,9 +396,10 @@ fn significant(x: f64) -> String {
 
 /// The main job: make sure the FMU libraries of every default platform (linux64, win64) are
 /// built from these sources (else build them with `scripts/build_fmu_library.sh`), export every
-/// `fmu/<name>/scene.toml` to `out_dir/<name>.fmu` with them, run each default experiment
-/// natively and print one table. Progress goes to standard error.
-pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
+/// `fmu/<name>/scene.toml` with them to `target/fmu/<name>.fmu` (FMI 2.0) and
+/// `target/fmu3/<name>.fmu` (FMI 3.0) under `target`, run each default experiment natively and
+/// print one table. Progress goes to standard error.
+pub fn main_job(fmu_dir: &Path, target: &Path) -> Result<(), String> {
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(fmu_dir)
         .map_err(|e| format!("{}: {e} (run from the repository root)", fmu_dir.display()))?
         .filter_map(|e| e.ok())
@@ -424,14 +427,18 @@ pub fn main_job(fmu_dir: &Path, out_dir: &Path) -> Result<(), String> {
                 scene.display()
             ));
         }
-        let out = out_dir.join(format!("{name}.fmu"));
-        let exported = crate::export::export_command(scene, Some(&out), &binaries, None).map_err(|e| e.to_string())?;
+        let mut written = Vec::new();
+        for version in [Version::Fmi2, Version::Fmi3] {
+            let out = target.join(fmu_folder(version)).join(format!("{name}.fmu"));
+            let exported = export_command(scene, Some(&out), &binaries, None, version).map_err(|e| e.to_string())?;
+            let size = std::fs::metadata(&exported.path).map_or(0, |m| m.len()) / 1000;
+            written.push(format!("{} ({size} kB)", exported.path.display()));
+        }
         eprintln!(
-            "[{}/{}] exported {} ({} kB); running its default experiment ({} s)",
+            "[{}/{}] exported {}; running its default experiment ({} s)",
             k + 1,
             scenes.len(),
-            exported.path.display(),
-            std::fs::metadata(&exported.path).map_or(0, |m| m.len()) / 1000,
+            written.join(" and "),
             sim.scene().model.stop_time
         );
         // (a drift is marked in the table, not an error here)

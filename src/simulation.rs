@@ -645,6 +645,18 @@ impl Simulation {
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
     /// the error carries its time.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), SimError> {
+        self.step(t_end, false).map(|_| ())
+    }
+
+    /// [`Simulation::step_to`] that ends early, right after a located contact event before
+    /// `t_end` at which a contact changed its mode (touch, separation, impact, rest, release):
+    /// then `Ok(true)`, and [`Simulation::time`] is the event's time. The next step goes on
+    /// from there as the uninterrupted one would have (the same integrator steps).
+    pub fn step_to_event(&mut self, t_end: f64) -> Result<bool, SimError> {
+        self.step(t_end, true)
+    }
+
+    fn step(&mut self, t_end: f64, stop_at_events: bool) -> Result<bool, SimError> {
         if !self.initialized {
             return Err(SimError::NotInitialized);
         }
@@ -662,23 +674,23 @@ impl Simulation {
             c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
         }
         if self.running()?.islands.is_some() {
-            self.step_islands(t_end)?;
-            return self.watch_energy();
+            let at_event = self.step_islands(t_end, stop_at_events)?;
+            return self.watch_energy().map(|()| at_event);
         }
-        loop {
+        let at_event = loop {
             let c = self.running()?;
-            engine::advance(&c.model, &mut c.data, t_end).map_err(step_error)?;
-            if !groups::stale(&c.model, &c.data) {
-                break;
+            let at_event = engine::advance_with(&c.model, &mut c.data, t_end, stop_at_events).map_err(step_error)?;
+            if at_event || !groups::stale(&c.model, &c.data) {
+                break at_event;
             }
             self.refresh_candidates()?;
-        }
-        self.watch_energy()
+        };
+        self.watch_energy().map(|()| at_event)
     }
 
     /// [`Simulation::step_to`] for a scene that runs as islands: they advance, the model gets
     /// their candidate pairs (compiled again when they changed) and the data their state.
-    fn step_islands(&mut self, t_end: f64) -> Result<(), SimError> {
+    fn step_islands(&mut self, t_end: f64, stop_at_events: bool) -> Result<bool, SimError> {
         let (scene, origin) = (&self.scene, &self.origin);
         let Some(Compiled {
             model, data, islands, ..
@@ -690,7 +702,7 @@ impl Simulation {
             return Err(SimError::NotInitialized);
         };
         let src = Source { scene, origin };
-        let result = is.advance(&src, model, data, t_end);
+        let result = is.advance(&src, model, data, t_end, stop_at_events);
         is.gather(model, data);
         if is.candidates == model.groups.candidates {
             is.gather_contacts(model, data);

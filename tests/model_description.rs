@@ -1,5 +1,5 @@
 //! The bundled FMUs' model descriptions are kept under version control in
-//! `modelDescription/<name>.xml`. This test fails when the exporter's output for
+//! `modelDescription/<name>.xml` (FMI 3.0's in `modelDescription/fmi3/<name>.xml`). This test fails when the exporter's output for
 //! `fmu/<name>/scene.toml` differs from the checked-in file (an unintended change to a
 //! variable, a unit, the GUID...). After an intended change, regenerate them with
 //!
@@ -31,8 +31,21 @@ fn first_difference(a: &str, b: &str) -> String {
 
 #[test]
 fn bundled_model_descriptions_are_up_to_date() {
+    up_to_date(root().join("modelDescription"), model_description_xml);
+}
+
+#[test]
+fn bundled_fmi3_model_descriptions_are_up_to_date() {
+    up_to_date(
+        root().join("modelDescription").join("fmi3"),
+        contact_fmu::export::fmi3::model_description_xml,
+    );
+}
+
+/// The descriptions written by `describe` for the bundled scenes against the files in `dir`
+/// (written there with `UPDATE_MODEL_DESCRIPTION=1`).
+fn up_to_date(dir: PathBuf, describe: fn(&Scene, &str) -> String) {
     let update = std::env::var_os("UPDATE_MODEL_DESCRIPTION").is_some_and(|v| v != "0" && !v.is_empty());
-    let dir = root().join("modelDescription");
     let scenes = bundled_scenes();
     assert!(!scenes.is_empty(), "no fmu/<name>/scene.toml found");
     let mut stale = Vec::new();
@@ -45,7 +58,7 @@ fn bundled_model_descriptions_are_up_to_date() {
             "{}: model.name must equal the folder name",
             path.display()
         );
-        let xml = model_description_xml(&scene, &text);
+        let xml = describe(&scene, &text);
         let file = dir.join(format!("{name}.xml"));
         if update {
             std::fs::create_dir_all(&dir).unwrap();

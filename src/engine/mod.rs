@@ -117,6 +117,15 @@ pub fn follow_drives(m: &Model, d: &mut Data) {
 /// constraints). Its steps do not depend on `t_end` nor on the stop time, so the results do
 /// not depend on the communication grid beyond the tolerance.
 pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
+    advance_with(m, d, t_end, false).map(|_| ())
+}
+
+/// [`advance`], which with `stop_at_events` ends right after a located event before `t_end`
+/// at which a contact changed its mode (touch, separation, impact, rest, release; not a force
+/// cut, stick or slip): `Ok(true)`, `d.time` the event's time, the integrator restarted there.
+/// The next advance goes on from there as this one would have, so the steps, and the states at
+/// later times, do not depend on where an advance stopped.
+pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
     if t_end.is_nan() || t_end < d.time {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
     }
@@ -146,6 +155,10 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
                     return Err(fail(d, event_storm()));
                 }
                 stop_at_event(m, d, d.solver.pending_event)?;
+                if stop_at_events && t_end - d.time > t_close && mode_changed_now(d) {
+                    sync_counters(d);
+                    return Ok(true);
+                }
             } else if t_step <= t_end {
                 interrupted = 0;
                 accept_step(m, d)?;
@@ -167,13 +180,23 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
             }
             steps += 1;
             let limit = if continuation { f64::INFINITY } else { t_end };
-            let limit = limit.min(d.time + events::time_to_contact(m, d));
+            // (from the method's time, where the event values that bound the step are: after
+            // an advance that ended a rounding error short of its end, `d.time` is that end)
+            let t_method = d.solver.method().map_or(d.time, |i| i.t());
+            let limit = limit.min(t_method + events::time_to_contact(m, d));
             take_step(m, d, limit)?;
             d.solver.pending_event = events::first_event(m, d).unwrap_or(f64::INFINITY);
         }
     }
     sync_counters(d);
-    Ok(())
+    Ok(false)
+}
+
+/// True when the event just handled (at `d.time`) changed a contact's mode: the log's last
+/// entries at that time (the handling logs every change it makes there) name one.
+fn mode_changed_now(d: &Data) -> bool {
+    let mut at_event = d.event_log.iter().rev().take_while(|e| e.time == d.time);
+    at_event.any(|e| e.kind.changes_mode())
 }
 
 /// The advance stopped after `max_steps` steps short of `t_end`.

@@ -9,6 +9,7 @@
 //! packed only when named (`CONTACT_FMU_LIBRARY` or `--binary`).
 
 use super::ExportError;
+use crate::fmi::lifecycle::Version;
 use std::path::{Path, PathBuf};
 
 /// The cargo profile of the library packed into FMUs (`[profile.dist]` in `Cargo.toml`).
@@ -23,8 +24,10 @@ pub const GLIBC_FLOOR: (u32, u32) = (2, 17);
 /// file name cargo gives the library there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Platform {
-    /// The FMI platform folder name.
+    /// The FMI 2.0 platform folder name (the name the command line takes).
     pub name: &'static str,
+    /// The FMI 3.0 platform folder name (`<architecture>-<operating system>`).
+    pub fmi3: &'static str,
     /// The shared-library file extension.
     pub extension: &'static str,
     /// The Rust target triple of its `dist` build (`target/<triple>/dist/`), if the build
@@ -38,30 +41,35 @@ pub struct Platform {
 pub const PLATFORMS: [Platform; 5] = [
     Platform {
         name: "darwin64",
+        fmi3: "x86_64-darwin",
         extension: "dylib",
         triple: None,
         file: "libcontact_fmu.dylib",
     },
     Platform {
         name: "linux32",
+        fmi3: "x86-linux",
         extension: "so",
         triple: None,
         file: "libcontact_fmu.so",
     },
     Platform {
         name: "linux64",
+        fmi3: "x86_64-linux",
         extension: "so",
         triple: Some("x86_64-unknown-linux-gnu"),
         file: "libcontact_fmu.so",
     },
     Platform {
         name: "win32",
+        fmi3: "x86-windows",
         extension: "dll",
         triple: None,
         file: "contact_fmu.dll",
     },
     Platform {
         name: "win64",
+        fmi3: "x86_64-windows",
         extension: "dll",
         triple: Some("x86_64-pc-windows-gnu"),
         file: "contact_fmu.dll",
@@ -135,10 +143,21 @@ impl Binary {
         })
     }
 
-    /// Where the library goes in the FMU: `binaries/<platform>/<model identifier>.<ext>`.
+    /// Where the library goes in an FMI 2.0 FMU: `binaries/<platform>/<model identifier>.<ext>`.
     pub fn entry(&self, model_identifier: &str) -> String {
-        let ext = platform(&self.platform).map_or(LIBRARY_EXTENSION, |p| p.extension);
-        format!("binaries/{}/{model_identifier}.{ext}", self.platform)
+        self.entry_in(model_identifier, Version::Fmi2)
+    }
+
+    /// Where the library goes in an FMU of `version`: FMI 2.0's platform folder
+    /// (`binaries/linux64/`) or FMI 3.0's (`binaries/x86_64-linux/`).
+    pub fn entry_in(&self, model_identifier: &str, version: Version) -> String {
+        let p = platform(&self.platform);
+        let ext = p.map_or(LIBRARY_EXTENSION, |p| p.extension);
+        let folder = match (version, p) {
+            (Version::Fmi3, Some(p)) => p.fmi3,
+            _ => self.platform.as_str(),
+        };
+        format!("binaries/{folder}/{model_identifier}.{ext}")
     }
 }
 

@@ -14,6 +14,7 @@
 //! The library packed is the one of the cargo profile `dist` (no debug information, stripped,
 //! fat LTO), built for glibc 2.17 by `scripts/build_fmu_library.sh`; see [`find_library`].
 
+use crate::fmi::lifecycle::Version;
 use crate::fmi::LOG_CATEGORIES;
 use crate::guid::guid;
 use crate::scene::{Scene, SceneError};
@@ -30,6 +31,7 @@ use std::path::{Path, PathBuf};
 /// The crate version, written into `generationTool` (and mixed into the GUID).
 pub use crate::guid::VERSION;
 
+pub mod fmi3;
 mod library;
 pub use library::{
     build_of, dist_library, find_library, glibc_needed, library_file, missing_message, parse_platforms, platform,
@@ -321,17 +323,23 @@ pub fn format_utc(epoch: u64) -> String {
     format!("{y:04}-{mo:02}-{d:02}T{h:02}:{mi:02}:{s:02}Z")
 }
 
-fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
-    let table = VariableTable::from_scene(scene);
+/// The root element's attributes: `fmiVersion`, `modelName`, the identity (FMI 2.0's `guid`,
+/// FMI 3.0's `instantiationToken`: the same value), the scene's metadata, the tool and date.
+fn root_attributes(
+    scene: &Scene,
+    scene_text: &str,
+    version: Version,
+    generated: Option<&str>,
+) -> Vec<(&'static str, String)> {
     let m = &scene.model;
-    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
-    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
-    let guid = guid(scene_text);
-    let tool = format!("contact-fmu {VERSION}");
+    let token = match version {
+        Version::Fmi2 => "guid",
+        Version::Fmi3 => "instantiationToken",
+    };
     let mut root = vec![
-        ("fmiVersion", "2.0"),
-        ("modelName", m.name.as_str()),
-        ("guid", guid.as_str()),
+        ("fmiVersion", version.number().to_string()),
+        ("modelName", m.name.clone()),
+        (token, guid(scene_text)),
     ];
     for (key, value) in [
         ("description", &m.description),
@@ -341,16 +349,126 @@ fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&s
         ("license", &m.license),
     ] {
         if !value.is_empty() {
-            root.push((key, value.as_str()));
+            root.push((key, value.clone()));
         }
     }
-    root.push(("generationTool", tool.as_str()));
+    root.push(("generationTool", format!("contact-fmu {VERSION}")));
     if let Some(date) = generated {
-        root.push(("generationDateAndTime", date));
+        root.push(("generationDateAndTime", date.to_string()));
     }
-    root.push(("variableNamingConvention", "structured"));
+    root.push(("variableNamingConvention", "structured".to_string()));
+    root
+}
+
+/// A new document with its XML declaration.
+fn xml_writer() -> io::Result<Writer<Vec<u8>>> {
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
+    Ok(w)
+}
+
+/// `UnitDefinitions` (the same in FMI 2.0 and 3.0): the units the table uses, with their base
+/// units and display units.
+fn write_units(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let units = used_units(table);
+    if units.is_empty() {
+        return Ok(());
+    }
+    w.create_element("UnitDefinitions").write_inner_content(|w| {
+        for unit in units {
+            let mut base: Vec<(&str, String)> = Vec::new();
+            for (attr, e) in ["kg", "m", "s", "rad"].into_iter().zip(unit.base) {
+                if e != 0 {
+                    base.push((attr, e.to_string()));
+                }
+            }
+            w.create_element("Unit")
+                .with_attributes(attrs([("name", unit.name)]))
+                .write_inner_content(|w| {
+                    w.create_element("BaseUnit")
+                        .with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str()))))
+                        .write_empty()?;
+                    for (name, factor) in unit.display {
+                        let factor = format_real(*factor);
+                        w.create_element("DisplayUnit")
+                            .with_attributes(attrs([("name", *name), ("factor", factor.as_str())]))
+                            .write_empty()?;
+                    }
+                    Ok(())
+                })?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// `TypeDefinitions`: the enumerations the table uses, with their items (FMI 2.0:
+/// `SimpleType/Enumeration/Item`, FMI 3.0: `EnumerationType/Item`).
+fn write_type_definitions(w: &mut Writer<Vec<u8>>, table: &VariableTable, version: Version) -> io::Result<()> {
+    let enums = used_enums(table);
+    if enums.is_empty() {
+        return Ok(());
+    }
+    w.create_element("TypeDefinitions").write_inner_content(|w| {
+        for e in enums {
+            let items = |w: &mut Writer<Vec<u8>>| -> io::Result<()> {
+                for (name, value) in e.items() {
+                    let value = value.to_string();
+                    w.create_element("Item")
+                        .with_attributes(attrs([("name", name), ("value", value.as_str())]))
+                        .write_empty()?;
+                }
+                Ok(())
+            };
+            let tag = match version {
+                Version::Fmi2 => "SimpleType",
+                Version::Fmi3 => "EnumerationType",
+            };
+            w.create_element(tag)
+                .with_attributes(attrs([("name", e.type_name())]))
+                .write_inner_content(|w| match version {
+                    Version::Fmi2 => w.create_element("Enumeration").write_inner_content(items).map(|_| ()),
+                    Version::Fmi3 => items(w),
+                })?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// `LogCategories` and `DefaultExperiment` (the same in FMI 2.0 and 3.0 but for the version
+/// named in the categories' descriptions).
+fn write_categories_and_experiment(w: &mut Writer<Vec<u8>>, scene: &Scene, version: Version) -> io::Result<()> {
+    w.create_element("LogCategories").write_inner_content(|w| {
+        for (name, description) in LOG_CATEGORIES {
+            let name = name.to_str().unwrap_or_default();
+            let description = description.replace("fmi2", version.prefix());
+            w.create_element("Category")
+                .with_attributes(attrs([("name", name), ("description", description.as_str())]))
+                .write_empty()?;
+        }
+        Ok(())
+    })?;
+    let stop = format_real(scene.model.stop_time);
+    let tolerance = format_real(scene.solver.rtol);
+    let step = format_real(scene.model.interval);
+    w.create_element("DefaultExperiment")
+        .with_attributes(attrs([
+            ("startTime", "0"),
+            ("stopTime", stop.as_str()),
+            ("tolerance", tolerance.as_str()),
+            ("stepSize", step.as_str()),
+        ]))
+        .write_empty()?;
+    Ok(())
+}
+
+fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+    let table = VariableTable::from_scene(scene);
+    let m = &scene.model;
+    let mut w = xml_writer()?;
     w.create_element("fmiModelDescription")
-        .with_attributes(attrs(root))
+        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi2, generated)))
         .write_inner_content(|w| {
             w.create_element("CoSimulation")
                 .with_attributes(attrs([
@@ -366,76 +484,9 @@ fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&s
                     ("providesDirectionalDerivative", "false"),
                 ]))
                 .write_empty()?;
-            let units = used_units(&table);
-            if !units.is_empty() {
-                w.create_element("UnitDefinitions").write_inner_content(|w| {
-                    for unit in units {
-                        let mut base: Vec<(&str, String)> = Vec::new();
-                        for (attr, e) in ["kg", "m", "s", "rad"].into_iter().zip(unit.base) {
-                            if e != 0 {
-                                base.push((attr, e.to_string()));
-                            }
-                        }
-                        w.create_element("Unit")
-                            .with_attributes(attrs([("name", unit.name)]))
-                            .write_inner_content(|w| {
-                                w.create_element("BaseUnit")
-                                    .with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str()))))
-                                    .write_empty()?;
-                                for (name, factor) in unit.display {
-                                    let factor = format_real(*factor);
-                                    w.create_element("DisplayUnit")
-                                        .with_attributes(attrs([("name", *name), ("factor", factor.as_str())]))
-                                        .write_empty()?;
-                                }
-                                Ok(())
-                            })?;
-                    }
-                    Ok(())
-                })?;
-            }
-            let enums = used_enums(&table);
-            if !enums.is_empty() {
-                w.create_element("TypeDefinitions").write_inner_content(|w| {
-                    for e in enums {
-                        w.create_element("SimpleType")
-                            .with_attributes(attrs([("name", e.type_name())]))
-                            .write_inner_content(|w| {
-                                w.create_element("Enumeration").write_inner_content(|w| {
-                                    for (name, value) in e.items() {
-                                        let value = value.to_string();
-                                        w.create_element("Item")
-                                            .with_attributes(attrs([("name", name), ("value", value.as_str())]))
-                                            .write_empty()?;
-                                    }
-                                    Ok(())
-                                })?;
-                                Ok(())
-                            })?;
-                    }
-                    Ok(())
-                })?;
-            }
-            w.create_element("LogCategories").write_inner_content(|w| {
-                for (name, description) in LOG_CATEGORIES {
-                    let name = name.to_str().unwrap_or_default();
-                    w.create_element("Category")
-                        .with_attributes(attrs([("name", name), ("description", description)]))
-                        .write_empty()?;
-                }
-                Ok(())
-            })?;
-            let stop = format_real(m.stop_time);
-            let tolerance = format_real(scene.solver.rtol);
-            let step = format_real(m.interval);
-            w.create_element("DefaultExperiment")
-                .with_attributes(attrs([
-                    ("startTime", "0"),
-                    ("stopTime", stop.as_str()),
-                    ("tolerance", tolerance.as_str()),
-                    ("stepSize", step.as_str()),
-                ]))
-                .write_empty()?;
+            write_units(w, &table)?;
+            write_type_definitions(w, &table, Version::Fmi2)?;
+            write_categories_and_experiment(w, scene, Version::Fmi2)?;
             w.create_element("ModelVariables").write_inner_content(|w| {
                 for (vr, v) in table.vars.iter().enumerate() {
                     write_variable(w, vr, v)?;
@@ -547,7 +598,7 @@ fn escape_html(s: &str) -> String {
 }
 
 /// `documentation/index.html`: the model's variables as a table.
-pub fn documentation_html(scene: &Scene) -> String {
+pub fn documentation_html(scene: &Scene, version: Version) -> String {
     let table = VariableTable::from_scene(scene);
     let m = &scene.model;
     let mut h = String::new();
@@ -560,7 +611,8 @@ pub fn documentation_html(scene: &Scene) -> String {
         h.push_str(&format!("<p>{}</p>\n", escape_html(&m.description)));
     }
     h.push_str(&format!(
-        "<p>FMI 2.0 Co-Simulation FMU generated by contact-fmu {VERSION}. Default experiment: stop time {} s, communication step {} s, relative tolerance {}. The scene is in <code>resources/scene.toml</code>.</p>\n",
+        "<p>FMI {} Co-Simulation FMU generated by contact-fmu {VERSION}. Default experiment: stop time {} s, communication step {} s, relative tolerance {}. The scene is in <code>resources/scene.toml</code>.</p>\n",
+        version.number(),
         format_real(m.stop_time),
         format_real(m.interval),
         format_real(scene.solver.rtol)
@@ -613,14 +665,19 @@ pub fn export_fmu(scene_path: &Path, out: &Path, library: &Path) -> Result<Expor
         platform: PLATFORM.to_string(),
         path: library.to_path_buf(),
     };
-    export_fmu_binaries(scene_path, out, &[host])
+    export_fmu_binaries(scene_path, out, &[host], Version::Fmi2)
 }
 
-/// Builds the FMU like [`export_fmu`], packing one library per platform: each of `binaries`
-/// as `binaries/<platform>/<model name>.<dll|so|dylib>` (in the order of the platform
-/// names, so the FMU does not depend on the order given). Two libraries for one platform
-/// are refused.
-pub fn export_fmu_binaries(scene_path: &Path, out: &Path, binaries: &[Binary]) -> Result<ExportedFmu, ExportError> {
+/// Builds the FMU of FMI `version` like [`export_fmu`], packing one library per platform:
+/// each of `binaries` as `binaries/<platform>/<model name>.<dll|so|dylib>` (the platform
+/// folder of that version; in the order of the platform names, so the FMU does not depend on
+/// the order given). Two libraries for one platform are refused.
+pub fn export_fmu_binaries(
+    scene_path: &Path,
+    out: &Path,
+    binaries: &[Binary],
+    version: Version,
+) -> Result<ExportedFmu, ExportError> {
     let binaries = one_per_platform(binaries)?;
     let text = std::fs::read_to_string(scene_path).map_err(io_error(scene_path))?;
     let origin = scene_path.display().to_string();
@@ -635,12 +692,16 @@ pub fn export_fmu_binaries(scene_path: &Path, out: &Path, binaries: &[Binary]) -
         .map(|b| std::fs::read(&b.path).map_err(io_error(&b.path)))
         .collect::<Result<Vec<_>, _>>()?;
     let epoch = generation_epoch()?;
-    let xml = model_description_xml_dated(&scene, &text, Some(&format_utc(epoch)));
-    let html = documentation_html(&scene);
+    let date = format_utc(epoch);
+    let xml = match version {
+        Version::Fmi2 => model_description_xml_dated(&scene, &text, Some(&date)),
+        Version::Fmi3 => fmi3::model_description_xml_dated(&scene, &text, Some(&date)),
+    };
+    let html = documentation_html(&scene, version);
     let name = &scene.model.name;
     let mut entries: Vec<(String, &[u8], u32)> = vec![("modelDescription.xml".into(), xml.as_bytes(), 0o644)];
     for (b, bytes) in binaries.iter().zip(&libraries) {
-        entries.push((b.entry(name), bytes, 0o755));
+        entries.push((b.entry_in(name, version), bytes, 0o755));
     }
     entries.push(("resources/scene.toml".into(), text.as_bytes(), 0o644));
     entries.push(("documentation/index.html".into(), html.as_bytes(), 0o644));
@@ -721,16 +782,18 @@ fn write_zip(path: &Path, entries: &[(String, &[u8], u32)], epoch: u64) -> io::R
     Ok(())
 }
 
-/// The CLI's `export` command: packs the libraries of `binaries` (`PLATFORM=PATH`, see
-/// [`Binary::parse`]) and, for every platform of `platforms` (default
+/// The CLI's `export` command: an FMU of FMI `version`, packing the libraries of `binaries`
+/// (`PLATFORM=PATH`, see [`Binary::parse`]) and, for every platform of `platforms` (default
 /// [`DEFAULT_PLATFORMS`]: linux64 and win64) that no `--binary` names, the library from
 /// [`find_library`] (its notes go to standard error); when no output is given,
-/// `target/fmu/<model name>.fmu` (where the main job puts the bundled FMUs).
+/// `target/fmu/<model name>.fmu` (FMI 2.0) or `target/fmu3/<model name>.fmu` (FMI 3.0), where
+/// the main job puts the bundled FMUs.
 pub fn export_command(
     scene_path: &Path,
     out: Option<&Path>,
     binaries: &[String],
     platforms: Option<&str>,
+    version: Version,
 ) -> Result<ExportedFmu, ExportError> {
     // a scene that does not parse or validate gets its one message before anything else
     let scene = Scene::from_file(scene_path)?;
@@ -759,10 +822,18 @@ pub fn export_command(
     let out = match out {
         Some(o) => o.to_path_buf(),
         None => Path::new("target")
-            .join("fmu")
+            .join(fmu_folder(version))
             .join(format!("{}.fmu", scene.model.name)),
     };
-    export_fmu_binaries(scene_path, &out, &binaries)
+    export_fmu_binaries(scene_path, &out, &binaries, version)
+}
+
+/// The folder of `target/` that the FMUs of `version` go to: `fmu`, `fmu3`.
+pub fn fmu_folder(version: Version) -> &'static str {
+    match version {
+        Version::Fmi2 => "fmu",
+        Version::Fmi3 => "fmu3",
+    }
 }
 
 #[cfg(test)]

@@ -14,166 +14,22 @@
 
 #![allow(non_snake_case)]
 
-use super::instance::{log_raw, Access, Failure, FmiResult, Instance, InstantiateArgs};
-use super::lifecycle::{self, LifeState};
-use super::registry::{INSTANCES, STATES};
-use super::saved::SavedState;
+use super::glue::{self, call, string_arg};
+use super::instance::{fmi2_sink, log_raw, Access, Failure, Instance, InstantiateArgs};
+use super::lifecycle::{self, LifeState, Version};
 use super::types::*;
-use std::ffi::CStr;
 use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::ptr;
 
-/// The text of a panic payload.
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    if let Some(s) = payload.downcast_ref::<&str>() {
-        (*s).to_string()
-    } else if let Some(s) = payload.downcast_ref::<String>() {
-        s.clone()
-    } else {
-        "unknown panic".to_string()
-    }
-}
-
-/// Borrows the instance behind a component handle if the handle is a live instance of this
-/// library (see `registry`). NULL, a freed handle or any other value gives `None` and is not
-/// read.
+/// Borrows the FMI 2.0 instance behind a component handle (see [`glue::instance`]).
 ///
 /// # Safety
 /// While the borrow lasts, no other thread uses or frees `c` (FMI 2.0: one instance is not
 /// called concurrently).
 unsafe fn instance<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
-    let p = c as *mut Instance;
-    if !INSTANCES.contains(p) {
-        return None;
-    }
-    // SAFETY: a live handle is a `Box<Instance>` leaked by `fmi2Instantiate` and not yet
-    // released by `fmi2FreeInstance`; nothing else uses it meanwhile (this function's contract).
-    Some(unsafe { &mut *p })
-}
-
-/// Runs one FMI call on `found`, the instance [`instance`] looked up: checks the calling
-/// state, catches panics and turns failures into a logged status. Without an instance the
-/// call returns `fmi2Error` and logs nothing (there is no logger to log to).
-fn call(
-    found: Option<&mut Instance>,
-    func: &'static str,
-    mask: u32,
-    body: impl FnOnce(&mut Instance) -> FmiResult,
-) -> fmi2Status {
-    let outer = catch_unwind(AssertUnwindSafe(|| {
-        let Some(inst) = found else {
-            return fmi2Status::fmi2Error;
-        };
-        if inst.state.bit() & mask == 0 {
-            let message = format!(
-                "illegal call sequence: {func} is not allowed in the {} state",
-                inst.state.name()
-            );
-            return inst.fail(func, Failure::error(message));
-        }
-        match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
-            Ok(Ok(())) => fmi2Status::fmi2OK,
-            Ok(Err(failure)) => inst.fail(func, failure),
-            Err(payload) => {
-                inst.poisoned = true;
-                let message = format!("internal error (panic): {}", panic_text(payload.as_ref()));
-                inst.fail(func, Failure::error(message))
-            }
-        }
-    }));
-    outer.unwrap_or(fmi2Status::fmi2Fatal)
-}
-
-/// A slice from a C array, or a failure when the array is NULL but its length is not 0.
-///
-/// # Safety
-/// When not NULL, `p` points to `n` valid elements that nothing writes during `'a`.
-unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResult<&'a [T]> {
-    if n == 0 {
-        Ok(&[])
-    } else if p.is_null() {
-        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
-    } else {
-        // SAFETY: `p` is not NULL and points to `n` valid elements (this function's contract).
-        Ok(unsafe { std::slice::from_raw_parts(p, n) })
-    }
-}
-
-/// A mutable slice from a C array (see [`slice`]).
-///
-/// # Safety
-/// When not NULL, `p` points to `n` valid, writable elements that nothing else accesses
-/// during `'a`.
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> FmiResult<&'a mut [T]> {
-    if n == 0 {
-        Ok(&mut [])
-    } else if p.is_null() {
-        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
-    } else {
-        // SAFETY: `p` is not NULL and points to `n` writable elements (this function's
-        // contract).
-        Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
-    }
-}
-
-/// A string argument, or `None` for NULL.
-///
-/// # Safety
-/// When not NULL, `s` is a NUL-terminated string.
-unsafe fn string_arg(s: fmi2String) -> Option<String> {
-    if s.is_null() {
-        None
-    } else {
-        // SAFETY: `s` is not NULL and NUL-terminated (this function's contract).
-        Some(unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned())
-    }
-}
-
-/// Borrows a saved state if the handle is a live state of this library (see `registry`);
-/// anything else is refused without being read.
-///
-/// # Safety
-/// While the borrow lasts, no other thread frees or overwrites `s`.
-unsafe fn saved_state<'a>(s: fmi2FMUstate) -> FmiResult<&'a SavedState> {
-    let p = s as *const SavedState;
-    if p.is_null() {
-        return Err(Failure::error("the FMU state is NULL"));
-    }
-    if !STATES.contains(p) {
-        return Err(Failure::error(
-            "the FMU state was not made by this FMU or has been freed",
-        ));
-    }
-    // SAFETY: a live handle is a `Box<SavedState>` leaked by `store_state` and not yet
-    // released by `fmi2FreeFMUstate`; nothing writes it meanwhile (this function's contract).
-    Ok(unsafe { &*p })
-}
-
-/// Stores a state into `*slot`: allocates when `*slot` is NULL, otherwise overwrites it if it
-/// is a live state (anything else is refused without being read).
-///
-/// # Safety
-/// `slot` is NULL or valid for reading and writing; no other thread uses `*slot` meanwhile.
-unsafe fn store_state(slot: *mut fmi2FMUstate, state: SavedState) -> FmiResult {
-    if slot.is_null() {
-        return Err(Failure::error("the FMUstate pointer is NULL"));
-    }
-    // SAFETY: `slot` is not NULL and readable (this function's contract).
-    let existing = unsafe { *slot } as *mut SavedState;
-    if existing.is_null() {
-        let p = STATES.register(Box::new(state)) as fmi2FMUstate;
-        // SAFETY: `slot` is not NULL and writable (this function's contract).
-        unsafe { *slot = p };
-    } else if STATES.contains(existing) {
-        // SAFETY: a live `Box<SavedState>` (see `saved_state`) that nothing else uses.
-        unsafe { *existing = state };
-    } else {
-        return Err(Failure::error(
-            "*FMUstate is neither NULL nor a live FMU state of this FMU",
-        ));
-    }
-    Ok(())
+    // SAFETY: this function's contract.
+    unsafe { glue::instance(c, Version::Fmi2) }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -207,14 +63,7 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
         // SAFETY: `categories` holds `n_categories` strings (this function's contract).
-        let names = unsafe { slice(categories, n_categories, "categories") }?;
-        let mut list = Vec::with_capacity(names.len());
-        for &n in names {
-            // SAFETY: each category is NULL or NUL-terminated (this function's contract).
-            let name = unsafe { string_arg(n) };
-            list.push(name.ok_or_else(|| Failure::error("a log category is NULL"))?);
-        }
-        inst.set_debug_logging(logging_on != FMI2_FALSE, &list)
+        unsafe { glue::set_debug_logging(inst, logging_on != FMI2_FALSE, n_categories, categories) }
     })
 }
 
@@ -265,16 +114,25 @@ pub unsafe extern "C" fn fmi2Instantiate(
             report("fmi2Instantiate: fmuGUID and fmuResourceLocation must not be NULL");
             return ptr::null_mut();
         };
+        if fmu_type != FMI2_CO_SIMULATION {
+            report(&format!(
+                "fmi2Instantiate: this FMU supports Co-Simulation only (fmuType = {fmu_type}, expected fmi2CoSimulation = {FMI2_CO_SIMULATION})"
+            ));
+            return ptr::null_mut();
+        }
+        let cname = std::ffi::CString::new(name.replace('\0', " ")).unwrap_or_default();
         let args = InstantiateArgs {
+            version: Version::Fmi2,
+            function: "fmi2Instantiate",
             instance_name: &name,
-            fmu_type,
             guid: &guid,
             resource_location: &location,
-            callbacks,
+            sink: fmi2_sink(callbacks.logger, callbacks.component_environment, &cname),
             logging_on: logging_on != FMI2_FALSE,
+            early_return: false,
         };
-        match catch_unwind(AssertUnwindSafe(|| Instance::new(&args))) {
-            Ok(Ok(inst)) => INSTANCES.register(Box::new(inst)) as fmi2Component,
+        match catch_unwind(AssertUnwindSafe(|| Instance::new(args))) {
+            Ok(Ok(inst)) => glue::register(inst),
             Ok(Err(message)) => {
                 report(&message);
                 ptr::null_mut()
@@ -282,7 +140,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             Err(payload) => {
                 report(&format!(
                     "fmi2Instantiate: internal error (panic): {}",
-                    panic_text(payload.as_ref())
+                    glue::panic_text(payload.as_ref())
                 ));
                 ptr::null_mut()
             }
@@ -298,10 +156,8 @@ pub unsafe extern "C" fn fmi2Instantiate(
 /// No other thread uses `c` during or after the call (FMI 2.0).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: nothing uses the instance any more (this function's contract).
-        drop(unsafe { INSTANCES.release(c as *mut Instance) });
-    }));
+    // SAFETY: nothing uses the instance any more (this function's contract).
+    unsafe { glue::free_instance(c, Version::Fmi2) }
 }
 
 /// `fmi2SetupExperiment`
@@ -398,8 +254,7 @@ pub unsafe extern "C" fn fmi2GetReal(
     let found = unsafe { instance(c) };
     call(found, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
-        inst.get_values(Access::Real, vrs, |k, x| out[k] = x)
+        unsafe { glue::get_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
     })
 }
 
@@ -418,8 +273,7 @@ pub unsafe extern "C" fn fmi2GetInteger(
     let found = unsafe { instance(c) };
     call(found, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
-        inst.get_values(Access::Integer, vrs, |k, x| out[k] = x.round() as fmi2Integer)
+        unsafe { glue::get_values(inst, Access::Integer, vr, nvr, value, nvr, |x| x.round() as fmi2Integer) }
     })
 }
 
@@ -438,10 +292,11 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     let found = unsafe { instance(c) };
     call(found, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, out) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
-        inst.get_values(Access::Boolean, vrs, |k, x| {
-            out[k] = if x != 0.0 { FMI2_TRUE } else { FMI2_FALSE }
-        })
+        unsafe {
+            glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| {
+                fmi2Boolean::from(x != 0.0)
+            })
+        }
     })
 }
 
@@ -460,8 +315,7 @@ pub unsafe extern "C" fn fmi2GetString(
     let found = unsafe { instance(c) };
     call(found, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        let vrs = unsafe { slice(vr, nvr, "vr") }?;
-        inst.get_values(Access::String, vrs, |_, _| {})
+        unsafe { glue::no_strings(inst, vr, nvr, false) }
     })
 }
 
@@ -480,8 +334,7 @@ pub unsafe extern "C" fn fmi2SetReal(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
-        inst.set_values(Access::Real, vrs, |k| vals[k])
+        unsafe { glue::set_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
     })
 }
 
@@ -500,8 +353,7 @@ pub unsafe extern "C" fn fmi2SetInteger(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
-        inst.set_values(Access::Integer, vrs, |k| f64::from(vals[k]))
+        unsafe { glue::set_values(inst, Access::Integer, vr, nvr, value, nvr, f64::from) }
     })
 }
 
@@ -520,8 +372,11 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
         // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        let (vrs, vals) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
-        inst.set_values(Access::Boolean, vrs, |k| if vals[k] != FMI2_FALSE { 1.0 } else { 0.0 })
+        unsafe {
+            glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| {
+                f64::from(u8::from(b != FMI2_FALSE))
+            })
+        }
     })
 }
 
@@ -540,8 +395,7 @@ pub unsafe extern "C" fn fmi2SetString(
     let found = unsafe { instance(c) };
     call(found, "fmi2SetString", lifecycle::SET_VALUES, |inst| {
         // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        let vrs = unsafe { slice(vr, nvr, "vr") }?;
-        inst.set_values(Access::String, vrs, |_| 0.0)
+        unsafe { glue::no_strings(inst, vr, nvr, true) }
     })
 }
 
@@ -556,7 +410,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUst
     let found = unsafe { instance(c) };
     call(found, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| {
         // SAFETY: `state` points to NULL or to a live state (this function's contract).
-        unsafe { store_state(state, inst.save()) }
+        unsafe { glue::store_state(state, inst.save()) }
     })
 }
 
@@ -571,8 +425,7 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) 
     let found = unsafe { instance(c) };
     call(found, "fmi2SetFMUstate", lifecycle::FMU_STATE, |inst| {
         // SAFETY: the host does not free `state` during the call (FMI 2.0).
-        let saved = unsafe { saved_state(state) }?;
-        inst.restore(saved)
+        unsafe { glue::set_state(inst, state) }
     })
 }
 
@@ -586,25 +439,9 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUs
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
     let found = unsafe { instance(c) };
     call(found, "fmi2FreeFMUstate", lifecycle::FMU_STATE, |_| {
-        if state.is_null() {
-            return Ok(());
-        }
-        // SAFETY: `state` is not NULL and points to a readable handle (this function's
-        // contract).
-        let p = unsafe { *state } as *mut SavedState;
-        if p.is_null() {
-            return Ok(());
-        }
-        // SAFETY: no other thread uses the state (FMI 2.0).
-        let Some(boxed) = (unsafe { STATES.release(p) }) else {
-            return Err(Failure::error(
-                "the FMU state was not made by this FMU or has been freed",
-            ));
-        };
-        drop(boxed);
-        // SAFETY: `state` is not NULL and writable (this function's contract).
-        unsafe { *state = ptr::null_mut() };
-        Ok(())
+        // SAFETY: `state` is NULL or a readable and writable handle (this function's contract);
+        // no other thread uses it (FMI 2.0).
+        unsafe { glue::free_state(state) }
     })
 }
 
@@ -621,14 +458,8 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
     let found = unsafe { instance(c) };
     call(found, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
-        // SAFETY: the host does not free `state` during the call (FMI 2.0).
-        let saved = unsafe { saved_state(state) }?;
-        if size.is_null() {
-            return Err(Failure::error("size is NULL"));
-        }
-        // SAFETY: `size` is not NULL and writable (this function's contract).
-        unsafe { *size = saved.to_bytes().len() };
-        Ok(())
+        // SAFETY: `size` is NULL or writable; the host does not free `state` during the call.
+        unsafe { glue::serialized_size(state, size) }
     })
 }
 
@@ -646,18 +477,8 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
     let found = unsafe { instance(c) };
     call(found, "fmi2SerializeFMUstate", lifecycle::FMU_STATE, |_| {
-        // SAFETY: the host does not free `state` during the call (FMI 2.0).
-        let bytes = unsafe { saved_state(state) }?.to_bytes();
-        if size < bytes.len() {
-            return Err(Failure::error(format!(
-                "the buffer holds {size} bytes, the state needs {} (ask fmi2SerializedFMUstateSize)",
-                bytes.len()
-            )));
-        }
-        // SAFETY: `serialized` holds `size` >= `bytes.len()` bytes (this function's contract).
-        let out = unsafe { slice_mut(serialized as *mut u8, bytes.len(), "serializedState") }?;
-        out.copy_from_slice(&bytes);
-        Ok(())
+        // SAFETY: `serialized` holds `size` writable bytes; the host does not free `state`.
+        unsafe { glue::serialize(state, serialized as *mut u8, size) }
     })
 }
 
@@ -677,11 +498,8 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
     let found = unsafe { instance(c) };
     call(found, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: `serialized` holds `size` bytes (this function's contract).
-        let bytes = unsafe { slice(serialized as *const u8, size, "serializedState") }?;
-        let saved = SavedState::from_bytes(bytes, inst.model_hash()).map_err(Failure::error)?;
-        // SAFETY: `state` points to NULL or to a live state (this function's contract).
-        unsafe { store_state(state, saved) }
+        // SAFETY: `serialized` holds `size` bytes; `state` is NULL or a valid handle slot.
+        unsafe { glue::deserialize(inst, serialized as *const u8, size, state) }
     })
 }
 
@@ -773,6 +591,7 @@ pub unsafe extern "C" fn fmi2DoStep(
     let found = unsafe { instance(c) };
     call(found, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
         inst.do_step(current_communication_point, communication_step_size)
+            .map(|_| ())
     })
 }
 
@@ -813,7 +632,7 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value:
     call(found, "fmi2GetRealStatus", lifecycle::GET_STATUS, |inst| {
         let x = inst.real_status(kind)?;
         // SAFETY: `value` is NULL or writable (this function's contract).
-        let out = unsafe { slice_mut(value, 1, "value") }?;
+        let out = unsafe { glue::slice_mut(value, 1, "value") }?;
         out[0] = x;
         Ok(())
     })
@@ -843,7 +662,7 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, val
     call(found, "fmi2GetBooleanStatus", lifecycle::GET_STATUS, |inst| {
         let b = inst.boolean_status(kind)?;
         // SAFETY: `value` is NULL or writable (this function's contract).
-        let out = unsafe { slice_mut(value, 1, "value") }?;
+        let out = unsafe { glue::slice_mut(value, 1, "value") }?;
         out[0] = if b { FMI2_TRUE } else { FMI2_FALSE };
         Ok(())
     })
@@ -917,7 +736,7 @@ mod tests {
             let mut state: fmi2FMUstate = ptr::null_mut();
             assert_eq!(fmi2GetFMUstate(c, &mut state), fmi2Status::fmi2OK);
 
-            let status = call(instance(c), "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| {
+            let status: fmi2Status = call(instance(c), "fmi2Test", lifecycle::ANY_BUT_FATAL, |_| {
                 panic!("deliberate")
             });
             assert_eq!(status, fmi2Status::fmi2Error);

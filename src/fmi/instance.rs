@@ -1,17 +1,24 @@
 //! One FMU instance: the FMI state machine, logging and value access in safe Rust, on top of
-//! the [`Simulation`] facade. The `extern "C"` functions in `exports` only check pointers and
-//! call states, catch panics and forward here.
+//! the [`Simulation`] facade. The `extern "C"` functions (`exports` for FMI 2.0,
+//! `crate::fmi3::exports` for FMI 3.0) only check pointers and call states, catch panics and
+//! forward here; an instance knows the version it was made by, for its messages, its value
+//! types and its saved states.
+//!
+//! The statuses of FMI 2.0 and 3.0 have the same values (OK, Warning, Discard, Error, Fatal =
+//! 0..4): an instance speaks `fmi2Status`, and the FMI 3.0 functions hand it on as
+//! `fmi3Status`.
 
-use super::lifecycle::LifeState;
+use super::lifecycle::{LifeState, Version};
 use super::saved::SavedState;
 use super::types::*;
-use super::uri::resource_dir;
+use super::uri::{resource_dir, resource_folder};
 use crate::simulation::{SimError, Simulation};
 use crate::variables::{Causality, VarType, Variability, Variable};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_int;
 
-/// The log categories declared in the model description: (name, description).
+/// The log categories declared in the model description: (name, description; the FMI 3.0
+/// description says `fmi3` where this says `fmi2`).
 pub const LOG_CATEGORIES: [(&CStr, &str); 6] = [
     (c"logEvents", "Instantiation, initialisation, reset, restored states"),
     (c"logStatusWarning", "Calls that return fmi2Warning"),
@@ -69,6 +76,18 @@ impl From<SimError> for Failure {
 /// The result of an instance method.
 pub type FmiResult<T = ()> = Result<T, Failure>;
 
+/// Where an instance's messages go: the host's logger called with (status, category, text).
+pub type Sink = Box<dyn Fn(fmi2Status, &CStr, &str)>;
+
+/// The [`Sink`] of an FMI 2.0 logger (none when the host gave none).
+pub fn fmi2_sink(logger: fmi2CallbackLogger, environment: fmi2ComponentEnvironment, name: &CStr) -> Option<Sink> {
+    logger?;
+    let name = name.to_owned();
+    Some(Box::new(move |status, category, message| {
+        log_raw(logger, environment, &name, status, category, message)
+    }))
+}
+
 /// Sends one message through a host's logger, if there is one. The format string is always
 /// `"%s"`, so the text may contain `%`; NUL bytes in it are replaced.
 pub(crate) fn log_raw(
@@ -95,70 +114,87 @@ pub(crate) fn log_raw(
     }
 }
 
-/// The value type an `fmi2Get/SetXxx` function accesses.
+/// The value type a `Get/Set` function accesses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Access {
-    /// `fmi2Real`
+    /// `fmi2Real`, `fmi3Float64`
     Real,
-    /// `fmi2Integer` (also enumerations)
+    /// `fmi2Integer` (in FMI 2.0 also enumerations), `fmi3Int32`
     Integer,
-    /// `fmi2Boolean`
+    /// `fmi3Int64`: FMI 3.0's enumerations
+    Int64,
+    /// `fmi2Boolean`, `fmi3Boolean`
     Boolean,
-    /// `fmi2String`
+    /// `fmi2String`, `fmi3String`
     String,
 }
 
 impl Access {
-    fn name(self) -> &'static str {
-        match self {
-            Access::Real => "Real",
-            Access::Integer => "Integer",
-            Access::Boolean => "Boolean",
-            Access::String => "String",
+    fn name(self, v: Version) -> &'static str {
+        match (self, v) {
+            (Access::Real, Version::Fmi2) => "Real",
+            (Access::Real, Version::Fmi3) => "Float64",
+            (Access::Integer, Version::Fmi2) => "Integer",
+            (Access::Integer, Version::Fmi3) => "Int32",
+            (Access::Int64, _) => "Int64",
+            (Access::Boolean, _) => "Boolean",
+            (Access::String, _) => "String",
         }
     }
-    fn accepts(self, t: VarType) -> bool {
+    fn accepts(self, t: VarType, v: Version) -> bool {
         matches!(
-            (self, t),
-            (Access::Real, VarType::Real)
-                | (Access::Integer, VarType::Integer)
-                | (Access::Integer, VarType::Enumeration(_))
-                | (Access::Boolean, VarType::Boolean)
+            (self, t, v),
+            (Access::Real, VarType::Real, _)
+                | (Access::Integer, VarType::Integer, _)
+                | (Access::Integer, VarType::Enumeration(_), Version::Fmi2)
+                | (Access::Int64, VarType::Enumeration(_), Version::Fmi3)
+                | (Access::Boolean, VarType::Boolean, _)
         )
     }
 }
 
-fn type_name(t: VarType) -> &'static str {
-    match t {
-        VarType::Real => "Real",
-        VarType::Integer => "Integer",
-        VarType::Boolean => "Boolean",
-        VarType::Enumeration(_) => "Enumeration (accessed as Integer)",
+fn type_name(t: VarType, v: Version) -> &'static str {
+    match (t, v) {
+        (VarType::Real, Version::Fmi2) => "Real",
+        (VarType::Real, Version::Fmi3) => "Float64",
+        (VarType::Integer, Version::Fmi2) => "Integer",
+        (VarType::Integer, Version::Fmi3) => "Int32",
+        (VarType::Boolean, _) => "Boolean",
+        (VarType::Enumeration(_), Version::Fmi2) => "Enumeration (accessed as Integer)",
+        (VarType::Enumeration(_), Version::Fmi3) => "Enumeration (accessed as Int64)",
     }
 }
 
-/// What `fmi2Instantiate` received, decoded into Rust values.
+/// What an instantiation function received, decoded into Rust values.
 pub struct InstantiateArgs<'a> {
+    /// The FMI version of the function called.
+    pub version: Version,
+    /// The function's name, for messages (`fmi2Instantiate`, `fmi3InstantiateCoSimulation`).
+    pub function: &'static str,
     /// Instance name.
     pub instance_name: &'a str,
-    /// `fmi2ModelExchange` or `fmi2CoSimulation`.
-    pub fmu_type: c_int,
-    /// The GUID the host read from the model description.
+    /// The GUID (FMI 2.0) or instantiation token (FMI 3.0) the host read from the model
+    /// description.
     pub guid: &'a str,
-    /// The resource folder URI.
+    /// The resource folder: a URI (FMI 2.0) or a path (FMI 3.0).
     pub resource_location: &'a str,
-    /// The host's callbacks (copied).
-    pub callbacks: fmi2CallbackFunctions,
+    /// The host's logger.
+    pub sink: Option<Sink>,
     /// Debug logging requested.
     pub logging_on: bool,
+    /// FMI 3.0's `earlyReturnAllowed`: a step may end at a contact event.
+    pub early_return: bool,
 }
 
 /// One FMU instance.
 pub struct Instance {
     name: CString,
-    logger: fmi2CallbackLogger,
-    environment: fmi2ComponentEnvironment,
+    /// The FMI version of the function that made it.
+    pub(crate) version: Version,
+    sink: Option<Sink>,
     logging_on: bool,
+    /// FMI 3.0: steps end at contact events.
+    early_return: bool,
     enabled: [bool; LOG_CATEGORIES.len()],
     /// The state-machine state.
     pub(crate) state: LifeState,
@@ -179,35 +215,36 @@ pub struct Instance {
 impl Instance {
     /// Checks the arguments of `fmi2Instantiate`, reads `<resources>/scene.toml` and builds the
     /// instance; the error is the message to log.
-    pub fn new(args: &InstantiateArgs) -> Result<Instance, String> {
+    pub fn new(args: InstantiateArgs) -> Result<Instance, String> {
+        let function = args.function;
         if args.instance_name.is_empty() {
-            return Err("fmi2Instantiate: the instance name is empty".into());
+            return Err(format!("{function}: the instance name is empty"));
         }
-        if args.fmu_type != FMI2_CO_SIMULATION {
-            return Err(format!(
-                "fmi2Instantiate: this FMU supports Co-Simulation only (fmuType = {}, expected fmi2CoSimulation = {FMI2_CO_SIMULATION})",
-                args.fmu_type
-            ));
+        let dir = match args.version {
+            Version::Fmi2 => resource_dir(args.resource_location),
+            Version::Fmi3 => resource_folder(args.resource_location),
         }
-        let dir = resource_dir(args.resource_location).map_err(|e| format!("fmi2Instantiate: {e}"))?;
+        .map_err(|e| format!("{function}: {e}"))?;
         let path = dir.join("scene.toml");
         let scene_text = std::fs::read_to_string(&path)
-            .map_err(|e| format!("fmi2Instantiate: cannot read the scene {}: {e}", path.display()))?;
+            .map_err(|e| format!("{function}: cannot read the scene {}: {e}", path.display()))?;
         let expected = crate::guid::guid(&scene_text);
         if args.guid != expected {
             return Err(format!(
-                "fmi2Instantiate: GUID mismatch: the host passed {:?} but this FMU's model description has {expected:?} (modelDescription.xml and resources/scene.toml do not belong together)",
+                "{function}: {} mismatch: the host passed {:?} but this FMU's model description has {expected:?} (modelDescription.xml and resources/scene.toml do not belong together)",
+                args.version.token_name(),
                 args.guid
             ));
         }
         let origin = path.display().to_string();
-        let sim = Simulation::from_scene_str(&scene_text, &origin).map_err(|e| format!("fmi2Instantiate: {e}"))?;
+        let sim = Simulation::from_scene_str(&scene_text, &origin).map_err(|e| format!("{function}: {e}"))?;
         let name = CString::new(args.instance_name.replace('\0', " ")).unwrap_or_default();
         let inst = Instance {
             name,
-            logger: args.callbacks.logger,
-            environment: args.callbacks.component_environment,
+            version: args.version,
+            sink: args.sink,
             logging_on: args.logging_on,
+            early_return: args.early_return,
             enabled: [true; LOG_CATEGORIES.len()],
             state: LifeState::Instantiated,
             sim,
@@ -220,7 +257,7 @@ impl Instance {
             read_buffer: Vec::new(),
         };
         inst.log_event(&format!(
-            "fmi2Instantiate: {}: model {} from {}",
+            "{function}: {}: model {} from {}",
             crate::guid::BUILD,
             inst.sim.scene().model.name,
             inst.origin
@@ -258,16 +295,19 @@ impl Instance {
     pub fn log(&self, status: fmi2Status, message: &str) {
         let cat = category_of(status);
         let wanted = self.enabled[cat] && (status > fmi2Status::fmi2OK || self.logging_on);
-        if wanted {
-            log_raw(
-                self.logger,
-                self.environment,
-                &self.name,
-                status,
-                LOG_CATEGORIES[cat].0,
-                message,
-            );
+        if let (true, Some(sink)) = (wanted, &self.sink) {
+            sink(status, LOG_CATEGORIES[cat].0, message);
         }
+    }
+
+    /// `fmi2` or `fmi3`: the prefix of the functions that made this instance.
+    fn prefix(&self) -> &'static str {
+        self.version.prefix()
+    }
+
+    /// The name of the state-machine state in this instance's version of FMI.
+    pub fn state_name(&self) -> &'static str {
+        self.state.name_in(self.version)
     }
 
     fn log_event(&self, message: &str) {
@@ -344,9 +384,13 @@ impl Instance {
             let scene_rtol = self.sim.get(vr)?;
             self.sim.set_by_name("solver.rtol", tol)?;
             if tol != scene_rtol {
+                let setup = match self.version {
+                    Version::Fmi2 => "fmi2SetupExperiment",
+                    Version::Fmi3 => "fmi3EnterInitializationMode",
+                };
                 self.log_event(&format!(
-                    "fmi2SetupExperiment: the host's tolerance {tol:e} replaces solver.rtol = {scene_rtol:e} of \
-                         the scene (set solver.rtol after fmi2SetupExperiment to keep another value)"
+                    "{setup}: the host's tolerance {tol:e} replaces solver.rtol = {scene_rtol:e} of \
+                         the scene (set solver.rtol after {setup} to keep another value)"
                 ));
             }
         }
@@ -374,7 +418,8 @@ impl Instance {
         }
         self.state = LifeState::StepComplete;
         self.log_event(&format!(
-            "fmi2ExitInitializationMode: initialised at t = {}",
+            "{}ExitInitializationMode: initialised at t = {}",
+            self.prefix(),
             self.start_time
         ));
         Ok(())
@@ -394,23 +439,39 @@ impl Instance {
         self.start_time = 0.0;
         self.stop_time = None;
         self.poisoned = false;
-        self.log_event("fmi2Reset: back to the instantiated state with start values");
+        self.log_event(&format!(
+            "{}Reset: back to the instantiated state with start values",
+            self.prefix()
+        ));
         Ok(())
     }
 
+    /// FMI 3.0's independent variable `time`: its value reference, after every variable of
+    /// the table (so that the others keep FMI 2.0's).
+    pub fn time_vr(&self) -> Option<fmi2ValueReference> {
+        let n = self.sim.variables().len() as fmi2ValueReference;
+        (self.version == Version::Fmi3).then_some(n)
+    }
+
     fn variable(&self, vr: fmi2ValueReference, access: Access) -> FmiResult<&Variable> {
+        let v = self.version;
+        if Some(vr) == self.time_vr() {
+            return Err(Failure::error(format!(
+                "value reference {vr} is the independent variable time: it is read with fmi3GetFloat64 and cannot be set"
+            )));
+        }
         let var = self.sim.variables().get(vr as usize).ok_or_else(|| {
             Failure::error(format!(
                 "unknown value reference {vr} (this model has {} variables)",
                 self.sim.variables().len()
             ))
         })?;
-        if !access.accepts(var.vtype) {
+        if !access.accepts(var.vtype, v) {
             return Err(Failure::error(format!(
                 "value reference {vr} ({}) is of type {}, not {}",
                 var.name,
-                type_name(var.vtype),
-                access.name()
+                type_name(var.vtype, v),
+                access.name(v)
             )));
         }
         Ok(var)
@@ -424,19 +485,32 @@ impl Instance {
         mut put: impl FnMut(usize, f64),
     ) -> FmiResult {
         no_strings(access, vrs)?;
+        // (FMI 3.0's time is read as a Float64 beside the table's variables)
+        let time = self.time_vr().filter(|_| access == Access::Real);
         for &vr in vrs {
-            self.variable(vr, access)?;
+            if Some(vr) != time {
+                self.variable(vr, access)?;
+            }
         }
         // one batch read (one evaluation of what the outputs among them need), then the checks
         let mut values = std::mem::take(&mut self.read_buffer);
         values.clear();
         values.resize(vrs.len(), 0.0);
+        let table_vrs = vrs.iter().filter(|&&vr| Some(vr) != time);
         let read = self
             .sim
-            .get_each(vrs.iter().map(|&vr| vr as usize), |k, x| values[k] = x);
+            .get_each(table_vrs.map(|&vr| vr as usize), |k, x| values[k] = x);
+        let now = self.time();
         let result = read.map_err(Failure::from).and_then(|()| {
-            for (k, (&vr, &x)) in vrs.iter().zip(&values).enumerate() {
-                self.finite(vr as usize, x)?;
+            let mut read = values.iter();
+            for (k, &vr) in vrs.iter().enumerate() {
+                let x = if Some(vr) == time {
+                    now
+                } else {
+                    let x = read.next().copied().unwrap_or(f64::NAN);
+                    self.finite(vr as usize, x)?;
+                    x
+                };
                 put(k, x);
             }
             Ok(())
@@ -484,16 +558,18 @@ impl Instance {
                     if !allowed {
                         return Err(Failure::error(if tunable {
                             format!(
-                                "{} is a tunable parameter: it can be set before fmi2ExitInitializationMode or between \
+                                "{} is a tunable parameter: it can be set before {}ExitInitializationMode or between \
                                  steps (state is {})",
                                 var.name,
-                                self.state.name()
+                                self.prefix(),
+                                self.state_name()
                             )
                         } else {
                             format!(
-                                "{} is a fixed parameter: it can be set only before fmi2ExitInitializationMode (state is {})",
+                                "{} is a fixed parameter: it can be set only before {}ExitInitializationMode (state is {})",
                                 var.name,
-                                self.state.name()
+                                self.prefix(),
+                                self.state_name()
                             )
                         }));
                     }
@@ -513,8 +589,10 @@ impl Instance {
         Ok(())
     }
 
-    /// `fmi2DoStep`: integrates from the current time to `current + h`.
-    pub fn do_step(&mut self, current: f64, h: f64) -> FmiResult {
+    /// `fmi2DoStep`, `fmi3DoStep`: integrates from the current time to `current + h`; when
+    /// the host allowed early returns (FMI 3.0), only to the first contact event before it,
+    /// and then `Ok(true)`.
+    pub fn do_step(&mut self, current: f64, h: f64) -> FmiResult<bool> {
         if !(h.is_finite() && h > 0.0) {
             return Err(Failure::error(format!(
                 "communicationStepSize = {h} must be > 0",
@@ -555,12 +633,20 @@ impl Instance {
                 )));
             }
         }
-        let result = self.sim.step_to(t_end);
+        let result = if self.early_return {
+            self.sim.step_to_event(t_end)
+        } else {
+            self.sim.step_to(t_end).map(|()| false)
+        };
         for warning in self.sim.take_warnings() {
-            self.log(fmi2Status::fmi2Warning, &format!("fmi2DoStep: {warning}"));
+            self.log(fmi2Status::fmi2Warning, &format!("{}DoStep: {warning}", self.prefix()));
         }
+        let last_time = match self.version {
+            Version::Fmi2 => "fmi2LastSuccessfulTime",
+            Version::Fmi3 => "lastSuccessfulTime",
+        };
         match result {
-            Ok(()) => Ok(()),
+            Ok(at_event) => Ok(at_event),
             Err(SimError::Step { time, message }) => Err(Failure::error(format!(
                 "the step from t = {current} to {t_end} failed at t = {time}: {message}",
                 current = Num(current),
@@ -570,7 +656,7 @@ impl Instance {
             Err(SimError::StepLimit { time, message }) => Err(Failure {
                 status: fmi2Status::fmi2Discard,
                 message: format!(
-                    "the step from t = {current} to {t_end} stopped at t = {time} (fmi2LastSuccessfulTime): {message}",
+                    "the step from t = {current} to {t_end} stopped at t = {time} ({last_time}): {message}",
                     current = Num(current),
                     t_end = Num(t_end),
                     time = Num(time)
@@ -607,6 +693,7 @@ impl Instance {
     pub fn save(&self) -> SavedState {
         SavedState::new(
             self.model_hash,
+            self.version,
             self.state,
             self.start_time,
             self.stop_time,
@@ -617,6 +704,7 @@ impl Instance {
     /// `fmi2SetFMUstate`: restores values, engine state and lifecycle (also into a fresh or a
     /// terminated instance).
     pub fn restore(&mut self, saved: &SavedState) -> FmiResult {
+        self.check_version(saved)?;
         if saved.model_hash != self.model_hash {
             return Err(Failure::error(
                 "the FMU state belongs to a different model (its scene differs from this instance's)",
@@ -631,12 +719,29 @@ impl Instance {
         self.state = saved.lifecycle;
         self.start_time = saved.start_time;
         self.stop_time = saved.stop_time;
+        let function = match self.version {
+            Version::Fmi2 => "fmi2SetFMUstate",
+            Version::Fmi3 => "fmi3SetFMUState",
+        };
         self.log_event(&format!(
-            "fmi2SetFMUstate: restored a state at t = {} ({})",
+            "{function}: restored a state at t = {} ({})",
             self.time(),
-            self.state.name()
+            self.state_name()
         ));
         Ok(())
+    }
+
+    /// A saved state of the other FMI version is refused: the lifecycles differ.
+    pub fn check_version(&self, saved: &SavedState) -> FmiResult {
+        if saved.version == self.version {
+            return Ok(());
+        }
+        Err(Failure::error(format!(
+            "the FMU state was saved by an FMI {} instance; an FMI {} instance does not restore it (save and \
+             restore states with the same FMI version of this FMU)",
+            saved.version.number(),
+            self.version.number()
+        )))
     }
 }
 

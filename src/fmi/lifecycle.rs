@@ -1,6 +1,47 @@
 //! The co-simulation state machine of FMI 2.0 (section 4.2.4) as bit masks: each function
 //! lists the states it may be called in, in the style of the Reference-FMUs. A call outside
-//! them is logged as "illegal call sequence" and answered with `fmi2Error`.
+//! them is logged as "illegal call sequence" and answered with an error.
+//!
+//! FMI 3.0 Co-Simulation without event mode, intermediate update and configuration mode (what
+//! this FMU declares) has the same states under other names: 3.0's Step Mode is *step
+//! complete*, the state after a discarded step *step failed*; `fmi3EnterInitializationMode`
+//! (which takes the experiment's times) is allowed where `fmi2SetupExperiment` is. So both
+//! versions share these masks; [`LifeState::name_in`] names a state as each version does.
+
+/// The FMI version of an instance (of the function that made it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Version {
+    /// FMI 2.0 Co-Simulation.
+    Fmi2,
+    /// FMI 3.0 Co-Simulation.
+    Fmi3,
+}
+
+impl Version {
+    /// The prefix of its functions: `fmi2`, `fmi3`.
+    pub fn prefix(self) -> &'static str {
+        match self {
+            Version::Fmi2 => "fmi2",
+            Version::Fmi3 => "fmi3",
+        }
+    }
+
+    /// `2.0`, `3.0`.
+    pub fn number(self) -> &'static str {
+        match self {
+            Version::Fmi2 => "2.0",
+            Version::Fmi3 => "3.0",
+        }
+    }
+
+    /// What the model description's identity check is called: `GUID`, `instantiationToken`.
+    pub fn token_name(self) -> &'static str {
+        match self {
+            Version::Fmi2 => "GUID",
+            Version::Fmi3 => "instantiationToken",
+        }
+    }
+}
 
 /// The states an instance can be in. (`StepInProgress` does not occur: `fmi2DoStep` is
 /// synchronous.)
@@ -53,7 +94,7 @@ impl LifeState {
         .find(|s| s.code() == code)
     }
 
-    /// The name used in log messages.
+    /// The name used in log messages (FMI 2.0's; [`LifeState::name_in`] for either).
     pub fn name(self) -> &'static str {
         match self {
             LifeState::Instantiated => "instantiated",
@@ -64,6 +105,15 @@ impl LifeState {
             LifeState::Terminated => "terminated",
             LifeState::Error => "error",
             LifeState::Fatal => "fatal",
+        }
+    }
+
+    /// The name in the given version of FMI.
+    pub fn name_in(self, v: Version) -> &'static str {
+        match (self, v) {
+            (LifeState::StepComplete, Version::Fmi3) => "step mode",
+            (LifeState::StepFailed, Version::Fmi3) => "step discarded",
+            _ => self.name(),
         }
     }
 }
@@ -107,6 +157,9 @@ pub const GET_REAL_OUTPUT_DERIVATIVES: u32 = COMPLETE | FAILED | CANCELED | TERM
 pub const DO_STEP: u32 = COMPLETE;
 /// `fmi2CancelStep` (only meaningful while a step is pending, which never happens)
 pub const CANCEL_STEP: u32 = 0;
+/// `fmi3EnterStepMode`: only from Event Mode, which this FMU does not have (`hasEventMode` is
+/// false): never allowed.
+pub const ENTER_STEP_MODE: u32 = 0;
 /// `fmi2GetStatus` and its typed variants. Error is included so that a host can ask for the
 /// last successful time after a failed step.
 pub const GET_STATUS: u32 = COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;

@@ -1,4 +1,5 @@
-//! The FMI 2.0 Co-Simulation interface: the C functions a host such as fmpy calls.
+//! The FMI 2.0 Co-Simulation interface: the C functions a host such as fmpy calls, and the
+//! version-neutral core that the FMI 3.0 layer (`crate::fmi3`) shares.
 //!
 //! This layer knows nothing of physics; it drives the [`crate::simulation::Simulation`]
 //! facade. One library serves every exported scene: `fmi2Instantiate` reads the scene from
@@ -11,9 +12,11 @@
 //! - `saved`: `fmi2FMUstate` and its serialized bytes.
 //! - `registry`: the live instance and state handles, checked before any is dereferenced.
 //! - `uri`: decoding `fmuResourceLocation`.
+//! - `glue`: what the C functions of both versions share (handles, panics, arrays, states).
 //! - `exports`: the 34 `extern "C"` functions.
 
 pub mod exports;
+pub(crate) mod glue;
 pub mod instance;
 pub mod lifecycle;
 mod registry;

@@ -1,23 +1,30 @@
-//! Saved FMU states (`fmi2FMUstate`) and their serialized form.
+//! Saved FMU states (`fmi2FMUstate`, `fmi3FMUState`) and their serialized form.
 //!
 //! A state is a boxed [`SavedState`]: the simulation's [`Snapshot`] (parameter values and
 //! the model's state, see `crate::model::state`) plus the FMI lifecycle fields (state-machine
 //! state, start and stop time) carried in the snapshot's host numbers. Serialized, it is the
 //! one checkpoint format of [`crate::checkpoint`] (plain little-endian numbers behind a
 //! header, with the model hash and a checksum), so bytes written by one process restore in
-//! another, and damaged bytes are refused.
+//! another, and damaged bytes are refused. The two FMI versions write the same format; an FMI
+//! 3.0 state has a fifth host number, 3, so that each version tells the other's states apart.
 
-use super::lifecycle::LifeState;
+use super::lifecycle::{LifeState, Version};
 use crate::checkpoint::Snapshot;
 
-/// Host numbers in the snapshot: lifecycle code, start time, stop flag, stop time.
+/// Host numbers in the snapshot of FMI 2.0: lifecycle code, start time, stop flag, stop time;
+/// FMI 3.0 adds its version number, [`FMI3_MARK`].
 const HOST_LEN: usize = 4;
+
+/// The fifth host number of an FMI 3.0 state.
+const FMI3_MARK: f64 = 3.0;
 
 /// Everything `fmi2SetFMUstate` needs to put an instance back where it was.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SavedState {
     /// Hash of the scene text: a state only restores into an instance of the same model.
     pub model_hash: u64,
+    /// The FMI version of the instance that saved it.
+    pub version: Version,
     /// The state-machine state.
     pub lifecycle: LifeState,
     /// Start time from `fmi2SetupExperiment` (s).
@@ -32,6 +39,7 @@ impl SavedState {
     /// Wraps the parts of a state.
     pub fn new(
         model_hash: u64,
+        version: Version,
         lifecycle: LifeState,
         start_time: f64,
         stop_time: Option<f64>,
@@ -39,6 +47,7 @@ impl SavedState {
     ) -> SavedState {
         SavedState {
             model_hash,
+            version,
             lifecycle,
             start_time,
             stop_time,
@@ -55,6 +64,9 @@ impl SavedState {
             self.stop_time.is_some() as u8 as f64,
             self.stop_time.unwrap_or(0.0),
         ];
+        if self.version == Version::Fmi3 {
+            s.host.push(FMI3_MARK);
+        }
         s.to_bytes(self.model_hash)
     }
 
@@ -62,8 +74,16 @@ impl SavedState {
     pub fn from_bytes(b: &[u8], model_hash: u64) -> Result<SavedState, String> {
         let mut snapshot = Snapshot::from_bytes(b, model_hash).map_err(|e| format!("FMU state: {e}"))?;
         let host = std::mem::take(&mut snapshot.host);
-        let [code, start_time, has_stop, stop] = host[..] else {
-            return Err(format!("FMU state: {} host numbers, expected {HOST_LEN}", host.len()));
+        let (version, [code, start_time, has_stop, stop]) = match host[..] {
+            [a, b, c, d] => (Version::Fmi2, [a, b, c, d]),
+            [a, b, c, d, FMI3_MARK] => (Version::Fmi3, [a, b, c, d]),
+            _ => {
+                return Err(format!(
+                    "FMU state: {} host numbers, expected {HOST_LEN} (FMI 2.0) or {} (FMI 3.0)",
+                    host.len(),
+                    HOST_LEN + 1
+                ))
+            }
         };
         let lifecycle = (code.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&code))
             .then(|| LifeState::from_code(code as u32))
@@ -74,6 +94,7 @@ impl SavedState {
         }
         Ok(SavedState::new(
             model_hash,
+            version,
             lifecycle,
             start_time,
             (has_stop == 1.0).then_some(stop),
@@ -89,6 +110,7 @@ mod tests {
     fn sample() -> SavedState {
         SavedState::new(
             0xdead_beef_0123_4567,
+            Version::Fmi2,
             LifeState::StepComplete,
             0.0,
             Some(2.0),
@@ -119,6 +141,27 @@ mod tests {
                 .stop_time,
             None
         );
+    }
+
+    #[test]
+    fn the_versions_are_told_apart() {
+        let mut s = sample();
+        let two = s.to_bytes();
+        s.version = Version::Fmi3;
+        let three = s.to_bytes();
+        assert_eq!(three.len(), two.len() + 8, "one more host number");
+        let back = SavedState::from_bytes(&three, s.model_hash).unwrap();
+        assert_eq!(back.version, Version::Fmi3);
+        assert_eq!(back.to_bytes(), three);
+        assert_eq!(
+            SavedState::from_bytes(&two, s.model_hash).unwrap().version,
+            Version::Fmi2
+        );
+        let mut snap = s.snapshot.clone();
+        snap.host = vec![4.0, 0.0, 0.0, 0.0, 2.0];
+        assert!(SavedState::from_bytes(&snap.to_bytes(s.model_hash), s.model_hash)
+            .unwrap_err()
+            .contains("host numbers"));
     }
 
     #[test]

@@ -38,6 +38,19 @@ pub fn resource_dir(location: &str) -> Result<PathBuf, String> {
     resource_path(location, PathStyle::HOST).map(bytes_to_path)
 }
 
+/// FMI 3.0's `resourcePath`: the folder's path as it is (no percent-decoding: a `%` is a
+/// character of the name), with or without a trailing separator. A `file:` URI, which FMI 2.0
+/// hosts pass, is decoded as [`resource_dir`] does.
+pub fn resource_folder(path: &str) -> Result<PathBuf, String> {
+    if path.trim().is_empty() {
+        return Err("the resource path is empty".into());
+    }
+    if path.get(..5).is_some_and(|p| p.eq_ignore_ascii_case("file:")) {
+        return resource_dir(path);
+    }
+    Ok(PathBuf::from(path))
+}
+
 /// The directory a resource location names, as the bytes of a path in `style` (UTF-8 for
 /// Windows; any bytes for Unix, whose file names need not be UTF-8).
 pub fn resource_path(location: &str, style: PathStyle) -> Result<Vec<u8>, String> {

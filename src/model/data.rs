@@ -53,6 +53,15 @@ pub enum ContactEventKind {
     Slip,
 }
 
+impl ContactEventKind {
+    /// True for the kinds that change a contact's mode: touch, separation, impact, rest,
+    /// release.
+    pub fn changes_mode(self) -> bool {
+        use ContactEventKind::*;
+        matches!(self, Touch | Separation | Impact | Rest | Release)
+    }
+}
+
 /// One located contact event, with the contact's state at that instant. A diagnostic log
 /// ([`Data::event_log`]); not part of the saved state.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,7 +1,7 @@
 """Shared fixtures: the release build, the exported bundled FMUs, log capture.
 
 The FMUs under test are the real exported files `target/fmu/<name>.fmu` (one per
-`fmu/<name>/scene.toml`). `./run_tests.sh` builds and exports them before pytest runs; when
+`fmu/<name>/scene.toml`; their FMI 3.0 twins `target/fmu3/<name>.fmu`, fixture `fmus3`). `./run_tests.sh` builds and exports them before pytest runs; when
 pytest is run on its own, the session fixture builds (the command line, and the library the
 FMUs ship with, for linux64 and win64, by `scripts/build_fmu_library.sh`) and (re-)exports
 whatever is missing or older than the libraries or the scene.
@@ -32,6 +32,7 @@ LIBRARY = TARGET / "libcontact_fmu.so"
 DIST_LIBRARY = ROOT / "target" / "x86_64-unknown-linux-gnu" / "dist" / "libcontact_fmu.so"
 DIST_DLL = ROOT / "target" / "x86_64-pc-windows-gnu" / "dist" / "contact_fmu.dll"
 FMU_DIR = ROOT / "target" / "fmu"
+FMU3_DIR = ROOT / "target" / "fmu3"
 SCENES = sorted(p.parent.name for p in (ROOT / "fmu").glob("*/scene.toml"))
 
 
@@ -45,28 +46,44 @@ def _build():
         subprocess.run([str(ROOT / "scripts" / "build_fmu_library.sh")], cwd=ROOT, check=True)
 
 
-def export(scene, out):
-    """Exports a scene file with the CLI; returns the .fmu path."""
+def export(scene, out, fmi_version=2):
+    """Exports a scene file with the CLI (an FMI 2.0 or 3.0 FMU); returns the .fmu path."""
     result = subprocess.run(
-        [str(BINARY), "export", str(scene), "-o", str(out)], check=False, cwd=ROOT, capture_output=True, text=True
+        [str(BINARY), "export", str(scene), "-o", str(out), "--fmi-version", str(fmi_version)],
+        check=False,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0, result.stderr
     return Path(out)
 
 
-@pytest.fixture(scope="session")
-def fmus():
-    """name -> path of the exported bundled FMU."""
+def _exported(folder, fmi_version):
+    """name -> path of every bundled FMU of one FMI version, (re-)exported when missing or
+    older than the libraries or the scene."""
     _build()
     paths = {}
     for name in SCENES:
-        fmu = FMU_DIR / f"{name}.fmu"
+        fmu = folder / f"{name}.fmu"
         libraries = [p.stat().st_mtime for p in (LIBRARY, DIST_LIBRARY, DIST_DLL) if p.exists()]
         newest_input = max(*libraries, scene_path(name).stat().st_mtime)
         if not fmu.exists() or fmu.stat().st_mtime < newest_input:
-            export(scene_path(name), fmu)
+            export(scene_path(name), fmu, fmi_version)
         paths[name] = fmu
     return paths
+
+
+@pytest.fixture(scope="session")
+def fmus():
+    """name -> path of the exported bundled FMU (FMI 2.0)."""
+    return _exported(FMU_DIR, 2)
+
+
+@pytest.fixture(scope="session")
+def fmus3():
+    """name -> path of the exported bundled FMU as FMI 3.0 (`--fmi-version 3`)."""
+    return _exported(FMU3_DIR, 3)
 
 
 @pytest.fixture(scope="session")

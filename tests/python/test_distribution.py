@@ -1,7 +1,8 @@
 """What is shipped: each bundled FMU carries a linux64 and a win64 library and is at most 5 MB;
 the linux64 library is the stripped release build that needs glibc 2.17 at most (read with
 `objdump -T`, as a user checking portability would) and it loads and runs in fmpy; the win64
-library exports the 34 FMI 2.0 functions and nothing else and imports only DLLs of Windows 10
+library exports the 34 FMI 2.0 and 75 FMI 3.0 functions and nothing else and imports only DLLs of
+Windows 10
 (read with MinGW's objdump); neither takes a transcendental function from the platform's C
 library (their results would differ in the last bit between the platforms).
 """
@@ -129,6 +130,7 @@ TRANSCENDENTAL = {
     "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "hypot", "cbrt",
 }
 FMI2_FUNCTIONS = 34
+FMI3_FUNCTIONS = 75  # every function of the FMI 3.0 headers (docs/fmi3.md)
 WINDOWS_10_DLLS = {"kernel32.dll", "ntdll.dll", "msvcrt.dll", "bcryptprimitives.dll", "api-ms-win-core-synch-l1-2-0.dll"}
 
 
@@ -156,8 +158,10 @@ def pe_tables(library):
 @pytest.mark.parametrize("name", SCENES)
 def test_win64_library_exports_fmi_and_imports_windows_10_only(fmus, name, tmp_path):
     exports, imports = pe_tables(packed_library(fmus[name], name, tmp_path, "win64"))
-    assert len(exports) == FMI2_FUNCTIONS and all(e.startswith("fmi2") for e in exports), exports
-    assert "fmi2DoStep" in exports and "fmi2Instantiate" in exports
+    fmi2 = [e for e in exports if e.startswith("fmi2")]
+    fmi3 = [e for e in exports if e.startswith("fmi3")]
+    assert (len(fmi2), len(fmi3), len(exports)) == (FMI2_FUNCTIONS, FMI3_FUNCTIONS, len(fmi2) + len(fmi3)), exports
+    assert "fmi2DoStep" in exports and "fmi3DoStep" in exports and "fmi3InstantiateCoSimulation" in exports
     assert set(imports) <= WINDOWS_10_DLLS, sorted(set(imports) - WINDOWS_10_DLLS)
     taken = {f for names in imports.values() for f in names} & TRANSCENDENTAL
     assert not taken, sorted(taken)

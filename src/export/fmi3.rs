@@ -1,0 +1,176 @@
+//! The FMI 3.0 `modelDescription.xml` of a scene: the same variable table, names, value
+//! references, units, start values, ranges and dependencies as the FMI 2.0 description
+//! (`super::write_model_description`), in FMI 3.0's schema:
+//!
+//! - `fmiVersion="3.0"` and `instantiationToken` (the value of FMI 2.0's `guid`);
+//! - `CoSimulation` with FMI 3.0's capabilities: variable communication steps, FMU states,
+//!   `mightReturnEarlyFromDoStep` (a step may end at a contact event when the host allows it),
+//!   no event mode, no intermediate update, no derivatives;
+//! - `EnumerationType` for the enumerations; `Float64`, `Int32`, `Boolean` and `Enumeration`
+//!   variables (FMI 2.0's Real, Integer, Boolean, Enumeration), and the independent variable
+//!   `time` that FMI 3.0 requires, whose value reference follows the table's (so that every
+//!   other variable keeps its FMI 2.0 value reference);
+//! - `ModelStructure` with `Output` and `InitialUnknown` naming value references (FMI 2.0
+//!   names 1-based indices), the outputs with their `dependencies`.
+
+use super::{
+    attrs, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
+    used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
+};
+use crate::fmi::lifecycle::Version;
+use crate::scene::Scene;
+use crate::variables::{Causality, VarType, Variable, VariableTable};
+use quick_xml::Writer;
+use std::io;
+
+/// The FMI 3.0 `modelDescription.xml` of a scene without `generationDateAndTime`: a pure
+/// function of the scene text (kept in `modelDescription/fmi3/`).
+pub fn model_description_xml(scene: &Scene, scene_text: &str) -> String {
+    model_description_xml_dated(scene, scene_text, None)
+}
+
+/// The FMI 3.0 `modelDescription.xml` with `generationDateAndTime` set to `generated`, as
+/// packed into the FMU.
+pub fn model_description_xml_dated(scene: &Scene, scene_text: &str, generated: Option<&str>) -> String {
+    let bytes = write(scene, scene_text, generated).expect("writing XML into a Vec<u8> cannot fail");
+    String::from_utf8(bytes).expect("quick-xml writes the UTF-8 it is given")
+}
+
+fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+    let table = VariableTable::from_scene(scene);
+    let mut w = xml_writer()?;
+    w.create_element("fmiModelDescription")
+        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi3, generated)))
+        .write_inner_content(|w| {
+            w.create_element("CoSimulation")
+                .with_attributes(attrs([
+                    ("modelIdentifier", scene.model.name.as_str()),
+                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
+                    ("canGetAndSetFMUState", "true"),
+                    ("canSerializeFMUState", "true"),
+                    ("providesDirectionalDerivatives", "false"),
+                    ("providesAdjointDerivatives", "false"),
+                    ("providesPerElementDependencies", "false"),
+                    ("canHandleVariableCommunicationStepSize", "true"),
+                    ("maxOutputDerivativeOrder", "0"),
+                    ("providesIntermediateUpdate", "false"),
+                    ("mightReturnEarlyFromDoStep", "true"),
+                    ("canReturnEarlyAfterIntermediateUpdate", "false"),
+                    ("hasEventMode", "false"),
+                    ("providesEvaluateDiscreteStates", "false"),
+                ]))
+                .write_empty()?;
+            write_units(w, &table)?;
+            write_type_definitions(w, &table, Version::Fmi3)?;
+            write_categories_and_experiment(w, scene, Version::Fmi3)?;
+            w.create_element("ModelVariables").write_inner_content(|w| {
+                // FMI 3.0's one independent variable, after the table's value references
+                let time_vr = table.vars.len().to_string();
+                let mut time = vec![
+                    ("name", "time"),
+                    ("valueReference", time_vr.as_str()),
+                    ("description", "Simulation time"),
+                    ("causality", "independent"),
+                    ("variability", "continuous"),
+                ];
+                if used_units(&table).iter().any(|u| u.name == "s") {
+                    time.push(("unit", "s"));
+                }
+                w.create_element("Float64").with_attributes(attrs(time)).write_empty()?;
+                for (vr, v) in table.vars.iter().enumerate() {
+                    write_variable(w, vr, v)?;
+                }
+                Ok(())
+            })?;
+            write_structure(w, &table)
+        })?;
+    let mut out = w.into_inner();
+    out.push(b'\n');
+    Ok(out)
+}
+
+/// `ModelStructure`: every output with the value references it depends on directly, then the
+/// initial unknowns (their dependencies left to FMI's default, as in FMI 2.0).
+fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let (outputs, initial) = model_structure(table);
+    w.create_element("ModelStructure").write_inner_content(|w| {
+        for &i in &outputs {
+            let vr = (i - 1).to_string();
+            let deps: Vec<String> = output_dependencies(table, i - 1)
+                .iter()
+                .map(|d| (d - 1).to_string())
+                .collect();
+            let deps = deps.join(" ");
+            w.create_element("Output")
+                .with_attributes(attrs([
+                    ("valueReference", vr.as_str()),
+                    ("dependencies", deps.as_str()),
+                ]))
+                .write_empty()?;
+        }
+        for &i in &initial {
+            let vr = (i - 1).to_string();
+            w.create_element("InitialUnknown")
+                .with_attributes(attrs([("valueReference", vr.as_str())]))
+                .write_empty()?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// One variable: the element of its type with FMI 3.0's attributes (the same values as the
+/// FMI 2.0 `ScalarVariable`).
+fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
+    let mut a: Vec<(&str, String)> = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
+    let description = super::describe(v);
+    if !description.is_empty() {
+        a.push(("description", description));
+    }
+    a.push(("causality", v.causality.name().to_string()));
+    a.push(("variability", v.variability.name().to_string()));
+    if let Some(initial) = initial_of(v) {
+        a.push(("initial", initial.to_string()));
+    }
+    let start = if initial_of(v) == Some("calculated") {
+        None
+    } else {
+        v.start
+    };
+    let parameter = v.causality == Causality::Parameter;
+    let tag = match v.vtype {
+        VarType::Real => {
+            if let Some(e) = v.unit {
+                a.push(("unit", e.to_string()));
+            }
+            if let Some(d) = v.display_unit {
+                a.push(("displayUnit", d.to_string()));
+            }
+            if parameter {
+                a.extend(range_attributes(v.range));
+            }
+            a.extend(start.map(|s| ("start", format_real(s))));
+            "Float64"
+        }
+        VarType::Integer => {
+            if parameter {
+                a.extend(range_attributes(v.range));
+            }
+            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
+            "Int32"
+        }
+        VarType::Boolean => {
+            a.extend(start.map(|s| ("start", (s != 0.0).to_string())));
+            "Boolean"
+        }
+        VarType::Enumeration(e) => {
+            a.insert(2, ("declaredType", e.type_name().to_string()));
+            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
+            "Enumeration"
+        }
+    };
+    w.create_element(tag)
+        .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
+        .write_empty()?;
+    Ok(())
+}
