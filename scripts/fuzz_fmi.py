@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """FMI call-sequence fuzzer for the exported FMUs: FMI 2.0 (target/fmu/*.fmu) and, with
---fmi-version 3, FMI 3.0 (target/fmu3/*.fmu; the sequences of scripts/fuzz_fmi3.py).
+FMI 3.0 (target/fmu3/*.fmu) through scripts/fuzz_fmi3.py, which adds its sequences to this one.
 
 Each sequence is a random series of calls over all 34 functions of FMI 2.0 Co-Simulation,
 drawn from one seed: instantiation with good and bad arguments, setup with odd tolerances and
@@ -31,7 +31,7 @@ Usage:
   python scripts/fuzz_fmi.py --sequences 300 --jobs 2          # a short run
   python scripts/fuzz_fmi.py --sequences 100000 --jobs 2       # the campaign: table + docs/fuzz.csv
   python scripts/fuzz_fmi.py --seed 1234 --verbose             # replay one sequence
-  python scripts/fuzz_fmi.py --fmi-version 3 --sequences 300    # the FMI 3.0 functions
+  python scripts/fuzz_fmi3.py --sequences 300                    # the FMI 3.0 functions
   python scripts/fuzz_fmi.py --long-steps --csv docs/long_steps.csv   # overlong steps timed
 """
 
@@ -875,13 +875,16 @@ def sequence_length(seed):
 _WORKER = {}
 
 
+# (the Sequence class, the library loader, the function names) per FMI version; the FMI 3.0
+# ones are added by scripts/fuzz_fmi3.py when it is imported (it builds on this module)
+VERSIONS = {2: (Sequence, load_slave, FUNCTIONS)}
+
+
 def version_parts(fmi_version):
     """(the Sequence class, the library loader, the function names) of an FMI version."""
-    if fmi_version == 3:
-        import fuzz_fmi3
-
-        return fuzz_fmi3.Sequence3, fuzz_fmi3.load_slave3, fuzz_fmi3.FUNCTIONS3
-    return Sequence, load_slave, FUNCTIONS
+    if fmi_version not in VERSIONS:
+        sys.exit(f"FMI {fmi_version}: not registered (for FMI 3.0 run scripts/fuzz_fmi3.py, or import fuzz_fmi3)")
+    return VERSIONS[fmi_version]
 
 
 def _worker_init(fmu_paths, unzip_root, slow, inject, fmi_version):
@@ -1093,7 +1096,9 @@ def default_fmus(fmi_version=2):
     return sorted(folder.glob("*.fmu"))
 
 
-def main():
+def main(fmi_version=2):
+    """The command line; `fmi_version` is the default of --fmi-version (scripts/fuzz_fmi3.py
+    calls it with 3)."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sequences", type=int, default=300)
     ap.add_argument("--first-seed", type=int, default=0)
@@ -1103,8 +1108,9 @@ def main():
     ap.add_argument("--fmu", action="append", help="FMU files (default: target/fmu/*.fmu)")
     ap.add_argument("--csv", default=None, help="CSV to write (default docs/fuzz.csv for >= 10000 sequences)")
     ap.add_argument("--seed", type=int, help="replay one sequence in this process, printing every call")
-    ap.add_argument("--fmi-version", type=int, choices=[2, 3], default=2,
-                    help="fuzz the FMI 2.0 functions (target/fmu) or the FMI 3.0 ones (target/fmu3)")
+    ap.add_argument("--fmi-version", type=int, choices=sorted(VERSIONS), default=fmi_version,
+                    help="fuzz the FMI 2.0 functions (target/fmu) or, from scripts/fuzz_fmi3.py, the FMI 3.0 "
+                         "ones (target/fmu3)")
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--inject", choices=["crash", "hang", "nan"], help="self-test: make every sequence fail so")
     ap.add_argument("--long-steps", action="store_true",

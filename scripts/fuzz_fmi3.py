@@ -265,3 +265,9 @@ class Sequence3(base.Sequence):
             "debugLogging": lambda: self.debug_logging(inst),
             "unsupported": lambda: self.unsupported(inst),
         }
+
+
+base.VERSIONS[3] = (Sequence3, load_slave3, FUNCTIONS3)
+
+if __name__ == "__main__":
+    base.main(fmi_version=3)

@@ -31,12 +31,12 @@
 //! a restored simulation continues bit for bit.
 
 use crate::compile::{compile_with_candidates, Parameters};
-use crate::contact::broad::Candidate;
-use crate::contact::element::ContactMemory;
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::kinematics::kinematics;
+use crate::model::contact::ContactMemory;
 use crate::model::data::EVENT_LOG_CAPACITY;
+use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, state, ContactEvent, Counters, Data, Input, Model};
 use crate::scene::{Scene, GROUND};
 use std::collections::{HashMap, HashSet};

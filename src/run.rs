@@ -137,7 +137,7 @@ pub fn run_simulation(
     let mut scale = e0.total().abs().max(e0.kinetic);
     each(sim)?;
     let start = Instant::now();
-    let cpu_start = crate::bench::thread_cpu_seconds();
+    let cpu_start = thread_cpu_seconds();
     let result = sim.run(stop_time, interval, |sim| {
         each(sim)?;
         let e = sim.energies().map_err(|e| e.to_string())?;
@@ -153,7 +153,7 @@ pub fn run_simulation(
         other => other.to_string(),
     })?;
     let seconds = start.elapsed().as_secs_f64();
-    let cpu_seconds = crate::bench::thread_cpu_seconds() - cpu_start;
+    let cpu_seconds = thread_cpu_seconds() - cpu_start;
     let e1 = sim.energies().map_err(|e| e.to_string())?;
     let c = sim.counters();
     let err = (e1.balance() - e0.balance()).abs() / scale.max(f64::MIN_POSITIVE);
@@ -507,4 +507,29 @@ fn ensure_libraries() -> Result<Vec<(String, PathBuf)>, String> {
         .into_iter()
         .map(|(p, r)| r.map(|path| (p.clone(), path)).map_err(|why| missing_message(&p, &why)))
         .collect()
+}
+
+/// CPU time of the calling thread [s] (immune to other processes on a busy machine).
+///
+/// Only the command line and the benchmarks call it; the FMU functions read no clock, so the shared library an
+/// FMU ships imports no clock function (`tests/python/test_distribution.py` checks its
+/// symbol table). On Unix it is `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`; elsewhere, where
+/// that call does not exist, the wall-clock time since the first call stands in.
+#[cfg(unix)]
+pub fn thread_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes one timespec into the pointer we own.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// CPU time of the calling thread [s]: see the Unix version; here the wall-clock time since
+/// the first call.
+#[cfg(not(unix))]
+pub fn thread_cpu_seconds() -> f64 {
+    static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
 }

@@ -338,7 +338,7 @@ fn impacts_with_friction_never_create_energy() {
     // (to rounding) for the exact method; for both methods, friction removes energy: the
     // kinetic energy after the impact is at most the one after the same impact without it.
     use contact_fmu::contact::impulse::resolve_with;
-    use contact_fmu::contact::work::ImpulseWork;
+    use contact_fmu::model::work::ImpulseWork;
     use contact_fmu::scene::{ImpulseMethod, JointSpec};
     let mut seed: u64 = 2024;
     let mut rnd = || {

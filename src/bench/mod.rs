@@ -353,30 +353,7 @@ pub fn median(v: &[f64]) -> f64 {
     }
 }
 
-/// CPU time of the calling thread [s] (immune to other processes on a busy machine).
-///
-/// Only the benchmarks call it; the FMU functions read no clock, so the shared library an
-/// FMU ships imports no clock function (`tests/python/test_distribution.py` checks its
-/// symbol table). On Unix it is `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`; elsewhere, where
-/// that call does not exist, the wall-clock time since the first call stands in.
-#[cfg(unix)]
-pub fn thread_cpu_seconds() -> f64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: clock_gettime writes one timespec into the pointer we own.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    if rc != 0 {
-        return f64::NAN;
-    }
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
-
-/// CPU time of the calling thread [s]: see the Unix version; here the wall-clock time since
-/// the first call.
-#[cfg(not(unix))]
-pub fn thread_cpu_seconds() -> f64 {
-    static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
-    START.get_or_init(Instant::now).elapsed().as_secs_f64()
-}
+pub use crate::run::thread_cpu_seconds;
 
 /// What one scene is run with.
 #[derive(Debug, Clone)]

@@ -3,8 +3,8 @@
 //! materials and the radii), the law constants.
 
 use super::parameters::{ContactValues, MaterialValues};
-use crate::contact::element::{ContactElement, Shape};
 use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
+use crate::model::contact::{ContactElement, Shape};
 use crate::scene::{item_name, ContactSpec, ContactType, Law, SceneError, Side};
 use crate::spatial::triad;
 use nalgebra::Vector3;

@@ -4,8 +4,8 @@
 
 use super::contact::compile_contact;
 use super::parameters::{ContactValues, MaterialValues, Parameters};
-use crate::contact::broad::{Bound, Candidate, GroupShape, Groups};
-use crate::contact::element::ContactElement;
+use crate::model::contact::ContactElement;
+use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
 use crate::scene::{Scene, SceneError, ShapeType};
 use nalgebra::{UnitQuaternion, Vector3};
 use std::collections::HashMap;

@@ -20,8 +20,8 @@ mod velocities;
 
 pub use parameters::Parameters;
 
-use crate::contact::broad::Candidate;
 use crate::kinematics::kinematics;
+use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;

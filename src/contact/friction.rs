@@ -20,9 +20,9 @@
 //! to zero with the slip, continuously and with a continuous derivative at `v_s`. The dry
 //! part is bounded by `μ_s F_n` (when `μ_s ≥ μ`). The dissipated power is `−F·u ≥ 0`.
 
-use super::element::{ContactElement, Friction};
 use super::geometry::Gap;
 use crate::kinematics::add_jacobian_row;
+use crate::model::contact::{ContactElement, Friction};
 use crate::model::Model;
 use crate::spatial::{Frame, Spatial};
 use nalgebra::Vector3;

@@ -1,7 +1,7 @@
 //! Contact detection for the three elements of the paper: sphere-sphere (1)-(3),
 //! sphere-finite plane (4)-(12) and sphere-cylindrical surface (13).
 
-use super::element::{ContactElement, Shape};
+use crate::model::contact::{ContactElement, Shape};
 use crate::spatial::Frame;
 use nalgebra::Vector3;
 

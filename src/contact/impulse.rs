@@ -25,11 +25,11 @@
 //! (free bodies, or a pendulum struck at its centre of percussion); it may even create energy.
 //! Simultaneous contacts are treated pair by pair.
 
-use super::element::ContactElement;
-use super::work::{FrictionWork, ImpulseWork, LcpWork, Projection};
 use crate::dynamics;
 use crate::kinematics::{self, for_each_path_dof};
 use crate::linalg;
+use crate::model::contact::ContactElement;
+use crate::model::work::{FrictionWork, ImpulseWork, LcpWork, Projection};
 use crate::model::{Data, Model};
 use crate::scene::ImpulseMethod;
 use crate::spatial::Spatial;

@@ -8,7 +8,7 @@
 //! `(F − F_elastic) δ̇` as dissipated power. The unclamped value is returned as well, so the
 //! engine can locate the instant the cut starts.
 
-use super::element::ContactElement;
+use crate::model::contact::ContactElement;
 use crate::scene::Law;
 
 /// Force at one instant.

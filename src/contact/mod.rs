@@ -17,21 +17,18 @@
 //! holds it until its normal force would become tensile, or the sphere leaves the patch.
 
 pub mod broad;
-pub mod element;
 pub mod friction;
 pub mod geometry;
 pub mod groups;
 pub mod impulse;
 pub mod laws;
-pub mod modes;
-pub mod work;
 
 use crate::kinematics::{add_jacobian_row, frame};
 use crate::model::{Data, Model};
 use crate::scene::Law;
 use crate::spatial::Spatial;
 
-pub use element::{ContactElement, ContactMemory, ContactOutput, Friction, Shape};
+pub use crate::model::contact::{ContactElement, ContactMemory, ContactOutput, Friction, Shape};
 pub use geometry::Gap;
 
 /// Evaluates the geometry of contact `i` at the current kinematics.

@@ -1,5 +1,5 @@
 //! Event location: after each integrator step, the event functions of every contact (see
-//! [`crate::contact::modes`]) are compared between the step's start and end; a relevant sign
+//! [`crate::engine::modes`]) are compared between the step's start and end; a relevant sign
 //! change is located by root finding on the integrator's dense output. Also checked:
 //! tunnelling (δ crossed zero although the mode function did not turn positive at the end
 //! of the step) and, for the log, the peaks of the continuous contacts (δ̇ = 0) and the stick
@@ -7,7 +7,8 @@
 //! mode, the cut of its force at zero (both interrupt the step), and (with friction) its slip
 //! speed against the stiction velocity (located and logged only).
 
-use crate::contact::{self, modes};
+use super::modes;
+use crate::contact;
 use crate::forward::{any_resting, evaluate};
 use crate::kinematics::{kinematics, kinematics_path};
 use crate::model::{ContactEventKind, Data, Model};

@@ -3,7 +3,7 @@
 //! The right-hand side ([`crate::forward`]) is evaluated with the contact *mode* (which
 //! contacts are active) frozen; every change of mode — touch, separation, an impact — is an
 //! event located on the integrator's dense output ([`events`]), handled by
-//! [`crate::contact::modes`], after which the integrator restarts. No force discontinuity is
+//! [`crate::engine::modes`], after which the integrator restarts. No force discontinuity is
 //! stepped over. One `advance`:
 //!
 //! 1. when something changed since the last advance (an input, a restored state without the
@@ -16,8 +16,9 @@
 //!    for the next advance. So the communication grid does not bound the steps.
 
 pub mod events;
+pub mod modes;
 
-use crate::contact::{self, modes};
+use crate::contact;
 use crate::dynamics;
 use crate::forward::{any_resting, evaluate, Rhs};
 use crate::kinematics::kinematics;

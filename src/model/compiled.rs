@@ -7,7 +7,7 @@
 //! ground. Degrees of freedom are numbered tree by tree (depth first), so the joint-space mass
 //! matrix is block diagonal with one dense block per independent tree.
 
-use crate::contact::element::ContactElement;
+use crate::model::contact::ContactElement;
 use crate::scene::JointType;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -310,7 +310,7 @@ pub struct Model {
     pub contacts: Vec<ContactElement>,
     /// Contact groups: the group shapes and the candidate pairs behind the group contacts
     /// (`contacts[groups.n_explicit..]`).
-    pub groups: crate::contact::broad::Groups,
+    pub groups: crate::model::groups::Groups,
     /// Inputs, in scene order.
     pub inputs: Vec<Input>,
     /// For each input, the index of its first value in `Data::inputs` (a `joint_motion` has

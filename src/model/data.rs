@@ -4,9 +4,9 @@
 //! [`super::state`]; the rest is workspace, recomputed from it.
 
 use super::compiled::Model;
-use crate::contact::element::{ContactMemory, ContactOutput};
-use crate::contact::work::ImpulseWork;
 use crate::integrator::{self, Integrator, Stats};
+use crate::model::contact::{ContactMemory, ContactOutput};
+use crate::model::work::ImpulseWork;
 use crate::scene::Law;
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};

@@ -4,8 +4,11 @@
 //! (`state`). Every function of the engine takes `(&Model, &mut Data)`.
 
 pub mod compiled;
+pub mod contact;
 pub mod data;
+pub mod groups;
 pub mod state;
+pub mod work;
 
 pub use compiled::{
     nq_of, nv_of, Body, Drive, FreeBody, Input, LoopConstraint, Model, Part, Plan, SpringDamper, TreeJoint,

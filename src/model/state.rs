@@ -8,8 +8,8 @@
 //! the data as it was.
 
 use super::{Data, Model};
-use crate::contact::broad::Candidate;
 use crate::integrator::Stats;
+use crate::model::groups::Candidate;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// One part of the state (a bit of a mask).

@@ -26,7 +26,7 @@ SLOW_STEP_SECONDS = 5.0
 
 def failures(results, fmi_version=2):
     """Every violation of every sequence, with the command that replays it."""
-    replay = "python scripts/fuzz_fmi.py" + (" --fmi-version 3" if fmi_version == 3 else "")
+    replay = "python scripts/fuzz_fmi3.py" if fmi_version == 3 else "python scripts/fuzz_fmi.py"
     return [
         f"seed {r['seed']}: {v[0]} at call {v[1]}: {v[2]} (replay: {replay} --seed {r['seed']})"
         for r in results

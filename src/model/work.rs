@@ -1,5 +1,5 @@
 //! Preallocated work arrays of the impulse law (sized at compilation, so that resolving
-//! impacts allocates nothing). The computations that use them are in [`super::impulse`].
+//! impacts allocates nothing). The computations that use them are in the contact module (`impulse.rs`).
 
 /// The loop-only projection `G`: the factor of `Φ_l M̄⁻¹ Φ_lᵀ` over the `nl` loop rows, with
 /// its own solve buffers (sized once).
@@ -157,7 +157,7 @@ impl ImpulseWork {
     }
 
     /// Tangential (friction) impulse of each contact of the last round, along its two tangent
-    /// directions ([`crate::contact::friction::tangents`] of the normal) [N s]; zero for a
+    /// directions (the contact module's friction tangents of the normal) [N s]; zero for a
     /// contact without friction.
     pub fn friction_impulse(&self, k: usize) -> [f64; 2] {
         let f = &self.friction;

@@ -8,7 +8,9 @@
 //!   impulse-law contacts are settled by [`settle_impulse_contacts`] (rounds of impacts, then
 //!   the resting set).
 
-use super::{broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap};
+use crate::contact::{
+    broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap,
+};
 use crate::forward::{evaluate, evaluate_current};
 use crate::kinematics::frame;
 use crate::model::{ContactEventKind, Data, Model};

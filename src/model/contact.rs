@@ -90,7 +90,7 @@ pub struct ContactElement {
     /// the loop rows; zero while the contact does not rest).
     pub constraint_row: Option<usize>,
     /// Damping factor of the hysteresis laws from the restitution
-    /// ([`crate::contact::laws::hysteresis_factor`]), computed once at compilation.
+    /// (the contact laws' hysteresis factor), computed once at compilation.
     pub hysteresis: f64,
     /// Friction constants (all zero: frictionless).
     pub friction: Friction,
