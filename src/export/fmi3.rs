@@ -1,6 +1,6 @@
 //! The FMI 3.0 `modelDescription.xml` of a scene: the same variable table, names, value
 //! references, units, start values, ranges and dependencies as the FMI 2.0 description
-//! (`super::write_model_description`), in FMI 3.0's schema:
+//! (`super::description::write_model_description`), in FMI 3.0's schema:
 //!
 //! - `fmiVersion="3.0"` and `instantiationToken` (the value of FMI 2.0's `guid`);
 //! - `CoSimulation` with FMI 3.0's capabilities: variable communication steps, FMU states,
@@ -13,7 +13,7 @@
 //! - `ModelStructure` with `Output` and `InitialUnknown` naming value references (FMI 2.0
 //!   names 1-based indices), the outputs with their `dependencies`.
 
-use super::{
+use super::description::{
     attrs, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
     used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
 };
@@ -123,7 +123,7 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
 /// FMI 2.0 `ScalarVariable`).
 fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
     let mut a: Vec<(&str, String)> = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
-    let description = super::describe(v);
+    let description = super::description::describe(v);
     if !description.is_empty() {
         a.push(("description", description));
     }

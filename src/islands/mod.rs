@@ -37,10 +37,17 @@ use crate::kinematics::kinematics;
 use crate::model::contact::ContactMemory;
 use crate::model::data::EVENT_LOG_CAPACITY;
 use crate::model::groups::Candidate;
-use crate::model::{nq_of, nv_of, state, ContactEvent, Counters, Data, Input, Model};
-use crate::scene::{Scene, GROUND};
+use crate::model::{nq_of, nv_of, state, ContactEvent, Counters, Data, Model};
+use crate::scene::Scene;
 use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
+
+mod cut;
+mod saved;
+
+use cut::candidate_body;
+use cut::{cut, SceneIndex};
+pub use cut::{partition, wanted};
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
 /// than the round is planned for: it only stops when a collision sped a body up; less than
@@ -85,77 +92,6 @@ pub struct Island {
     saved: Vec<f64>,
     /// The length of its event log then.
     saved_log: usize,
-}
-
-/// Per scene body, the scene items that name it (to cut an island's part of the scene in
-/// time proportional to its size).
-struct SceneIndex {
-    joints: Vec<Vec<usize>>,
-    springs: Vec<Vec<usize>>,
-    contacts: Vec<Vec<usize>>,
-    inputs: Vec<Vec<usize>>,
-    shapes: Vec<Vec<usize>>,
-    /// Shapes on the ground (in every island).
-    ground_shapes: Vec<usize>,
-}
-
-impl SceneIndex {
-    fn of(scene: &Scene) -> SceneIndex {
-        let nb = scene.body.len();
-        let body: HashMap<&str, usize> = scene
-            .body
-            .iter()
-            .enumerate()
-            .map(|(i, b)| (b.name.as_str(), i))
-            .collect();
-        let joint_child: HashMap<&str, usize> = scene
-            .joint
-            .iter()
-            .filter_map(|j| Some((j.name.as_str(), *body.get(j.child.as_str())?)))
-            .collect();
-        let mut ix = SceneIndex {
-            joints: vec![Vec::new(); nb],
-            springs: vec![Vec::new(); nb],
-            contacts: vec![Vec::new(); nb],
-            inputs: vec![Vec::new(); nb],
-            shapes: vec![Vec::new(); nb],
-            ground_shapes: Vec::new(),
-        };
-        let put = |list: &mut Vec<Vec<usize>>, name: &str, i: usize| {
-            if let Some(&b) = body.get(name) {
-                list[b].push(i);
-            }
-        };
-        for (i, j) in scene.joint.iter().enumerate() {
-            put(&mut ix.joints, &j.child, i);
-        }
-        for (i, s) in scene.spring_damper.iter().enumerate() {
-            put(&mut ix.springs, &s.body_a, i);
-            put(&mut ix.springs, &s.body_b, i);
-        }
-        for (i, c) in scene.contact.iter().enumerate() {
-            put(&mut ix.contacts, &c.sphere_body, i);
-            put(&mut ix.contacts, &c.body, i);
-        }
-        for (i, inp) in scene.input.iter().enumerate() {
-            if let Some(b) = &inp.body {
-                put(&mut ix.inputs, b, i);
-            }
-            for n in inp.joint.iter().chain(inp.joints.iter().flatten()) {
-                if let Some(&b) = joint_child.get(n.as_str()) {
-                    ix.inputs[b].push(i);
-                }
-            }
-        }
-        for (i, s) in scene.shape.iter().enumerate() {
-            if s.body == GROUND {
-                ix.ground_shapes.push(i);
-            } else {
-                put(&mut ix.shapes, &s.body, i);
-            }
-        }
-        ix
-    }
 }
 
 /// The islands of a scene, and what they do not hold.
@@ -204,166 +140,6 @@ pub struct Source<'a> {
     pub scene: &'a Scene,
     /// Its file (for errors).
     pub origin: &'a str,
-}
-
-/// Union-find over the bodies.
-struct Sets(Vec<usize>);
-
-impl Sets {
-    fn root(&mut self, mut a: usize) -> usize {
-        while self.0[a] != a {
-            self.0[a] = self.0[self.0[a]];
-            a = self.0[a];
-        }
-        a
-    }
-    fn join(&mut self, a: Option<usize>, b: Option<usize>) {
-        if let (Some(a), Some(b)) = (a, b) {
-            let (ra, rb) = (self.root(a), self.root(b));
-            if ra != rb {
-                self.0[ra.max(rb)] = ra.min(rb);
-            }
-        }
-    }
-}
-
-/// The islands of model `m` with the candidate pairs `candidates`: the bodies of each, in
-/// scene order, the islands ordered by their first body.
-pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
-    let nb = m.bodies.len();
-    let mut sets = Sets((0..nb).collect());
-    for j in &m.joints {
-        sets.join(j.parent, Some(j.child));
-    }
-    for l in &m.loops {
-        sets.join(l.body_a, Some(l.body_b));
-    }
-    for s in &m.springs {
-        sets.join(s.body_a, s.body_b);
-    }
-    for c in &m.contacts[..m.groups.n_explicit] {
-        sets.join(c.sphere_body, c.body);
-    }
-    let shapes = &m.groups.shapes;
-    for k in candidates {
-        sets.join(shapes[k.sphere].body, shapes[k.other].body);
-    }
-    for input in &m.inputs {
-        if let Input::JointForce { qvels } = input {
-            let mut bodies = qvels
-                .iter()
-                .filter(|&&v| v < m.nv)
-                .map(|&v| m.joints[m.dof_joint[v]].child);
-            if let Some(first) = bodies.next() {
-                for b in bodies {
-                    sets.join(Some(first), Some(b));
-                }
-            }
-        }
-    }
-    let mut slot = vec![usize::MAX; nb];
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    for b in 0..nb {
-        let r = sets.root(b);
-        if slot[r] == usize::MAX {
-            slot[r] = out.len();
-            out.push(Vec::new());
-        }
-        out[slot[r]].push(b);
-    }
-    out
-}
-
-/// True when model `m` runs as islands: the scene asks for them (`solver.islands`, the
-/// default) and either has contact groups (whose islands change as the bodies move) or more
-/// than one island.
-pub fn wanted(m: &Model) -> bool {
-    m.solver.islands && !m.bodies.is_empty() && (m.groups.is_active() || partition(m, &m.groups.candidates).len() > 1)
-}
-
-/// The body of a candidate pair that is not the ground.
-fn candidate_body(m: &Model, k: &Candidate) -> Option<usize> {
-    let shapes = &m.groups.shapes;
-    shapes[k.sphere].body.or(shapes[k.other].body)
-}
-
-/// What an island is cut from the scene: its part of the scene and of the parameter values,
-/// its candidates in its own shape numbering, the scene indices of its declared contacts and
-/// inputs.
-struct Cut {
-    scene: Scene,
-    params: Parameters,
-    candidates: Vec<Candidate>,
-    explicit: Vec<usize>,
-    inputs: Vec<usize>,
-}
-
-/// The sorted, deduplicated items of `lists` over `bodies`.
-fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
-    let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
-    v.sort_unstable();
-    v.dedup();
-    v
-}
-
-fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
-    let joints = items(&ix.joints, bodies);
-    let springs = items(&ix.springs, bodies);
-    let explicit = items(&ix.contacts, bodies);
-    let inputs = items(&ix.inputs, bodies);
-    let (first_value, _) = scene.input_values();
-    let mut shapes = items(&ix.shapes, bodies);
-    shapes.extend(&ix.ground_shapes);
-    shapes.sort_unstable();
-    let s = Scene {
-        model: scene.model.clone(),
-        solver: scene.solver.clone(),
-        material: scene.material.clone(),
-        body: bodies.iter().map(|&b| scene.body[b].clone()).collect(),
-        joint: joints.iter().map(|&i| scene.joint[i].clone()).collect(),
-        spring_damper: springs.iter().map(|&i| scene.spring_damper[i].clone()).collect(),
-        contact: explicit.iter().map(|&i| scene.contact[i].clone()).collect(),
-        input: inputs.iter().map(|&i| scene.input[i].clone()).collect(),
-        shape: shapes.iter().map(|&i| scene.shape[i].clone()).collect(),
-        contact_group: scene.contact_group.clone(),
-        broad_phase: scene.broad_phase.clone(),
-    };
-    let params = Parameters {
-        materials: p.materials.clone(),
-        masses: bodies.iter().map(|&b| p.masses[b]).collect(),
-        inertias: bodies.iter().map(|&b| p.inertias[b]).collect(),
-        velocities: bodies.iter().map(|&b| p.velocities[b]).collect(),
-        angular_velocities: bodies.iter().map(|&b| p.angular_velocities[b]).collect(),
-        springs: springs.iter().map(|&i| p.springs[i]).collect(),
-        contacts: explicit.iter().map(|&i| p.contacts[i]).collect(),
-        groups: p.groups.clone(),
-        solver: p.solver.clone(),
-        input_start: inputs
-            .iter()
-            .flat_map(|&i| {
-                (0..scene.input[i].values())
-                    .map(|k| first_value[i] + k)
-                    .collect::<Vec<_>>()
-            })
-            .map(|v| p.input_start[v])
-            .collect(),
-    };
-    let local = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
-    let candidates = candidates
-        .iter()
-        .map(|k| Candidate {
-            pair: k.pair,
-            sphere: local(k.sphere),
-            other: local(k.other),
-        })
-        .collect();
-    Cut {
-        scene: s,
-        params,
-        candidates,
-        explicit,
-        inputs,
-    }
 }
 
 /// The contacts' memory, by the scene's numbering: declared contacts by index, candidate
@@ -965,130 +741,6 @@ impl Islands {
             }
         }
     }
-
-    /// Appends the islands' own state: the retired counters, the dissipated energy and the
-    /// input work not held by an island, the rebuilds, the end of the present round, the candidate pairs, then per
-    /// island its bodies and its whole state.
-    pub fn save(&self, out: &mut Vec<f64>) {
-        let r = self.retired;
-        out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
-        out.push(self.dissipated_base);
-        out.push(self.input_work_base);
-        out.push(self.rebuilds as f64);
-        out.push(self.round_end);
-        out.push(self.candidates.len() as f64);
-        for c in &self.candidates {
-            out.extend([c.pair, c.sphere, c.other].map(|x| x as f64));
-        }
-        out.push(self.parts.len() as f64);
-        let mut v = Vec::new();
-        for island in &self.parts {
-            out.push(island.bodies.len() as f64);
-            out.extend(island.bodies.iter().map(|&b| b as f64));
-            v.clear();
-            state::get(&island.model, &island.data, state::FULL, &mut v);
-            out.push(v.len() as f64);
-            out.extend_from_slice(&v);
-        }
-    }
-
-    /// The islands saved by [`Islands::save`], for the scene's model `m` and data `d` (both
-    /// restored from the same saved state). Anything that does not fit is refused.
-    pub fn load(src: &Source, params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
-        let mut r = Numbers { v, pos: 0 };
-        let mut counts = [0u64; 5];
-        for c in &mut counts {
-            *c = r.count(u64::MAX)? as u64;
-        }
-        let dissipated_base = r.next()?;
-        let input_work_base = r.next()?;
-        let rebuilds = r.count(u64::MAX)? as u64;
-        let round_end = r.next()?;
-        if round_end.is_nan() || round_end < d.time {
-            return Err(format!(
-                "saved islands: round end {round_end} before their time {}",
-                d.time
-            ));
-        }
-        let (np, ns) = (m.groups.pair_names.len() as u64, m.groups.shapes.len() as u64);
-        let nc = r.count(v.len() as u64)?;
-        if nc > 0 && (np == 0 || ns == 0) {
-            return Err("saved islands hold candidate pairs, the scene has no contact groups".into());
-        }
-        let mut candidates = Vec::with_capacity(nc);
-        for _ in 0..nc {
-            let pair = r.count(np.saturating_sub(1))?;
-            let sphere = r.count(ns.saturating_sub(1))?;
-            let other = r.count(ns.saturating_sub(1))?;
-            candidates.push(Candidate { pair, sphere, other });
-        }
-        let nb = m.bodies.len();
-        let n = r.count(nb as u64)?;
-        let mut lists = Vec::with_capacity(n);
-        let mut seen = vec![false; nb];
-        let mut states = Vec::with_capacity(n);
-        for _ in 0..n {
-            let len = r.count(nb as u64)?;
-            let mut bodies = Vec::with_capacity(len);
-            for _ in 0..len {
-                let b = r.count(nb as u64 - 1)?;
-                if seen[b] || bodies.last().is_some_and(|&l| l >= b) {
-                    return Err("saved islands: a body is listed twice or out of order".into());
-                }
-                seen[b] = true;
-                bodies.push(b);
-            }
-            let len = r.count(v.len() as u64)?;
-            states.push(r.take(len)?);
-            lists.push(bodies);
-        }
-        if r.pos != v.len() || seen.iter().any(|s| !s) {
-            return Err("saved islands: they do not hold every body once".into());
-        }
-        let mut is = Islands::bare(src, params, m, d);
-        is.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
-        is.candidates = candidates;
-        let memory = is.memory_of_scene(m, d);
-        let mut parts = Vec::with_capacity(n);
-        for (bodies, st) in lists.into_iter().zip(states) {
-            let cands: Vec<Candidate> = is
-                .candidates
-                .iter()
-                .filter(|c| candidate_body(m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
-                .copied()
-                .collect();
-            let mut island = is
-                .compile_island(src, d, bodies, cands, &memory)
-                .map_err(|e| e.message)?;
-            if state::group_candidates(&island.model, st).as_ref() != Some(&island.model.groups.candidates)
-                && island.model.groups.is_active()
-            {
-                return Err("saved islands: an island's candidate pairs are not the scene's".into());
-            }
-            state::set(&island.model, &mut island.data, state::FULL, st)?;
-            engine::resync(&island.model, &mut island.data);
-            parts.push(island);
-        }
-        for (k, island) in parts.iter().enumerate() {
-            for &b in &island.bodies {
-                is.island_of[b] = k;
-            }
-        }
-        is.parts = parts;
-        is.retired = Counters {
-            steps: counts[0],
-            rejected: counts[1],
-            rhs_evals: counts[2],
-            jac_evals: counts[3],
-            events: counts[4],
-        };
-        is.dissipated_base = dissipated_base;
-        is.input_work_base = input_work_base;
-        is.rebuilds = rebuilds;
-        is.round_end = round_end;
-        is.time = d.time;
-        Ok(is)
-    }
 }
 
 /// Island `island` back to its state at the start of the round.
@@ -1122,34 +774,4 @@ fn round_length(m: &Model, d: &mut Data) -> f64 {
         }
     }
     time
-}
-
-/// Reads numbers with checks.
-struct Numbers<'a> {
-    v: &'a [f64],
-    pos: usize,
-}
-
-impl<'a> Numbers<'a> {
-    fn next(&mut self) -> Result<f64, String> {
-        let x = *self.v.get(self.pos).ok_or("saved islands are truncated")?;
-        self.pos += 1;
-        Ok(x)
-    }
-    /// A whole number in 0..=max.
-    fn count(&mut self, max: u64) -> Result<usize, String> {
-        let x = self.next()?;
-        if !(x >= 0.0 && x.fract() == 0.0 && x <= max as f64) {
-            return Err(format!("saved islands: {x} is not a count up to {max}"));
-        }
-        Ok(x as usize)
-    }
-    fn take(&mut self, n: usize) -> Result<&'a [f64], String> {
-        let s = self
-            .v
-            .get(self.pos..self.pos + n)
-            .ok_or("saved islands are truncated")?;
-        self.pos += n;
-        Ok(s)
-    }
 }

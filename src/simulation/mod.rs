@@ -4,15 +4,22 @@
 //! variables and the same numbers.
 
 use crate::checkpoint::Snapshot;
-use crate::compile::{self, compile_with, Parameters};
+use crate::compile::{self, compile_with};
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::islands::{Islands, Source};
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
-use crate::variables::{set_parameter, Causality, VarRef, VarType, Variability, Variable, VariableTable};
+use crate::variables::{Causality, VarRef, Variable, VariableTable};
 use std::path::Path;
+
+mod candidates;
+mod energy;
+mod values;
+
+use energy::{Drift, EnergyWatch};
+pub use energy::{ENERGY_BLOW_UP, ENERGY_DRIFT_WARNING};
 
 /// An error from the simulation facade, with a message for the user.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
@@ -72,68 +79,6 @@ pub struct Simulation {
     refreshes: u64,
 }
 
-/// The energy-balance watch: `energy.total + energy.dissipated − energy.input_work` against its value at
-/// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
-/// and the largest kinetic energy seen (the scale of the command line's energy error). It
-/// starts at the first step (initialising evaluates nothing that a step would not).
-#[derive(Debug, Clone, Copy, Default)]
-struct EnergyWatch {
-    /// The reference was taken.
-    started: bool,
-    /// The balance at the start [J].
-    reference: f64,
-    /// The scale of the relative drift [J].
-    scale: f64,
-    /// RHS evaluations (since initialisation) at the last check.
-    checked_at: u64,
-    /// The warning was given (once per run).
-    warned: bool,
-}
-
-/// The energy balance found drifted at a communication point.
-#[derive(Debug, Clone, Copy)]
-struct Drift {
-    /// Time [s].
-    time: f64,
-    /// `energy.total + energy.dissipated − energy.input_work` then [J].
-    balance: f64,
-    /// Its reference [J].
-    reference: f64,
-    /// The drift relative to `scale`.
-    drift: f64,
-    /// The scale [J].
-    scale: f64,
-}
-
-impl std::fmt::Display for Drift {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "at t = {}: the energy balance energy.total + energy.dissipated - energy.input_work = {:.6e} J has drifted from {:.6e} J \
-             by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is inaccurate; tighten \
-             solver.rtol and solver.atol or, with rk4, shorten solver.max_step (warned once per run)",
-            self.time,
-            self.balance,
-            self.reference,
-            100.0 * self.drift,
-            self.scale,
-            100.0 * ENERGY_DRIFT_WARNING
-        )
-    }
-}
-
-/// Relative drift of the energy balance beyond which the run warns (once).
-pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
-
-/// Relative drift of the energy balance beyond which the step is refused as a blow-up (no
-/// physical run gets near it: the balance counts dissipation and the inputs' work).
-pub const ENERGY_BLOW_UP: f64 = 10.0;
-
-/// The energy balance is checked at a communication point when at least this many RHS
-/// evaluations were made since the last check (a check costs one evaluation: at most 1 %
-/// more work).
-const ENERGY_CHECK_EVALS: u64 = 100;
-
 /// A compiled model and its data (and, when the scene runs as independent islands, the
 /// islands: the data then receives their state at every communication point).
 struct Compiled {
@@ -161,7 +106,7 @@ impl Simulation {
     pub fn new(scene: Scene, origin: &str) -> Simulation {
         let table = VariableTable::from_scene(&scene);
         let values = table.vars.iter().map(|v| v.start.unwrap_or(0.0)).collect();
-        let follows = follows(&scene, &table);
+        let follows = values::follows(&scene, &table);
         Simulation {
             scene,
             origin: origin.to_string(),
@@ -259,145 +204,6 @@ impl Simulation {
         }
     }
 
-    /// Sets a parameter (before initialisation; a tunable one also after it) or an input (at
-    /// any time). The range of a parameter set before initialisation is checked by
-    /// [`Simulation::initialize`], so that a host may set values in any order; a tunable one
-    /// set after it is checked at once (see [`Simulation::retune`]).
-    pub fn set(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
-        let var = variable(&self.table, vr)?;
-        match var.causality {
-            Causality::Parameter => {
-                if self.initialized {
-                    if var.variability == Variability::Tunable {
-                        return self.retune(vr, value);
-                    }
-                    return Err(SimError::Variable(format!(
-                        "{} is a fixed parameter and cannot change after initialisation (only the tunable \
-                         contact-law constants can)",
-                        var.name
-                    )));
-                }
-                if self.values[vr] != value {
-                    self.values[vr] = value;
-                    self.compiled_fresh = false;
-                }
-                Ok(())
-            }
-            Causality::Input => {
-                if !value.is_finite() {
-                    return Err(SimError::Variable(format!(
-                        "input {} must be finite (got {value})",
-                        var.name
-                    )));
-                }
-                self.values[vr] = value;
-                let VarRef::Input(i) = var.target else {
-                    return Ok(());
-                };
-                let moves_a_drive = self
-                    .compiled
-                    .as_ref()
-                    .is_some_and(|c| c.model.drives.iter().any(|dr| i == dr.value || i == dr.value + 1));
-                if moves_a_drive && self.initialized {
-                    return self.move_drive(i, value);
-                }
-                if let Some(c) = self.compiled.as_mut() {
-                    set_input(&c.model, &mut c.data, i, value);
-                }
-                Ok(())
-            }
-            _ => Err(SimError::Variable(format!(
-                "{} is not a parameter or input and cannot be set",
-                var.name
-            ))),
-        }
-    }
-
-    /// Sets a driven joint's coordinate or rate (input value `i`) of an initialised
-    /// simulation: the joint moves there at once, and the energy that this changes (kinetic,
-    /// potential, contact) counts as work of the inputs, so that the energy balance holds
-    /// across the jump.
-    fn move_drive(&mut self, i: usize, value: f64) -> Result<(), SimError> {
-        self.sync_islands()?;
-        let Some(c) = self.compiled.as_mut() else {
-            return Err(SimError::NotInitialized);
-        };
-        let before = outputs::energies(&c.model, &mut c.data).total();
-        set_input(&c.model, &mut c.data, i, value);
-        engine::follow_drives(&c.model, &mut c.data);
-        let work = outputs::energies(&c.model, &mut c.data).total() - before;
-        match c.islands.as_mut() {
-            Some(is) => is.add_input_work(work),
-            None => c.model.add_input_work(&mut c.data.state, work),
-        }
-        Ok(())
-    }
-
-    /// Changes the tunable parameter `vr` of an initialised simulation: checks the value
-    /// against its range and together with the others, recompiles the model with it and keeps
-    /// the data (state, contact memory, counters, time); the integrator restarts at the
-    /// current state, so the value acts from the next step on. A refused value changes
-    /// nothing. The energy watch's reference moves by the change of the balance the new
-    /// value makes at this instant (a stiffer law stores more energy in a loaded contact).
-    fn retune(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
-        if self.values[vr] == value {
-            return Ok(());
-        }
-        let before = if self.watch.started { self.balance()? } else { 0.0 };
-        // the islands end here: the model first gets their candidate pairs and memory
-        self.sync_islands()?;
-        let old = std::mem::replace(&mut self.values[vr], value);
-        // the contact groups keep their candidate pairs (the data's contact memory is theirs)
-        let candidates = self.running()?.model.groups.candidates.clone();
-        let compiled = self.check_parameter(vr).and_then(|()| {
-            Ok(compile::compile_with_candidates(
-                &self.scene,
-                &self.parameters(),
-                &self.origin,
-                Some(&candidates),
-            )?)
-        });
-        let kept = self.running()?;
-        let model = match compiled {
-            Ok((model, _)) if same_layout(&model, &kept.model) => model,
-            Ok(_) => {
-                self.values[vr] = old;
-                return Err(SimError::Variable(format!(
-                    "{} cannot change after initialisation: it changes the size of the state",
-                    self.table.vars[vr].name
-                )));
-            }
-            Err(e) => {
-                self.values[vr] = old;
-                return Err(e);
-            }
-        };
-        let c = self.running()?;
-        c.model = model;
-        // the islands are formed again, with the new value, at the next step
-        c.islands = None;
-        c.data.outputs_valid = false;
-        c.data.kinematics_valid = false;
-        // the right-hand side changed: the method restarts at the current state, with the
-        // step size it would have tried next
-        c.data.solver.next_h = c.data.solver.pending_step();
-        c.data.solver.started = false;
-        if self.watch.started {
-            let after = self.balance()?;
-            self.watch.reference += after - before;
-        }
-        Ok(())
-    }
-
-    /// Sets a variable by name (CLI `--set NAME=VALUE`).
-    pub fn set_by_name(&mut self, name: &str, value: f64) -> Result<(), SimError> {
-        let vr = self
-            .table
-            .index_of(name)
-            .ok_or_else(|| SimError::Variable(format!("unknown variable {name:?}")))?;
-        self.set(vr, value)
-    }
-
     /// Reads a variable. Outputs and calculated parameters need a compiled engine: before
     /// initialisation one is compiled from the current parameter values (the initial state).
     /// Only what the variable needs is evaluated at the current state ([`outputs::needs`]).
@@ -467,58 +273,6 @@ impl Simulation {
         Ok(())
     }
 
-    /// The value of parameter or input `vr`: the value set, except that a
-    /// `<contact>.max_penetration` that keeps its start value (the scene gives none) is the
-    /// current `<contact>.radius`.
-    fn value(&self, vr: usize) -> f64 {
-        match self.follows[vr] {
-            Some(leader) if self.values[vr].to_bits() == self.start(vr).to_bits() => self.value(leader),
-            _ => self.values[vr],
-        }
-    }
-
-    /// The start value of variable `vr` (0 for outputs).
-    fn start(&self, vr: usize) -> f64 {
-        self.table.vars[vr].start.unwrap_or(0.0)
-    }
-
-    /// The current parameter values (and input start values), as the compiler reads them.
-    pub fn parameters(&self) -> Parameters {
-        let mut p = Parameters::of_scene(&self.scene);
-        for (vr, var) in self.table.vars.iter().enumerate() {
-            if matches!(var.causality, Causality::Parameter | Causality::Input) {
-                set_parameter(&mut p, var.target, self.value(vr));
-            }
-        }
-        p
-    }
-
-    /// Checks every parameter against its range; the message names the variable and range.
-    pub fn check_parameters(&self) -> Result<(), SimError> {
-        (0..self.table.vars.len()).try_for_each(|vr| self.check_parameter(vr))
-    }
-
-    /// Checks parameter `vr` against its range (other variables pass).
-    fn check_parameter(&self, vr: usize) -> Result<(), SimError> {
-        let var = &self.table.vars[vr];
-        if var.causality != Causality::Parameter {
-            return Ok(());
-        }
-        let x = self.values[vr];
-        if let Some(r) = var.range {
-            let integral = matches!(var.vtype, VarType::Integer | VarType::Enumeration(_));
-            if !r.contains(x) || (integral && x.fract() != 0.0) {
-                return Err(SimError::Variable(format!(
-                    "parameter {} = {} is out of its allowed range {}",
-                    var.name,
-                    x,
-                    r.describe()
-                )));
-            }
-        }
-        Ok(())
-    }
-
     /// The model compiled with the current parameter values (compiled now if it is not).
     fn ensure_compiled(&mut self) -> Result<&mut Compiled, SimError> {
         if self.compiled.is_none() || !self.compiled_fresh {
@@ -569,77 +323,6 @@ impl Simulation {
         self.initialized = true;
         self.watch = EnergyWatch::default();
         Ok(())
-    }
-
-    /// The energy balance `energy.total + energy.dissipated − energy.input_work` at the
-    /// current state.
-    fn balance(&mut self) -> Result<f64, SimError> {
-        Ok(self.energies()?.balance())
-    }
-
-    /// Starts watching the energy balance from the current state (the first step after
-    /// initialisation or a restore).
-    fn start_watch(&mut self) -> Result<(), SimError> {
-        let e = self.energies()?;
-        self.watch = EnergyWatch {
-            started: true,
-            reference: e.balance(),
-            scale: e.total().abs().max(e.kinetic),
-            checked_at: self.counters().rhs_evals,
-            warned: false,
-        };
-        Ok(())
-    }
-
-    /// At a communication point: when enough work was done since the last check, compares the
-    /// energy balance with its reference and warns, once, when it drifted by more than
-    /// [`ENERGY_DRIFT_WARNING`] of its scale.
-    fn watch_energy(&mut self) -> Result<(), SimError> {
-        let evals = self.counters().rhs_evals;
-        // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
-        if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
-            return Ok(());
-        }
-        self.watch.checked_at = evals;
-        let e = self.energies()?;
-        let time = self.time();
-        let w = &mut self.watch;
-        w.scale = w.scale.max(e.kinetic);
-        let balance = e.balance();
-        let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
-        if drift > ENERGY_DRIFT_WARNING && !w.warned {
-            w.warned = true;
-            // kept as numbers: a step allocates nothing; the text is made when it is taken
-            self.drift = Some(Drift {
-                time,
-                balance,
-                reference: w.reference,
-                drift,
-                scale: w.scale,
-            });
-        }
-        if drift > ENERGY_BLOW_UP {
-            let w = &self.watch;
-            let what = format!(
-                "the energy balance drifted by {:.0} times its scale {:.6e} J",
-                drift, w.scale
-            );
-            let c = self.running()?;
-            let message = engine::blow_up(&c.model, time, &what);
-            return Err(SimError::Step { time, message });
-        }
-        Ok(())
-    }
-
-    /// True when the energy balance drifted beyond [`ENERGY_DRIFT_WARNING`] in this run (the
-    /// warning was given, or is waiting in [`Simulation::take_warnings`]).
-    pub fn energy_drifted(&self) -> bool {
-        self.watch.warned
-    }
-
-    /// The warnings of the run since the last call (the energy-balance drift), oldest first.
-    pub fn take_warnings(&mut self) -> Vec<String> {
-        self.drift.take().map(|d| d.to_string()).into_iter().collect()
     }
 
     /// Integrates to `t_end` (> current time). On failure the state is the last good one and
@@ -708,105 +391,6 @@ impl Simulation {
             is.gather_contacts(model, data);
         }
         result.map_err(step_error)
-    }
-
-    /// With islands: when the islands' candidate pairs changed since the model was compiled,
-    /// compiles it with theirs and gives its data their contact memory (done when something
-    /// reads the contacts, not at every communication point).
-    fn sync_islands(&mut self) -> Result<(), SimError> {
-        let (scene, origin) = (&self.scene, &self.origin);
-        let Some(Compiled {
-            model,
-            data,
-            islands: Some(is),
-            ..
-        }) = self.compiled.as_mut()
-        else {
-            return Ok(());
-        };
-        if is.candidates == model.groups.candidates {
-            return Ok(());
-        }
-        let (m2, mut d2) = compile::compile_with_candidates(scene, is.params(), origin, Some(&is.candidates))?;
-        d2.time = data.time;
-        d2.state.copy_from_slice(&data.state);
-        d2.inputs.copy_from_slice(&data.inputs);
-        d2.counters = data.counters;
-        d2.clamp_events = data.clamp_events;
-        d2.log_peaks = data.log_peaks;
-        d2.event_log = std::mem::take(&mut data.event_log);
-        d2.broad_reference.copy_from_slice(&data.broad_reference);
-        d2.solver.base = data.solver.base;
-        is.gather_contacts(&m2, &mut d2);
-        *model = m2;
-        *data = d2;
-        Ok(())
-    }
-
-    /// Contact groups: finds the candidate pairs again at the current state, compiles the
-    /// model with them and carries the data over (the state, the integrator with its step,
-    /// the contact memory of the pairs kept, the counters, the event log). A pair that is new
-    /// to the list and already touches was missed by the bounds on the step: an error (it
-    /// cannot happen while no body is accelerated far beyond gravity within one step).
-    fn refresh_candidates(&mut self) -> Result<(), SimError> {
-        let params = self.parameters();
-        let (scene, origin) = (&self.scene, &self.origin);
-        let Some(c) = self.compiled.as_mut() else {
-            return Err(SimError::NotInitialized);
-        };
-        let (m, d) = (&c.model, &mut c.data);
-        d.eval_state.copy_from_slice(&d.state);
-        crate::kinematics::kinematics(m, d);
-        let found = m.groups.find(&|b| groups::pose(d, b));
-        let (m2, mut d2) = compile::compile_with_candidates(scene, &params, origin, Some(&found))?;
-        let mask = state::FULL & !(state::StatePart::ContactMemory as u32);
-        let mut v = Vec::new();
-        state::get(m, d, mask, &mut v);
-        state::set(&m2, &mut d2, mask, &v).map_err(SimError::Variable)?;
-        let n = m.groups.n_explicit;
-        d2.contact_memory[..n].copy_from_slice(&d.contact_memory[..n]);
-        let old: std::collections::HashMap<_, _> = m
-            .groups
-            .candidates
-            .iter()
-            .zip(&d.contact_memory[n..])
-            .map(|(k, mem)| (*k, *mem))
-            .collect();
-        d2.eval_state.copy_from_slice(&d2.state);
-        crate::kinematics::kinematics(&m2, &mut d2);
-        for (k, cand) in m2.groups.candidates.iter().enumerate() {
-            match old.get(cand) {
-                Some(mem) => d2.contact_memory[n + k] = *mem,
-                None => {
-                    let g = crate::contact::gap(&m2, &d2, n + k);
-                    if crate::contact::event_function(&m2.contacts[n + k], &g) > 0.0 {
-                        return Err(SimError::Step {
-                            time: d.time,
-                            message: format!(
-                                "contact {:?} touched before the broad phase listed it: a body moved more than \
-                                 half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                m2.contacts[n + k].name,
-                                m2.groups.margin
-                            ),
-                        });
-                    }
-                }
-            }
-        }
-        for b in 0..m2.bodies.len() {
-            d2.broad_reference[b] = (d2.body_pos[b], d2.body_quat[b]);
-        }
-        d2.clamp_events = d.clamp_events;
-        d2.log_peaks = d.log_peaks;
-        d2.solver.base = d.solver.base;
-        d2.event_log = std::mem::take(&mut d.event_log);
-        // the step was accepted: the event values at the current state start the next one
-        d2.eval_state.copy_from_slice(&d2.state);
-        engine::events::event_values(&m2, &mut d2, false);
-        c.model = m2;
-        c.data = d2;
-        self.refreshes += 1;
-        Ok(())
     }
 
     /// Runs from the current state over the communication points (the multiples of
@@ -1015,89 +599,12 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
 }
 
-/// By value reference: the parameter each one follows while it keeps its start value (one pass
-/// over the table): a contact's `max_penetration` its `radius`, and its `static_friction` its
-/// `friction`, where the scene gives no such key; a group pair's `static_friction` its
-/// `friction`, likewise.
-fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
-    use crate::variables::GroupKey;
-    let n = scene.contact.len();
-    let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
-    let (mut static_friction, mut friction) = (vec![None; n], vec![None; n]);
-    let np = scene.contact_group.len();
-    let (mut pair_static, mut pair_friction) = (vec![None; np], vec![None; np]);
-    for (vr, var) in table.vars.iter().enumerate() {
-        match var.target {
-            VarRef::MaxPenetration(i) => max_penetration[i] = Some(vr),
-            VarRef::SphereRadius(i) => radius[i] = Some(vr),
-            VarRef::StaticFriction(i) => static_friction[i] = Some(vr),
-            VarRef::Friction(i) => friction[i] = Some(vr),
-            VarRef::Group(p, GroupKey::StaticFriction) => pair_static[p] = Some(vr),
-            VarRef::Group(p, GroupKey::Friction) => pair_friction[p] = Some(vr),
-            _ => {}
-        }
-    }
-    let mut follows = vec![None; table.vars.len()];
-    for (i, c) in scene.contact.iter().enumerate() {
-        if let (None, Some(m), Some(r)) = (c.max_penetration, max_penetration[i], radius[i]) {
-            follows[m] = Some(r);
-        }
-        if let (None, Some(s), Some(f)) = (c.static_friction, static_friction[i], friction[i]) {
-            follows[s] = Some(f);
-        }
-    }
-    for (p, g) in scene.contact_group.iter().enumerate() {
-        if let (None, Some(s), Some(f)) = (g.static_friction, pair_static[p], pair_friction[p]) {
-            follows[s] = Some(f);
-        }
-    }
-    follows
-}
-
-/// True when data sized for model `b` serves model `a` as well: the same coordinates,
-/// constraint rows and contacts with the same laws (what a tunable parameter may not change).
-fn same_layout(a: &Model, b: &Model) -> bool {
-    a.nq == b.nq
-        && a.nv == b.nv
-        && a.nc == b.nc
-        && a.contacts.len() == b.contacts.len()
-        && a.contacts.iter().zip(&b.contacts).all(|(x, y)| x.law == y.law)
-}
-
 /// The variable with value reference `vr`.
 fn variable(table: &VariableTable, vr: usize) -> Result<&Variable, SimError> {
     table
         .vars
         .get(vr)
         .ok_or_else(|| SimError::Variable(format!("unknown value reference {vr}")))
-}
-
-/// Sets input value `i`; the integrator restarts at the next advance (inputs are piecewise
-/// constant between communication points). A driven joint's coordinate or rate (`<drive>.q`,
-/// `<drive>.qd`) also moves the joint to it, every time it is set (its motion then goes on from
-/// there: `q + qd τ + qdd τ²/2`).
-fn set_input(m: &Model, d: &mut Data, i: usize, value: f64) {
-    let mut changed = d.inputs[i] != value;
-    d.inputs[i] = value;
-    for dr in &m.drives {
-        let at = if i == dr.value {
-            dr.qpos
-        } else if i == dr.value + 1 {
-            m.nq + dr.qvel
-        } else {
-            continue;
-        };
-        if d.state[at] != value {
-            d.state[at] = value;
-            changed = true;
-        }
-    }
-    if changed {
-        d.outputs_valid = false;
-        d.kinematics_valid = false;
-        // the right-hand side changed: the method restarts at the current state
-        d.solver.started = false;
-    }
 }
 
 /// An engine's error as the facade's.

@@ -1,0 +1,240 @@
+//! What the islands are cut from: which bodies are coupled (the partition), and the part of the
+//! scene (bodies, joints, springs, contacts, inputs, shapes) and of the parameter values that
+//! an island is compiled from.
+
+use crate::compile::Parameters;
+use crate::model::groups::Candidate;
+use crate::model::{Input, Model};
+use crate::scene::{Scene, GROUND};
+use std::collections::HashMap;
+
+/// Per scene body, the scene items that name it (to cut an island's part of the scene in
+/// time proportional to its size).
+pub(super) struct SceneIndex {
+    pub(super) joints: Vec<Vec<usize>>,
+    pub(super) springs: Vec<Vec<usize>>,
+    pub(super) contacts: Vec<Vec<usize>>,
+    pub(super) inputs: Vec<Vec<usize>>,
+    pub(super) shapes: Vec<Vec<usize>>,
+    /// Shapes on the ground (in every island).
+    pub(super) ground_shapes: Vec<usize>,
+}
+
+impl SceneIndex {
+    pub(super) fn of(scene: &Scene) -> SceneIndex {
+        let nb = scene.body.len();
+        let body: HashMap<&str, usize> = scene
+            .body
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (b.name.as_str(), i))
+            .collect();
+        let joint_child: HashMap<&str, usize> = scene
+            .joint
+            .iter()
+            .filter_map(|j| Some((j.name.as_str(), *body.get(j.child.as_str())?)))
+            .collect();
+        let mut ix = SceneIndex {
+            joints: vec![Vec::new(); nb],
+            springs: vec![Vec::new(); nb],
+            contacts: vec![Vec::new(); nb],
+            inputs: vec![Vec::new(); nb],
+            shapes: vec![Vec::new(); nb],
+            ground_shapes: Vec::new(),
+        };
+        let put = |list: &mut Vec<Vec<usize>>, name: &str, i: usize| {
+            if let Some(&b) = body.get(name) {
+                list[b].push(i);
+            }
+        };
+        for (i, j) in scene.joint.iter().enumerate() {
+            put(&mut ix.joints, &j.child, i);
+        }
+        for (i, s) in scene.spring_damper.iter().enumerate() {
+            put(&mut ix.springs, &s.body_a, i);
+            put(&mut ix.springs, &s.body_b, i);
+        }
+        for (i, c) in scene.contact.iter().enumerate() {
+            put(&mut ix.contacts, &c.sphere_body, i);
+            put(&mut ix.contacts, &c.body, i);
+        }
+        for (i, inp) in scene.input.iter().enumerate() {
+            if let Some(b) = &inp.body {
+                put(&mut ix.inputs, b, i);
+            }
+            for n in inp.joint.iter().chain(inp.joints.iter().flatten()) {
+                if let Some(&b) = joint_child.get(n.as_str()) {
+                    ix.inputs[b].push(i);
+                }
+            }
+        }
+        for (i, s) in scene.shape.iter().enumerate() {
+            if s.body == GROUND {
+                ix.ground_shapes.push(i);
+            } else {
+                put(&mut ix.shapes, &s.body, i);
+            }
+        }
+        ix
+    }
+}
+
+/// Union-find over the bodies.
+struct Sets(Vec<usize>);
+
+impl Sets {
+    fn root(&mut self, mut a: usize) -> usize {
+        while self.0[a] != a {
+            self.0[a] = self.0[self.0[a]];
+            a = self.0[a];
+        }
+        a
+    }
+    fn join(&mut self, a: Option<usize>, b: Option<usize>) {
+        if let (Some(a), Some(b)) = (a, b) {
+            let (ra, rb) = (self.root(a), self.root(b));
+            if ra != rb {
+                self.0[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+}
+
+/// The islands of model `m` with the candidate pairs `candidates`: the bodies of each, in
+/// scene order, the islands ordered by their first body.
+pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
+    let nb = m.bodies.len();
+    let mut sets = Sets((0..nb).collect());
+    for j in &m.joints {
+        sets.join(j.parent, Some(j.child));
+    }
+    for l in &m.loops {
+        sets.join(l.body_a, Some(l.body_b));
+    }
+    for s in &m.springs {
+        sets.join(s.body_a, s.body_b);
+    }
+    for c in &m.contacts[..m.groups.n_explicit] {
+        sets.join(c.sphere_body, c.body);
+    }
+    let shapes = &m.groups.shapes;
+    for k in candidates {
+        sets.join(shapes[k.sphere].body, shapes[k.other].body);
+    }
+    for input in &m.inputs {
+        if let Input::JointForce { qvels } = input {
+            let mut bodies = qvels
+                .iter()
+                .filter(|&&v| v < m.nv)
+                .map(|&v| m.joints[m.dof_joint[v]].child);
+            if let Some(first) = bodies.next() {
+                for b in bodies {
+                    sets.join(Some(first), Some(b));
+                }
+            }
+        }
+    }
+    let mut slot = vec![usize::MAX; nb];
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for b in 0..nb {
+        let r = sets.root(b);
+        if slot[r] == usize::MAX {
+            slot[r] = out.len();
+            out.push(Vec::new());
+        }
+        out[slot[r]].push(b);
+    }
+    out
+}
+
+/// True when model `m` runs as islands: the scene asks for them (`solver.islands`, the
+/// default) and either has contact groups (whose islands change as the bodies move) or more
+/// than one island.
+pub fn wanted(m: &Model) -> bool {
+    m.solver.islands && !m.bodies.is_empty() && (m.groups.is_active() || partition(m, &m.groups.candidates).len() > 1)
+}
+
+/// The body of a candidate pair that is not the ground.
+pub(super) fn candidate_body(m: &Model, k: &Candidate) -> Option<usize> {
+    let shapes = &m.groups.shapes;
+    shapes[k.sphere].body.or(shapes[k.other].body)
+}
+
+/// What an island is cut from the scene: its part of the scene and of the parameter values,
+/// its candidates in its own shape numbering, the scene indices of its declared contacts and
+/// inputs.
+pub(super) struct Cut {
+    pub(super) scene: Scene,
+    pub(super) params: Parameters,
+    pub(super) candidates: Vec<Candidate>,
+    pub(super) explicit: Vec<usize>,
+    pub(super) inputs: Vec<usize>,
+}
+
+/// The sorted, deduplicated items of `lists` over `bodies`.
+fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
+    let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
+    let joints = items(&ix.joints, bodies);
+    let springs = items(&ix.springs, bodies);
+    let explicit = items(&ix.contacts, bodies);
+    let inputs = items(&ix.inputs, bodies);
+    let (first_value, _) = scene.input_values();
+    let mut shapes = items(&ix.shapes, bodies);
+    shapes.extend(&ix.ground_shapes);
+    shapes.sort_unstable();
+    let s = Scene {
+        model: scene.model.clone(),
+        solver: scene.solver.clone(),
+        material: scene.material.clone(),
+        body: bodies.iter().map(|&b| scene.body[b].clone()).collect(),
+        joint: joints.iter().map(|&i| scene.joint[i].clone()).collect(),
+        spring_damper: springs.iter().map(|&i| scene.spring_damper[i].clone()).collect(),
+        contact: explicit.iter().map(|&i| scene.contact[i].clone()).collect(),
+        input: inputs.iter().map(|&i| scene.input[i].clone()).collect(),
+        shape: shapes.iter().map(|&i| scene.shape[i].clone()).collect(),
+        contact_group: scene.contact_group.clone(),
+        broad_phase: scene.broad_phase.clone(),
+    };
+    let params = Parameters {
+        materials: p.materials.clone(),
+        masses: bodies.iter().map(|&b| p.masses[b]).collect(),
+        inertias: bodies.iter().map(|&b| p.inertias[b]).collect(),
+        velocities: bodies.iter().map(|&b| p.velocities[b]).collect(),
+        angular_velocities: bodies.iter().map(|&b| p.angular_velocities[b]).collect(),
+        springs: springs.iter().map(|&i| p.springs[i]).collect(),
+        contacts: explicit.iter().map(|&i| p.contacts[i]).collect(),
+        groups: p.groups.clone(),
+        solver: p.solver.clone(),
+        input_start: inputs
+            .iter()
+            .flat_map(|&i| {
+                (0..scene.input[i].values())
+                    .map(|k| first_value[i] + k)
+                    .collect::<Vec<_>>()
+            })
+            .map(|v| p.input_start[v])
+            .collect(),
+    };
+    let local = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
+    let candidates = candidates
+        .iter()
+        .map(|k| Candidate {
+            pair: k.pair,
+            sphere: local(k.sphere),
+            other: local(k.other),
+        })
+        .collect();
+    Cut {
+        scene: s,
+        params,
+        candidates,
+        explicit,
+        inputs,
+    }
+}

@@ -1,0 +1,141 @@
+//! The energy balance watched at communication points: `energy.total + energy.dissipated −
+//! energy.input_work` against its value at the start, a warning (once) beyond
+//! [`ENERGY_DRIFT_WARNING`] of its scale, a refused step beyond [`ENERGY_BLOW_UP`].
+
+use super::{SimError, Simulation};
+use crate::engine;
+
+/// The energy-balance watch: `energy.total + energy.dissipated − energy.input_work` against its value at
+/// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
+/// and the largest kinetic energy seen (the scale of the command line's energy error). It
+/// starts at the first step (initialising evaluates nothing that a step would not).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct EnergyWatch {
+    /// The reference was taken.
+    pub(super) started: bool,
+    /// The balance at the start [J].
+    pub(super) reference: f64,
+    /// The scale of the relative drift [J].
+    pub(super) scale: f64,
+    /// RHS evaluations (since initialisation) at the last check.
+    pub(super) checked_at: u64,
+    /// The warning was given (once per run).
+    pub(super) warned: bool,
+}
+
+/// The energy balance found drifted at a communication point.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Drift {
+    /// Time [s].
+    time: f64,
+    /// `energy.total + energy.dissipated − energy.input_work` then [J].
+    balance: f64,
+    /// Its reference [J].
+    reference: f64,
+    /// The drift relative to `scale`.
+    drift: f64,
+    /// The scale [J].
+    scale: f64,
+}
+
+impl std::fmt::Display for Drift {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "at t = {}: the energy balance energy.total + energy.dissipated - energy.input_work = {:.6e} J has drifted from {:.6e} J \
+             by {:.2} % of the energy scale {:.6e} J (more than {} %): the integration is inaccurate; tighten \
+             solver.rtol and solver.atol or, with rk4, shorten solver.max_step (warned once per run)",
+            self.time,
+            self.balance,
+            self.reference,
+            100.0 * self.drift,
+            self.scale,
+            100.0 * ENERGY_DRIFT_WARNING
+        )
+    }
+}
+
+/// Relative drift of the energy balance beyond which the run warns (once).
+pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
+
+/// Relative drift of the energy balance beyond which the step is refused as a blow-up (no
+/// physical run gets near it: the balance counts dissipation and the inputs' work).
+pub const ENERGY_BLOW_UP: f64 = 10.0;
+
+/// The energy balance is checked at a communication point when at least this many RHS
+/// evaluations were made since the last check (a check costs one evaluation: at most 1 %
+/// more work).
+const ENERGY_CHECK_EVALS: u64 = 100;
+
+impl Simulation {
+    /// The energy balance `energy.total + energy.dissipated − energy.input_work` at the
+    /// current state.
+    pub(super) fn balance(&mut self) -> Result<f64, SimError> {
+        Ok(self.energies()?.balance())
+    }
+
+    /// Starts watching the energy balance from the current state (the first step after
+    /// initialisation or a restore).
+    pub(super) fn start_watch(&mut self) -> Result<(), SimError> {
+        let e = self.energies()?;
+        self.watch = EnergyWatch {
+            started: true,
+            reference: e.balance(),
+            scale: e.total().abs().max(e.kinetic),
+            checked_at: self.counters().rhs_evals,
+            warned: false,
+        };
+        Ok(())
+    }
+
+    /// At a communication point: when enough work was done since the last check, compares the
+    /// energy balance with its reference and warns, once, when it drifted by more than
+    /// [`ENERGY_DRIFT_WARNING`] of its scale.
+    pub(super) fn watch_energy(&mut self) -> Result<(), SimError> {
+        let evals = self.counters().rhs_evals;
+        // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
+        if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
+            return Ok(());
+        }
+        self.watch.checked_at = evals;
+        let e = self.energies()?;
+        let time = self.time();
+        let w = &mut self.watch;
+        w.scale = w.scale.max(e.kinetic);
+        let balance = e.balance();
+        let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
+        if drift > ENERGY_DRIFT_WARNING && !w.warned {
+            w.warned = true;
+            // kept as numbers: a step allocates nothing; the text is made when it is taken
+            self.drift = Some(Drift {
+                time,
+                balance,
+                reference: w.reference,
+                drift,
+                scale: w.scale,
+            });
+        }
+        if drift > ENERGY_BLOW_UP {
+            let w = &self.watch;
+            let what = format!(
+                "the energy balance drifted by {:.0} times its scale {:.6e} J",
+                drift, w.scale
+            );
+            let c = self.running()?;
+            let message = engine::blow_up(&c.model, time, &what);
+            return Err(SimError::Step { time, message });
+        }
+        Ok(())
+    }
+
+    /// True when the energy balance drifted beyond [`ENERGY_DRIFT_WARNING`] in this run (the
+    /// warning was given, or is waiting in [`Simulation::take_warnings`]).
+    pub fn energy_drifted(&self) -> bool {
+        self.watch.warned
+    }
+
+    /// The warnings of the run since the last call (the energy-balance drift), oldest first.
+    pub fn take_warnings(&mut self) -> Vec<String> {
+        self.drift.take().map(|d| d.to_string()).into_iter().collect()
+    }
+}

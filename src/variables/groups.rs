@@ -1,0 +1,222 @@
+//! The variables of the contact groups: per group pair its law constants, per body its total
+//! contact force and torque, per group pair its outputs.
+
+use super::*;
+
+/// The variables of the contact groups, after every other (so that no value reference of a
+/// scene without groups moves): per group pair its law constants, then per body its total
+/// contact force and torque, then per group pair its active count and largest penetration.
+pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
+    if scene.contact_group.is_empty() {
+        return;
+    }
+    let param = |name: String, start: f64, unit, range: Range, target, tunable: bool, description: &str| Variable {
+        name,
+        vtype: VarType::Real,
+        causality: Causality::Parameter,
+        variability: if tunable {
+            Variability::Tunable
+        } else {
+            Variability::Fixed
+        },
+        start: Some(start),
+        unit,
+        display_unit: None,
+        description: format!("{description} (every contact of the group pair)"),
+        range: Some(range),
+        target,
+        depends_on_inputs: false,
+    };
+    let pos = Range::open_above(0.0, true);
+    let nonneg = Range::open_above(0.0, false);
+    let unit_interval = Range {
+        min: 0.0,
+        min_exclusive: false,
+        max: 1.0,
+        max_exclusive: false,
+    };
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        let t = |key| VarRef::Group(p, key);
+        v.push(Variable {
+            name: format!("{}.law", g.name),
+            vtype: VarType::Enumeration(EnumType::ContactLaw),
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(g.law as i64 as f64),
+            unit: None,
+            display_unit: None,
+            description: "contact force law of every contact of the group pair".into(),
+            range: Some(Range {
+                min: 1.0,
+                min_exclusive: false,
+                max: 6.0,
+                max_exclusive: false,
+            }),
+            target: t(GroupKey::Law),
+            depends_on_inputs: false,
+        });
+        v.push(integer_twin(
+            format!("{}.law_index", g.name),
+            EnumType::ContactLaw,
+            &format!("{}.law", g.name),
+            t(GroupKey::Law),
+        ));
+        let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
+        let [mu, mu_s, v_st, sigma, v_s] = template.friction_or_default();
+        for (key, value, unit, range, target, tunable, description) in [
+            (
+                "restitution",
+                g.restitution,
+                None,
+                unit_interval,
+                GroupKey::Restitution,
+                true,
+                "coefficient of restitution e",
+            ),
+            (
+                "exponent",
+                g.exponent.unwrap_or(1.5),
+                None,
+                Range::open_above(1.0, false),
+                GroupKey::Exponent,
+                true,
+                "force exponent n of the penetration",
+            ),
+            (
+                "damping",
+                g.damping.unwrap_or(0.0),
+                Some("N.s/m"),
+                nonneg,
+                GroupKey::Damping,
+                true,
+                "Kelvin-Voigt damping coefficient",
+            ),
+            (
+                "min_impact_velocity",
+                template.min_impact_velocity_or_default(),
+                Some("m/s"),
+                nonneg,
+                GroupKey::MinImpactVelocity,
+                false,
+                "floor on the remembered impact velocity",
+            ),
+            (
+                "friction",
+                mu,
+                None,
+                nonneg,
+                GroupKey::Friction,
+                true,
+                "Coulomb (sliding) friction coefficient mu",
+            ),
+            (
+                "static_friction",
+                mu_s,
+                None,
+                nonneg,
+                GroupKey::StaticFriction,
+                true,
+                "static friction coefficient mu_s",
+            ),
+            (
+                "stribeck_velocity",
+                v_st,
+                Some("m/s"),
+                pos,
+                GroupKey::StribeckVelocity,
+                true,
+                "Stribeck velocity",
+            ),
+            (
+                "viscous_friction",
+                sigma,
+                Some("s/m"),
+                nonneg,
+                GroupKey::ViscousFriction,
+                true,
+                "viscous friction coefficient",
+            ),
+            (
+                "stiction_velocity",
+                v_s,
+                Some("m/s"),
+                pos,
+                GroupKey::StictionVelocity,
+                true,
+                "regularisation velocity of the continuous friction law",
+            ),
+        ] {
+            v.push(param(
+                format!("{}.{key}", g.name),
+                value,
+                unit,
+                range,
+                t(target),
+                tunable,
+                description,
+            ));
+        }
+        if let Some(d) = g.max_penetration {
+            v.push(param(
+                format!("{}.max_penetration", g.name),
+                d,
+                Some("m"),
+                pos,
+                t(GroupKey::MaxPenetration),
+                false,
+                "largest admissible penetration",
+            ));
+        }
+        if let Some(k) = g.stiffness {
+            v.push(param(
+                format!("{}.stiffness", g.name),
+                k,
+                None,
+                pos,
+                t(GroupKey::Stiffness),
+                true,
+                "contact stiffness K of F = K delta^n [N/m^n]",
+            ));
+        }
+    }
+    let depends_on_inputs = !scene.input.is_empty();
+    let out = |name, vtype, unit, target, description| {
+        output_variable(name, vtype, unit, target, description, depends_on_inputs)
+    };
+    for (b, body) in scene.body.iter().enumerate() {
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(out(
+                format!("{}.contact_force[{}]", body.name, k + 1),
+                VarType::Real,
+                Some("N"),
+                VarRef::BodyContactForce(b, k),
+                format!("total contact force on the body (normal and friction, every contact), world {axis}"),
+            ));
+        }
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(out(
+                format!("{}.contact_torque[{}]", body.name, k + 1),
+                VarType::Real,
+                Some("N.m"),
+                VarRef::BodyContactTorque(b, k),
+                format!("total contact torque on the body about its centre of mass, world {axis}"),
+            ));
+        }
+    }
+    for (p, g) in scene.contact_group.iter().enumerate() {
+        v.push(out(
+            format!("{}.active_contacts", g.name),
+            VarType::Integer,
+            None,
+            VarRef::GroupActive(p),
+            "number of contacts of the group pair in contact".into(),
+        ));
+        v.push(out(
+            format!("{}.largest_penetration", g.name),
+            VarType::Real,
+            Some("m"),
+            VarRef::GroupLargestPenetration(p),
+            "largest penetration among the contacts of the group pair (0: none in contact)".into(),
+        ));
+    }
+}

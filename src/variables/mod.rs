@@ -1,0 +1,657 @@
+//! The table of a scene's user-visible variables: parameters, inputs and outputs, with the
+//! names fixed by `README.md` ("FMU variables"). It is a pure function of the scene; the FMI layer and the
+//! exporter read it, the simulation answers get/set by index into it.
+//!
+//! The value reference of a variable is its index in [`VariableTable::vars`].
+
+use crate::compile::Parameters;
+use crate::scene::{ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, RTOL_RANGE};
+
+/// Value type as seen by FMI.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VarType {
+    /// fmi2Real
+    Real,
+    /// fmi2Integer
+    Integer,
+    /// fmi2Boolean
+    Boolean,
+    /// An Integer-valued enumeration with a declared type.
+    Enumeration(EnumType),
+}
+
+/// The enumeration types declared in TypeDefinitions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnumType {
+    /// `<contact>.law`
+    ContactLaw,
+    /// `solver.method`
+    SolverMethod,
+}
+
+impl EnumType {
+    /// The declared type's name.
+    pub fn type_name(self) -> &'static str {
+        match self {
+            EnumType::ContactLaw => "ContactLaw",
+            EnumType::SolverMethod => "SolverMethod",
+        }
+    }
+    /// (name, value) items.
+    pub fn items(self) -> Vec<(&'static str, i64)> {
+        match self {
+            EnumType::ContactLaw => Law::ALL.iter().map(|l| (l.name(), *l as i64)).collect(),
+            EnumType::SolverMethod => Method::ALL.iter().map(|m| (m.name(), *m as i64)).collect(),
+        }
+    }
+}
+
+/// FMI causality.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    /// Set by the user before initialisation.
+    Parameter,
+    /// Computed from parameters at initialisation.
+    CalculatedParameter,
+    /// Set by the host at any communication point.
+    Input,
+    /// Computed.
+    Output,
+}
+
+/// FMI variability.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    /// Fixed after initialisation.
+    Fixed,
+    /// A parameter that may also change between communication points after initialisation
+    /// (it takes effect from the next step on).
+    Tunable,
+    /// Changes at events only (Integer/Boolean outputs).
+    Discrete,
+    /// Real inputs and outputs.
+    Continuous,
+}
+
+impl Causality {
+    /// The name FMI gives it (`causality` attribute).
+    pub fn name(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+        }
+    }
+}
+
+impl Variability {
+    /// The name FMI gives it (`variability` attribute).
+    pub fn name(self) -> &'static str {
+        match self {
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
+/// What a variable refers to inside the simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VarRef {
+    /// material index: E
+    YoungsModulus(usize),
+    /// material index: ν
+    PoissonRatio(usize),
+    /// body index (scene order): mass
+    Mass(usize),
+    /// body index, component 0..3: principal moment of inertia
+    Inertia(usize, usize),
+    /// contact index: law (`<contact>.law` and its Integer twin `<contact>.law_index`)
+    ContactLaw(usize),
+    /// contact index: e
+    Restitution(usize),
+    /// contact index: exponent n
+    Exponent(usize),
+    /// contact index: Kelvin-Voigt damping
+    Damping(usize),
+    /// contact index: δ_max
+    MaxPenetration(usize),
+    /// contact index: floor of δ̇⁻
+    MinImpactVelocity(usize),
+    /// contact index: K (parameter or calculated)
+    Stiffness(usize),
+    /// contact index: Coulomb friction coefficient μ
+    Friction(usize),
+    /// contact index: static friction coefficient μ_s
+    StaticFriction(usize),
+    /// contact index: Stribeck velocity
+    StribeckVelocity(usize),
+    /// contact index: viscous friction coefficient σ
+    ViscousFriction(usize),
+    /// contact index: regularisation (stiction) velocity
+    StictionVelocity(usize),
+    /// contact index: radius of the sphere
+    SphereRadius(usize),
+    /// contact index: radius of the other sphere (sphere_sphere)
+    OtherRadius(usize),
+    /// contact index, component 0..2: side length of the rectangle (sphere_plane)
+    PlaneSize(usize, usize),
+    /// contact index: radius of the cylinder (sphere_cylinder)
+    CylinderRadius(usize),
+    /// contact index: length of the cylinder patch (sphere_cylinder)
+    CylinderLength(usize),
+    /// solver.method (and its Integer twin solver.method_index)
+    SolverMethod,
+    /// solver.rtol
+    SolverRtol,
+    /// solver.atol
+    SolverAtol,
+    /// solver.max_step
+    SolverMaxStep,
+    /// solver.max_steps
+    SolverMaxSteps,
+    /// spring-damper index: stiffness
+    SpringStiffness(usize),
+    /// spring-damper index: damping
+    SpringDamping(usize),
+    /// spring-damper index: free length
+    SpringFreeLength(usize),
+    /// body index, component: initial centre-of-mass velocity
+    InitialVelocity(usize, usize),
+    /// body index, component: initial angular velocity
+    InitialAngularVelocity(usize, usize),
+    /// input index
+    Input(usize),
+    /// body index, component 0..3 of the centre-of-mass position
+    BodyPosition(usize, usize),
+    /// body index, component of the centre-of-mass velocity
+    BodyVelocity(usize, usize),
+    /// body index, component of the world angular velocity
+    BodyAngularVelocity(usize, usize),
+    /// body index, quaternion component 0..4 (w, x, y, z)
+    BodyQuaternion(usize, usize),
+    /// joint index (scene order): coordinate
+    JointQ(usize),
+    /// joint index: rate
+    JointQd(usize),
+    /// contact index: penetration δ
+    ContactDelta(usize),
+    /// contact index: δ̇
+    ContactDeltaDot(usize),
+    /// contact index: normal force
+    ContactForce(usize),
+    /// contact index: Boolean in contact
+    ContactActive(usize),
+    /// contact index: Integer impacts resolved
+    ContactImpacts(usize),
+    /// contact index, component: friction force on the sphere, world frame
+    ContactFrictionForce(usize, usize),
+    /// contact index: slip speed
+    ContactSlipVelocity(usize),
+    /// energy.kinetic
+    EnergyKinetic,
+    /// energy.potential
+    EnergyPotential,
+    /// energy.contact
+    EnergyContact,
+    /// energy.total
+    EnergyTotal,
+    /// energy.dissipated
+    EnergyDissipated,
+    /// energy.input_work
+    EnergyInputWork,
+    /// drive index (a `joint_motion` input, in scene order): `<input>.force`
+    DriveForce(usize),
+    /// solver.steps
+    SolverSteps,
+    /// solver.rhs_evals
+    SolverRhsEvals,
+    /// contact group pair index, key: a law constant of every contact of the pair
+    Group(usize, GroupKey),
+    /// body index, component: total contact force on the body, world frame
+    BodyContactForce(usize, usize),
+    /// body index, component: total contact torque about the centre of mass, world frame
+    BodyContactTorque(usize, usize),
+    /// contact group pair index: Integer number of contacts in contact
+    GroupActive(usize),
+    /// contact group pair index: largest penetration of its contacts
+    GroupLargestPenetration(usize),
+}
+
+/// The law constants of a contact group pair that are FMU parameters (`<pair>.<key>`, the
+/// keys of a `[[contact]]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GroupKey {
+    /// `law` (and its Integer twin `law_index`)
+    Law,
+    /// `restitution`
+    Restitution,
+    /// `exponent`
+    Exponent,
+    /// `damping`
+    Damping,
+    /// `max_penetration` (when the scene gives it)
+    MaxPenetration,
+    /// `min_impact_velocity`
+    MinImpactVelocity,
+    /// `stiffness` (when the scene gives it)
+    Stiffness,
+    /// `friction`
+    Friction,
+    /// `static_friction`
+    StaticFriction,
+    /// `stribeck_velocity`
+    StribeckVelocity,
+    /// `viscous_friction`
+    ViscousFriction,
+    /// `stiction_velocity`
+    StictionVelocity,
+}
+
+/// One variable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variable {
+    /// Structured name, e.g. `arm.r[1]`.
+    pub name: String,
+    /// Value type.
+    pub vtype: VarType,
+    /// Causality.
+    pub causality: Causality,
+    /// Variability.
+    pub variability: Variability,
+    /// Start value (parameters, inputs; also the initial value of outputs, `None` when the
+    /// output is calculated at initialisation).
+    pub start: Option<f64>,
+    /// Unit name (declared in UnitDefinitions), if any.
+    pub unit: Option<&'static str>,
+    /// The display unit a host shows by default (one of the unit's display units in
+    /// [`UNITS`]), if any.
+    pub display_unit: Option<&'static str>,
+    /// Description.
+    pub description: String,
+    /// Allowed range of a parameter, checked when initialisation ends (inclusive unless the
+    /// exclusive flags say otherwise).
+    pub range: Option<Range>,
+    /// What it refers to.
+    pub target: VarRef,
+    /// Outputs: true when the value at a communication point is an algebraic function of the
+    /// inputs set at that point (listed in `ModelStructure/Outputs` as `dependencies`); false
+    /// when it follows from the state alone (`dependencies=""`). See docs/fmi.md.
+    pub depends_on_inputs: bool,
+}
+
+/// A parameter's allowed range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Range {
+    /// Lower bound.
+    pub min: f64,
+    /// Lower bound excluded.
+    pub min_exclusive: bool,
+    /// Upper bound.
+    pub max: f64,
+    /// Upper bound excluded.
+    pub max_exclusive: bool,
+}
+
+impl Range {
+    fn open_above(min: f64, min_exclusive: bool) -> Range {
+        Range {
+            min,
+            min_exclusive,
+            max: f64::INFINITY,
+            max_exclusive: false,
+        }
+    }
+    fn closed([min, max]: [f64; 2]) -> Range {
+        Range {
+            min,
+            min_exclusive: false,
+            max,
+            max_exclusive: false,
+        }
+    }
+    /// True when `v` lies in the range.
+    pub fn contains(&self, v: f64) -> bool {
+        let lo = if self.min_exclusive {
+            v > self.min
+        } else {
+            v >= self.min
+        };
+        let hi = if self.max_exclusive {
+            v < self.max
+        } else {
+            v <= self.max
+        };
+        v.is_finite() && lo && hi
+    }
+    /// Human-readable form, e.g. `(0, inf)`, `[0, 0.5)` or `[1e-14, 0.01]`.
+    pub fn describe(&self) -> String {
+        // the shorter of plain and scientific notation
+        let num = |x: f64| {
+            let (plain, sci) = (format!("{x}"), format!("{x:e}"));
+            if sci.len() < plain.len() {
+                sci
+            } else {
+                plain
+            }
+        };
+        format!(
+            "{}{}, {}{}",
+            if self.min_exclusive { "(" } else { "[" },
+            num(self.min),
+            num(self.max),
+            if self.max_exclusive { ")" } else { "]" }
+        )
+    }
+}
+
+/// A unit of UnitDefinitions (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    /// Name, as the variables' `unit` attribute gives it.
+    pub name: &'static str,
+    /// Exponents of the base units kg, m, s and rad, in that order.
+    pub base: [i32; 4],
+    /// Display units: (name, factor), value in the display unit = factor × value in the unit.
+    pub display: &'static [(&'static str, f64)],
+}
+
+/// The units the variables use, for UnitDefinitions, with the display units engineers read
+/// (mm, km/h, deg, rpm).
+pub const UNITS: &[Unit] = &[
+    Unit {
+        name: "m",
+        base: [0, 1, 0, 0],
+        display: &[("mm", 1e3)],
+    },
+    Unit {
+        name: "m/s",
+        base: [0, 1, -1, 0],
+        display: &[("km/h", 3.6), ("mm/s", 1e3)],
+    },
+    Unit {
+        name: "rad",
+        base: [0, 0, 0, 1],
+        display: &[("deg", 180.0 / std::f64::consts::PI)],
+    },
+    Unit {
+        name: "rad/s",
+        base: [0, 0, -1, 1],
+        display: &[
+            ("deg/s", 180.0 / std::f64::consts::PI),
+            ("rpm", 30.0 / std::f64::consts::PI),
+        ],
+    },
+    Unit {
+        name: "m/s2",
+        base: [0, 1, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "rad/s2",
+        base: [0, 0, -2, 1],
+        display: &[("deg/s2", 180.0 / std::f64::consts::PI)],
+    },
+    Unit {
+        name: "kg",
+        base: [1, 0, 0, 0],
+        display: &[],
+    },
+    Unit {
+        name: "N",
+        base: [1, 1, -2, 0],
+        display: &[("kN", 1e-3)],
+    },
+    Unit {
+        name: "N.m",
+        base: [1, 2, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "J",
+        base: [1, 2, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "Pa",
+        base: [1, -1, -2, 0],
+        display: &[("GPa", 1e-9)],
+    },
+    Unit {
+        name: "s",
+        base: [0, 0, 1, 0],
+        display: &[("ms", 1e3)],
+    },
+    Unit {
+        name: "N.s/m",
+        base: [1, 0, -1, 0],
+        display: &[],
+    },
+    Unit {
+        name: "N/m",
+        base: [1, 0, -2, 0],
+        display: &[],
+    },
+    Unit {
+        name: "s/m",
+        base: [0, -1, 1, 0],
+        display: &[],
+    },
+    Unit {
+        name: "kg.m2",
+        base: [1, 2, 0, 0],
+        display: &[],
+    },
+];
+
+mod groups;
+mod motion;
+mod table;
+
+/// The unit of a 1-DOF joint's coordinate and of its rate: rad and rad/s (revolute), m and
+/// m/s (prismatic).
+fn joint_units(kind: JointType) -> (&'static str, &'static str) {
+    if kind == JointType::Revolute {
+        ("rad", "rad/s")
+    } else {
+        ("m", "m/s")
+    }
+}
+
+/// `x`, `y`, `z` for the components 0, 1, 2 of a world vector.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// All variables of a scene, in value-reference order.
+#[derive(Debug, Clone)]
+pub struct VariableTable {
+    /// The variables; index = value reference.
+    pub vars: Vec<Variable>,
+    /// The value references of the inputs that move a driven joint when set (`<drive>.q`,
+    /// `<drive>.qd`): every output read from the state depends on them at once.
+    pub moving_inputs: Vec<usize>,
+}
+
+impl VariableTable {
+    /// Builds the table from a (validated) scene.
+    pub fn from_scene(scene: &Scene) -> VariableTable {
+        let mut v = Vec::new();
+        table::parameters(scene, &mut v);
+        table::solver(scene, &mut v);
+        table::inputs(scene, &mut v);
+        table::outputs(scene, &mut v);
+        table::later_parameters(scene, &mut v);
+        groups::group_variables(scene, &mut v);
+        motion::motion_outputs(scene, &mut v);
+        let moving_inputs = v
+            .iter()
+            .enumerate()
+            .filter(|(_, var)| {
+                var.causality == Causality::Input
+                    && scene.input.iter().any(|i| {
+                        i.kind == InputType::JointMotion
+                            && (var.name == format!("{}.q", i.name) || var.name == format!("{}.qd", i.name))
+                    })
+            })
+            .map(|(vr, _)| vr)
+            .collect();
+        VariableTable { vars: v, moving_inputs }
+    }
+
+    /// Index of a variable by name.
+    pub fn index_of(&self, name: &str) -> Option<usize> {
+        self.vars.iter().position(|v| v.name == name)
+    }
+}
+
+/// An Integer parameter that sets the enumeration `enum_name` (of type `e`): 0 leaves it, an
+/// item's value overrides it.
+/// An output: continuous when Real, discrete otherwise.
+fn output_variable(
+    name: String,
+    vtype: VarType,
+    unit: Option<&'static str>,
+    target: VarRef,
+    description: String,
+    depends_on_inputs: bool,
+) -> Variable {
+    Variable {
+        name,
+        vtype,
+        causality: Causality::Output,
+        variability: if vtype == VarType::Real {
+            Variability::Continuous
+        } else {
+            Variability::Discrete
+        },
+        start: None,
+        unit,
+        display_unit: None,
+        description,
+        range: None,
+        target,
+        depends_on_inputs,
+    }
+}
+
+fn integer_twin(name: String, e: EnumType, enum_name: &str, target: VarRef) -> Variable {
+    let items: Vec<String> = e.items().iter().map(|(n, i)| format!("{i} = {n}")).collect();
+    Variable {
+        name,
+        vtype: VarType::Integer,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(0.0),
+        unit: None,
+        display_unit: None,
+        description: format!(
+            "{enum_name} as a plain Integer, for hosts without Enumeration variables: 0 = as {enum_name}; {} (overrides {enum_name})",
+            items.join(", ")
+        ),
+        range: Some(Range {
+            min: 0.0,
+            min_exclusive: false,
+            max: e.items().len() as f64,
+            max_exclusive: false,
+        }),
+        target,
+        depends_on_inputs: false,
+    }
+}
+
+/// Writes the value `x` of the parameter (or input start value) `target` into `params`;
+/// every other variable is not a parameter and changes nothing. A law or method value that
+/// is no item (0, the start of the Integer twins `<contact>.law_index` and
+/// `solver.method_index`) changes nothing either.
+pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
+    match target {
+        VarRef::YoungsModulus(i) => params.materials[i].youngs_modulus = x,
+        VarRef::PoissonRatio(i) => params.materials[i].poisson_ratio = x,
+        VarRef::Mass(i) => params.masses[i] = x,
+        VarRef::Inertia(b, k) => params.inertias[b][k] = x,
+        VarRef::ContactLaw(i) => {
+            if let Some(l) = Law::from_index(x as i64) {
+                params.contacts[i].law = l;
+            }
+        }
+        VarRef::Restitution(i) => params.contacts[i].restitution = x,
+        VarRef::Exponent(i) => params.contacts[i].exponent = x,
+        VarRef::Damping(i) => params.contacts[i].damping = x,
+        VarRef::MaxPenetration(i) => params.contacts[i].max_penetration = x,
+        VarRef::MinImpactVelocity(i) => params.contacts[i].min_impact_velocity = x,
+        VarRef::Stiffness(i) => params.contacts[i].stiffness = Some(x),
+        VarRef::Friction(i) => params.contacts[i].friction.mu = x,
+        VarRef::StaticFriction(i) => params.contacts[i].friction.mu_static = x,
+        VarRef::StribeckVelocity(i) => params.contacts[i].friction.stribeck_velocity = x,
+        VarRef::ViscousFriction(i) => params.contacts[i].friction.viscous = x,
+        VarRef::StictionVelocity(i) => params.contacts[i].friction.stiction_velocity = x,
+        VarRef::SphereRadius(i) => params.contacts[i].radius = x,
+        VarRef::OtherRadius(i) => params.contacts[i].other_radius = x,
+        VarRef::PlaneSize(i, k) => params.contacts[i].size[k] = x,
+        VarRef::CylinderRadius(i) => params.contacts[i].cylinder_radius = x,
+        VarRef::CylinderLength(i) => params.contacts[i].length = x,
+        VarRef::SolverMethod => {
+            if let Some(m) = Method::from_index(x as i64) {
+                params.solver.method = m;
+            }
+        }
+        VarRef::SolverRtol => params.solver.rtol = x,
+        VarRef::SolverAtol => params.solver.atol = x,
+        VarRef::SolverMaxStep => params.solver.max_step = x,
+        VarRef::SolverMaxSteps => params.solver.max_steps = x as u64,
+        VarRef::SpringStiffness(i) => params.springs[i].stiffness = x,
+        VarRef::SpringDamping(i) => params.springs[i].damping = x,
+        VarRef::SpringFreeLength(i) => params.springs[i].free_length = x,
+        VarRef::InitialVelocity(b, k) => params.velocities[b][k] = x,
+        VarRef::InitialAngularVelocity(b, k) => params.angular_velocities[b][k] = x,
+        VarRef::Input(i) => params.input_start[i] = x,
+        VarRef::Group(p, key) => {
+            let g = &mut params.groups[p];
+            match key {
+                GroupKey::Law => {
+                    if let Some(l) = Law::from_index(x as i64) {
+                        g.law = l;
+                    }
+                }
+                GroupKey::Restitution => g.restitution = x,
+                GroupKey::Exponent => g.exponent = x,
+                GroupKey::Damping => g.damping = x,
+                GroupKey::MaxPenetration => g.max_penetration = Some(x),
+                GroupKey::MinImpactVelocity => g.min_impact_velocity = x,
+                GroupKey::Stiffness => g.stiffness = Some(x),
+                GroupKey::Friction => g.friction.mu = x,
+                GroupKey::StaticFriction => g.friction.mu_static = x,
+                GroupKey::StribeckVelocity => g.friction.stribeck_velocity = x,
+                GroupKey::ViscousFriction => g.friction.viscous = x,
+                GroupKey::StictionVelocity => g.friction.stiction_velocity = x,
+            }
+        }
+        VarRef::BodyPosition(..)
+        | VarRef::BodyVelocity(..)
+        | VarRef::BodyAngularVelocity(..)
+        | VarRef::BodyQuaternion(..)
+        | VarRef::JointQ(_)
+        | VarRef::JointQd(_)
+        | VarRef::ContactDelta(_)
+        | VarRef::ContactDeltaDot(_)
+        | VarRef::ContactForce(_)
+        | VarRef::ContactActive(_)
+        | VarRef::ContactImpacts(_)
+        | VarRef::ContactFrictionForce(..)
+        | VarRef::ContactSlipVelocity(_)
+        | VarRef::EnergyKinetic
+        | VarRef::EnergyPotential
+        | VarRef::EnergyContact
+        | VarRef::EnergyTotal
+        | VarRef::EnergyDissipated
+        | VarRef::EnergyInputWork
+        | VarRef::DriveForce(_)
+        | VarRef::SolverSteps
+        | VarRef::SolverRhsEvals
+        | VarRef::BodyContactForce(..)
+        | VarRef::BodyContactTorque(..)
+        | VarRef::GroupActive(_)
+        | VarRef::GroupLargestPenetration(_) => {}
+    }
+}

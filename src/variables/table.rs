@@ -1,0 +1,660 @@
+//! The variable table in value-reference order, section by section: the parameters of the
+//! materials, bodies and contacts; the solver's; the inputs; the outputs; then the parameters
+//! added later, after every variable that was there before them (so that no value reference
+//! of an earlier scene moves).
+
+use super::*;
+
+/// A Real parameter, fixed after initialisation, checked against `range`.
+fn param(
+    name: String,
+    start: f64,
+    unit: Option<&'static str>,
+    range: Range,
+    target: VarRef,
+    description: &str,
+) -> Variable {
+    Variable {
+        name,
+        vtype: VarType::Real,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(start),
+        unit,
+        display_unit: None,
+        description: description.to_string(),
+        range: Some(range),
+        target,
+        depends_on_inputs: false,
+    }
+}
+
+/// `var`, tunable: contact-law constants may change between communication points (docs/fmi.md).
+fn tunable(mut var: Variable) -> Variable {
+    var.variability = Variability::Tunable;
+    var
+}
+
+/// An output that no input changes at once.
+fn out(name: String, vtype: VarType, unit: Option<&'static str>, target: VarRef, description: String) -> Variable {
+    output_variable(name, vtype, unit, target, description, false)
+}
+
+/// `var` with the display unit a host shows by default.
+fn with_display(mut var: Variable, display: &'static str) -> Variable {
+    var.display_unit = Some(display);
+    var
+}
+
+/// Materials, bodies (mass), contacts (law and its constants).
+pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
+    let pos = Range::open_above(0.0, true);
+    let nonneg = Range::open_above(0.0, false);
+    for (i, m) in scene.material.iter().enumerate() {
+        v.push(param(
+            format!("{}.youngs_modulus", m.name),
+            m.youngs_modulus,
+            Some("Pa"),
+            pos,
+            VarRef::YoungsModulus(i),
+            "Young's modulus",
+        ));
+        v.push(param(
+            format!("{}.poisson_ratio", m.name),
+            m.poisson_ratio,
+            None,
+            Range {
+                min: 0.0,
+                min_exclusive: false,
+                max: 0.5,
+                max_exclusive: true,
+            },
+            VarRef::PoissonRatio(i),
+            "Poisson's ratio",
+        ));
+    }
+    for (i, b) in scene.body.iter().enumerate() {
+        v.push(param(
+            format!("{}.mass", b.name),
+            b.mass,
+            Some("kg"),
+            pos,
+            VarRef::Mass(i),
+            "mass of the body",
+        ));
+    }
+    for (i, c) in scene.contact.iter().enumerate() {
+        v.push(Variable {
+            name: format!("{}.law", c.name),
+            vtype: VarType::Enumeration(EnumType::ContactLaw),
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(c.law as i64 as f64),
+            unit: None,
+            display_unit: None,
+            description: "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
+            range: Some(Range {
+                min: 1.0,
+                min_exclusive: false,
+                max: 6.0,
+                max_exclusive: false,
+            }),
+            target: VarRef::ContactLaw(i),
+            depends_on_inputs: false,
+        });
+        v.push(tunable(param(
+            format!("{}.restitution", c.name),
+            c.restitution,
+            None,
+            Range {
+                min: 0.0,
+                min_exclusive: false,
+                max: 1.0,
+                max_exclusive: false,
+            },
+            VarRef::Restitution(i),
+            "coefficient of restitution e",
+        )));
+        v.push(tunable(param(
+            format!("{}.exponent", c.name),
+            c.exponent.unwrap_or(1.5),
+            None,
+            Range::open_above(1.0, false),
+            VarRef::Exponent(i),
+            "force exponent n of the penetration (1.5 for Hertz)",
+        )));
+        v.push(tunable(param(
+            format!("{}.damping", c.name),
+            c.damping.unwrap_or(0.0),
+            Some("N.s/m"),
+            nonneg,
+            VarRef::Damping(i),
+            "Kelvin-Voigt damping coefficient",
+        )));
+        v.push(param(
+            format!("{}.max_penetration", c.name),
+            c.max_penetration_or_default(),
+            Some("m"),
+            pos,
+            VarRef::MaxPenetration(i),
+            if c.max_penetration.is_some() {
+                "largest admissible penetration (a deeper one fails the step)"
+            } else {
+                "largest admissible penetration (a deeper one fails the step); by default the sphere radius, \
+                 following its parameter while this one keeps its start value"
+            },
+        ));
+        v.push(param(
+            format!("{}.min_impact_velocity", c.name),
+            c.min_impact_velocity_or_default(),
+            Some("m/s"),
+            nonneg,
+            VarRef::MinImpactVelocity(i),
+            "floor on the remembered impact velocity; impulse law: approach speeds below it rest instead of bouncing",
+        ));
+        let k = Variable {
+            name: format!("{}.stiffness", c.name),
+            vtype: VarType::Real,
+            causality: if c.stiffness.is_some() {
+                Causality::Parameter
+            } else {
+                Causality::CalculatedParameter
+            },
+            variability: if c.stiffness.is_some() {
+                Variability::Tunable
+            } else {
+                Variability::Fixed
+            },
+            start: c.stiffness,
+            // N/m^n: the unit depends on the exponent n, so it is stated in the description.
+            unit: None,
+            display_unit: None,
+            description: if c.stiffness.is_some() {
+                "contact stiffness K of F = K delta^n [N/m^n]".into()
+            } else {
+                "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)".into()
+            },
+            range: c.stiffness.map(|_| pos),
+            target: VarRef::Stiffness(i),
+            depends_on_inputs: false,
+        };
+        v.push(k);
+    }
+}
+
+/// The solver's settings.
+pub(super) fn solver(scene: &Scene, v: &mut Vec<Variable>) {
+    let s = &scene.solver;
+    v.push(Variable {
+        name: "solver.method".into(),
+        vtype: VarType::Enumeration(EnumType::SolverMethod),
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(s.method as i64 as f64),
+        unit: None,
+        display_unit: None,
+        description: "integration method: auto (dopri5 while not stiff, radau5 while stiff; the default), dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
+        range: Some(Range {
+            min: 1.0,
+            min_exclusive: false,
+            max: Method::ALL.len() as f64,
+            max_exclusive: false,
+        }),
+        target: VarRef::SolverMethod,
+        depends_on_inputs: false,
+    });
+    v.push(param(
+        "solver.rtol".into(),
+        s.rtol,
+        None,
+        Range::closed(RTOL_RANGE),
+        VarRef::SolverRtol,
+        "relative tolerance of the adaptive methods",
+    ));
+    v.push(param(
+        "solver.atol".into(),
+        s.atol,
+        None,
+        Range::closed(ATOL_RANGE),
+        VarRef::SolverAtol,
+        "absolute tolerance of the adaptive methods (in the unit of each state component)",
+    ));
+    v.push(param(
+        "solver.max_step".into(),
+        s.max_step,
+        Some("s"),
+        Range::open_above(0.0, false),
+        VarRef::SolverMaxStep,
+        "largest internal step; 0: none (rk4: its fixed step; 0: 1 ms)",
+    ));
+}
+
+/// The inputs (a `joint_motion` gives three).
+pub(super) fn inputs(scene: &Scene, v: &mut Vec<Variable>) {
+    let (first_value, _) = scene.input_values();
+    let input_start = scene.input_start_values();
+    for (i, inp) in scene.input.iter().enumerate() {
+        if inp.kind == InputType::JointMotion {
+            v.extend(super::motion::motion_inputs(scene, inp, first_value[i], &input_start));
+            continue;
+        }
+        let direction = inp.direction.unwrap_or([1.0, 0.0, 0.0]);
+        let direction = format!("({}, {}, {})", direction[0], direction[1], direction[2]);
+        let on = |key: &Option<String>| key.clone().unwrap_or_default();
+        let (unit, description) = match inp.kind {
+            InputType::Force => (
+                "N",
+                format!(
+                    "force on body '{}' at its centre of mass along the world direction {direction}",
+                    on(&inp.body)
+                ),
+            ),
+            InputType::Torque => (
+                "N.m",
+                format!(
+                    "torque on body '{}' about the world direction {direction}",
+                    on(&inp.body)
+                ),
+            ),
+            InputType::JointMotion => unreachable!("handled above"),
+            InputType::JointForce => {
+                let names: Vec<String> = inp.joint.iter().chain(inp.joints.iter().flatten()).cloned().collect();
+                let revolute = scene
+                    .joint
+                    .iter()
+                    .any(|j| names.first() == Some(&j.name) && j.kind == JointType::Revolute);
+                let (what, unit, along) = if revolute {
+                    ("torque", "N.m", "about its axis")
+                } else {
+                    ("force", "N", "along its axis")
+                };
+                match names.as_slice() {
+                    [joint] => (unit, format!("{what} on joint '{joint}' {along}")),
+                    _ => (
+                        unit,
+                        format!("{what} on each of the joints '{}', {along}", names.join("', '")),
+                    ),
+                }
+            }
+        };
+        v.push(Variable {
+            name: inp.name.clone(),
+            vtype: VarType::Real,
+            causality: Causality::Input,
+            variability: Variability::Continuous,
+            start: Some(inp.start),
+            unit: Some(unit),
+            display_unit: None,
+            description: format!("{description}; held constant over a communication step"),
+            range: None,
+            target: VarRef::Input(first_value[i]),
+            depends_on_inputs: false,
+        });
+    }
+}
+
+/// The outputs: bodies, joints, contacts, energies, counters.
+pub(super) fn outputs(scene: &Scene, v: &mut Vec<Variable>) {
+    for (i, b) in scene.body.iter().enumerate() {
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(with_display(
+                out(
+                    format!("{}.r[{}]", b.name, k + 1),
+                    VarType::Real,
+                    Some("m"),
+                    VarRef::BodyPosition(i, k),
+                    format!("centre-of-mass position, world {axis}"),
+                ),
+                "mm",
+            ));
+        }
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(with_display(
+                out(
+                    format!("{}.v[{}]", b.name, k + 1),
+                    VarType::Real,
+                    Some("m/s"),
+                    VarRef::BodyVelocity(i, k),
+                    format!("centre-of-mass velocity, world {axis}"),
+                ),
+                "km/h",
+            ));
+        }
+        for (k, axis) in AXES.iter().enumerate() {
+            v.push(out(
+                format!("{}.w[{}]", b.name, k + 1),
+                VarType::Real,
+                Some("rad/s"),
+                VarRef::BodyAngularVelocity(i, k),
+                format!("angular velocity, world {axis}"),
+            ));
+        }
+        for (k, part) in ["w (scalar part)", "x", "y", "z"].iter().enumerate() {
+            v.push(out(
+                format!("{}.q[{}]", b.name, k + 1),
+                VarType::Real,
+                None,
+                VarRef::BodyQuaternion(i, k),
+                format!("orientation quaternion (principal axes to world), {part}"),
+            ));
+        }
+    }
+    for (i, j) in scene.joint.iter().enumerate() {
+        if matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
+            let (unit, rate_unit) = joint_units(j.kind);
+            let (what, display) = if j.kind == JointType::Revolute {
+                ("angle about", "deg")
+            } else {
+                ("displacement along", "mm")
+            };
+            v.push(with_display(
+                out(
+                    format!("{}.q", j.name),
+                    VarType::Real,
+                    Some(unit),
+                    VarRef::JointQ(i),
+                    format!("joint {what} its axis, 0 at the initial configuration"),
+                ),
+                display,
+            ));
+            v.push(out(
+                format!("{}.qd", j.name),
+                VarType::Real,
+                Some(rate_unit),
+                VarRef::JointQd(i),
+                format!("joint rate, time derivative of {}.q", j.name),
+            ));
+        }
+    }
+    let has_inputs = !scene.input.is_empty();
+    for (i, c) in scene.contact.iter().enumerate() {
+        v.push(with_display(
+            out(
+                format!("{}.delta", c.name),
+                VarType::Real,
+                Some("m"),
+                VarRef::ContactDelta(i),
+                "penetration (0 when apart)".into(),
+            ),
+            "mm",
+        ));
+        v.push(out(
+            format!("{}.delta_dot", c.name),
+            VarType::Real,
+            Some("m/s"),
+            VarRef::ContactDeltaDot(i),
+            "penetration rate (0 when apart)".into(),
+        ));
+        // A resting impulse-law contact carries a constraint force, solved together with
+        // the applied forces, which include the inputs (docs/fmi.md, "Dependencies").
+        let mut force = out(
+            format!("{}.force", c.name),
+            VarType::Real,
+            Some("N"),
+            VarRef::ContactForce(i),
+            "normal force magnitude".into(),
+        );
+        force.depends_on_inputs = has_inputs;
+        v.push(force);
+        v.push(out(
+            format!("{}.active", c.name),
+            VarType::Boolean,
+            None,
+            VarRef::ContactActive(i),
+            "in contact (continuous laws: penetrating; impulse law: resting)".into(),
+        ));
+        v.push(out(
+            format!("{}.impacts", c.name),
+            VarType::Integer,
+            None,
+            VarRef::ContactImpacts(i),
+            "impacts resolved so far (impulse law)".into(),
+        ));
+    }
+    for (name, t, d) in [
+        ("energy.kinetic", VarRef::EnergyKinetic, "kinetic energy"),
+        (
+            "energy.potential",
+            VarRef::EnergyPotential,
+            "potential energy of gravity and springs",
+        ),
+        (
+            "energy.contact",
+            VarRef::EnergyContact,
+            "elastic energy stored in the contacts",
+        ),
+        (
+            "energy.total",
+            VarRef::EnergyTotal,
+            "kinetic + potential + contact energy",
+        ),
+        (
+            "energy.dissipated",
+            VarRef::EnergyDissipated,
+            "work removed by dampers, contact damping, friction and impacts since initialisation",
+        ),
+    ] {
+        v.push(out(name.into(), VarType::Real, Some("J"), t, d.into()));
+    }
+    v.push(out(
+        "solver.steps".into(),
+        VarType::Integer,
+        None,
+        VarRef::SolverSteps,
+        "accepted integration steps since initialisation".into(),
+    ));
+    v.push(out(
+        "solver.rhs_evals".into(),
+        VarType::Integer,
+        None,
+        VarRef::SolverRhsEvals,
+        "right-hand-side evaluations since initialisation".into(),
+    ));
+}
+
+/// The parameters added later: the step budget, spring-dampers and initial velocities, the
+/// Integer twins of the enumerations, friction, inertias and contact geometry.
+pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
+    let pos = Range::open_above(0.0, true);
+    let nonneg = Range::open_above(0.0, false);
+    let s = &scene.solver;
+    let has_inputs = !scene.input.is_empty();
+    // added after the variables above: their value references do not move
+    v.push(Variable {
+        name: "solver.max_steps".into(),
+        vtype: VarType::Integer,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(s.max_steps as f64),
+        unit: None,
+        display_unit: None,
+        description: "most integrator steps one communication step may take; beyond them fmi2DoStep returns \
+                      fmi2Discard at the last time reached (fmi2LastSuccessfulTime)"
+            .into(),
+        range: Some(Range {
+            min: 1.0,
+            min_exclusive: false,
+            max: i32::MAX as f64,
+            max_exclusive: false,
+        }),
+        target: VarRef::SolverMaxSteps,
+        depends_on_inputs: false,
+    });
+    // Spring-dampers and initial velocities as parameters (after the variables above, so
+    // their value references do not move).
+    let finite = Range::closed([-1e12, 1e12]);
+    for (i, sd) in scene.spring_damper.iter().enumerate() {
+        let free = sd.free_length_or_default();
+        v.push(param(
+            format!("{}.stiffness", sd.name),
+            sd.stiffness,
+            Some("N/m"),
+            nonneg,
+            VarRef::SpringStiffness(i),
+            "spring stiffness",
+        ));
+        v.push(param(
+            format!("{}.damping", sd.name),
+            sd.damping,
+            Some("N.s/m"),
+            nonneg,
+            VarRef::SpringDamping(i),
+            "damping coefficient",
+        ));
+        v.push(param(
+            format!("{}.free_length", sd.name),
+            free,
+            Some("m"),
+            nonneg,
+            VarRef::SpringFreeLength(i),
+            "length at which the spring force is zero (default: the initial distance)",
+        ));
+    }
+    for (i, b) in scene.body.iter().enumerate() {
+        for k in 0..3 {
+            v.push(param(
+                format!("{}.velocity[{}]", b.name, k + 1),
+                b.velocity[k],
+                Some("m/s"),
+                finite,
+                VarRef::InitialVelocity(i, k),
+                "initial centre-of-mass velocity, world frame (projected onto the joints)",
+            ));
+        }
+        for k in 0..3 {
+            v.push(param(
+                format!("{}.angular_velocity[{}]", b.name, k + 1),
+                b.angular_velocity[k],
+                Some("rad/s"),
+                finite,
+                VarRef::InitialAngularVelocity(i, k),
+                "initial angular velocity, world frame (projected onto the joints)",
+            ));
+        }
+    }
+    // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
+    // come after the variables above, so those value references do not move. 0 (the start) leaves the
+    // enumeration in charge; any other value overrides it (`set_parameter` writes the
+    // table in order, and 0 is no item).
+    for (i, c) in scene.contact.iter().enumerate() {
+        v.push(integer_twin(
+            format!("{}.law_index", c.name),
+            EnumType::ContactLaw,
+            &format!("{}.law", c.name),
+            VarRef::ContactLaw(i),
+        ));
+    }
+    v.push(integer_twin(
+        "solver.method_index".into(),
+        EnumType::SolverMethod,
+        "solver.method",
+        VarRef::SolverMethod,
+    ));
+    // Friction (after everything above, so that no value reference moves).
+    for (i, c) in scene.contact.iter().enumerate() {
+        let [mu, mu_s, v_st, sigma, v_s] = c.friction_or_default();
+        for (key, value, unit, range, target, description) in [
+            ("friction", mu, None, nonneg, VarRef::Friction(i), "Coulomb (sliding) friction coefficient mu (0: frictionless)"),
+            ("static_friction", mu_s, None, nonneg, VarRef::StaticFriction(i), "static friction coefficient mu_s, the peak of the Stribeck curve at zero slip"),
+            ("stribeck_velocity", v_st, Some("m/s"), pos, VarRef::StribeckVelocity(i), "Stribeck velocity: the coefficient falls from mu_s to mu as exp(-(slip/v_st)^2)"),
+            ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::ViscousFriction(i), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
+            ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::StictionVelocity(i), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
+        ] {
+            v.push(tunable(param(format!("{}.{key}", c.name), value, unit, range, target, description)));
+        }
+    }
+    for (i, c) in scene.contact.iter().enumerate() {
+        for (k, axis) in AXES.iter().enumerate() {
+            // A resting impulse-law contact's friction follows its normal force, a
+            // constraint force solved with the applied forces (inputs included), like
+            // `<contact>.force`.
+            let mut f = out(
+                format!("{}.friction_force[{}]", c.name, k + 1),
+                VarType::Real,
+                Some("N"),
+                VarRef::ContactFrictionForce(i, k),
+                format!("friction force on the sphere, world {axis}"),
+            );
+            f.depends_on_inputs = has_inputs;
+            v.push(f);
+        }
+        v.push(out(
+            format!("{}.slip_velocity", c.name),
+            VarType::Real,
+            Some("m/s"),
+            VarRef::ContactSlipVelocity(i),
+            "slip speed: tangential velocity of the sphere's contact point relative to the other body's".into(),
+        ));
+    }
+    // Inertias and contact geometry, after the twins (no value reference above moves).
+    // Lengths have the range of the scene's lengths: > 0 and at most MAX_MAGNITUDE.
+    let length = Range {
+        min: 0.0,
+        min_exclusive: true,
+        max: MAX_MAGNITUDE,
+        max_exclusive: false,
+    };
+    for (i, b) in scene.body.iter().enumerate() {
+        for k in 0..3 {
+            v.push(param(
+                format!("{}.inertia[{}]", b.name, k + 1),
+                b.inertia[k],
+                Some("kg.m2"),
+                pos,
+                VarRef::Inertia(i, k),
+                "principal moment of inertia about the centre of mass (the three satisfy the triangle inequality)",
+            ));
+        }
+    }
+    for (i, c) in scene.contact.iter().enumerate() {
+        v.push(param(
+            format!("{}.radius", c.name),
+            c.radius,
+            Some("m"),
+            length,
+            VarRef::SphereRadius(i),
+            "radius of the sphere (the Hertz stiffness derived from the materials follows it)",
+        ));
+        match c.kind {
+            ContactType::SphereSphere => v.push(param(
+                format!("{}.other_radius", c.name),
+                c.other_radius.unwrap_or(1.0),
+                Some("m"),
+                length,
+                VarRef::OtherRadius(i),
+                "radius of the other sphere",
+            )),
+            ContactType::SpherePlane => {
+                let size = c.size.unwrap_or([1.0, 1.0]);
+                for (k, axis) in ["u_axis", "normal x u_axis"].iter().enumerate() {
+                    v.push(param(
+                        format!("{}.size[{}]", c.name, k + 1),
+                        size[k],
+                        Some("m"),
+                        length,
+                        VarRef::PlaneSize(i, k),
+                        &format!("side length of the rectangle along {axis}"),
+                    ));
+                }
+            }
+            ContactType::SphereCylinder => {
+                v.push(param(
+                    format!("{}.cylinder_radius", c.name),
+                    c.cylinder_radius.unwrap_or(1.0),
+                    Some("m"),
+                    length,
+                    VarRef::CylinderRadius(i),
+                    "radius of the cylinder (inside contact: larger than the sphere's)",
+                ));
+                v.push(param(
+                    format!("{}.length", c.name),
+                    c.length.unwrap_or(1.0),
+                    Some("m"),
+                    length,
+                    VarRef::CylinderLength(i),
+                    "length of the cylinder patch along its axis",
+                ));
+            }
+        }
+    }
+}
