@@ -15,18 +15,19 @@ SOURCE = ROOT / "cosim" / "driver" / "speed_controller.py"
 DEFAULT_OUTPUT = ROOT / "target" / "fmu" / "speed_controller.fmu"
 
 
-def build(output=DEFAULT_OUTPUT):
-    """Builds the driver FMU at `output` (a path ending in .fmu); returns its path."""
+def build(output=DEFAULT_OUTPUT, source=SOURCE):
+    """Builds the FMU of the pythonfmu script `source` (default: the driver) at `output` (a path
+    ending in .fmu); returns its path."""
     from pythonfmu import FmuBuilder
 
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     if output.exists():
         output.unlink()  # pythonfmu takes an existing .fmu path for a file name only if it is a file
-    built = FmuBuilder.build_FMU(SOURCE, dest=output)
+    built = FmuBuilder.build_FMU(source, dest=output)
     # The builder imports the script as a module; forget it so that a later build (another
     # output path in the same process) imports the current source again.
-    sys.modules.pop(SOURCE.stem, None)
+    sys.modules.pop(Path(source).stem, None)
     return Path(built)
 
 

@@ -8,10 +8,12 @@ The master, at each communication point t_k = t_0 + k h (k counted in whole nano
 libcosim counts time, so that both masters hand the FMUs the same times):
 
 1. applies the scenario's events due at t_k (an `override` sets an input until the next one);
-2. reads every connected output of every FMU, then sets every connected input (Jacobi: all
-   FMUs see the outputs of t_k, whatever their order);
-3. records the requested variables;
-4. steps every FMU from t_k to t_k+1 (`fmi2DoStep` with the step t_k+1 - t_k, which is h up
+2. reads every connected output of every FMU;
+3. records the requested variables, as they are before the inputs of t_k are set (the values at
+   the end of the step that reached t_k: what libcosim's observer records, so that the two masters
+   give the same numbers also for inputs and for outputs that depend directly on inputs);
+4. sets every connected input (Jacobi: all FMUs see the outputs of t_k, whatever their order);
+5. steps every FMU from t_k to t_k+1 (`fmi2DoStep` with the step t_k+1 - t_k, which is h up
    to rounding: the FMUs land on t_k+1 exactly and time does not drift; libcosim does the same).
 
 Jacobi rather than Gauss-Seidel because it is what libcosim's fixed-step algorithm does, so
@@ -19,8 +21,9 @@ the two engines run the same algorithm and their results can be compared number 
 Before running, the master looks for algebraic loops (`cosim.ssp.algebraic_loops`: cycles of
 connections and of the outputs' declared direct dependencies on inputs) and refuses a system
 that has one. Initialisation: enter initialisation mode, set the parameter values of the SSD's first
-parameter set, exit initialisation mode; the first exchange happens at t_0, before the first
-step. The step h is `--step`, else the SSD's `osp:FixedStepAlgorithm baseStepSize`.
+parameter set, propagate the connected values (as libcosim does: one pass of reading every
+connected output and setting the inputs per FMU of the system), exit initialisation mode; the
+first exchange of the loop happens at t_0, before the first step. The step h is `--step`, else the SSD's `osp:FixedStepAlgorithm baseStepSize`.
 """
 
 import argparse
@@ -56,11 +59,47 @@ class Slave:
             instanceName=name,
         )
 
+    def set_parameter(self, name, value):
+        """Sets a Real or an Integer variable (a parameter of the SSD's parameter set)."""
+        v = self.vars[name]
+        if v.type == "Integer":
+            self.fmu.setInteger([v.valueReference], [value])
+        elif v.type == "Real":
+            self.fmu.setReal([v.valueReference], [value])
+        else:
+            raise ValueError(f"{self.name}.{name}: only Real and Integer parameters are set, not {v.type}")
+
     def vr(self, name):
         v = self.vars[name]
         if v.type != "Real":
             raise ValueError(f"{self.name}.{name}: only Real variables are exchanged, not {v.type}")
         return v.valueReference
+
+
+def batches(pairs):
+    """Groups (slave, value reference) pairs by slave, keeping their order: a list of (slave,
+    value references, positions in the original sequence)."""
+    groups = {}
+    for position, (slave, vr) in enumerate(pairs):
+        group = groups.setdefault(slave.name, (slave, [], []))
+        group[1].append(vr)
+        group[2].append(position)
+    return list(groups.values())
+
+
+def read(groups):
+    """The Real values of `batches(...)`, in the original order."""
+    values = [None] * sum(len(positions) for _, _, positions in groups)
+    for slave, vrs, positions in groups:
+        for position, value in zip(positions, slave.fmu.getReal(vrs)):
+            values[position] = value
+    return values
+
+
+def write(groups, values):
+    """Sets the Real inputs of `batches(...)` to `values` (in the original order)."""
+    for slave, vrs, positions in groups:
+        slave.fmu.setReal(vrs, [values[position] for position in positions])
 
 
 def free(fmu, md):
@@ -110,6 +149,11 @@ def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), w
             element, variable = name.split(".", 1)
             recorded.append((slaves[element], slaves[element].vr(variable), name))
         recorded = list({column: (s, vr, column) for s, vr, column in recorded}.values())
+        # One fmi2GetReal per FMU for the connected outputs, one for the recorded variables, one
+        # fmi2SetReal per FMU for the connected inputs (a system may have dozens of connections).
+        reads = batches((src, vr) for src, vr, _, _ in links)
+        writes = batches((dst, dst_vr) for _, _, dst, dst_vr in links)
+        samples = batches((s, vr) for s, vr, _ in recorded)
 
         try:
             for name, s in slaves.items():
@@ -117,7 +161,11 @@ def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), w
                 s.fmu.setupExperiment(startTime=system.start_time, stopTime=t_stop)
                 s.fmu.enterInitializationMode()
                 for p, value in system.components[name].parameters.items():
-                    s.fmu.setReal([s.vr(p)], [value])
+                    s.set_parameter(p, value)
+            # As libcosim: in initialisation mode, as many passes of value propagation (connected
+            # outputs to inputs) as there are FMUs.
+            for _ in slaves:
+                write(writes, read(reads))
             for s in slaves.values():
                 s.fmu.exitInitializationMode()
 
@@ -127,12 +175,11 @@ def run(system_path, scenario=SCENARIO, step=None, stop_time=None, outputs=(), w
                 t = system.start_time + (k * h_ns) / 1e9
                 for e in due.get(k, []):
                     slaves[e.model].fmu.setReal([slaves[e.model].vr(e.variable)], [e.value])
-                values = [src.fmu.getReal([vr])[0] for src, vr, _, _ in links]
-                for (_, _, dst, dst_vr), value in zip(links, values):
-                    dst.fmu.setReal([dst_vr], [value])
+                values = read(reads)
                 result["time"].append(t)
-                for s, vr, column in recorded:
-                    result[column].append(s.fmu.getReal([vr])[0])
+                for (_, _, column), value in zip(recorded, read(samples)):
+                    result[column].append(value)
+                write(writes, values)
                 if k < n:
                     # Step to exactly t_k+1 (h_k = t_k+1 - t_k is h up to rounding), as libcosim does.
                     h_k = (system.start_time + ((k + 1) * h_ns) / 1e9) - t

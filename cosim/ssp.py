@@ -31,7 +31,7 @@ class Component:
     name: str
     fmu: Path  # absolute path of the FMU file
     connectors: dict = field(default_factory=dict)  # name -> kind
-    parameters: dict = field(default_factory=dict)  # name -> float (the first parameter set)
+    parameters: dict = field(default_factory=dict)  # name -> float or int (the first parameter set)
 
 
 @dataclass
@@ -73,10 +73,13 @@ def read_system(path, workdir=None):
         sets = element.findall("ssd:ParameterBindings/ssd:ParameterBinding/ssd:ParameterValues/ssv:ParameterSet", NS)
         if sets:  # as libcosim: the first set gives the initial values
             for parameter in sets[0].iterfind("ssv:Parameters/ssv:Parameter", NS):
-                real = parameter.find("ssv:Real", NS)
-                if real is None:
-                    raise ValueError(f"{path}: parameter {parameter.get('name')}: only Real values are supported")
-                c.parameters[parameter.get("name")] = float(real.get("value"))
+                real, integer = parameter.find("ssv:Real", NS), parameter.find("ssv:Integer", NS)
+                if real is not None:
+                    c.parameters[parameter.get("name")] = float(real.get("value"))
+                elif integer is not None:
+                    c.parameters[parameter.get("name")] = int(integer.get("value"))
+                else:
+                    raise ValueError(f"{path}: parameter {parameter.get('name')}: only Real and Integer values are supported")
         components[c.name] = c
     connections = []
     for connection in system.iterfind("ssd:Connections/ssd:Connection", NS):

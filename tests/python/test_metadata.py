@@ -186,6 +186,11 @@ def test_every_output_declares_its_dependencies(fmus, name):
     root = description_root(fmus[name])
     variables = root.findall("ModelVariables/ScalarVariable")
     inputs = {str(i + 1) for i, v in enumerate(variables) if v.get("causality") == "input"}
+    # a motion input's coordinate and rate (`<drive>.q`, `<drive>.qd`) move its joint at once
+    drives = {v.get("name")[: -len(".qdd")] for v in variables if v.get("causality") == "input"
+              and v.get("name").endswith(".qdd")}
+    motion = {str(i + 1) for i, v in enumerate(variables) if v.get("causality") == "input"
+              and v.get("name").rsplit(".", 1)[0] in drives and v.get("name").endswith((".q", ".qd"))}
     unknowns = root.findall("ModelStructure/Outputs/Unknown")
     assert len(unknowns) == sum(v.get("causality") == "output" for v in variables)
     for u in unknowns:
@@ -194,10 +199,13 @@ def test_every_output_declares_its_dependencies(fmus, name):
         assert deps is not None, f"{variable.get('name')}: no dependencies attribute"
         if variable.get("name").endswith(".force") or ".friction_force[" in variable.get("name"):
             # A resting impulse-law contact's force (and the friction that follows it) is
-            # solved with the applied forces.
+            # solved with the applied forces; so is a drive's force.
             assert set(deps.split()) == inputs, variable.get("name")
+        elif variable.get("name").startswith("solver."):
+            assert deps == "", variable.get("name")  # the counters
         else:
-            assert deps == "", variable.get("name")
+            # read from the state: the drives' coordinates and rates (none without drives)
+            assert set(deps.split()) == motion, variable.get("name")
 
 
 def test_setting_an_input_changes_no_output_declared_independent(fmus, unzipped, make_instance):
@@ -289,12 +297,14 @@ def test_every_enumeration_has_an_integer_twin(fmus, name):
         assert (twin.type, twin.causality, twin.variability, twin.start) == ("Integer", "parameter", "fixed", "0")
         assert (twin.min, twin.max) == ("0", str(len(e.declaredType.items)))
         # The twins come after every variable that was there before them, so no value reference
-        # moved; only the friction, inertia and contact-geometry variables and the input work,
-        # added later, follow, and the contact groups' variables (a group pair's law twin among
-        # them).
+        # moved; only the friction, inertia and contact-geometry variables, the input work and
+        # the motion inputs' drive forces, added later, follow, and the contact groups' variables
+        # (a group pair's law twin among them).
         groups = {v.name.rsplit(".", 1)[0] for v in md.modelVariables if v.name.endswith(".active_contacts")}
+        drives = {f"{v.name[: -len('.qdd')]}.force" for v in md.modelVariables
+                  if v.causality == "input" and v.name.endswith(".qdd")}
         later = [v.valueReference for v in md.modelVariables
-                 if added_after_the_twins(v.name) or added_with_groups(v.name, groups)]
+                 if added_after_the_twins(v.name) or added_with_groups(v.name, groups) or v.name in drives]
         earlier = [v.valueReference for v in md.modelVariables if not v.name.endswith("_index") and v.valueReference not in later]
         if e.name.rsplit(".", 1)[0] in groups:
             assert max(earlier) < twin.valueReference
