@@ -346,13 +346,14 @@ fn warnings_of(sim: &mut Simulation) -> Vec<String> {
 /// Prints the summary table: per run the simulated time, accepted steps, RHS evaluations, CPU
 /// time, the real-time factor (simulated over CPU time) and the energy-balance error.
 pub fn print_table(rows: &[RunSummary]) {
+    let w = rows.iter().map(|r| r.name.chars().count()).max().unwrap_or(0).max(16);
     println!(
-        "{:<16} {:>10} {:>9} {:>10} {:>12} {:>10} {:>12}",
+        "{:<w$} {:>10} {:>9} {:>10} {:>12} {:>10} {:>12}",
         "scene", "sim time", "steps", "rhs evals", "cpu time", "RT factor", "energy err"
     );
     for r in rows {
         println!(
-            "{:<16} {:>9.3}s {:>9} {:>10} {:>12} {:>10} {:>12.3e}",
+            "{:<w$} {:>9.3}s {:>9} {:>10} {:>12} {:>10} {:>12.3e}",
             r.name,
             r.simulated,
             r.steps,
