@@ -120,9 +120,9 @@ pub(super) fn used_enums(table: &VariableTable) -> Vec<EnumType> {
 
 /// The 1-based indices of the variables an output depends on directly, for the
 /// `dependencies` attribute of `ModelStructure/Outputs`: every input for an output that
-/// depends on the inputs; for the other outputs read from the state, the inputs that move a
-/// driven joint (none in a scene without `joint_motion` inputs); none for counters (see
-/// docs/fmi.md, "Dependencies").
+/// depends on the inputs; for the other outputs, the inputs that move a driven joint and the
+/// bodies joined to it, where the output reads them ([`VariableTable::moved_by`]; none in a
+/// scene without `joint_motion` inputs) (see docs/fmi.md, "Dependencies").
 pub fn output_dependencies(table: &VariableTable, output: usize) -> Vec<usize> {
     let var = &table.vars[output];
     if var.depends_on_inputs {
@@ -134,11 +134,9 @@ pub fn output_dependencies(table: &VariableTable, output: usize) -> Vec<usize> {
             .map(|(i, _)| i + 1)
             .collect();
     }
-    // a host that sets a driven joint's coordinate or rate moves the state at once
-    if crate::outputs::needs(var.target) != crate::outputs::Needs::Nothing {
-        return table.moving_inputs.iter().map(|&i| i + 1).collect();
-    }
-    Vec::new()
+    // a host that sets a driven joint's coordinate or rate moves it at once, and what is
+    // joined to it
+    table.moved_by[output].iter().map(|&i| i + 1).collect()
 }
 
 /// The 1-based indices of `ModelStructure`: (every output, the initial unknowns).

@@ -468,9 +468,10 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 pub struct VariableTable {
     /// The variables; index = value reference.
     pub vars: Vec<Variable>,
-    /// The value references of the inputs that move a driven joint when set (`<drive>.q`,
-    /// `<drive>.qd`): every output read from the state depends on them at once.
-    pub moving_inputs: Vec<usize>,
+    /// By value reference, for the outputs read from the state: the inputs that move them at
+    /// once when set (`<drive>.q`, `<drive>.qd` of the driven joints whose bodies they
+    /// depend on; empty in a scene without `joint_motion` inputs).
+    pub moved_by: Vec<Vec<usize>>,
 }
 
 impl VariableTable {
@@ -484,19 +485,8 @@ impl VariableTable {
         table::later_parameters(scene, &mut v);
         groups::group_variables(scene, &mut v);
         motion::motion_outputs(scene, &mut v);
-        let moving_inputs = v
-            .iter()
-            .enumerate()
-            .filter(|(_, var)| {
-                var.causality == Causality::Input
-                    && scene.input.iter().any(|i| {
-                        i.kind == InputType::JointMotion
-                            && (var.name == format!("{}.q", i.name) || var.name == format!("{}.qd", i.name))
-                    })
-            })
-            .map(|(vr, _)| vr)
-            .collect();
-        VariableTable { vars: v, moving_inputs }
+        let moved_by = motion::moved_by(scene, &v);
+        VariableTable { vars: v, moved_by }
     }
 
     /// Index of a variable by name.

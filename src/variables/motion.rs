@@ -89,3 +89,107 @@ pub(super) fn motion_outputs(scene: &Scene, v: &mut Vec<Variable>) {
         ));
     }
 }
+
+/// For every variable of `vars` (value-reference order), the inputs that move it at once: a
+/// driven joint's `<drive>.q` and `<drive>.qd` move the bodies joined to its child by joints
+/// (tree and loop joints: the rest of a loop follows), so they move those bodies' outputs,
+/// their joints' coordinates and the contacts on them, the energies (but the dissipated
+/// energy) and the contact groups' totals.
+pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new(); vars.len()];
+    let drives: Vec<&crate::scene::InputSpec> = scene
+        .input
+        .iter()
+        .filter(|i| i.kind == InputType::JointMotion)
+        .collect();
+    if drives.is_empty() {
+        return out;
+    }
+    let body: std::collections::HashMap<&str, usize> = scene
+        .body
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (b.name.as_str(), i))
+        .collect();
+    // the bodies joined by joints (the ground joins nothing)
+    let mut parent: Vec<usize> = (0..scene.body.len()).collect();
+    fn root(p: &mut [usize], mut a: usize) -> usize {
+        while p[a] != a {
+            p[a] = p[p[a]];
+            a = p[a];
+        }
+        a
+    }
+    for j in &scene.joint {
+        if let (Some(&a), Some(&b)) = (body.get(j.parent.as_str()), body.get(j.child.as_str())) {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let component = |name: &str, p: &mut Vec<usize>| body.get(name).map(|&b| root(p, b));
+    // per drive: its component and the value references of its q and qd
+    let mut moving = Vec::new();
+    for d in &drives {
+        let child = scene
+            .joint
+            .iter()
+            .find(|j| Some(j.name.as_str()) == d.joint.as_deref())
+            .map(|j| j.child.as_str())
+            .unwrap_or_default();
+        let refs: Vec<usize> = vars
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| {
+                v.causality == Causality::Input
+                    && (v.name == format!("{}.q", d.name) || v.name == format!("{}.qd", d.name))
+            })
+            .map(|(vr, _)| vr)
+            .collect();
+        moving.push((component(child, &mut parent), refs));
+    }
+    let all: Vec<usize> = moving.iter().flat_map(|(_, r)| r.iter().copied()).collect();
+    let of_bodies = |bodies: &[Option<usize>], p: &mut Vec<usize>| -> Vec<usize> {
+        let comps: Vec<usize> = bodies.iter().flatten().map(|&b| root(p, b)).collect();
+        moving
+            .iter()
+            .filter(|(c, _)| c.is_some_and(|c| comps.contains(&c)))
+            .flat_map(|(_, r)| r.iter().copied())
+            .collect()
+    };
+    let scene_body = |name: &str| body.get(name).copied();
+    for (vr, var) in vars.iter().enumerate() {
+        if var.causality != Causality::Output {
+            continue;
+        }
+        out[vr] = match var.target {
+            VarRef::BodyPosition(b, _)
+            | VarRef::BodyVelocity(b, _)
+            | VarRef::BodyAngularVelocity(b, _)
+            | VarRef::BodyQuaternion(b, _)
+            | VarRef::BodyContactForce(b, _)
+            | VarRef::BodyContactTorque(b, _) => of_bodies(&[Some(b)], &mut parent),
+            VarRef::JointQ(j) | VarRef::JointQd(j) => {
+                let child = scene.joint.get(j).and_then(|j| scene_body(&j.child));
+                of_bodies(&[child], &mut parent)
+            }
+            VarRef::ContactDelta(i)
+            | VarRef::ContactDeltaDot(i)
+            | VarRef::ContactForce(i)
+            | VarRef::ContactActive(i)
+            | VarRef::ContactFrictionForce(i, _)
+            | VarRef::ContactSlipVelocity(i) => {
+                let c = &scene.contact[i];
+                of_bodies(&[scene_body(&c.sphere_body), scene_body(&c.body)], &mut parent)
+            }
+            VarRef::EnergyKinetic
+            | VarRef::EnergyPotential
+            | VarRef::EnergyContact
+            | VarRef::EnergyTotal
+            | VarRef::EnergyInputWork
+            | VarRef::GroupActive(_)
+            | VarRef::GroupLargestPenetration(_) => all.clone(),
+            _ => Vec::new(),
+        };
+    }
+    out
+}

@@ -179,9 +179,13 @@ def test_motion_inputs_are_declared_and_the_outputs_depend_on_them(shaker):
     force = by_name["shake.force"]
     assert force.causality == "output" and force.unit == "N"
     deps = {u.variable.name: {d.name for d in (u.dependencies or [])} for u in md.outputs}
-    # the drive force depends on every input; the state outputs on the inputs that move the joint
+    # the drive force depends on every input; the outputs of what the drive moves at once (the
+    # table and the energies) on its coordinate and rate; the mass, joined by a spring only, on
+    # none
     assert deps["shake.force"] == {"shake.q", "shake.qd", "shake.qdd"}
-    assert deps["mass.r[3]"] == {"shake.q", "shake.qd"}
+    assert deps["table.r[3]"] == {"shake.q", "shake.qd"}
+    assert deps["energy.total"] == {"shake.q", "shake.qd"}
+    assert deps["mass.r[3]"] == set()
     assert deps["solver.steps"] == set()
 
 
