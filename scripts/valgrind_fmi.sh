@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One FMI session on the shared library the FMUs ship (tests/fmi_shared_library.rs: dlopen,
+# One FMI session on the shared library the FMUs ship (tests/integration/fmi_shared_library.rs: dlopen,
 # instantiate, initialise, step, get/set/serialize/deserialize states, free, dlclose) under
 # valgrind's memcheck. Fails (exit 1) on any invalid read or write, use of uninitialised
 # memory or definitely lost block. The full log goes to target/valgrind_fmi.log; the summary
@@ -15,9 +15,9 @@ command -v valgrind >/dev/null || { echo "valgrind is not installed" >&2; exit 2
 
 # the shared library (cargo test builds only the rlib), then the test; its executable's path
 cargo build --release --lib
-exe="$(cargo test --release --test fmi_shared_library --no-run 2>&1 \
+exe="$(cargo test --release --test integration fmi_shared_library:: --no-run 2>&1 \
     | sed -n 's/.*Executable tests\/fmi_shared_library.rs (\(.*\))/\1/p' | tail -n 1)"
-[ -x "$exe" ] || { echo "could not build tests/fmi_shared_library.rs" >&2; exit 2; }
+[ -x "$exe" ] || { echo "could not build tests/integration/fmi_shared_library.rs" >&2; exit 2; }
 
 log=target/valgrind_fmi.log
 status=0

@@ -1,7 +1,7 @@
 //! Targets: the rail vehicle's 5 s at ≤ 1e-6 relative error in car-body height within
 //! 50 ms of CPU time; one RHS evaluation of the rail vehicle within 5 µs; the RHS and
 //! event-function costs of every bundled scene. (No allocation inside a step is asserted by
-//! `tests/no_alloc.rs`, which needs its own global allocator.)
+//! `tests/integration/no_alloc.rs`, which needs its own global allocator.)
 
 use super::{bundled_scenes, f, record, scaling::rhs_and_event_cost, time_runs, Csv, RunSpec};
 use crate::compile::compile;

@@ -6,8 +6,7 @@
 //! traction of 1.8e308 on contacts resting under the impulse law) makes the read of that
 //! output an error too.
 
-#[path = "common/fmu_session.rs"]
-mod fmu_session;
+use crate::fmu_session;
 
 use contact_fmu::fmi::exports::*;
 use contact_fmu::fmi::lifecycle::LifeState;

@@ -2,10 +2,10 @@
 //! motions, closed loops with redundant constraint rows, initial-velocity projection, and two
 //! integration methods agreeing. Scenes are built inline with the scene builder.
 //!
-//! Run: `cargo test --release --test multibody -- --nocapture` (the measured numbers are
+//! Run: `cargo test --release --test integration multibody:: -- --nocapture` (the measured numbers are
 //! printed; docs/multibody.md quotes them).
 
-mod common;
+use crate::common;
 
 use common::{compile, energy_balance, get, open, quat_out, run, start, vec_out};
 use contact_fmu::contact;
@@ -1099,8 +1099,7 @@ fn loop_constraint_rows_match_finite_differences() {
 // ---------------------------------------------------------------------------------------------
 // no allocation on the right-hand-side path
 
-#[path = "common/alloc_counter.rs"]
-mod alloc_counter;
+use crate::alloc_counter;
 
 #[test]
 fn right_hand_side_and_projection_do_not_allocate() {

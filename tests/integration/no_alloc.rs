@@ -6,9 +6,8 @@ use contact_fmu::model::ContactEventKind;
 use contact_fmu::scene::{Law, Method};
 use contact_fmu::simulation::Simulation;
 
-#[path = "common/alloc_counter.rs"]
-mod alloc_counter;
-mod common;
+use crate::alloc_counter;
+use crate::common;
 use alloc_counter::count;
 
 /// The bundled scene `scene` with `method`, not initialised. rk4 on the bouncing ball takes a

@@ -3,7 +3,7 @@
 //! outputs; a batch of body kinematics evaluates only the kinematics, with the same values;
 //! and reading changes nothing in the run.
 
-mod common;
+use crate::common;
 
 use common::bundled_scenes;
 use contact_fmu::outputs::{needs, Needs};

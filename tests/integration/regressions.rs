@@ -1,6 +1,6 @@
 //! Regression tests named after the bug they pin.
 
-mod common;
+use crate::common;
 
 use contact_fmu::scene::{BodySpec, JointSpec, Scene};
 use contact_fmu::scene_builder::SceneBuilder;

@@ -2,7 +2,7 @@
 //! along a body's path to the ground it must give the same poses, velocities, bias
 //! accelerations, inertias and motion subspaces bit for bit, and touch no other body.
 
-mod common;
+use crate::common;
 
 use contact_fmu::compile::compile;
 use contact_fmu::kinematics;

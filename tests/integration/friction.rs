@@ -3,10 +3,10 @@
 //! sphere launched sliding without spin (rolling from t = 2 v0/(7 μ g) at 5/7 v0, (1/7) m v0²
 //! dissipated), the energy balance with friction.
 //!
-//! Run: `cargo test --release --test friction -- --nocapture --test-threads 1` (the measured
+//! Run: `cargo test --release --test integration friction:: -- --nocapture --test-threads 1` (the measured
 //! numbers are printed; docs/friction.md quotes them).
 
-mod common;
+use crate::common;
 
 use common::{energy_balance, get, start, vec_out};
 use contact_fmu::model::ContactEventKind;

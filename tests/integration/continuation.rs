@@ -2,7 +2,7 @@
 //! parameter changed, the work does not depend on the communication step, and the results
 //! agree within the tolerance.
 
-mod common;
+use crate::common;
 
 use common::bundled_scenes;
 use contact_fmu::simulation::Simulation;

@@ -1,7 +1,7 @@
 //! The FMI functions called through their C signatures, in-process (the Python tests drive
 //! the exported FMU files through fmpy; these pin the same behaviour without a host).
 
-mod common;
+use crate::common;
 
 use contact_fmu::fmi::exports::*;
 use contact_fmu::fmi::lifecycle::LifeState;

@@ -6,7 +6,7 @@
 //! independent islands with contact groups (the pile of balls: the islands that went further
 //! are taken back to the event of one).
 
-mod common;
+use crate::common;
 
 use common::bundled;
 use contact_fmu::model::ContactEventKind;

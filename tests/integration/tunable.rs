@@ -7,7 +7,7 @@
 //! `impulse` law each bounce follows Newton's restitution with the coefficient in force at
 //! its impact; a saved state carries the values in force when it was saved.
 
-mod common;
+use crate::common;
 
 use common::{bundled, get};
 use contact_fmu::checkpoint::Snapshot;

@@ -4,12 +4,12 @@
 //! variable, a unit, the GUID...). After an intended change, regenerate them with
 //!
 //! ```sh
-//! UPDATE_MODEL_DESCRIPTION=1 cargo test --release --test model_description
+//! UPDATE_MODEL_DESCRIPTION=1 cargo test --release --test integration model_description::
 //! ```
 //!
 //! and review the diff before committing.
 
-mod common;
+use crate::common;
 
 use common::bundled_scenes;
 use contact_fmu::export::model_description_xml;
@@ -94,7 +94,7 @@ fn up_to_date(dir: PathBuf, describe: fn(&Scene, &str) -> String) {
     }
     assert!(
         stale.is_empty(),
-        "{}\n\nIf the change is intended, regenerate with\n  UPDATE_MODEL_DESCRIPTION=1 cargo test --release --test model_description\nand review the diff.",
+        "{}\n\nIf the change is intended, regenerate with\n  UPDATE_MODEL_DESCRIPTION=1 cargo test --release --test integration model_description::\nand review the diff.",
         stale.join("\n")
     );
 }

@@ -10,8 +10,7 @@
 
 #![cfg(target_os = "linux")]
 
-#[path = "common/fmu_session.rs"]
-mod fmu_session;
+use crate::fmu_session;
 
 use contact_fmu::fmi::types::*;
 use fmu_session::{linked_api, run_session, Api, SceneDir};

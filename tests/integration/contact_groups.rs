@@ -3,9 +3,9 @@
 //! that touches or lies within the margin; a group pair's parameters act on every pair; the
 //! outputs per body and per group pair; clear errors for bad group input.
 //!
-//! `cargo test --release --test contact_groups -- --nocapture` prints the measurements.
+//! `cargo test --release --test integration contact_groups:: -- --nocapture` prints the measurements.
 
-mod common;
+use crate::common;
 
 use common::{compile, get, start, ORIGIN};
 use contact_fmu::bench::scenes::{sphere_box_groups, BALL_MASS, BALL_RADIUS};
@@ -68,7 +68,7 @@ fn groups_give_the_trajectory_of_the_explicit_pair_list() {
     // the default margin (the sphere radius): the candidate list is made again as the
     // spheres move; the steps differ (the bound on the step is another), the trajectory
     // agrees to the integration tolerance (with one integrator for the scene, as the
-    // explicit list has: tests/islands.rs compares the islands with it)
+    // explicit list has: tests/integration/islands.rs compares the islands with it)
     groups.broad_phase.margin = None;
     groups.solver.islands = false;
     let (c, sc) = trajectory(groups, 0.2, 0.01);

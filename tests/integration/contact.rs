@@ -4,10 +4,10 @@
 //! impulse laws against (14)-(16), the paper's effective mass (17)-(19) against the exact
 //! solve, resting contact, cylinders, Newton's cradle, and scene validation.
 //!
-//! Run: `cargo test --release --test contact -- --nocapture` (measured numbers are printed;
+//! Run: `cargo test --release --test integration contact:: -- --nocapture` (measured numbers are printed;
 //! docs/contact.md quotes them).
 
-mod common;
+use crate::common;
 
 use common::{compile, energy_balance, get, open, rk4_step, start, vec_out};
 use contact_fmu::contact::{self, geometry, ContactElement, Shape};

@@ -14,7 +14,7 @@
 //! The base-excited oscillator (exact solution, transmissibility, Newton's law for the drive
 //! force) runs through fmpy: `tests/python/test_motion.py`.
 
-mod common;
+use crate::common;
 
 use common::get;
 use contact_fmu::model::ContactEventKind;

@@ -4,7 +4,7 @@
 //! vehicle's forward momentum, the slider-crank's loop closure, and the convergence of the
 //! continuous contact analysis to the piecewise (impulsive) one as the contact stiffens.
 
-mod common;
+use crate::common;
 
 use common::{get, rk4_step};
 use contact_fmu::scene::{Law, Scene};
@@ -16,7 +16,7 @@ fn load(name: &str) -> Simulation {
 
 /// The bundled rail vehicle with its wheel-rail friction switched off (the paper's example is
 /// frictionless; with friction the wheels' spin exchanges momentum with the translation:
-/// tests/friction.rs checks the vehicle with friction, braking through its wheels).
+/// tests/integration/friction.rs checks the vehicle with friction, braking through its wheels).
 fn frictionless_rail_vehicle() -> Simulation {
     let mut sim = load("rail_vehicle");
     let contacts: Vec<String> = sim.scene().contact.iter().map(|c| c.name.clone()).collect();

@@ -1,6 +1,6 @@
 //! A bundled scene laid out as an unzipped FMU's `resources` folder, and one FMI session on
 //! it through the C functions: instantiate, initialise with some Real parameters set, step,
-//! read every Real output. Include with `#[path = "common/fmu_session.rs"] mod fmu_session;`
+//! read every Real output. The test binary's root includes it once (`crate::fmu_session`).
 //! (the thread and valgrind tests share it; the functions are passed in, so that the same
 //! session runs on the linked library or on the shared library loaded at run time).
 

@@ -1,6 +1,6 @@
 //! A counting global allocator for the allocation tests: counts the allocations made by the
-//! current thread while a closure runs. Include it with
-//! `#[path = "common/alloc_counter.rs"] mod alloc_counter;` (it installs the global allocator).
+//! current thread while a closure runs (other threads, and this one outside the closure, are
+//! not counted). The test binary's root includes it once (it installs the global allocator).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

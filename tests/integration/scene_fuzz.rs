@@ -4,9 +4,9 @@
 //! initialised and stepped a little through the facade every host uses. Each is either refused
 //! with a message or runs; none panics.
 //!
-//! `cargo test --release --test scene_fuzz -- --nocapture` prints the tally.
+//! `cargo test --release --test integration scene_fuzz:: -- --nocapture` prints the tally.
 
-mod common;
+use crate::common;
 
 use contact_fmu::simulation::Simulation;
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -3,7 +3,7 @@
 //! the scene's own method and with the implicit methods, whose Jacobian and controller memory
 //! survive the restart at each communication point and so must travel with the state.
 
-mod common;
+use crate::common;
 
 use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::Method;
@@ -95,7 +95,7 @@ fn implicit_methods_carry_their_jacobian_in_the_state_and_continue_bit_identical
         for p in scenes() {
             if p.parent().is_some_and(|d| d.ends_with("pile_of_balls")) {
                 // it runs as islands, whose integrators are saved in their own section
-                // (tests/islands.rs restores them bit for bit); the state's size below is the
+                // (tests/integration/islands.rs restores them bit for bit); the state's size below is the
                 // scene's alone; and the implicit methods on its stiff steel contacts take minutes
                 continue;
             }

@@ -2,7 +2,7 @@
 //! drives the exported FMUs through fmpy): the calling sequence, early return, states of both
 //! versions told apart, handles of the other version refused, a resource path with `%` in it.
 
-mod common;
+use crate::common;
 
 use contact_fmu::fmi::exports as fmi2;
 use contact_fmu::fmi::lifecycle::LifeState;

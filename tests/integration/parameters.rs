@@ -3,7 +3,7 @@
 //! scene keys would (closed forms; bit for bit the scene edited by hand), and a value the
 //! scene would refuse is refused with a message naming the variable.
 
-mod common;
+use crate::common;
 
 use contact_fmu::contact::laws::hertz_stiffness;
 use contact_fmu::scene::{BodySpec, ContactSpec, ContactType, JointSpec, Law, Scene, Side, SpringDamperSpec, GROUND};

@@ -3,8 +3,7 @@
 //! bundled scene, each with its own parameters and with changed ones, so that no two threads
 //! run the same computation.
 
-#[path = "common/fmu_session.rs"]
-mod fmu_session;
+use crate::fmu_session;
 
 use fmu_session::{linked_api, run_session, SceneDir};
 use std::sync::Barrier;

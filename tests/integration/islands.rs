@@ -4,9 +4,9 @@
 //! whole scene with one integrator (`solver.islands = false`); contact groups whose islands
 //! merge and split as the spheres collide; a saved state continues bit for bit.
 //!
-//! `cargo test --release --test islands -- --nocapture` prints the measurements.
+//! `cargo test --release --test integration islands:: -- --nocapture` prints the measurements.
 
-mod common;
+use crate::common;
 
 use common::{energy_balance, get, start};
 use contact_fmu::bench::scenes::sphere_box_groups;
