@@ -14,7 +14,7 @@
 //!    times the cost of one RHS against the run time (what bounds it).
 
 use super::scaling::rhs_and_event_cost;
-use super::work_precision::{closed_form, error_of, position_outputs, Truth};
+use super::work_precision::{error_of, position_outputs, truth_of, truth_outputs, Truth};
 use super::{f, median, record, sweep_point, time_runs, Counters, Csv, RunSpec, SweepArgs};
 use crate::compile::compile;
 use crate::scene::{Method, Scene};
@@ -109,20 +109,9 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         let base = RunSpec::new(scene.clone(), &origin, scene.model.stop_time, scene.model.interval);
         let with = |method: Method, tol: f64| sweep_point(&base, method, tol, ratio);
         let positions = position_outputs(&scene);
-        let mut outputs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
-        let truth = match closed_form(&scene) {
-            Some(t) => t,
-            None => {
-                let r = record(&with(Method::Dopri5, 1e-12), &outputs)?;
-                if let Some(fail) = r.failure {
-                    return Err(format!("{name}: reference run failed: {fail}"));
-                }
-                Truth::Reference(r.traj)
-            }
-        };
-        if let Truth::FinalVelocities(names, _, _) = &truth {
-            outputs.extend(names.iter().map(|s| s.as_str()));
-        }
+        let positions: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+        let (truth, _) = truth_of(&scene, &base).map_err(|e| format!("{name}: {e}"))?;
+        let outputs = truth_outputs(&truth, &positions);
         println!(
             "\n{name}: {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>5}",
             "method", "tol/step", "error", "cpu [s]", "steps", "rhs", "jac"

@@ -111,6 +111,33 @@ pub fn trajectory_error(run: &Trajectory, reference: &Trajectory) -> f64 {
     err
 }
 
+/// The truth the runs of `scene` are measured against: the closed form where there is one
+/// ([`closed_form`]), otherwise a reference run of `base` with dopri5 at [`RTOL_REF`] (atol
+/// in the scene's ratio to rtol); with the kind of error it gives.
+pub(crate) fn truth_of(scene: &Scene, base: &RunSpec) -> Result<(Truth, &'static str), String> {
+    if let Some(t) = closed_form(scene) {
+        return Ok((t, "closed_form_final_velocity"));
+    }
+    let positions = position_outputs(scene);
+    let outputs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+    let ratio = scene.solver.atol / scene.solver.rtol;
+    let r = record(&sweep_point(base, Method::Dopri5, RTOL_REF, ratio), &outputs)?;
+    match r.failure {
+        Some(fail) => Err(format!("reference run (dopri5, rtol {RTOL_REF:e}) failed: {fail}")),
+        None => Ok((Truth::Reference(r.traj), "reference_position")),
+    }
+}
+
+/// The outputs a run must record to be measured against `truth`: the positions, and the
+/// final velocities of a closed form.
+pub(crate) fn truth_outputs<'a>(truth: &'a Truth, positions: &[&'a str]) -> Vec<&'a str> {
+    let mut outputs = positions.to_vec();
+    if let Truth::FinalVelocities(names, _, _) = truth {
+        outputs.extend(names.iter().map(|s| s.as_str()));
+    }
+    outputs
+}
+
 /// The error of a run against the truth (see [`Truth`]).
 pub(crate) fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
     match truth {
@@ -175,23 +202,14 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         let with = |method: Method, tol: f64| sweep_point(&base, method, tol, ratio);
         let positions = position_outputs(&scene);
         let pos_refs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
-        let (truth, kind) = match closed_form(&scene) {
-            Some(t) => (t, "closed_form_final_velocity"),
-            None => {
-                println!("{name}: reference run (dopri5, rtol {RTOL_REF:e}) ...");
-                let r = record(&with(Method::Dopri5, RTOL_REF), &pos_refs)?;
-                if let Some(fail) = r.failure {
-                    println!("{name}: reference run failed: {fail}; skipped");
-                    continue;
-                }
-                println!("{name}: reference took {:.3} s, {} steps", r.seconds, r.counters.steps);
-                (Truth::Reference(r.traj), "reference_position")
+        let (truth, kind) = match truth_of(&scene, &base) {
+            Ok(t) => t,
+            Err(fail) => {
+                println!("{name}: {fail}; skipped");
+                continue;
             }
         };
-        let mut outputs: Vec<&str> = pos_refs.clone();
-        if let Truth::FinalVelocities(names, _, _) = &truth {
-            outputs.extend(names.iter().map(|s| s.as_str()));
-        }
+        let outputs = truth_outputs(&truth, &pos_refs);
         println!(
             "\n{name} ({kind}): {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>6} {:>7}",
             "method", "tol/step", "error", "seconds", "steps", "rhs_evals", "jac", "events"
