@@ -165,13 +165,7 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
         )),
         Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, hmax)),
         Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
-        Method::Auto => Box::new(auto::Auto::new(
-            n,
-            s.rtol,
-            s.atol,
-            hmax,
-            Some(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
-        )),
+        Method::Auto => Box::new(auto::Auto::new(n, s.rtol, s.atol, hmax, Some(radau::Radau5::new))),
     }
 }
 
