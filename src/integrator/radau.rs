@@ -147,7 +147,7 @@ pub struct Radau5 {
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
     /// LU of `I − hγ₀J` (n × n, real; dense or sparse), of `I − h/(α + iβ) J` (n × n,
-    /// complex, interleaved; the dense path only, empty on the sparse one) and of
+    /// complex, real parts then imaginary parts; the dense path only, empty on the sparse one) and of
     /// `I − hA⊗J` (3n × 3n; the sparse path only).
     lu_err: Lu,
     lu_complex: Vec<f64>,
@@ -377,12 +377,13 @@ impl ImplicitMethod for Radau5 {
                 // h/(α + iβ) = h (α − iβ)/(α² + β²)
                 let d = alpha * alpha + beta * beta;
                 let (cr, ci) = (h * alpha / d, -h * beta / d);
-                for (k, j) in dense.iter().enumerate() {
-                    lu_complex[2 * k] = -cr * j;
-                    lu_complex[2 * k + 1] = -ci * j;
+                let (lu_re, lu_im) = lu_complex.split_at_mut(n * n);
+                for ((r, i), j) in lu_re.iter_mut().zip(lu_im.iter_mut()).zip(dense) {
+                    *r = -cr * j;
+                    *i = -ci * j;
                 }
                 for i in 0..n {
-                    lu_complex[2 * (i * n + i)] += 1.0;
+                    lu_re[i * n + i] += 1.0;
                 }
                 err.factor_shifted(jac, h * gamma0()) && linalg::lu_in_place_complex(lu_complex, n, perm_complex)
             }
