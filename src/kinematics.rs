@@ -26,7 +26,8 @@ pub fn frame(d: &Data, b: Option<usize>) -> Frame {
     }
 }
 
-fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
+/// The unit quaternion of four coordinates (w, x, y, z), normalised.
+pub fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
 }
 

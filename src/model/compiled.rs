@@ -208,6 +208,19 @@ pub struct Plan {
     pub general: Part,
     /// Free bodies (Newton-Euler, no mass matrix).
     pub free: Vec<FreeBody>,
+    /// Per body, its index in `free` ([`NOT_FREE`] for a body on the general path).
+    pub free_of: Vec<usize>,
+}
+
+/// [`Plan::free_of`] of a body on the general path.
+pub const NOT_FREE: usize = usize::MAX;
+
+impl Plan {
+    /// The free body `b` is, if it is one.
+    #[inline]
+    pub fn free_body(&self, b: usize) -> Option<&FreeBody> {
+        self.free.get(*self.free_of.get(b)?)
+    }
 }
 
 impl Plan {
@@ -236,11 +249,15 @@ impl Plan {
                 && b.mass > 0.0
                 && b.inertia.iter().all(|&x| x > 0.0)
         };
-        let mut plan = Plan::default();
+        let mut plan = Plan {
+            free_of: vec![NOT_FREE; bodies.len()],
+            ..Plan::default()
+        };
         let mut general_tree = vec![false; ntrees];
         for (ji, j) in joints.iter().enumerate() {
             if is_free(j) {
                 let b = &bodies[j.child];
+                plan.free_of[j.child] = plan.free.len();
                 plan.free.push(FreeBody {
                     body: j.child,
                     qpos: j.qpos,
