@@ -31,18 +31,18 @@ const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 8] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7];
 
-/// One point of a sweep.
+/// One point of a sweep: its error, CPU time and RHS evaluations.
 #[derive(Debug, Clone, Copy)]
-struct Point {
-    error: f64,
-    cpu: f64,
-    rhs: f64,
+pub(crate) struct Point {
+    pub(crate) error: f64,
+    pub(crate) cpu: f64,
+    pub(crate) rhs: f64,
 }
 
 /// `(cpu, rhs)` at `target` error, interpolated log-log between the loosest point that
 /// reaches it and the point before it (the loosest point itself when it already does);
 /// None when no point reaches it.
-fn at_error(points: &[Point], target: f64) -> Option<(f64, f64)> {
+pub(crate) fn at_error(points: &[Point], target: f64) -> Option<(f64, f64)> {
     let i = points.iter().position(|p| p.error <= target)?;
     if i == 0 {
         return Some((points[0].cpu, points[0].rhs));

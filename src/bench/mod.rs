@@ -251,7 +251,7 @@ pub enum BenchCommand {
         #[arg(long, value_delimiter = ',')]
         read: Vec<String>,
         /// Also print the error as the work-precision benchmark measures it (closed form, or
-        /// a dopri5 reference at rtol 1e-12 with the same settings otherwise).
+        /// a dopri5 reference at rtol 1e-13 with the same settings otherwise).
         #[arg(long)]
         error: bool,
     },

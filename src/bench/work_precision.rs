@@ -1,6 +1,6 @@
 //! Work-precision: for every bundled scene and every integrator, a sweep of tolerances
 //! (fixed step sizes for rk4); the error against a closed form where one exists, otherwise
-//! against a dopri5 run at 100× tighter tolerance than the tightest of the sweep (that
+//! against a dopri5 run at rtol 1e-13, 100× tighter than the tightest of the sweep (that
 //! reference is confirmed by the other methods converging to it); the median run time and
 //! the work counters.
 
@@ -9,11 +9,13 @@ use crate::scene::{Method, Scene};
 use std::path::Path;
 
 /// Relative tolerances of the adaptive sweep.
-const RTOLS: [f64; 8] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10];
+const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
+/// `auto` may cost this much more than the best fixed method at the error of any point.
+pub const AUTO_MARGIN: f64 = 1.3;
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
 /// Tolerance of the reference run (100× tighter than the tightest of the sweep).
-const RTOL_REF: f64 = 1e-12;
+const RTOL_REF: f64 = 1e-13;
 
 /// How the error of a run is measured.
 pub(crate) enum Truth {
@@ -188,6 +190,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         "status",
     ]);
     let mut summary: Vec<String> = Vec::new();
+    let mut auto_summary: Vec<String> = Vec::new();
     for (name, path) in args.selected_scenes()? {
         let origin = path.display().to_string();
         let scene = match Scene::from_file(&path) {
@@ -277,6 +280,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                 }
             }
         }
+        auto_summary.extend(auto_against_best(&name, &points));
         for p in &points {
             csv.push(vec![
                 name.clone(),
@@ -341,5 +345,78 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
     for s in summary {
         println!("{s}");
     }
+    println!("\nauto against the best fixed method at the error of every point of the sweep (cost interpolated log-log; worst CPU and RHS ratios; Jacobians of auto's points):");
+    println!("| scene | error levels | worst CPU ratio (at error) | worst RHS ratio (at error) | within {AUTO_MARGIN}× (CPU) | auto's Jacobians per point |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for s in auto_summary {
+        println!("{s}");
+    }
     Ok(())
+}
+
+/// The table row of `auto` against the best fixed method of a scene: at the error of every
+/// successful point of every method (within the range auto's sweep reaches), auto's CPU time
+/// and RHS evaluations interpolated log-log at that error against the least of the fixed
+/// methods' (each interpolated likewise); the worst ratios.
+fn auto_against_best(name: &str, points: &[Point]) -> Option<String> {
+    use super::defaults::{at_error, Point as Cost};
+    let curve = |m: Method| -> Vec<Cost> {
+        points
+            .iter()
+            .filter(|p| p.method == m && p.status == "ok" && p.error.is_finite() && p.cpu.is_finite())
+            .map(|p| Cost {
+                error: p.error,
+                cpu: p.cpu,
+                rhs: p.counters.rhs_evals as f64,
+            })
+            .collect()
+    };
+    let auto = curve(Method::Auto);
+    let fixed: Vec<Vec<Cost>> = Method::ALL
+        .iter()
+        .filter(|m| **m != Method::Auto)
+        .map(|m| curve(*m))
+        .collect();
+    let mut levels: Vec<f64> = points.iter().filter(|p| p.status == "ok").map(|p| p.error).collect();
+    levels.retain(|e| e.is_finite() && *e > 0.0);
+    let (mut worst_cpu, mut worst_rhs, mut n) = ((0.0_f64, f64::NAN), (0.0_f64, f64::NAN), 0);
+    for e in levels {
+        let Some(a) = at_error(&auto, e) else { continue };
+        let best_cpu = fixed
+            .iter()
+            .filter_map(|c| at_error(c, e))
+            .map(|x| x.0)
+            .fold(f64::INFINITY, f64::min);
+        let best_rhs = fixed
+            .iter()
+            .filter_map(|c| at_error(c, e))
+            .map(|x| x.1)
+            .fold(f64::INFINITY, f64::min);
+        if !best_cpu.is_finite() {
+            continue;
+        }
+        n += 1;
+        if a.0 / best_cpu > worst_cpu.0 {
+            worst_cpu = (a.0 / best_cpu, e);
+        }
+        if a.1 / best_rhs > worst_rhs.0 {
+            worst_rhs = (a.1 / best_rhs, e);
+        }
+    }
+    let jacobians: Vec<String> = points
+        .iter()
+        .filter(|p| p.method == Method::Auto)
+        .map(|p| p.counters.jac_evals.to_string())
+        .collect();
+    (n > 0).then(|| {
+        format!(
+            "| {name} | {n} | {:.2}× ({:.1e}) | {:.2}× ({:.1e}) | {} | {} |",
+            worst_cpu.0,
+            worst_cpu.1,
+            worst_rhs.0,
+            worst_rhs.1,
+            if worst_cpu.0 <= AUTO_MARGIN { "yes" } else { "no" },
+            jacobians.join(", ")
+        )
+    })
 }

@@ -2,8 +2,9 @@
 //! switched by a stiffness estimate, as LSODA does between Adams and BDF.
 //!
 //! - **Explicit → implicit.** Every accepted Dormand-Prince step estimates `h·ρ` from its last
-//!   two stages ([`Dopri5::stiffness`], Hairer's estimate, free). From [`CHECK_TRIGGER`] on,
-//!   the estimate is checked by two power iterations of directional differences from the
+//!   two stages ([`Dopri5::stiffness`], Hairer's estimate, free). From [`CHECK_TRIGGER`] on
+//!   ([`CHECK_AFTER`] steps in a row), the estimate is checked by two power iterations of
+//!   directional differences from the
 //!   step's error estimate ([`Dopri5::stiffness_check`], two evaluations), which sees the
 //!   stiff components that Hairer's estimate misses once the controller keeps them small.
 //!   A checked `h·ρ` from [`STIFF_LIMIT`] on means the step size is bounded by stability (or
@@ -44,6 +45,9 @@ use crate::scene::Method;
 /// Hairer's estimate of `h·ρ` from which a Dormand-Prince step's stiffness is checked
 /// ([`Dopri5::stiffness_check`]).
 pub const CHECK_TRIGGER: f64 = 1.0;
+/// Steps in a row whose estimate reaches [`CHECK_TRIGGER`] before the check runs (an estimate
+/// above it on one step alone, as at a contact's touch, is not checked).
+pub const CHECK_AFTER: u32 = 2;
 /// Checked `h·ρ` from which a Dormand-Prince step counts as limited by stability (the
 /// stability region reaches 3.31 along the negative real axis; the check is a lower bound).
 pub const STIFF_LIMIT: f64 = 2.5;
@@ -95,7 +99,8 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     /// The stiffness the implicit steps are measured against: ρ(J) when the Jacobian is new,
     /// then the rate along its dominant direction every [`RECHECK_STEPS`] steps.
     rho_now: f64,
-    /// Implicit steps since `rho_now` was measured.
+    /// Implicit: steps since `rho_now` was measured; explicit: steps in a row whose estimate
+    /// reached [`CHECK_TRIGGER`].
     since: u32,
     /// Power-iteration vectors (`x`: J's dominant direction once `x_for` is `rho_jac`).
     x: Vec<f64>,
@@ -206,7 +211,13 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// explicit method's stiffness check evaluates `sys`).
     fn observe(&mut self, sys: &mut dyn OdeSystem) {
         if !self.stiff {
-            let h_rho = if self.explicit.stiffness() >= CHECK_TRIGGER {
+            // (explicit: `since` counts the steps in a row whose estimate is at the trigger)
+            self.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
+                (self.since + 1).min(CHECK_AFTER)
+            } else {
+                0
+            };
+            let h_rho = if self.since >= CHECK_AFTER {
                 self.explicit.stiffness_check(sys)
             } else {
                 0.0
