@@ -23,20 +23,25 @@ pub const NO_PARENT: usize = usize::MAX;
 /// Returns false if a pivot is not positive.
 #[inline(always)]
 pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
+    let parent = &parent[..n];
     for k in (0..n).rev() {
-        let hkk = h[k * n + k];
+        // row k, and the rows before it (its ancestors' rows: parent[k] < k)
+        let (head, tail) = h[..n * n].split_at_mut(k * n);
+        let hk = &mut tail[..n];
+        let hkk = hk[k];
         if hkk.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         let mut i = parent[k];
         while i != NO_PARENT {
-            let a = h[k * n + i] / hkk;
+            let a = hk[i] / hkk;
+            let hi = &mut head[i * n..i * n + n];
             let mut j = i;
             while j != NO_PARENT {
-                h[i * n + j] -= a * h[k * n + j];
+                hi[j] -= a * hk[j];
                 j = parent[j];
             }
-            h[k * n + i] = a;
+            hk[i] = a;
             i = parent[i];
         }
     }
@@ -46,11 +51,12 @@ pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
 /// Solves `Lᵀ D L x = b` in place with a factor from [`ltdl_in_place`].
 #[inline(always)]
 pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
+    let (parent, x) = (&parent[..n], &mut x[..n]);
     for i in (0..n).rev() {
-        let xi = x[i];
+        let (li, xi) = (&l[i * n..i * n + n], x[i]);
         let mut j = parent[i];
         while j != NO_PARENT {
-            x[j] -= l[i * n + j] * xi;
+            x[j] -= li[j] * xi;
             j = parent[j];
         }
     }
@@ -58,10 +64,11 @@ pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
         x[i] /= l[i * n + i];
     }
     for i in 0..n {
+        let li = &l[i * n..i * n + n];
         let mut j = parent[i];
         let mut s = x[i];
         while j != NO_PARENT {
-            s -= l[i * n + j] * x[j];
+            s -= li[j] * x[j];
             j = parent[j];
         }
         x[i] = s;

@@ -1,13 +1,13 @@
 //! The defaults a user gets: `solver.method = "auto"` against every fixed method, and the
-//! rail vehicle with no `[solver]` section against the former defaults.
+//! rail vehicle as bundled against the former defaults.
 //!
 //! 1. **Auto against the best fixed method**, per bundled scene: a tolerance sweep of every
 //!    method (fixed steps for rk4), the error measured as in the work-precision benchmark
 //!    (closed form or a reference run), and the CPU time and RHS evaluations at an error of
 //!    exactly [`TARGET_ERROR`], interpolated log-log between the two sweep points around it.
 //!    Auto passes when its CPU time is within [`AUTO_MARGIN`] of the best fixed method's.
-//! 2. **The rail vehicle as bundled** (no `[solver]`: auto, rtol 1e-8) against the former
-//!    defaults (dopri5, `max_step` 1 ms, a restart at every communication point), timed
+//! 2. **The rail vehicle as bundled** (auto at the scene's tolerances) against the former
+//!    defaults (dopri5, rtol 1e-8, atol 1e-10, `max_step` 1 ms, a restart at every communication point), timed
 //!    alternately in one run, with the error of each against a reference; and auto at
 //!    tighter tolerances until it is as accurate as the former defaults.
 //! 3. **The rail vehicle's 5 s within 1e-6 in 5 ms**: auto's sweep there, with the RHS count
@@ -240,6 +240,8 @@ fn rail_defaults(
     let bundled = RunSpec::new(scene.clone(), origin, scene.model.stop_time, scene.model.interval);
     let mut former_scene = scene.clone();
     former_scene.solver.method = Method::Dopri5;
+    former_scene.solver.rtol = 1e-8;
+    former_scene.solver.atol = 1e-10;
     former_scene.solver.max_step = 1e-3;
     former_scene.solver.continuation = false;
     let former = RunSpec::new(former_scene, origin, scene.model.stop_time, scene.model.interval);
@@ -266,13 +268,18 @@ fn rail_defaults(
         c_old = k;
     }
     let (cn, co) = (median(&cpu_new), median(&cpu_old));
-    println!("\nrail_vehicle with no [solver] section (auto) against the former defaults (dopri5, max_step 1 ms, restart at every point), {repeats} alternated runs:");
+    let label = format!(
+        "as bundled ({}, rtol {:.0e})",
+        scene.solver.method.name(),
+        scene.solver.rtol
+    );
+    println!("\nrail_vehicle as bundled against the former defaults (dopri5, rtol 1e-8, max_step 1 ms, restart at every point), {repeats} alternated runs:");
     println!(
         "{:<34} {:>10} {:>10} {:>10} {:>8} {:>9} {:>5}",
         "setting", "error", "cpu [ms]", "wall [ms]", "steps", "rhs", "jac"
     );
     for (label, e, cpu, wall, c) in [
-        ("no [solver] (auto, rtol 1e-8)", e_new, cn, median(&wall_new), c_new),
+        (label.as_str(), e_new, cn, median(&wall_new), c_new),
         ("former defaults", e_old, co, median(&wall_old), c_old),
     ] {
         let c: Counters = c;
@@ -353,6 +360,8 @@ fn rail_defaults(
     let settings = [
         (1e-3, 0.0),
         (1e-4, 0.0),
+        (5e-5, 0.0),
+        (2e-5, 0.0),
         (1e-5, 0.0),
         (1e-6, 0.0),
         (1e-7, 0.0),

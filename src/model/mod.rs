@@ -7,5 +7,7 @@ pub mod compiled;
 pub mod data;
 pub mod state;
 
-pub use compiled::{nq_of, nv_of, Body, FreeBody, Input, LoopConstraint, Model, Part, Plan, SpringDamper, TreeJoint};
+pub use compiled::{
+    nq_of, nv_of, Body, FreeBody, Input, LoopConstraint, Model, Part, Plan, Rotor, SpringDamper, TreeJoint,
+};
 pub use data::{ContactEvent, ContactEventKind, Counters, Data};
