@@ -3,7 +3,7 @@ the results gathered into one CSV table and a plot.
 
     .venv/bin/python -m cosim.sweep FMU --param NAME=V1,V2,... [--param ...] --output NAME [...]
         [--stop-time T] [--step H] [--workers N | --scheduler tcp://HOST:8786]
-        [--csv OUT.csv] [--plot OUT.png [--plot-y COLUMN]] [--serial]
+        [--csv OUT.csv] [--plot OUT.png [--plot-y COLUMN]] [--serial] [--batch N]
 
 - `--param NAME=...`: values of a parameter (or input) set before initialisation ends; NAME may
   hold shell-style wildcards (`susp_*.damping`) to give every matching variable the same value.
@@ -15,10 +15,13 @@ the results gathered into one CSV table and a plot.
   machine; `--scheduler ADDRESS` uses a running cluster (`dask scheduler` and
   `dask worker ADDRESS` on its machines, each with fmpy installed); `--serial` runs every case
   in this process, without dask.
+- `--batch N`: cases per dask task (default: the cases split into two tasks per worker). A task
+  runs its cases one after the other in one FMU instance, reset by fmi2Reset between them, so
+  dask's cost per task is paid once per batch.
 
 The FMU is sent to each worker once (a worker plugin) and unpacked there once, in the worker's
-local directory; every case then instantiates it from that directory (no zip is opened per
-case). The workers need fmpy and numpy, not this repository: the functions travel by value.
+local directory; every task then instantiates it from that directory once for its batch of cases
+(no zip is opened per case). The workers need fmpy and numpy, not this repository: the functions travel by value.
 docs/sweeps.md has an example, the speed-up measured on this machine and the cluster setup.
 """
 
@@ -35,6 +38,12 @@ from pathlib import Path
 import numpy as np
 from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
+
+
+# Tasks per worker by default (cosim.sweep.batch_size): each task is a batch of cases run in one
+# FMU instance, so dask's cost per task (scheduling, transfer, the instance) is paid per batch;
+# two batches per worker leave the scheduler room to even out cases of unequal cost.
+BATCHES_PER_WORKER = 2
 
 
 class FmuRunner:
@@ -64,8 +73,31 @@ class FmuRunner:
         return found
 
     def run(self, case, outputs, stop_time=None, step=None):
-        """Runs one case (parameter name or pattern -> value); returns the row of the table:
-        the case, then for each output its value at the stop time, its min and max."""
+        """Runs one case (parameter name or pattern -> value) in an instance of its own; returns
+        the row of the table: the case, then for each output its value at the stop time, its
+        min and max."""
+        return self.run_batch([case], outputs, stop_time, step)[0]
+
+    def run_batch(self, cases, outputs, stop_time=None, step=None):
+        """Runs the cases one after the other in one instance, brought back to its state after
+        instantiation by fmi2Reset between them (which gives the numbers of a fresh instance);
+        returns their rows."""
+        s = self.slave
+        s.instantiate()
+        try:
+            rows = []
+            for k, case in enumerate(cases):
+                if k > 0:
+                    s.reset()
+                rows.append(self._simulate(case, outputs, stop_time, step))
+            return rows
+        finally:
+            # fmi2FreeInstance alone: fmpy's freeInstance also unloads the library, which the
+            # next case would then call into.
+            s.fmi2FreeInstance(s.component)
+
+    def _simulate(self, case, outputs, stop_time, step):
+        """One case in the instantiated (or reset) instance, up to fmi2Terminate."""
         de = self.md.defaultExperiment
         stop_time = stop_time if stop_time is not None else float(de.stopTime)
         step = step if step is not None else float(de.stepSize)
@@ -75,37 +107,31 @@ class FmuRunner:
         ints = [v.valueReference for v in outs if v.type != "Real"]
         order = [("r", reals.index(v.valueReference)) if v.type == "Real" else ("i", ints.index(v.valueReference)) for v in outs]
         s = self.slave
-        s.instantiate()
-        try:
-            s.setupExperiment(startTime=0.0, stopTime=stop_time)
-            s.enterInitializationMode()
-            for pattern, value in case.items():
-                for name in self.names(pattern):
-                    v = self.vars[name]
-                    if v.type == "Real":
-                        s.setReal([v.valueReference], [float(value)])
-                    elif v.type in ("Integer", "Enumeration"):
-                        s.setInteger([v.valueReference], [int(value)])
-                    else:
-                        s.setBoolean([v.valueReference], [bool(value)])
-            s.exitInitializationMode()
-            samples = np.empty((n + 1, len(outs)))
+        s.setupExperiment(startTime=0.0, stopTime=stop_time)
+        s.enterInitializationMode()
+        for pattern, value in case.items():
+            for name in self.names(pattern):
+                v = self.vars[name]
+                if v.type == "Real":
+                    s.setReal([v.valueReference], [float(value)])
+                elif v.type in ("Integer", "Enumeration"):
+                    s.setInteger([v.valueReference], [int(value)])
+                else:
+                    s.setBoolean([v.valueReference], [bool(value)])
+        s.exitInitializationMode()
+        samples = np.empty((n + 1, len(outs)))
 
-            def sample(k):
-                r = s.getReal(reals) if reals else []
-                i = s.getInteger(ints) if ints else []
-                samples[k] = [r[j] if kind == "r" else i[j] for kind, j in order]
+        def sample(k):
+            r = s.getReal(reals) if reals else []
+            i = s.getInteger(ints) if ints else []
+            samples[k] = [r[j] if kind == "r" else i[j] for kind, j in order]
 
-            sample(0)
-            for k in range(n):
-                # The communication points are k * step, computed so, not accumulated.
-                s.doStep(currentCommunicationPoint=k * step, communicationStepSize=(k + 1) * step - k * step)
-                sample(k + 1)
-            s.terminate()
-        finally:
-            # fmi2FreeInstance alone: fmpy's freeInstance also unloads the library, which the
-            # next case would then call into.
-            s.fmi2FreeInstance(s.component)
+        sample(0)
+        for k in range(n):
+            # The communication points are k * step, computed so, not accumulated.
+            s.doStep(currentCommunicationPoint=k * step, communicationStepSize=(k + 1) * step - k * step)
+            sample(k + 1)
+        s.terminate()
         row = dict(case)
         for j, name in enumerate(outputs):
             row[name] = float(samples[-1, j])
@@ -152,10 +178,10 @@ def _plugin_class():
     return UnpackFmu
 
 
-def _run_on_worker(plugin_name, case, outputs, stop_time, step):
+def _run_on_worker(plugin_name, cases, outputs, stop_time, step):
     from distributed import get_worker
 
-    return get_worker().plugins[plugin_name].runner.run(case, outputs, stop_time, step)
+    return get_worker().plugins[plugin_name].runner.run_batch(cases, outputs, stop_time, step)
 
 
 def plugin_name(fmu):
@@ -174,15 +200,31 @@ def prepare(client, fmu):
     return name
 
 
-def run_dask(client, fmu, cases, outputs, stop_time=None, step=None, show_progress=False):
-    """Every case on the workers of `client`, one task per case; rows in the order of `cases`."""
+def batches(cases, size):
+    """The cases in consecutive batches of `size` (the last may be shorter)."""
+    return [cases[i : i + size] for i in range(0, len(cases), size)]
+
+
+def batch_size(n_cases, n_workers, per_worker=BATCHES_PER_WORKER):
+    """Cases per task: `per_worker` batches for each worker (at least one case each)."""
+    return max(1, -(-n_cases // max(1, n_workers * per_worker)))
+
+
+def run_dask(client, fmu, cases, outputs, stop_time=None, step=None, show_progress=False, batch=None):
+    """Every case on the workers of `client`, in tasks of `batch` consecutive cases (default
+    [`batch_size`] for the workers there now), each run in one instance that fmi2Reset brings
+    back between its cases; rows in the order of `cases`."""
     from distributed import progress
 
     name = prepare(client, fmu)
-    futures = [client.submit(_run_on_worker, name, case, outputs, stop_time, step, pure=False) for case in cases]
+    size = batch or batch_size(len(cases), len(client.scheduler_info()["workers"]))
+    futures = [
+        client.submit(_run_on_worker, name, part, outputs, stop_time, step, pure=False)
+        for part in batches(cases, size)
+    ]
     if show_progress:
         progress(futures)
-    return client.gather(futures)
+    return [row for part in client.gather(futures) for row in part]
 
 
 def write_csv(rows, path):
@@ -241,6 +283,7 @@ def main():
     where.add_argument("--workers", type=int, default=2, help="LocalCluster of N worker processes (default 2)")
     where.add_argument("--scheduler", help="address of a running dask scheduler")
     where.add_argument("--serial", action="store_true", help="no dask: every case in this process")
+    parser.add_argument("--batch", type=int, help="cases per dask task (default: two tasks per worker)")
     parser.add_argument("--csv", type=Path, default=Path("sweep.csv"))
     parser.add_argument("--plot", type=Path, help="PNG: a column against the first parameter")
     parser.add_argument("--plot-y", help="the column plotted (default: the first output)")
@@ -260,7 +303,9 @@ def main():
             client = Client(LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True))
         with client:
             print(f"dashboard: {client.dashboard_link}")
-            rows = run_dask(client, args.fmu, cases, args.output, args.stop_time, args.step, show_progress=True)
+            rows = run_dask(
+                client, args.fmu, cases, args.output, args.stop_time, args.step, show_progress=True, batch=args.batch
+            )
             print()
     write_csv(rows, args.csv)
     print(f"wrote {args.csv}")

@@ -21,9 +21,10 @@ reaches it is compared. Writes docs/exudyn_comparison.csv and prints a table.
 
 A fourth scene, ball_plane_10, is run on its own (so that the first table's figures stay as
 they were measured): the ball dropped from 50 mm onto the plane under gravity, ten bounces
-(2.02 s), so that solver start-up is not the measure. Reference: contact-fmu at rtol 1e-13
-with its defaults (the other settings' tight runs and Exudyn's best run are printed against
-it). contact-fmu runs two [solver] variants written into its scene (BALL10_VARIANTS):
+(2.02 s), so that solver start-up is not the measure. Reference: contact-fmu at rtol 1e-14 (the
+smallest its solver.rtol allows) with its defaults (its runs at rtol 1e-13 and Exudyn's best run
+are printed against it; contact-fmu's rtol 1e-13 run differs from it by 3e-10, its 1e-12 run by
+3e-9, so the reference is good to a few 1e-11 and an error of 1e-9 can be scored). contact-fmu runs two [solver] variants written into its scene (BALL10_VARIANTS):
 `defaults` (no method and no max_step: solver.method = "auto", which is Dormand-Prince
 throughout on this scene, continuation across communication points, steps bounded by the time
 to contact) and, for comparison, `former` (the former defaults: dopri5, max_step 1 ms, a
@@ -86,7 +87,8 @@ def scenes():
         bodies=[ball("ball", m, j, [0, 0, r + h], [0, 0, 0.0], r)],
         plane=True, pairs=[], t_end=10 * 2 * math.sqrt(2 * h / g), truth=None, v_scale=math.sqrt(2 * g * h),
         gravity=[0, 0, -g], variants=BALL10_VARIANTS, rk4=[], rk44=[1e-5, 3e-6, 1e-6], exudyn_min_step=1e-12,
-        reference_rtol=1e-13, reference_variant="defaults", tols=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
+        reference_rtol=1e-14, reference_variant="defaults",
+        tols=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13],
         exudyn_tols=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13])
     # two spheres (fmu/two_spheres)
     m1, m2, v0 = 0.0329, 0.111, 1.0

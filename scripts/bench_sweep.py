@@ -1,17 +1,22 @@
 """Speed-up of a parameter sweep on dask.distributed with 1 and 2 worker processes
-(cosim/sweep.py), against the same cases run serially in this process.
+(cosim/sweep.py), against the same cases run serially in this process, and dask's cost per case.
 
     .venv/bin/python scripts/bench_sweep.py [--fmu target/fmu/rail_vehicle.fmu] [--repeats 3]
         [--csv docs/sweep_speedup.csv]
 
 The study: the rail vehicle's 5 s default experiment over car body mass x suspension damping
-(6 x 4 = 24 cases). Each configuration runs the whole sweep `--repeats` times; the table has the
+(6 x 4 = 24 cases). Configurations: serial (one fresh instance per case, the reference), dask
+with 1 worker and with 2 workers in batches (the default: two tasks per worker, each task's
+cases in one instance reset by fmi2Reset), and 2 workers with one task per case (batch 1, as
+the sweeps ran before batches). Each runs the whole sweep `--repeats` times; the table has the
 median and the least wall-clock time, from the first submission to the last result, with the
-cluster already started (its start-up time is printed apart); the first repeat includes sending
-and unpacking the FMU on the workers (once per worker), the others find it there. Also given:
-the CPU seconds the computing processes used per sweep, the cores they got on average (CPU
-time / wall time), and the load average of the machine before each configuration, since other
-processes share its cores.
+cluster already started (its start-up time is printed apart; the first repeat includes sending
+and unpacking the FMU on the workers, once per worker). Every run's table must equal the serial
+one exactly. Also given: the CPU seconds the computing processes used per sweep, the cores they
+got on average (CPU time / wall time), dask's cost per case (the core time lost against the
+serial run, `(workers x wall - serial wall) / cases`, and in CPU `(CPU - serial CPU) / cases`,
+each also relative to a serial case), and the load average of the machine before each
+configuration, since other processes share its cores.
 """
 
 import argparse
@@ -63,22 +68,27 @@ def main():
     load = os.getloadavg()[0]
     times, cpu, reference = timed(lambda: sweep.run_serial(args.fmu, cases, OUTPUTS), args.repeats, time.process_time)
     results.append(("serial", 0, times, cpu, load))
-    for workers in (1, 2):
+    for workers, batch in ((1, None), (2, 1), (2, None)):
         t = time.perf_counter()
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
         print(f"LocalCluster of {workers} worker(s) started in {time.perf_counter() - t:.2f} s")
         load = os.getloadavg()[0]
         times, cpu, rows = timed(
-            lambda: sweep.run_dask(client, args.fmu, cases, OUTPUTS), args.repeats, lambda: workers_cpu(client)
+            lambda: sweep.run_dask(client, args.fmu, cases, OUTPUTS, batch=batch),
+            args.repeats,
+            lambda: workers_cpu(client),
         )
         if rows != reference:
-            raise SystemExit(f"{workers} worker(s): results differ from the serial run")
-        results.append((f"dask, {workers} worker(s)", workers, times, cpu, load))
+            raise SystemExit(f"{workers} worker(s), batch {batch}: results differ from the serial run")
+        size = batch or sweep.batch_size(len(cases), workers)
+        results.append((f"dask, {workers} worker(s), {size} case(s) per task", workers, times, cpu, load))
         client.close()
         cluster.close()
 
-    one = statistics.median(results[1][2])
+    serial_wall = statistics.median(results[0][2])
+    serial_cpu = results[0][3] / len(results[0][2])
+    case = serial_wall / len(cases)
     args.csv.parent.mkdir(parents=True, exist_ok=True)
     with open(args.csv, "w", newline="") as f:
         w = csv.writer(f)
@@ -89,27 +99,35 @@ def main():
                 "cases",
                 "wall_median_s",
                 "wall_min_s",
-                "speedup_vs_1_worker",
+                "speedup_vs_serial",
                 "cpu_s_per_sweep",
                 "cores_used",
+                "overhead_per_case_s",
+                "overhead_per_case_rel",
+                "cpu_overhead_per_case_s",
                 "load_avg_1min_before",
             ]
         )
+        print(f"one case, serial: {case * 1e3:.1f} ms wall, {serial_cpu / len(cases) * 1e3:.1f} ms CPU")
         print(
-            f"{'run':<22}{'median [s]':>11}{'min [s]':>9}{'vs 1 worker':>12}{'CPU [s]':>9}{'cores used':>11}{'load':>6}"
+            f"{'run':<40}{'median [s]':>11}{'min [s]':>9}{'vs serial':>10}{'CPU [s]':>9}{'cores':>7}"
+            f"{'cost/case [ms]':>15}{'rel':>7}{'CPU/case [ms]':>14}{'load':>6}"
         )
         for name, workers, times, cpu, load in results:
             median = statistics.median(times)
             cpu_per_sweep = cpu / len(times)
             cores = cpu / sum(times)
+            lost = (max(workers, 1) * median - serial_wall) / len(cases)
+            cpu_lost = (cpu_per_sweep - serial_cpu) / len(cases)
             w.writerow(
                 [name, workers, len(cases)]
                 + [f"{x:.3f}" for x in (median, min(times))]
-                + [f"{one / median:.2f}", f"{cpu_per_sweep:.3f}", f"{cores:.2f}", f"{load:.2f}"]
+                + [f"{serial_wall / median:.2f}", f"{cpu_per_sweep:.3f}", f"{cores:.2f}"]
+                + [f"{lost:.4f}", f"{lost / case:.3f}", f"{cpu_lost:.4f}", f"{load:.2f}"]
             )
             print(
-                f"{name:<22}{median:>11.3f}{min(times):>9.3f}{one / median:>11.2f}x"
-                f"{cpu_per_sweep:>9.3f}{cores:>11.2f}{load:>6.2f}"
+                f"{name:<40}{median:>11.3f}{min(times):>9.3f}{serial_wall / median:>9.2f}x"
+                f"{cpu_per_sweep:>9.3f}{cores:>7.2f}{lost * 1e3:>15.1f}{lost / case:>7.2f}{cpu_lost * 1e3:>14.1f}{load:>6.2f}"
             )
     print(f"wrote {args.csv}")
 

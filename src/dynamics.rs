@@ -137,12 +137,14 @@ where
             d.composite[p].add_assign(&ic);
         }
     }
-    // Mass matrix, block by tree. Only entries on ancestor paths are written (and read by the
-    // tree-sparse factorisation); entries between sibling branches stay zero.
+    // Mass matrix, block by tree. Only the lower entries on ancestor paths are written, the
+    // only ones the tree-sparse factorisation reads (M̄[max][min]; of a pair of the same joint
+    // the value of the later row stays, as when both entries were written); the rest of the
+    // block is never read.
     for j in joints {
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
-        let off = m.tree_block[tree];
+        let block = &mut d.mass_blocks[m.tree_block[tree]..m.tree_block[tree] + n * n];
         let ic = d.composite[j.child];
         for k in j.qvel..j.qvel + j.nv() {
             let f = ic.mul(&d.dof_s[k]);
@@ -150,9 +152,8 @@ where
             while let Some(b) = cur {
                 let ja = &m.joints[m.bodies[b].joint];
                 for k2 in ja.qvel..ja.qvel + ja.nv() {
-                    let v = d.dof_s[k2].dot(&f);
-                    d.mass_blocks[off + (k - t0) * n + (k2 - t0)] = v;
-                    d.mass_blocks[off + (k2 - t0) * n + (k - t0)] = v;
+                    let (r, c) = if k2 <= k { (k, k2) } else { (k2, k) };
+                    block[(r - t0) * n + (c - t0)] = d.dof_s[k2].dot(&f);
                 }
                 cur = ja.parent;
             }

@@ -23,7 +23,7 @@
 use crate::contact;
 use crate::dynamics;
 use crate::integrator::OdeSystem;
-use crate::kinematics::{free_body_kinematics, joint_kinematics, kinematics, position_derivative};
+use crate::kinematics::{free_body_kinematics, joint_kinematics, kinematics, position_derivative, rotor_kinematics};
 use crate::model::{Data, Model};
 use crate::scene::Law;
 
@@ -31,7 +31,22 @@ use crate::scene::Law;
 /// dissipated power (`d.dissipation`) and the contact outputs. Returns false when the mass
 /// matrix is not positive definite (the accelerations are then NaN).
 pub fn evaluate(m: &Model, d: &mut Data) -> bool {
-    kinematics(m, d);
+    evaluate_all(m, d, false)
+}
+
+/// [`evaluate`]; `rotors`: the rotor joints by their lean kinematics
+/// ([`crate::kinematics::rotor_kinematics`]), for the right-hand side only.
+fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
+    if rotors {
+        for ji in 0..m.joints.len() {
+            match &m.plan.rotors[ji] {
+                Some(r) => rotor_kinematics(m, d, ji, r),
+                None => joint_kinematics(m, d, ji),
+            }
+        }
+    } else {
+        kinematics(m, d);
+    }
     let mut power = dynamics::applied_forces(m, d);
     if !m.contacts.is_empty() {
         power += contact::apply_forces(m, d);
@@ -74,8 +89,11 @@ pub fn evaluate(m: &Model, d: &mut Data) -> bool {
 /// constraint row needs the motion subspaces).
 pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let plan = &m.plan;
-    if plan.free.is_empty() || any_resting(m, d) {
+    if any_resting(m, d) {
         return evaluate(m, d);
+    }
+    if plan.free.is_empty() {
+        return evaluate_all(m, d, true);
     }
     let general = &plan.general;
     planned_kinematics_and_forces(m, d);

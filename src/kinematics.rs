@@ -7,7 +7,7 @@
 //! to the kinematics part of [`Data`]. All spatial quantities are in world-frame Plücker
 //! coordinates at the world origin (see [`crate::spatial`]).
 
-use crate::model::{Data, FreeBody, Model};
+use crate::model::{Data, FreeBody, Model, Rotor};
 use crate::scene::JointType;
 use crate::spatial::{Frame, Inertia, Spatial};
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
@@ -26,7 +26,8 @@ pub fn frame(d: &Data, b: Option<usize>) -> Frame {
     }
 }
 
-fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
+/// The unit quaternion of four coordinates (w, x, y, z), normalised.
+pub fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
 }
 
@@ -149,8 +150,40 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
     d.body_vel[c] = vel;
     d.body_acc_bias[c] = acc;
     let b = &m.bodies[c];
-    let i_c = rot * Matrix3::from_diagonal(&b.inertia) * rot.transpose();
+    // R diag(I) Rᵀ as the sum of I_k r_k r_kᵀ over the columns r_k of R
+    let mut i_c = Matrix3::zeros();
+    for k in 0..3 {
+        let r = rot.column(k);
+        i_c += (r * b.inertia[k]) * r.transpose();
+    }
     d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
+}
+
+/// The lean kinematics of a rotor joint ([`Rotor`]): as [`joint_kinematics`] without the
+/// rotation by the joint angle, which moves nothing the right-hand side reads (the child's
+/// centre of mass and its spheres lie on the axis, its inertia is symmetric about it): the
+/// child's orientation is left at the joint frame's (`body_rot`, `body_quat` are not the
+/// body's; code that reads them calls [`kinematics`]), its world inertia is
+/// `I_t 1 + (I_a − I_t) h hᵀ`.
+pub fn rotor_kinematics(m: &Model, d: &mut Data, ji: usize, r: &Rotor) {
+    let j = &m.joints[ji];
+    let p = frame(d, j.parent);
+    let c = j.child;
+    let w = d.eval_state[m.nq + j.qvel];
+    let h = p.rot * j.axis;
+    let pj = p.pos + p.rot * j.anchor;
+    let pos = pj + p.rot * j.offset;
+    let s = Spatial::new(h, pj.cross(&h));
+    let sdot = p.vel.cross_motion(&s);
+    d.dof_s[j.qvel] = s;
+    d.dof_sdot[j.qvel] = sdot;
+    d.body_pos[c] = pos;
+    d.body_rot[c] = p.rot * r.rot0;
+    d.body_quat[c] = p.quat * j.rot0;
+    d.body_vel[c] = p.vel.add(&s.scale(w));
+    d.body_acc_bias[c] = p.acc.add(&sdot.scale(w));
+    let i_c = Matrix3::from_diagonal_element(r.transverse) + (h * (r.axial - r.transverse)) * h.transpose();
+    d.body_inertia[c] = Inertia::from_body(m.bodies[c].mass, &pos, &i_c);
 }
 
 /// The lean kinematics of a free body ([`FreeBody`]): its pose and spatial velocity only

@@ -23,20 +23,25 @@ pub const NO_PARENT: usize = usize::MAX;
 /// Returns false if a pivot is not positive.
 #[inline(always)]
 pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
+    let parent = &parent[..n];
     for k in (0..n).rev() {
-        let hkk = h[k * n + k];
+        // row k, and the rows before it (its ancestors' rows: parent[k] < k)
+        let (head, tail) = h[..n * n].split_at_mut(k * n);
+        let hk = &mut tail[..n];
+        let hkk = hk[k];
         if hkk.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         let mut i = parent[k];
         while i != NO_PARENT {
-            let a = h[k * n + i] / hkk;
+            let a = hk[i] / hkk;
+            let hi = &mut head[i * n..i * n + n];
             let mut j = i;
             while j != NO_PARENT {
-                h[i * n + j] -= a * h[k * n + j];
+                hi[j] -= a * hk[j];
                 j = parent[j];
             }
-            h[k * n + i] = a;
+            hk[i] = a;
             i = parent[i];
         }
     }
@@ -46,11 +51,12 @@ pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
 /// Solves `Lᵀ D L x = b` in place with a factor from [`ltdl_in_place`].
 #[inline(always)]
 pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
+    let (parent, x) = (&parent[..n], &mut x[..n]);
     for i in (0..n).rev() {
-        let xi = x[i];
+        let (li, xi) = (&l[i * n..i * n + n], x[i]);
         let mut j = parent[i];
         while j != NO_PARENT {
-            x[j] -= l[i * n + j] * xi;
+            x[j] -= li[j] * xi;
             j = parent[j];
         }
     }
@@ -58,10 +64,11 @@ pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
         x[i] /= l[i * n + i];
     }
     for i in 0..n {
+        let li = &l[i * n..i * n + n];
         let mut j = parent[i];
         let mut s = x[i];
         while j != NO_PARENT {
-            s -= l[i * n + j] * x[j];
+            s -= li[j] * x[j];
             j = parent[j];
         }
         x[i] = s;
@@ -163,12 +170,14 @@ pub fn lu_in_place(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool {
             perm.swap(k, piv);
         }
         let d = a[k * n + k];
-        for i in k + 1..n {
-            let l = a[i * n + k] / d;
-            a[i * n + k] = l;
+        let (top, rest) = a[..n * n].split_at_mut((k + 1) * n);
+        let uk = &top[k * n + k + 1..];
+        for ri in rest.chunks_exact_mut(n) {
+            let l = ri[k] / d;
+            ri[k] = l;
             if l != 0.0 {
-                for j in k + 1..n {
-                    a[i * n + j] -= l * a[k * n + j];
+                for (x, u) in ri[k + 1..].iter_mut().zip(uk) {
+                    *x -= l * u;
                 }
             }
         }
@@ -196,11 +205,13 @@ fn gather(perm: &[usize], n: usize, x: &[f64], work: &mut [f64]) {
 /// row-major `n × n` matrix `l`; its diagonal is taken as 1 when `UNIT`.
 fn forward_substitute<const UNIT: bool>(l: &[f64], n: usize, m: usize, w: &mut [f64]) {
     for i in 0..m {
-        let mut s = w[i];
-        for k in 0..i {
-            s -= l[i * n + k] * w[k];
+        let row = &l[i * n..i * n + i + 1];
+        let (done, rest) = w.split_at_mut(i);
+        let mut s = rest[0];
+        for (a, x) in row[..i].iter().zip(done.iter()) {
+            s -= a * x;
         }
-        w[i] = if UNIT { s } else { s / l[i * n + i] };
+        rest[0] = if UNIT { s } else { s / row[i] };
     }
 }
 
@@ -208,29 +219,38 @@ fn forward_substitute<const UNIT: bool>(l: &[f64], n: usize, m: usize, w: &mut [
 /// row-major `n × n` matrix `a`, or, when `TRANSPOSED`, the transpose of its lower triangle.
 fn back_substitute<const TRANSPOSED: bool>(a: &[f64], n: usize, m: usize, w: &mut [f64]) {
     for i in (0..m).rev() {
-        let mut s = w[i];
-        for k in i + 1..m {
-            let u_ik = if TRANSPOSED { a[k * n + i] } else { a[i * n + k] };
-            s -= u_ik * w[k];
+        let (head, done) = w[..m].split_at_mut(i + 1);
+        let mut s = head[i];
+        if TRANSPOSED {
+            for (k, x) in (i + 1..m).zip(done.iter()) {
+                s -= a[k * n + i] * x;
+            }
+        } else {
+            for (u, x) in a[i * n + i + 1..i * n + m].iter().zip(done.iter()) {
+                s -= u * x;
+            }
         }
-        w[i] = s / a[i * n + i];
+        head[i] = s / a[i * n + i];
     }
 }
 
 /// Factors the row-major complex `n × n` matrix `a` in place as `P·A = L·U` (as
-/// [`lu_in_place`]); entry `(i, j)` is `a[2(i n + j)] + i·a[2(i n + j) + 1]`. Returns false when
-/// a pivot is zero or not finite.
+/// [`lu_in_place`]), stored split: entry `(i, j)` is `a[i n + j] + i·a[n² + i n + j]` (the
+/// real parts, then the imaginary parts, so that the row updates run over contiguous real
+/// arrays). Pivots by the largest squared modulus. Returns false when a pivot is zero or
+/// not finite.
 pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool {
     debug_assert!(a.len() >= 2 * n * n && perm.len() >= n);
     for (i, p) in perm.iter_mut().enumerate().take(n) {
         *p = i;
     }
-    let at = |i: usize, j: usize| 2 * (i * n + j);
+    let (re, im) = a[..2 * n * n].split_at_mut(n * n);
     for k in 0..n {
+        let modulus2 = |i: usize| re[i * n + k] * re[i * n + k] + im[i * n + k] * im[i * n + k];
         let mut piv = k;
-        let mut best = crate::math::hypot(a[at(k, k)], a[at(k, k) + 1]);
+        let mut best = modulus2(k);
         for i in k + 1..n {
-            let v = crate::math::hypot(a[at(i, k)], a[at(i, k) + 1]);
+            let v = modulus2(i);
             if v > best {
                 best = v;
                 piv = i;
@@ -240,27 +260,29 @@ pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool 
             return false;
         }
         if piv != k {
-            for j in 0..2 * n {
-                a.swap(2 * k * n + j, 2 * piv * n + j);
+            for j in 0..n {
+                re.swap(k * n + j, piv * n + j);
+                im.swap(k * n + j, piv * n + j);
             }
             perm.swap(k, piv);
         }
         // 1/d
-        let (dr, di) = (a[at(k, k)], a[at(k, k) + 1]);
+        let (dr, di) = (re[k * n + k], im[k * n + k]);
         let d2 = dr * dr + di * di;
         let (ir, ii) = (dr / d2, -di / d2);
-        for i in k + 1..n {
-            let (xr, xi) = (a[at(i, k)], a[at(i, k) + 1]);
+        let (re_top, re_rest) = re.split_at_mut((k + 1) * n);
+        let (im_top, im_rest) = im.split_at_mut((k + 1) * n);
+        let (uk_re, uk_im) = (&re_top[k * n + k + 1..], &im_top[k * n + k + 1..]);
+        for (ri_re, ri_im) in re_rest.chunks_exact_mut(n).zip(im_rest.chunks_exact_mut(n)) {
+            let (xr, xi) = (ri_re[k], ri_im[k]);
             let (lr, li) = (xr * ir - xi * ii, xr * ii + xi * ir);
-            a[at(i, k)] = lr;
-            a[at(i, k) + 1] = li;
+            ri_re[k] = lr;
+            ri_im[k] = li;
             if lr != 0.0 || li != 0.0 {
-                let (lo, hi) = a.split_at_mut(2 * i * n);
-                let (row_k, row_i) = (&lo[2 * k * n..2 * (k + 1) * n], &mut hi[..2 * n]);
-                for j in k + 1..n {
-                    let (ur, ui) = (row_k[2 * j], row_k[2 * j + 1]);
-                    row_i[2 * j] -= lr * ur - li * ui;
-                    row_i[2 * j + 1] -= lr * ui + li * ur;
+                let rows = ri_re[k + 1..].iter_mut().zip(&mut ri_im[k + 1..]);
+                for ((xr, xi), (ur, ui)) in rows.zip(uk_re.iter().zip(uk_im)) {
+                    *xr -= lr * ur - li * ui;
+                    *xi -= lr * ui + li * ur;
                 }
             }
         }
@@ -271,40 +293,39 @@ pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool 
 /// Solves `A·x = b` with the factors from [`lu_in_place_complex`]: `re` and `im` hold the real
 /// and imaginary parts of `b` on entry and of `x` on return; `work` is scratch of length `2n`.
 pub fn lu_solve_complex(lu: &[f64], n: usize, perm: &[usize], re: &mut [f64], im: &mut [f64], work: &mut [f64]) {
+    let (lu_re, lu_im) = lu[..2 * n * n].split_at(n * n);
+    let (wr, wi) = work[..2 * n].split_at_mut(n);
     for i in 0..n {
-        work[2 * i] = re[perm[i]];
-        work[2 * i + 1] = im[perm[i]];
+        wr[i] = re[perm[i]];
+        wi[i] = im[perm[i]];
     }
     // L (unit lower)
     for i in 0..n {
-        let row = &lu[2 * i * n..2 * (i + 1) * n];
-        let (mut sr, mut si) = (work[2 * i], work[2 * i + 1]);
-        for k in 0..i {
-            let (lr, li, wr, wi) = (row[2 * k], row[2 * k + 1], work[2 * k], work[2 * k + 1]);
-            sr -= lr * wr - li * wi;
-            si -= lr * wi + li * wr;
+        let (row_re, row_im) = (&lu_re[i * n..i * n + i], &lu_im[i * n..i * n + i]);
+        let (mut sr, mut si) = (wr[i], wi[i]);
+        for ((lr, li), (xr, xi)) in row_re.iter().zip(row_im).zip(wr[..i].iter().zip(&wi[..i])) {
+            sr -= lr * xr - li * xi;
+            si -= lr * xi + li * xr;
         }
-        work[2 * i] = sr;
-        work[2 * i + 1] = si;
+        wr[i] = sr;
+        wi[i] = si;
     }
     // U
     for i in (0..n).rev() {
-        let row = &lu[2 * i * n..2 * (i + 1) * n];
-        let (mut sr, mut si) = (work[2 * i], work[2 * i + 1]);
-        for k in i + 1..n {
-            let (ur, ui, wr, wi) = (row[2 * k], row[2 * k + 1], work[2 * k], work[2 * k + 1]);
-            sr -= ur * wr - ui * wi;
-            si -= ur * wi + ui * wr;
+        let (row_re, row_im) = (&lu_re[i * n..(i + 1) * n], &lu_im[i * n..(i + 1) * n]);
+        let (mut sr, mut si) = (wr[i], wi[i]);
+        let upper = row_re[i + 1..].iter().zip(&row_im[i + 1..]);
+        for ((ur, ui), (xr, xi)) in upper.zip(wr[i + 1..].iter().zip(&wi[i + 1..])) {
+            sr -= ur * xr - ui * xi;
+            si -= ur * xi + ui * xr;
         }
-        let (dr, di) = (row[2 * i], row[2 * i + 1]);
+        let (dr, di) = (row_re[i], row_im[i]);
         let d2 = dr * dr + di * di;
-        work[2 * i] = (sr * dr + si * di) / d2;
-        work[2 * i + 1] = (si * dr - sr * di) / d2;
+        wr[i] = (sr * dr + si * di) / d2;
+        wi[i] = (si * dr - sr * di) / d2;
     }
-    for i in 0..n {
-        re[i] = work[2 * i];
-        im[i] = work[2 * i + 1];
-    }
+    re[..n].copy_from_slice(wr);
+    im[..n].copy_from_slice(wi);
 }
 
 #[cfg(test)]
@@ -392,7 +413,7 @@ mod tests {
     #[test]
     fn complex_lu_solves_a_system_that_needs_pivoting() {
         let n = 3;
-        // (re, im) row-major; a zero leading pivot forces a row exchange
+        // (re, im) row-major, stored split; a zero leading pivot forces a row exchange
         let a: [(f64, f64); 9] = [
             (0.0, 0.0),
             (2.0, -1.0),
@@ -404,7 +425,7 @@ mod tests {
             (0.5, 0.5),
             (4.0, 0.0),
         ];
-        let mut m: Vec<f64> = a.iter().flat_map(|&(r, i)| [r, i]).collect();
+        let mut m: Vec<f64> = a.iter().map(|z| z.0).chain(a.iter().map(|z| z.1)).collect();
         let mut perm = [0; 3];
         assert!(lu_in_place_complex(&mut m, n, &mut perm));
         let (b_re, b_im) = ([1.0, -2.0, 0.5], [0.0, 1.0, -1.0]);
@@ -419,7 +440,8 @@ mod tests {
             }
             assert!((sr - b_re[i]).abs() < 1e-14 && (si - b_im[i]).abs() < 1e-14, "row {i}");
         }
-        let mut singular = vec![1.0, 1.0, 2.0, 2.0, 1.0, 1.0, 2.0, 2.0];
+        // [[1 + i, 2 + 2i], [1 + i, 2 + 2i]]
+        let mut singular = vec![1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 1.0, 2.0];
         assert!(!lu_in_place_complex(&mut singular, 2, &mut [0; 2]));
     }
 

@@ -60,22 +60,26 @@ pub fn refresh(m: &Model, d: &mut Data) {
 pub enum Needs {
     /// Nothing: a parameter, an input, a counter, a constant of the compiled model.
     Nothing,
+    /// The bodies' positions, orientations (quaternions) and centre-of-mass velocities: the
+    /// state itself for free bodies (their coordinates are these), the kinematics for the
+    /// others.
+    State,
     /// The bodies' kinematics (positions, orientations, velocities).
     Kinematics,
     /// Everything [`refresh`] evaluates (contact forces, energies, loop joints).
     Everything,
 }
 
-/// What reading `target` needs ([`prepare`]): the bodies' kinematics for their positions,
-/// orientations and velocities; nothing for the counters and the compiled stiffness; a full
+/// What reading `target` needs ([`prepare`]): the state for the bodies' positions,
+/// orientations and centre-of-mass velocities (the kinematics of the bodies that are not
+/// free), the kinematics for their angular velocities; nothing for the counters and the
+/// compiled stiffness; a full
 /// evaluation for every other output (and for anything added later that says otherwise
 /// nowhere). Parameters and inputs are read from the settings and do not come here.
 pub fn needs(target: VarRef) -> Needs {
     match target {
-        VarRef::BodyPosition(..)
-        | VarRef::BodyVelocity(..)
-        | VarRef::BodyAngularVelocity(..)
-        | VarRef::BodyQuaternion(..) => Needs::Kinematics,
+        VarRef::BodyPosition(..) | VarRef::BodyVelocity(..) | VarRef::BodyQuaternion(..) => Needs::State,
+        VarRef::BodyAngularVelocity(..) => Needs::Kinematics,
         VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::Stiffness(_) => Needs::Nothing,
         _ => Needs::Everything,
     }
@@ -86,7 +90,9 @@ pub fn needs(target: VarRef) -> Needs {
 pub fn prepare(m: &Model, d: &mut Data, needs: Needs) {
     match needs {
         Needs::Nothing => {}
-        Needs::Kinematics => {
+        // every body free: its coordinates are what is read
+        Needs::State if m.plan.general.bodies.is_empty() => {}
+        Needs::State | Needs::Kinematics => {
             if !d.kinematics_valid {
                 if evaluate_output_kinematics(m, d) {
                     d.kinematics_valid = true;
@@ -113,6 +119,9 @@ impl Reader {
     #[inline]
     pub fn read(&mut self, m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         if let VarRef::BodyVelocity(b, k) = target {
+            if m.plan.free_body(b).is_some() {
+                return evaluated(m, d, target);
+            }
             let v = match self.com {
                 Some((last, v)) if last == b => v,
                 _ => {
@@ -233,11 +242,23 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         | VarRef::Group(..)
         | VarRef::Input(_) => return None,
         VarRef::Stiffness(i) => m.contacts[i].stiffness,
-        VarRef::BodyPosition(b, k) => d.body_pos[b][k],
-        VarRef::BodyVelocity(b, k) => com_velocity(d, b)[k],
+        // a free body's coordinates: its centre of mass, the quaternion (normalised as the
+        // kinematics do), the centre-of-mass velocity
+        VarRef::BodyPosition(b, k) => match m.plan.free_body(b) {
+            Some(fb) => d.state[fb.qpos + k],
+            None => d.body_pos[b][k],
+        },
+        VarRef::BodyVelocity(b, k) => match m.plan.free_body(b) {
+            Some(fb) => d.state[m.nq + fb.qvel + k],
+            None => com_velocity(d, b)[k],
+        },
         VarRef::BodyAngularVelocity(b, k) => d.body_vel[b].ang[k],
         VarRef::BodyQuaternion(b, k) => {
-            let q = d.body_quat[b].quaternion();
+            let unit = match m.plan.free_body(b) {
+                Some(fb) => crate::kinematics::quat_at(&d.state[fb.qpos + 3..fb.qpos + 7]),
+                None => d.body_quat[b],
+            };
+            let q = unit.quaternion();
             [q.w, q.i, q.j, q.k][k]
         }
         VarRef::JointQ(j) | VarRef::JointQd(j) => {

@@ -118,12 +118,14 @@ impl Inertia {
     }
     /// From mass, centre of mass `c` and world-frame inertia about the centre of mass.
     pub fn from_body(mass: f64, c: &Vector3<f64>, i_c: &Matrix3<f64>) -> Inertia {
-        let cx = c.cross_matrix();
-        Inertia {
-            mass,
-            h: c * mass,
-            i_o: i_c - cx * cx * mass,
+        // −[c]×[c]× = |c|² 1 − c cᵀ (parallel axes)
+        let mc = c * mass;
+        let mut i_o = *i_c - mc * c.transpose();
+        let c2 = mass * c.norm_squared();
+        for k in 0..3 {
+            i_o[(k, k)] += c2;
         }
+        Inertia { mass, h: mc, i_o }
     }
     /// Momentum (a force vector) of motion `v`.
     pub fn mul(&self, v: &Spatial) -> Spatial {

@@ -1,20 +1,20 @@
 //! The defaults a user gets: `solver.method = "auto"` against every fixed method, and the
-//! rail vehicle with no `[solver]` section against the former defaults.
+//! rail vehicle as bundled against the former defaults.
 //!
 //! 1. **Auto against the best fixed method**, per bundled scene: a tolerance sweep of every
 //!    method (fixed steps for rk4), the error measured as in the work-precision benchmark
 //!    (closed form or a reference run), and the CPU time and RHS evaluations at an error of
 //!    exactly [`TARGET_ERROR`], interpolated log-log between the two sweep points around it.
 //!    Auto passes when its CPU time is within [`AUTO_MARGIN`] of the best fixed method's.
-//! 2. **The rail vehicle as bundled** (no `[solver]`: auto, rtol 1e-8) against the former
-//!    defaults (dopri5, `max_step` 1 ms, a restart at every communication point), timed
+//! 2. **The rail vehicle as bundled** (auto at the scene's tolerances) against the former
+//!    defaults (dopri5, rtol 1e-8, atol 1e-10, `max_step` 1 ms, a restart at every communication point), timed
 //!    alternately in one run, with the error of each against a reference; and auto at
 //!    tighter tolerances until it is as accurate as the former defaults.
 //! 3. **The rail vehicle's 5 s within 1e-6 in 5 ms**: auto's sweep there, with the RHS count
 //!    times the cost of one RHS against the run time (what bounds it).
 
 use super::scaling::rhs_and_event_cost;
-use super::work_precision::{closed_form, error_of, position_outputs, Truth};
+use super::work_precision::{error_of, position_outputs, truth_of, truth_outputs, Truth};
 use super::{f, median, record, sweep_point, time_runs, Counters, Csv, RunSpec, SweepArgs};
 use crate::compile::compile;
 use crate::scene::{Method, Scene};
@@ -31,18 +31,18 @@ const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 8] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7];
 
-/// One point of a sweep.
+/// One point of a sweep: its error, CPU time and RHS evaluations.
 #[derive(Debug, Clone, Copy)]
-struct Point {
-    error: f64,
-    cpu: f64,
-    rhs: f64,
+pub(crate) struct Point {
+    pub(crate) error: f64,
+    pub(crate) cpu: f64,
+    pub(crate) rhs: f64,
 }
 
 /// `(cpu, rhs)` at `target` error, interpolated log-log between the loosest point that
 /// reaches it and the point before it (the loosest point itself when it already does);
 /// None when no point reaches it.
-fn at_error(points: &[Point], target: f64) -> Option<(f64, f64)> {
+pub(crate) fn at_error(points: &[Point], target: f64) -> Option<(f64, f64)> {
     let i = points.iter().position(|p| p.error <= target)?;
     if i == 0 {
         return Some((points[0].cpu, points[0].rhs));
@@ -109,20 +109,9 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         let base = RunSpec::new(scene.clone(), &origin, scene.model.stop_time, scene.model.interval);
         let with = |method: Method, tol: f64| sweep_point(&base, method, tol, ratio);
         let positions = position_outputs(&scene);
-        let mut outputs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
-        let truth = match closed_form(&scene) {
-            Some(t) => t,
-            None => {
-                let r = record(&with(Method::Dopri5, 1e-12), &outputs)?;
-                if let Some(fail) = r.failure {
-                    return Err(format!("{name}: reference run failed: {fail}"));
-                }
-                Truth::Reference(r.traj)
-            }
-        };
-        if let Truth::FinalVelocities(names, _, _) = &truth {
-            outputs.extend(names.iter().map(|s| s.as_str()));
-        }
+        let positions: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+        let (truth, _) = truth_of(&scene, &base).map_err(|e| format!("{name}: {e}"))?;
+        let outputs = truth_outputs(&truth, &positions);
         println!(
             "\n{name}: {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>5}",
             "method", "tol/step", "error", "cpu [s]", "steps", "rhs", "jac"
@@ -251,6 +240,8 @@ fn rail_defaults(
     let bundled = RunSpec::new(scene.clone(), origin, scene.model.stop_time, scene.model.interval);
     let mut former_scene = scene.clone();
     former_scene.solver.method = Method::Dopri5;
+    former_scene.solver.rtol = 1e-8;
+    former_scene.solver.atol = 1e-10;
     former_scene.solver.max_step = 1e-3;
     former_scene.solver.continuation = false;
     let former = RunSpec::new(former_scene, origin, scene.model.stop_time, scene.model.interval);
@@ -277,13 +268,18 @@ fn rail_defaults(
         c_old = k;
     }
     let (cn, co) = (median(&cpu_new), median(&cpu_old));
-    println!("\nrail_vehicle with no [solver] section (auto) against the former defaults (dopri5, max_step 1 ms, restart at every point), {repeats} alternated runs:");
+    let label = format!(
+        "as bundled ({}, rtol {:.0e})",
+        scene.solver.method.name(),
+        scene.solver.rtol
+    );
+    println!("\nrail_vehicle as bundled against the former defaults (dopri5, rtol 1e-8, max_step 1 ms, restart at every point), {repeats} alternated runs:");
     println!(
         "{:<34} {:>10} {:>10} {:>10} {:>8} {:>9} {:>5}",
         "setting", "error", "cpu [ms]", "wall [ms]", "steps", "rhs", "jac"
     );
     for (label, e, cpu, wall, c) in [
-        ("no [solver] (auto, rtol 1e-8)", e_new, cn, median(&wall_new), c_new),
+        (label.as_str(), e_new, cn, median(&wall_new), c_new),
         ("former defaults", e_old, co, median(&wall_old), c_old),
     ] {
         let c: Counters = c;
@@ -364,6 +360,8 @@ fn rail_defaults(
     let settings = [
         (1e-3, 0.0),
         (1e-4, 0.0),
+        (5e-5, 0.0),
+        (2e-5, 0.0),
         (1e-5, 0.0),
         (1e-6, 0.0),
         (1e-7, 0.0),

@@ -250,6 +250,10 @@ pub enum BenchCommand {
         /// records the trajectory does): comma-separated names, or `all`.
         #[arg(long, value_delimiter = ',')]
         read: Vec<String>,
+        /// Also print the error as the work-precision benchmark measures it (closed form, or
+        /// a dopri5 reference at rtol 1e-13 with the same settings otherwise).
+        #[arg(long)]
+        error: bool,
     },
 }
 
@@ -334,7 +338,8 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             repeats,
             csv,
             read,
-        } => run_command(&scene, &experiment, repeats, csv.as_deref(), read),
+            error,
+        } => run_command(&scene, &experiment, repeats, csv.as_deref(), read, error),
     }
 }
 
@@ -682,6 +687,7 @@ fn run_command(
     repeats: usize,
     csv: Option<&Path>,
     read_outputs: Vec<String>,
+    with_error: bool,
 ) -> Result<(), String> {
     let parsed = Scene::from_file(scene).map_err(|e| e.to_string())?;
     let spec = RunSpec {
@@ -697,8 +703,17 @@ fn run_command(
         let out = record(&spec, &[])?;
         out.traj.write_csv(p)?;
     }
+    let error = if with_error {
+        let (truth, _) = work_precision::truth_of(&spec.scene, &spec)?;
+        let positions = work_precision::position_outputs(&spec.scene);
+        let positions: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+        let run = record(&spec, &work_precision::truth_outputs(&truth, &positions))?;
+        format!(" error={:.4e}", work_precision::error_of(&truth, &run.traj))
+    } else {
+        String::new()
+    };
     println!(
-        "seconds={wall:.6e} cpu_seconds={cpu:.6e} steps={} rejected={} rhs_evals={} jac_evals={} events={} status={}",
+        "seconds={wall:.6e} cpu_seconds={cpu:.6e} steps={} rejected={} rhs_evals={} jac_evals={} events={} status={}{error}",
         c.steps,
         c.rejected,
         c.rhs_evals,

@@ -1,6 +1,6 @@
 //! Work-precision: for every bundled scene and every integrator, a sweep of tolerances
 //! (fixed step sizes for rk4); the error against a closed form where one exists, otherwise
-//! against a dopri5 run at 100× tighter tolerance than the tightest of the sweep (that
+//! against a dopri5 run at rtol 1e-13, 100× tighter than the tightest of the sweep (that
 //! reference is confirmed by the other methods converging to it); the median run time and
 //! the work counters.
 
@@ -9,11 +9,13 @@ use crate::scene::{Method, Scene};
 use std::path::Path;
 
 /// Relative tolerances of the adaptive sweep.
-const RTOLS: [f64; 8] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10];
+const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
+/// `auto` may cost this much more than the best fixed method at the error of any point.
+pub const AUTO_MARGIN: f64 = 1.3;
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
 /// Tolerance of the reference run (100× tighter than the tightest of the sweep).
-const RTOL_REF: f64 = 1e-12;
+const RTOL_REF: f64 = 1e-13;
 
 /// How the error of a run is measured.
 pub(crate) enum Truth {
@@ -111,6 +113,33 @@ pub fn trajectory_error(run: &Trajectory, reference: &Trajectory) -> f64 {
     err
 }
 
+/// The truth the runs of `scene` are measured against: the closed form where there is one
+/// ([`closed_form`]), otherwise a reference run of `base` with dopri5 at [`RTOL_REF`] (atol
+/// in the scene's ratio to rtol); with the kind of error it gives.
+pub(crate) fn truth_of(scene: &Scene, base: &RunSpec) -> Result<(Truth, &'static str), String> {
+    if let Some(t) = closed_form(scene) {
+        return Ok((t, "closed_form_final_velocity"));
+    }
+    let positions = position_outputs(scene);
+    let outputs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
+    let ratio = scene.solver.atol / scene.solver.rtol;
+    let r = record(&sweep_point(base, Method::Dopri5, RTOL_REF, ratio), &outputs)?;
+    match r.failure {
+        Some(fail) => Err(format!("reference run (dopri5, rtol {RTOL_REF:e}) failed: {fail}")),
+        None => Ok((Truth::Reference(r.traj), "reference_position")),
+    }
+}
+
+/// The outputs a run must record to be measured against `truth`: the positions, and the
+/// final velocities of a closed form.
+pub(crate) fn truth_outputs<'a>(truth: &'a Truth, positions: &[&'a str]) -> Vec<&'a str> {
+    let mut outputs = positions.to_vec();
+    if let Truth::FinalVelocities(names, _, _) = truth {
+        outputs.extend(names.iter().map(|s| s.as_str()));
+    }
+    outputs
+}
+
 /// The error of a run against the truth (see [`Truth`]).
 pub(crate) fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
     match truth {
@@ -161,6 +190,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         "status",
     ]);
     let mut summary: Vec<String> = Vec::new();
+    let mut auto_summary: Vec<String> = Vec::new();
     for (name, path) in args.selected_scenes()? {
         let origin = path.display().to_string();
         let scene = match Scene::from_file(&path) {
@@ -175,23 +205,14 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         let with = |method: Method, tol: f64| sweep_point(&base, method, tol, ratio);
         let positions = position_outputs(&scene);
         let pos_refs: Vec<&str> = positions.iter().map(|s| s.as_str()).collect();
-        let (truth, kind) = match closed_form(&scene) {
-            Some(t) => (t, "closed_form_final_velocity"),
-            None => {
-                println!("{name}: reference run (dopri5, rtol {RTOL_REF:e}) ...");
-                let r = record(&with(Method::Dopri5, RTOL_REF), &pos_refs)?;
-                if let Some(fail) = r.failure {
-                    println!("{name}: reference run failed: {fail}; skipped");
-                    continue;
-                }
-                println!("{name}: reference took {:.3} s, {} steps", r.seconds, r.counters.steps);
-                (Truth::Reference(r.traj), "reference_position")
+        let (truth, kind) = match truth_of(&scene, &base) {
+            Ok(t) => t,
+            Err(fail) => {
+                println!("{name}: {fail}; skipped");
+                continue;
             }
         };
-        let mut outputs: Vec<&str> = pos_refs.clone();
-        if let Truth::FinalVelocities(names, _, _) = &truth {
-            outputs.extend(names.iter().map(|s| s.as_str()));
-        }
+        let outputs = truth_outputs(&truth, &pos_refs);
         println!(
             "\n{name} ({kind}): {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>6} {:>7}",
             "method", "tol/step", "error", "seconds", "steps", "rhs_evals", "jac", "events"
@@ -259,6 +280,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                 }
             }
         }
+        auto_summary.extend(auto_against_best(&name, &points));
         for p in &points {
             csv.push(vec![
                 name.clone(),
@@ -323,5 +345,78 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
     for s in summary {
         println!("{s}");
     }
+    println!("\nauto against the best fixed method at the error of every point of the sweep (cost interpolated log-log; worst CPU and RHS ratios; Jacobians of auto's points):");
+    println!("| scene | error levels | worst CPU ratio (at error) | worst RHS ratio (at error) | within {AUTO_MARGIN}× (CPU) | auto's Jacobians per point |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for s in auto_summary {
+        println!("{s}");
+    }
     Ok(())
+}
+
+/// The table row of `auto` against the best fixed method of a scene: at the error of every
+/// successful point of every method (within the range auto's sweep reaches), auto's CPU time
+/// and RHS evaluations interpolated log-log at that error against the least of the fixed
+/// methods' (each interpolated likewise); the worst ratios.
+fn auto_against_best(name: &str, points: &[Point]) -> Option<String> {
+    use super::defaults::{at_error, Point as Cost};
+    let curve = |m: Method| -> Vec<Cost> {
+        points
+            .iter()
+            .filter(|p| p.method == m && p.status == "ok" && p.error.is_finite() && p.cpu.is_finite())
+            .map(|p| Cost {
+                error: p.error,
+                cpu: p.cpu,
+                rhs: p.counters.rhs_evals as f64,
+            })
+            .collect()
+    };
+    let auto = curve(Method::Auto);
+    let fixed: Vec<Vec<Cost>> = Method::ALL
+        .iter()
+        .filter(|m| **m != Method::Auto)
+        .map(|m| curve(*m))
+        .collect();
+    let mut levels: Vec<f64> = points.iter().filter(|p| p.status == "ok").map(|p| p.error).collect();
+    levels.retain(|e| e.is_finite() && *e > 0.0);
+    let (mut worst_cpu, mut worst_rhs, mut n) = ((0.0_f64, f64::NAN), (0.0_f64, f64::NAN), 0);
+    for e in levels {
+        let Some(a) = at_error(&auto, e) else { continue };
+        let best_cpu = fixed
+            .iter()
+            .filter_map(|c| at_error(c, e))
+            .map(|x| x.0)
+            .fold(f64::INFINITY, f64::min);
+        let best_rhs = fixed
+            .iter()
+            .filter_map(|c| at_error(c, e))
+            .map(|x| x.1)
+            .fold(f64::INFINITY, f64::min);
+        if !best_cpu.is_finite() {
+            continue;
+        }
+        n += 1;
+        if a.0 / best_cpu > worst_cpu.0 {
+            worst_cpu = (a.0 / best_cpu, e);
+        }
+        if a.1 / best_rhs > worst_rhs.0 {
+            worst_rhs = (a.1 / best_rhs, e);
+        }
+    }
+    let jacobians: Vec<String> = points
+        .iter()
+        .filter(|p| p.method == Method::Auto)
+        .map(|p| p.counters.jac_evals.to_string())
+        .collect();
+    (n > 0).then(|| {
+        format!(
+            "| {name} | {n} | {:.2}× ({:.1e}) | {:.2}× ({:.1e}) | {} | {} |",
+            worst_cpu.0,
+            worst_cpu.1,
+            worst_rhs.0,
+            worst_rhs.1,
+            if worst_cpu.0 <= AUTO_MARGIN { "yes" } else { "no" },
+            jacobians.join(", ")
+        )
+    })
 }

@@ -319,7 +319,7 @@ pub fn compile_with_candidates(
         let (r, q) = pose(b);
         q.inverse() * (p - r)
     };
-    let springs = scene
+    let springs: Vec<SpringDamper> = scene
         .spring_damper
         .iter()
         .zip(&params.springs)
@@ -423,7 +423,7 @@ pub fn compile_with_candidates(
         })
         .collect();
 
-    let plan = Plan::of(&bodies, &joints, &loops, trees.len());
+    let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, trees.len());
     let mut model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),

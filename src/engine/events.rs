@@ -179,6 +179,36 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
     bound.min(contact::groups::time_to_margin(m, d))
 }
 
+/// The first step [s] after a touch: for each continuous-law contact that has just touched
+/// (active, closing, its penetration still below 1e-6 of `max_penetration`, from
+/// `d.events.aux_new` at the event), `0.5 rtol^{1/5}` of the time `δ_max / v` it takes to
+/// reach the penetration `δ_max` at which the law `F = K δⁿ` stores the kinetic energy of the
+/// sphere's body at the closing speed `v` (`K δ_maxⁿ⁺¹/(n + 1) = m v²/2`), since the steps
+/// of an error-controlled method of order 5 across the contact scale as `rtol^{1/5}`; the
+/// least of them (infinite when nothing touched). The step of the free flight before is far
+/// too long for the contact, and the integrator would otherwise cut it down by several
+/// rejected steps (ball on a plane, ten bounces: 80 → 40 rejected steps at rtol 1e-6, 110
+/// → 50 at 1e-8, 180 → 70 at 1e-10).
+pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
+    let mut bound = f64::INFINITY;
+    for (i, c) in m.contacts.iter().enumerate() {
+        let (delta, closing) = d.events.aux_new[i];
+        let Some(b) = c.sphere_body else { continue };
+        let touched = c.law != Law::Impulse && d.contact_memory[i].active && delta <= 1e-6 * c.max_penetration;
+        if !touched || closing.is_nan() || closing <= 0.0 {
+            continue;
+        }
+        let (k, n) = (c.stiffness, c.exponent);
+        let mass = m.bodies[b].mass;
+        if !(k > 0.0 && n > 0.0 && mass > 0.0) {
+            continue;
+        }
+        let delta_max = crate::math::powf((n + 1.0) * mass * closing * closing / (2.0 * k), 1.0 / (n + 1.0));
+        bound = bound.min(0.5 * crate::math::powf(m.solver.rtol, 0.2) * delta_max / closing);
+    }
+    bound
+}
+
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
 /// its end go to `d.events.g_new`, and the earliest relevant event inside it is returned
 /// (None: the step can be accepted whole). Peaks of continuous contacts before that event

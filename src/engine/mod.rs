@@ -322,7 +322,7 @@ fn stop_at_event(m: &Model, d: &mut Data, t: f64) -> Result<(), EngineError> {
     events::event_values(m, d, true);
     let result = modes::handle_events(m, d);
     let h = d.solver.method().map_or(0.0, |i| i.next_step());
-    restart(m, d, h, false)?;
+    restart(m, d, h.min(events::first_contact_step(m, d)), false)?;
     result.map_err(|e| fail(d, e))
 }
 

@@ -2,25 +2,38 @@
 //! switched by a stiffness estimate, as LSODA does between Adams and BDF.
 //!
 //! - **Explicit → implicit.** Every accepted Dormand-Prince step estimates `h·ρ` from its last
-//!   two stages ([`Dopri5::stiffness`], Hairer's test). Above [`STIFF_LIMIT`] the step size is
-//!   bounded by stability, not accuracy. After [`STIFF_STEPS`] such steps (a run of
+//!   two stages ([`Dopri5::stiffness`], Hairer's estimate, free). From [`CHECK_TRIGGER`] on
+//!   ([`CHECK_AFTER`] steps in a row), the estimate is checked by two power iterations of
+//!   directional differences from the
+//!   step's error estimate ([`Dopri5::stiffness_check`], two evaluations), which sees the
+//!   stiff components that Hairer's estimate misses once the controller keeps them small.
+//!   A checked `h·ρ` from [`STIFF_LIMIT`] on means the step size is bounded by stability (or
+//!   about to be: the boundary is 3.31 on the negative real axis), not accuracy; it counts
+//!   one stiff step, and [`UNSTABLE_WEIGHT`] from [`UNSTABLE_LIMIT`] on, where the step is
+//!   beyond the boundary and the stiff components grow. At [`STIFF_STEPS`] (a run of
 //!   [`CALM_STEPS`] steps below the limit forgets them) the next step switches: the implicit
 //!   method starts at the current state with a fresh Jacobian.
 //! - **Implicit → explicit.** After every accepted implicit step: the step is *non-stiff* when
 //!   Newton converged without a Jacobian (functional iteration, as after a reset), or when
-//!   the spectral radius ρ(J) of the Jacobian held (power iteration, computed once per
-//!   Jacobian) times the next step is below [`CALM_LIMIT`]: Dormand-Prince would be stable at
-//!   that step size with margin. After [`CALM_STEPS_IMPLICIT`] non-stiff steps in a row the
-//!   next step switches back.
+//!   the stiffness ρ times the next step is below [`CALM_LIMIT`]: Dormand-Prince would be
+//!   stable at that step size with margin. ρ is the spectral radius of the Jacobian held
+//!   (power iteration, computed once per Jacobian), and every [`RECHECK_STEPS`] steps with
+//!   the same Jacobian the rate of change of `f` along its dominant direction at the current
+//!   state (one evaluation): a Jacobian is kept for as long as Newton converges, so its own
+//!   ρ may describe a stiffness that has faded since. After [`CALM_STEPS_IMPLICIT`] non-stiff
+//!   steps in a row the next step switches back.
 //! - A switch happens at the start of a step, so the dense output of the last step stays that
 //!   of the method that took it. The counters carry over (one [`Stats`] for the run).
 //! - Resets (after events) and restarts keep the active method and the switching memory.
-//! - The implicit method brings its own linear algebra: dense for small systems, faer's sparse
-//!   LU with a coloured Jacobian for large ones ([`super::linear`]); ρ(J) is computed from
-//!   either form. (A caller may still build `auto` without an implicit method: it is then
+//! - The implicit method is built at the first switch (its workspace: Jacobian, iteration
+//!   matrices, LU factors), so a problem that is never stiff never allocates one, and kept
+//!   for later switches. It brings its own linear algebra: dense for small systems, faer's
+//!   sparse LU with a coloured Jacobian for large ones ([`super::linear`]); ρ(J) is computed
+//!   from either form. (A caller may build `auto` without an implicit method: it is then
 //!   Dormand-Prince alone.)
 //! - Saved state: the tag, the switching memory, then the active method's own state; the other
-//!   method is not saved since it starts afresh at a switch.
+//!   method is not saved since it starts afresh at a switch (a state with the implicit
+//!   method active builds it when loaded).
 
 use super::core::{StateReader, StepCore};
 use super::dopri5::Dopri5;
@@ -29,27 +42,46 @@ use super::newton::ImplicitMethod;
 use super::{Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 
-/// `h·ρ` above which a Dormand-Prince step counts as limited by stability (Hairer's 3.25; the
-/// stability region reaches about 3.3 along the negative real axis).
-pub const STIFF_LIMIT: f64 = 3.25;
-/// Stability-limited Dormand-Prince steps that make the problem stiff (Hairer: 15).
-pub const STIFF_STEPS: u32 = 15;
+/// Hairer's estimate of `h·ρ` from which a Dormand-Prince step's stiffness is checked
+/// ([`Dopri5::stiffness_check`]).
+pub const CHECK_TRIGGER: f64 = 1.0;
+/// Steps in a row whose estimate reaches [`CHECK_TRIGGER`] before the check runs (an estimate
+/// above it on one step alone, as at a contact's touch, is not checked).
+pub const CHECK_AFTER: u32 = 2;
+/// Checked `h·ρ` from which a Dormand-Prince step counts as limited by stability (the
+/// stability region reaches 3.31 along the negative real axis; the check is a lower bound).
+pub const STIFF_LIMIT: f64 = 2.5;
+/// Checked `h·ρ` beyond the stability boundary: the stiff components grow.
+pub const UNSTABLE_LIMIT: f64 = 4.0;
+/// What a step beyond [`UNSTABLE_LIMIT`] counts toward [`STIFF_STEPS`].
+pub const UNSTABLE_WEIGHT: u32 = 3;
+/// Stiff steps (weighted) that switch to the implicit method.
+pub const STIFF_STEPS: u32 = 5;
 /// Dormand-Prince steps below [`STIFF_LIMIT`] in a row that forget the stiff ones (Hairer: 6).
 pub const CALM_STEPS: u32 = 6;
 /// `h·ρ(J)` of the implicit method's next step below which Dormand-Prince would be stable
-/// with margin (half of [`STIFF_LIMIT`]).
-pub const CALM_LIMIT: f64 = 0.5 * STIFF_LIMIT;
+/// with margin (about half of the stability boundary 3.31).
+pub const CALM_LIMIT: f64 = 1.625;
 /// Non-stiff implicit steps in a row that switch back to Dormand-Prince.
 pub const CALM_STEPS_IMPLICIT: u32 = 10;
+/// Implicit steps with the same Jacobian between two measurements of the stiffness along its
+/// dominant direction at the current state.
+pub const RECHECK_STEPS: u32 = 5;
 /// Power iterations for ρ(J).
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
-pub const MEMORY_LEN: usize = 7;
+pub const MEMORY_LEN: usize = 9;
+
+/// Builds the implicit method for a system size with the tolerances and largest step
+/// (`Radau5::new`).
+pub type ImplicitBuilder<I> = fn(usize, f64, f64, f64) -> I;
 
 /// The automatic method (scene name `"auto"`) over Dormand-Prince and the implicit method `I`.
 pub struct Auto<I: ImplicitMethod + Integrator> {
     explicit: Dopri5,
-    /// None: Dormand-Prince alone.
+    /// Builds the implicit method at the first switch (None: Dormand-Prince alone).
+    build: Option<ImplicitBuilder<I>>,
+    /// The implicit method, once built.
     implicit: Option<I>,
     /// The implicit method is the active one.
     stiff: bool,
@@ -64,30 +96,63 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     /// (u64::MAX: none).
     rho: f64,
     rho_jac: u64,
-    /// Power-iteration vectors.
+    /// The stiffness the implicit steps are measured against: ρ(J) when the Jacobian is new,
+    /// then the rate along its dominant direction every [`RECHECK_STEPS`] steps.
+    rho_now: f64,
+    /// Implicit: steps since `rho_now` was measured; explicit: steps in a row whose estimate
+    /// reached [`CHECK_TRIGGER`].
+    since: u32,
+    /// Power-iteration vectors (`x`: J's dominant direction once `x_for` is `rho_jac`).
     x: Vec<f64>,
     jx: Vec<f64>,
+    x_for: u64,
+    /// Scratch of the directional differences.
+    v: Vec<f64>,
+    y_pert: Vec<f64>,
+    jv: Vec<f64>,
     /// Switches made (both directions).
     switches: u64,
 }
 
 impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// The method for systems of size `n`, with the explicit method's tolerances and largest
-    /// step and an implicit method built for the same (None: never stiff).
-    pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64, implicit: Option<I>) -> Self {
+    /// step and the builder of an implicit method for the same (None: never stiff).
+    pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64, build: Option<ImplicitBuilder<I>>) -> Self {
         Auto {
             explicit: Dopri5::new(n, rtol, atol, hmax),
-            implicit,
+            build,
+            implicit: None,
             stiff: false,
             switch_pending: false,
             count: 0,
             calm: 0,
             rho: 0.0,
             rho_jac: u64::MAX,
+            rho_now: 0.0,
+            since: 0,
             x: vec![0.0; n],
             jx: vec![0.0; n],
+            x_for: u64::MAX,
+            v: vec![0.0; n],
+            y_pert: vec![0.0; n],
+            jv: vec![0.0; n],
             switches: 0,
         }
+    }
+
+    /// Whether the implicit method has been built (at the first switch or a load).
+    pub fn has_implicit(&self) -> bool {
+        self.implicit.is_some()
+    }
+
+    /// The implicit method, built when it is not yet (None without a builder).
+    fn implicit_built(&mut self) -> Option<&mut I> {
+        if self.implicit.is_none() {
+            let build = self.build?;
+            let c = self.explicit.core();
+            self.implicit = Some(build(c.y.len(), c.rtol, c.atol, c.hmax));
+        }
+        self.implicit.as_mut()
     }
 
     /// Whether the implicit method is active.
@@ -118,10 +183,15 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// counters so far (the implicit one with a fresh Jacobian).
     fn switch(&mut self, sys: &mut dyn OdeSystem) {
         let (t, stats, h) = (self.active().t(), self.active().stats(), self.active().next_step());
+        if self.implicit_built().is_none() {
+            self.switch_pending = false;
+            return;
+        }
         self.stiff = !self.stiff;
         self.switch_pending = false;
         self.count = 0;
         self.calm = 0;
+        self.since = 0;
         self.switches += 1;
         let Auto { explicit, implicit, .. } = self;
         let Some(implicit) = implicit else {
@@ -137,12 +207,25 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         }
     }
 
-    /// Updates the switching memory after an accepted step of positive length.
-    fn observe(&mut self) {
+    /// Updates the switching memory after an accepted step of positive length (the
+    /// explicit method's stiffness check evaluates `sys`).
+    fn observe(&mut self, sys: &mut dyn OdeSystem) {
         if !self.stiff {
+            // (explicit: `since` counts the steps in a row whose estimate is at the trigger)
+            self.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
+                (self.since + 1).min(CHECK_AFTER)
+            } else {
+                0
+            };
+            let h_rho = if self.since >= CHECK_AFTER {
+                self.explicit.stiffness_check(sys)
+            } else {
+                0.0
+            };
             // (the counts saturate: without an implicit method they would grow forever)
-            if self.explicit.stiffness() > STIFF_LIMIT {
-                self.count = (self.count + 1).min(STIFF_STEPS);
+            if h_rho >= STIFF_LIMIT {
+                let weight = if h_rho >= UNSTABLE_LIMIT { UNSTABLE_WEIGHT } else { 1 };
+                self.count = (self.count + weight).min(STIFF_STEPS);
                 self.calm = 0;
             } else {
                 self.calm = (self.calm + 1).min(CALM_STEPS);
@@ -150,12 +233,16 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
                     self.count = 0;
                 }
             }
-            if self.count >= STIFF_STEPS && self.implicit.is_some() {
+            if self.count >= STIFF_STEPS && self.build.is_some() {
                 self.switch_pending = true;
             }
             return;
         }
-        let Some(implicit) = &self.implicit else {
+        let Auto {
+            implicit: Some(implicit),
+            ..
+        } = self
+        else {
             return;
         };
         let (_, newton) = implicit.parts();
@@ -163,11 +250,26 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             true
         } else {
             let jac_evals = implicit.stats().jac_evals;
-            if self.rho_jac != jac_evals {
+            if self.rho_jac != jac_evals || self.x_for != jac_evals {
+                // a new Jacobian (or its direction not known since a load: the same numbers)
                 self.rho = spectral_radius(newton.jac_ref(), &mut self.x, &mut self.jx);
-                self.rho_jac = jac_evals;
+                self.x_for = jac_evals;
+                if self.rho_jac != jac_evals {
+                    self.rho_jac = jac_evals;
+                    self.rho_now = self.rho;
+                    self.since = 0;
+                }
             }
-            implicit.next_step() * self.rho < CALM_LIMIT
+            self.since += 1;
+            if self.since >= RECHECK_STEPS {
+                self.since = 0;
+                self.v.copy_from_slice(&self.x);
+                let core = implicit.parts_mut().0;
+                if let Some(r) = core.directional_rate(sys, &mut self.v, &mut self.y_pert, &mut self.jv) {
+                    self.rho_now = r;
+                }
+            }
+            implicit.next_step() * self.rho_now < CALM_LIMIT
         };
         self.count = if calm {
             (self.count + 1).min(CALM_STEPS_IMPLICIT)
@@ -242,7 +344,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         }
         self.active_mut().step(sys, t_max)?;
         if self.active().t() > self.active().t_prev() {
-            self.observe();
+            self.observe(sys);
         }
         Ok(())
     }
@@ -265,8 +367,9 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     }
 
     /// Tag, the switching memory (implicit active, switch pending, the two step counts, ρ(J)
-    /// and the Jacobian count it is for (−1: none), switches made), then the active method's
-    /// state with its own tag.
+    /// and the Jacobian count it is for (−1: none), switches made, the stiffness measured
+    /// since and the implicit steps since that measurement), then the active method's state
+    /// with its own tag.
     fn save_state(&self, out: &mut Vec<f64>) {
         out.push(super::core::state_tag(Method::Auto));
         let flag = |b: bool| b as u8 as f64;
@@ -283,6 +386,8 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             self.rho,
             rho_jac,
             self.switches as f64,
+            self.rho_now,
+            self.since as f64,
         ]);
         self.active().save_state(out);
     }
@@ -304,17 +409,32 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             }
         };
         let switches = r.count()?;
-        let own = r.take(v.len() - 1 - MEMORY_LEN)?;
+        let rho_now = r.value()?;
+        let since = r.count()?;
+        let own = r.take(v.len().saturating_sub(1 + MEMORY_LEN))?;
         r.finish()?;
-        if count > u32::MAX as u64 || calm > u32::MAX as u64 || rho.is_nan() || rho < 0.0 {
+        let too_big = |c: u64| c > u32::MAX as u64;
+        let bad_rate = |x: f64| x.is_nan() || x < 0.0;
+        if too_big(count) || too_big(calm) || too_big(since) || bad_rate(rho) || bad_rate(rho_now) {
             return Err("the auto integrator state holds an out-of-range switching memory".into());
         }
-        match &mut self.implicit {
-            Some(i) if stiff => i.load_state(own)?,
-            None if stiff => {
-                return Err("the auto integrator state is implicit, but this system is too large for one".into())
+        if stiff {
+            match (&mut self.implicit, self.build) {
+                (Some(i), _) => i.load_state(own)?,
+                (None, Some(build)) => {
+                    let c = self.explicit.core();
+                    let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
+                    fresh.load_state(own)?;
+                    self.implicit = Some(fresh);
+                }
+                (None, None) => {
+                    return Err(
+                        "the auto integrator state is implicit, but this integrator has no implicit method".into(),
+                    )
+                }
             }
-            _ => self.explicit.load_state(own)?,
+        } else {
+            self.explicit.load_state(own)?;
         }
         self.stiff = stiff;
         self.switch_pending = pending;
@@ -323,6 +443,10 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         self.rho = rho;
         self.rho_jac = rho_jac;
         self.switches = switches;
+        self.rho_now = rho_now;
+        self.since = since as u32;
+        // the Jacobian's direction is computed again from the loaded Jacobian when needed
+        self.x_for = u64::MAX;
         Ok(())
     }
 
@@ -336,16 +460,27 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         match v.split_first() {
             None => self.active_mut().set_warm_state(&[]),
             Some((&flag, rest)) if flag == 0.0 || flag == 1.0 => {
-                match &mut self.implicit {
-                    Some(i) if flag == 1.0 => i.set_warm_state(rest)?,
-                    None if flag == 1.0 => {
-                        return Err(
-                            "the auto integrator's memory is implicit, but this system is too large for one".into(),
-                        )
+                if flag == 1.0 {
+                    match (&mut self.implicit, self.build) {
+                        (Some(i), _) => i.set_warm_state(rest)?,
+                        (None, Some(build)) => {
+                            let c = self.explicit.core();
+                            let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
+                            fresh.set_warm_state(rest)?;
+                            self.implicit = Some(fresh);
+                        }
+                        (None, None) => {
+                            return Err(
+                                "the auto integrator's memory is implicit, but this integrator has no implicit method"
+                                    .into(),
+                            )
+                        }
                     }
-                    _ => self.explicit.set_warm_state(rest)?,
+                } else {
+                    self.explicit.set_warm_state(rest)?;
                 }
                 self.stiff = flag == 1.0;
+                self.x_for = u64::MAX;
                 Ok(())
             }
             Some((&flag, _)) => Err(format!(
@@ -373,13 +508,7 @@ mod tests {
     }
 
     fn auto(n: usize, rtol: f64) -> Auto<Radau5> {
-        Auto::new(
-            n,
-            rtol,
-            rtol,
-            f64::INFINITY,
-            Some(Radau5::new(n, rtol, rtol, f64::INFINITY)),
-        )
+        Auto::new(n, rtol, rtol, f64::INFINITY, Some(Radau5::new))
     }
 
     /// Steps to `t_end`, recording whether the implicit method was active after each step.

@@ -178,6 +178,43 @@ impl StepCore {
         self.f.copy_from_slice(s.f);
     }
 
+    /// The rate of change of `f` along `v` at the current state, `‖J v‖/‖v‖` in the error
+    /// weights, from one directional difference `f(y + c v) − f(y)` (one evaluation,
+    /// counted; `self.f` must be `f(t, y)`), with `c v` scaled to the increments of the
+    /// finite-difference Jacobians (`√ε·max(|yᵢ|, 10⁻⁵)` at most per component). Leaves the
+    /// difference `f(y + c v) − f(y)` in `v` (the next vector of a power iteration); `y_pert`
+    /// and `jv` are scratch. None when `v` is zero or the difference is not finite.
+    pub fn directional_rate(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        v: &mut [f64],
+        y_pert: &mut [f64],
+        jv: &mut [f64],
+    ) -> Option<f64> {
+        let n = self.y.len();
+        let scale = (0..n)
+            .filter(|&i| v[i] != 0.0)
+            .map(|i| (f64::EPSILON * 1e-5_f64.max(self.y[i].abs())).sqrt() / v[i].abs())
+            .fold(f64::INFINITY, f64::min);
+        if !scale.is_finite() {
+            return None;
+        }
+        for i in 0..n {
+            y_pert[i] = self.y[i] + scale * v[i];
+        }
+        sys.rhs(self.t, y_pert, jv);
+        self.stats.rhs_evals += 1;
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..n {
+            let w = 1.0 / (self.atol + self.rtol * self.y[i].abs().max(self.y_prev[i].abs()));
+            let (dv, dj) = (w * (y_pert[i] - self.y[i]), w * (jv[i] - self.f[i]));
+            num += dj * dj;
+            den += dv * dv;
+            v[i] = jv[i] - self.f[i];
+        }
+        (den > 0.0 && num.is_finite()).then(|| (num / den).sqrt())
+    }
+
     /// Dense output at `t` in `[t_prev, t]`: `y` after a zero-length step, otherwise
     /// `dense(s, h, out)` with `h = t − t_prev` and `s = (t − t_prev)/h`.
     pub fn interpolate(&self, t: f64, out: &mut [f64], dense: impl FnOnce(f64, f64, &mut [f64])) {

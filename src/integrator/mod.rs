@@ -165,13 +165,7 @@ pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
         )),
         Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, hmax)),
         Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
-        Method::Auto => Box::new(auto::Auto::new(
-            n,
-            s.rtol,
-            s.atol,
-            hmax,
-            Some(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
-        )),
+        Method::Auto => Box::new(auto::Auto::new(n, s.rtol, s.atol, hmax, Some(radau::Radau5::new))),
     }
 }
 
@@ -744,9 +738,19 @@ mod tests {
         matches!(method, Method::Sdirk | Method::Radau5)
     }
 
+    /// Numbers of an implicit method's dense output in its saved state (sdirk: 3 vectors;
+    /// radau5: the 3 stage increments, f at the last step's start, the state and f at the
+    /// start of the step before, and that step's start time).
+    fn dense_len(method: Method, n: usize) -> usize {
+        match method {
+            Method::Radau5 => 6 * n + 1,
+            _ => 3 * n,
+        }
+    }
+
     /// Where the Newton part of an implicit method's saved state begins (system size `n`).
-    fn newton_offset(n: usize) -> usize {
-        1 + StepCore::saved_len(n) + 3 * n
+    fn newton_offset(method: Method, n: usize) -> usize {
+        1 + StepCore::saved_len(n) + dense_len(method, n)
     }
 
     /// Length of a saved state of `method` for size `n` (implicit: with the Jacobian when
@@ -755,7 +759,7 @@ mod tests {
         match method {
             Method::Dopri5 => 9 + 7 * n,
             Method::Rk4 => 8 + 4 * n,
-            Method::Sdirk | Method::Radau5 => 15 + 6 * n + if with_jac { n * n } else { 0 },
+            Method::Sdirk | Method::Radau5 => 15 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
             Method::Auto => unreachable!("auto: the length of its active method's state"),
         }
     }
@@ -822,7 +826,7 @@ mod tests {
                 ks.extend(first(&|k| matches!(lim[k - 1], Limit::Here)));
                 let implicit_at = |k: usize| {
                     let (inner, base) = layout(method, &states[k]);
-                    is_implicit(inner).then_some(base + newton_offset(n))
+                    is_implicit(inner).then_some(base + newton_offset(inner, n))
                 };
                 let stale = first(&|k| implicit_at(k).is_some_and(|o| states[k][o + 3] == 1.0));
                 ks.extend(stale);
@@ -848,7 +852,7 @@ mod tests {
                         assert_eq!(bits(&w), bits(&states[k]), "{what}: the run is deterministic");
                     }
                     let (inner, base) = layout(method, &w);
-                    let with_jac = is_implicit(inner) && w[base + newton_offset(n) + 4] == 1.0;
+                    let with_jac = is_implicit(inner) && w[base + newton_offset(inner, n) + 4] == 1.0;
                     assert_eq!(w.len(), base + saved_len(inner, n, with_jac), "{what}: length");
                     // b: fresh; other: with another history (a Jacobian, LU factors,
                     // stages and scratch of its own) before the load
@@ -870,7 +874,7 @@ mod tests {
                     }
                     let mut ms = [a, b, other];
                     if is_implicit(method) {
-                        let o = newton_offset(n);
+                        let o = newton_offset(method, n);
                         let e = seen.entry(method.name()).or_insert([false; 5]);
                         e[0] |= w[o + 3] == 1.0;
                         e[1] |= w[o + 5] == 1.0;
@@ -981,7 +985,7 @@ mod tests {
                     }
                 }
                 if is_implicit(inner) {
-                    let o = base + newton_offset(n);
+                    let o = base + newton_offset(inner, n);
                     let jac_valid = s2[o + 4] == 1.0;
                     assert_eq!(
                         jac_valid,

@@ -127,12 +127,19 @@ impl Eigenbasis {
     }
 }
 
+/// The two-step interpolant is used while the step before the last is at most this many
+/// times as long as the last (beyond, the collocation polynomial).
+const SPAN_BEFORE: f64 = 20.0;
+
 /// The Radau IIA 5 method (scene name `"radau5"`).
 pub struct Radau5 {
     core: StepCore,
     newton: NewtonCore,
-    /// Stage increments of the last step (dense output, with `core.y_prev`).
-    z_prev: [Vec<f64>; 3],
+    /// Dense output of the last step (with `core.y_prev`, `core.y` and `core.f`), n numbers
+    /// each: the stage increments `Zᵢ` (3 blocks), f at its start, the state and f at the
+    /// start of the step before it, and (a block of one number) that step's start time (no
+    /// step before when it is not before the last step's start).
+    dense: [Vec<f64>; 7],
     /// Stage increments Z (3n, stage-major) and Newton correction.
     z: Vec<f64>,
     dz: Vec<f64>,
@@ -140,7 +147,7 @@ pub struct Radau5 {
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
     /// LU of `I − hγ₀J` (n × n, real; dense or sparse), of `I − h/(α + iβ) J` (n × n,
-    /// complex, interleaved; the dense path only, empty on the sparse one) and of
+    /// complex, real parts then imaginary parts; the dense path only, empty on the sparse one) and of
     /// `I − hA⊗J` (3n × 3n; the sparse path only).
     lu_err: Lu,
     lu_complex: Vec<f64>,
@@ -166,7 +173,7 @@ impl Radau5 {
         Radau5 {
             core: StepCore::new(n, rtol, atol, hmax),
             newton: NewtonCore::new(n, rtol, sparse),
-            z_prev: [v(n), v(n), v(n)],
+            dense: [v(n), v(n), v(n), v(n), v(n), v(n), v(1)],
             z: v(3 * n),
             dz: v(3 * n),
             stage: v(n),
@@ -180,6 +187,32 @@ impl Radau5 {
             work: v(n),
             basis: Eigenbasis::new(),
         }
+    }
+
+    /// The weights of the two-step interpolant at θ: the quintic through the state and its
+    /// derivative (`h·f`) at the start `a < 0` of the step before (in units of the last step
+    /// `h`, from its start), at the start (0) and at the end (1) of the last step, for the
+    /// data `[y(a), y(0), y(1), h f(a), h f(0), h f(1)]` (Hermite interpolation, Newton form
+    /// on the nodes a, a, 0, 0, 1, 1; local error O(h⁶) for a smooth solution, against O(h⁴)
+    /// of the collocation polynomial).
+    fn two_step_weights(a: f64, th: f64) -> [f64; 6] {
+        let value = |[ya, y0, y1, da, d0, d1]: [f64; 6]| {
+            let q_a0 = (y0 - ya) / -a;
+            let q_01 = y1 - y0;
+            let q_aa0 = (q_a0 - da) / -a;
+            let q_a00 = (d0 - q_a0) / -a;
+            let q_001 = q_01 - d0;
+            let q_011 = d1 - q_01;
+            let q_aa00 = (q_a00 - q_aa0) / -a;
+            let q_a001 = (q_001 - q_a00) / (1.0 - a);
+            let q_0011 = q_011 - q_001;
+            let q_aa001 = (q_a001 - q_aa00) / (1.0 - a);
+            let q_a0011 = (q_0011 - q_a001) / (1.0 - a);
+            let q_5 = (q_a0011 - q_aa001) / (1.0 - a);
+            let w2 = (th - a) * (th - a);
+            ya + da * (th - a) + w2 * (q_aa0 + th * (q_aa00 + th * (q_aa001 + (th - 1.0) * q_5)))
+        };
+        std::array::from_fn(|k| value(std::array::from_fn(|i| if i == k { 1.0 } else { 0.0 })))
     }
 
     /// Lagrange basis on the nodes (0, c₁, c₂, c₃) for node `i` (1..=3) at θ.
@@ -206,7 +239,7 @@ impl Radau5 {
                 let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
                 for m in 0..n {
                     let u =
-                        core.y_prev[m] + l[0] * self.z_prev[0][m] + l[1] * self.z_prev[1][m] + l[2] * self.z_prev[2][m];
+                        core.y_prev[m] + l[0] * self.dense[0][m] + l[1] * self.dense[1][m] + l[2] * self.dense[2][m];
                     self.z[s * n + m] = u - core.y[m];
                 }
             }
@@ -314,7 +347,7 @@ impl ImplicitMethod for Radau5 {
     }
 
     fn clear_dense(&mut self) {
-        for z in self.z_prev.iter_mut() {
+        for z in self.dense[..3].iter_mut() {
             z.iter_mut().for_each(|x| *x = 0.0);
         }
     }
@@ -326,11 +359,11 @@ impl ImplicitMethod for Radau5 {
     const METHOD: Method = Method::Radau5;
 
     fn dense_coefficients(&self) -> &[Vec<f64>] {
-        &self.z_prev
+        &self.dense
     }
 
     fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
-        &mut self.z_prev
+        &mut self.dense
     }
 
     /// `I − hγ₀J` (real) and `I − h/(α + iβ) J` (complex).
@@ -344,12 +377,13 @@ impl ImplicitMethod for Radau5 {
                 // h/(α + iβ) = h (α − iβ)/(α² + β²)
                 let d = alpha * alpha + beta * beta;
                 let (cr, ci) = (h * alpha / d, -h * beta / d);
-                for (k, j) in dense.iter().enumerate() {
-                    lu_complex[2 * k] = -cr * j;
-                    lu_complex[2 * k + 1] = -ci * j;
+                let (lu_re, lu_im) = lu_complex.split_at_mut(n * n);
+                for ((r, i), j) in lu_re.iter_mut().zip(lu_im.iter_mut()).zip(dense) {
+                    *r = -cr * j;
+                    *i = -ci * j;
                 }
                 for i in 0..n {
-                    lu_complex[2 * (i * n + i)] += 1.0;
+                    lu_re[i * n + i] += 1.0;
                 }
                 err.factor_shifted(jac, h * gamma0()) && linalg::lu_in_place_complex(lu_complex, n, perm_complex)
             }
@@ -380,9 +414,19 @@ impl ImplicitMethod for Radau5 {
     fn accept(&mut self, sys: &mut dyn OdeSystem, _h: f64, t_new: f64) {
         let core = &mut self.core;
         let n = core.y.len();
+        // the last step's start becomes the start of the step before (when it was a step)
+        let [z0, z1, z2, f_start, y_before, f_before, t_before] = &mut self.dense;
+        if core.t > core.t_prev {
+            y_before.copy_from_slice(&core.y_prev);
+            std::mem::swap(f_before, f_start);
+            t_before[0] = core.t_prev;
+        } else {
+            t_before[0] = core.t;
+        }
+        f_start.copy_from_slice(&core.f);
         core.y_prev.copy_from_slice(&core.y);
-        for s in 0..3 {
-            self.z_prev[s].copy_from_slice(&self.z[s * n..(s + 1) * n]);
+        for (s, zs) in [z0, z1, z2].into_iter().enumerate() {
+            zs.copy_from_slice(&self.z[s * n..(s + 1) * n]);
         }
         for m in 0..n {
             core.y[m] += self.z[2 * n + m];
@@ -393,12 +437,26 @@ impl ImplicitMethod for Radau5 {
         core.stats.rhs_evals += 1;
     }
 
+    /// The two-step interpolant (Hermite, through the state and `f` at the start of the step
+    /// before, at the start and at the end of the last step) when there was a step before and
+    /// it is at most [`SPAN_BEFORE`] times as long; otherwise (the first step after a start)
+    /// the collocation polynomial.
     fn dense_output(&self, t: f64, out: &mut [f64]) {
-        let (y0, [z0, z1, z2]) = (&self.core.y_prev, &self.z_prev);
-        self.core.interpolate(t, out, |th, _, out| {
-            let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
-            for (m, o) in out.iter_mut().enumerate() {
-                *o = y0[m] + l[0] * z0[m] + l[1] * z1[m] + l[2] * z2[m];
+        let core = &self.core;
+        let (y0, y1, f1) = (&core.y_prev, &core.y, &core.f);
+        let [z0, z1, z2, f0, yb, fb, tb] = &self.dense;
+        let before = core.t_prev - tb[0];
+        core.interpolate(t, out, |th, h, out| {
+            if before > 0.0 && before <= SPAN_BEFORE * h {
+                let w = Self::two_step_weights(-before / h, th);
+                for (m, o) in out.iter_mut().enumerate() {
+                    *o = w[0] * yb[m] + w[1] * y0[m] + w[2] * y1[m] + h * (w[3] * fb[m] + w[4] * f0[m] + w[5] * f1[m]);
+                }
+            } else {
+                let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
+                for (m, o) in out.iter_mut().enumerate() {
+                    *o = y0[m] + l[0] * z0[m] + l[1] * z1[m] + l[2] * z2[m];
+                }
             }
         });
     }
@@ -487,6 +545,26 @@ mod tests {
             (q1 - 4.0).abs() < 0.3 && (q2 - 4.0).abs() < 0.3,
             "estimate {q1} {q2} ({s1:e} {s2:e} {s3:e})"
         );
+    }
+
+    #[test]
+    fn the_two_step_dense_output_has_local_order_six() {
+        // after a second step the interpolant through the state and f at the starts of both
+        // steps and at the end is used: O(h⁶) over the step, against O(h⁴) for the collocation
+        // polynomial of the first step after a start (the test above)
+        let y0 = Smooth::exact(1.0);
+        let run = |h: f64| {
+            let mut m = Radau5::new(3, 1e-13, 1e-13, f64::INFINITY);
+            m.reset(&mut Smooth, 1.0, &y0, h);
+            fixed_step(&mut m, &mut Smooth, h);
+            let first = dense_error(&m, |t| Smooth::exact(t).to_vec());
+            fixed_step(&mut m, &mut Smooth, h);
+            (first, dense_error(&m, |t| Smooth::exact(t).to_vec()))
+        };
+        let ((c1, d1), (c2, d2), (c3, d3)) = (run(0.1), run(0.05), run(0.025));
+        let (p1, p2) = (order(d1, d2), order(d2, d3));
+        assert!(p1 > 5.7 && p2 > 5.7, "two-step {p1} {p2} ({d1:e} {d2:e} {d3:e})");
+        assert!(d3 < 0.1 * c3, "two-step {d3:e}, collocation {c3:e} ({c1:e} {c2:e})");
     }
 
     #[test]

@@ -231,12 +231,86 @@ pub struct Plan {
     pub general: Part,
     /// Free bodies (Newton-Euler, no mass matrix).
     pub free: Vec<FreeBody>,
+    /// Per body, its index in `free` ([`NOT_FREE`] for a body on the general path).
+    pub free_of: Vec<usize>,
+    /// Per tree joint, the rotor it turns, if it is one ([`Rotor`]).
+    pub rotors: Vec<Option<Rotor>>,
+}
+
+/// A revolute joint whose child body spins about the joint axis without anything in the
+/// right-hand side depending on the angle: the child has no children, is in no loop and is
+/// attached to no spring, carries no shape of another contact's body, only spheres centred on
+/// the axis, has its centre of mass on the axis and an inertia symmetric about it (a wheel, a
+/// flywheel, a rotor). Its pose, spatial inertia and motion subspace are then those of the
+/// joint frame, whatever the angle: the right-hand side skips the rotation by the angle (its
+/// sine and cosine, two quaternion products, the rotated inertia) and takes the world inertia
+/// as `I_t 1 + (I_a − I_t) h hᵀ` from the axis `h`. Decided at compilation
+/// ([`Plan::of`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rotor {
+    /// Moment of inertia about the axis and about any axis across it, at the centre of mass.
+    pub axial: f64,
+    pub transverse: f64,
+    /// The child's constant rotation relative to the joint frame, as a matrix.
+    pub rot0: Matrix3<f64>,
+}
+
+impl Rotor {
+    /// The rotor of tree joint `j`, if it is one (see [`Rotor`]).
+    fn of(j: &TreeJoint, b: &Body, is_attached: bool, contacts: &[ContactElement], child: usize) -> Option<Rotor> {
+        if j.kind != JointType::Revolute || is_attached {
+            return None;
+        }
+        let axis = j.axis.try_normalize(1e-300)?;
+        let on_axis = |v: &Vector3<f64>, a: &Vector3<f64>| v.cross(a).norm() <= 1e-12 * v.norm().max(1e-9);
+        // the axis in the body frame: R0ᵀ a (the spin about the axis leaves it)
+        let a_body = j.rot0.inverse() * axis;
+        if !on_axis(&j.offset, &axis) {
+            return None;
+        }
+        for c in contacts {
+            if c.body == Some(child) || (c.sphere_body == Some(child) && !on_axis(&c.center, &a_body)) {
+                return None;
+            }
+        }
+        let inertia = Matrix3::from_diagonal(&b.inertia);
+        let axial = a_body.dot(&(inertia * a_body));
+        let transverse = 0.5 * (inertia.trace() - axial);
+        let symmetric =
+            Matrix3::from_diagonal_element(transverse) + (a_body * (axial - transverse)) * a_body.transpose();
+        if (inertia - symmetric).abs().max() > 1e-12 * inertia.abs().max() {
+            return None;
+        }
+        Some(Rotor {
+            axial,
+            transverse,
+            rot0: *j.rot0.to_rotation_matrix().matrix(),
+        })
+    }
+}
+
+/// [`Plan::free_of`] of a body on the general path.
+pub const NOT_FREE: usize = usize::MAX;
+
+impl Plan {
+    /// The free body `b` is, if it is one.
+    #[inline]
+    pub fn free_body(&self, b: usize) -> Option<&FreeBody> {
+        self.free.get(*self.free_of.get(b)?)
+    }
 }
 
 impl Plan {
     /// The plan of a model: every tree that is one free body with nothing attached by a loop
     /// goes to `free`.
-    pub fn of(bodies: &[Body], joints: &[TreeJoint], loops: &[LoopConstraint], ntrees: usize) -> Plan {
+    pub fn of(
+        bodies: &[Body],
+        joints: &[TreeJoint],
+        loops: &[LoopConstraint],
+        springs: &[SpringDamper],
+        contacts: &[ContactElement],
+        ntrees: usize,
+    ) -> Plan {
         let mut tree_joints = vec![0usize; ntrees];
         for j in joints {
             tree_joints[j.tree] += 1;
@@ -259,11 +333,15 @@ impl Plan {
                 && b.mass > 0.0
                 && b.inertia.iter().all(|&x| x > 0.0)
         };
-        let mut plan = Plan::default();
+        let mut plan = Plan {
+            free_of: vec![NOT_FREE; bodies.len()],
+            ..Plan::default()
+        };
         let mut general_tree = vec![false; ntrees];
         for (ji, j) in joints.iter().enumerate() {
             if is_free(j) {
                 let b = &bodies[j.child];
+                plan.free_of[j.child] = plan.free.len();
                 plan.free.push(FreeBody {
                     body: j.child,
                     qpos: j.qpos,
@@ -280,6 +358,22 @@ impl Plan {
         }
         plan.general.bodies.sort_unstable();
         plan.general.trees = (0..ntrees).filter(|&t| general_tree[t]).collect();
+        // rotors: bodies that nothing but their joint, centred spheres and forces hold
+        let mut attached = in_loop;
+        for j in joints {
+            if let Some(p) = j.parent {
+                attached[p] = true;
+            }
+        }
+        for s in springs {
+            for b in [s.body_a, s.body_b].into_iter().flatten() {
+                attached[b] = true;
+            }
+        }
+        plan.rotors = joints
+            .iter()
+            .map(|j| Rotor::of(j, &bodies[j.child], attached[j.child], contacts, j.child))
+            .collect();
         plan
     }
 }

@@ -44,12 +44,15 @@ fn work_does_not_depend_on_the_communication_step() {
         let mut worst: f64 = 0.0;
         for j in 0..a[0].len() {
             let col = a.iter().map(|r| r[j]);
-            let range = col.clone().fold(f64::NEG_INFINITY, f64::max) - col.fold(f64::INFINITY, f64::min);
+            let range = col.clone().fold(f64::NEG_INFINITY, f64::max) - col.clone().fold(f64::INFINITY, f64::min);
+            let magnitude = col.fold(0.0_f64, |m, v| m.max(v.abs()));
             for (ra, rb) in a.iter().zip(&b) {
-                // An output that is zero up to rounding (the contact torque of a frictionless
-                // sphere, ~1e-19 N m) has no range to compare with: it is held to 1e-15
-                // absolute, 1e-5 of a range of 1e-10.
-                let scale = if range > 1e-15 { range } else { 1e-10 };
+                // An output that is constant up to rounding has no range to compare with: one
+                // that is zero (the contact torque of a frictionless sphere, ~1e-19 N m) is
+                // held to 1e-15 absolute, 1e-5 of a range of 1e-10; one that is not (a wheel's
+                // height on a straight track, 0.75 m, whose range is a few ulps) to 1e-15 of
+                // its magnitude, 1e-5 of a range of 1e-10 of it.
+                let scale = range.max(1e-10 * magnitude).max(1e-10);
                 worst = worst.max((ra[j] - rb[j]).abs() / scale);
             }
         }

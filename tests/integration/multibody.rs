@@ -1385,3 +1385,84 @@ fn lean_right_hand_side_matches_the_general_path() {
         }
     }
 }
+
+/// The rail vehicle's wheels are rotors (a revolute joint, the centre of mass and the spheres
+/// on the axis, the inertia symmetric about it): the right-hand side skips their rotation by
+/// the wheel angle and takes their world inertia from the axis. It gives the accelerations of
+/// the full evaluation, which rotates each wheel by its angle, to rounding: over states with
+/// the wheels turned by large angles, the car body pitched and rolled, every contact active.
+/// A wheel whose inertia is not symmetric about its axle is no rotor.
+#[test]
+fn rotor_right_hand_side_matches_the_full_evaluation() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
+    let scene = contact_fmu::scene::Scene::from_file(&path).unwrap();
+    let (m, mut d) = contact_fmu::compile::compile(&scene, "rail").unwrap();
+    let rotors: Vec<&str> = m
+        .joints
+        .iter()
+        .zip(&m.plan.rotors)
+        .filter(|(_, r)| r.is_some())
+        .map(|(j, _)| j.name.as_str())
+        .collect();
+    assert_eq!(rotors.len(), 8, "{rotors:?}");
+    assert!(rotors.iter().all(|n| n.starts_with("axle_")), "{rotors:?}");
+    for mem in d.contact_memory.iter_mut() {
+        mem.active = true;
+        mem.impact_velocity = 0.05;
+    }
+    let state = d.state.clone();
+    let n = m.nstate();
+    let (mut lean, mut full) = (vec![0.0; n], vec![0.0; n]);
+    for k in 0..6 {
+        let mut y = state.clone();
+        for (i, j) in m.joints.iter().enumerate() {
+            if m.plan.rotors[i].is_some() {
+                // wheel angles up to hundreds of radians, as after seconds of rolling
+                y[j.qpos] = 37.0 * (k * (i + 1)) as f64 % 311.0 + 0.3;
+            }
+        }
+        // pitch and roll the car body a little (its quaternion), and let it bounce
+        let car = m.joints.iter().find(|j| j.parent.is_none()).unwrap();
+        let (a, b) = (0.004 * k as f64, -0.003 * k as f64);
+        let q = nalgebra::UnitQuaternion::from_euler_angles(a, b, 0.0);
+        y[car.qpos + 3..car.qpos + 7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+        y[m.nq + car.qvel + 2] = 0.05 * k as f64;
+        Rhs {
+            model: &m,
+            data: &mut d,
+        }
+        .rhs(0.0, &y, &mut lean);
+        d.eval_state.copy_from_slice(&y);
+        assert!(contact_fmu::forward::evaluate(&m, &mut d));
+        contact_fmu::forward::state_derivative(&m, &d, &mut full);
+        // each part against its own scale: position rates, accelerations, dissipated power
+        for (part, range) in [("q̇", 0..m.nq), ("q̈", m.nq..m.nq + m.nv), ("power", m.nq + m.nv..n)] {
+            let scale = full[range.clone()].iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            let worst = lean[range.clone()]
+                .iter()
+                .zip(&full[range])
+                .fold(0.0_f64, |a, (x, g)| a.max((x - g).abs()));
+            println!(
+                "state {k}: {part}: largest |rotor − full| = {:.2e} of {scale:.3e}",
+                worst / scale
+            );
+            assert!(worst <= 1e-12 * scale, "state {k}, {part}: {worst:e} of {scale:e}");
+        }
+    }
+    // a wheel with three different moments is no rotor
+    let mut lopsided = scene.clone();
+    lopsided
+        .body
+        .iter_mut()
+        .find(|b| b.name == "wheel_fl1")
+        .unwrap()
+        .inertia = [35.0, 55.0, 36.0];
+    let (m, _) = contact_fmu::compile::compile(&lopsided, "rail").unwrap();
+    let is_rotor = |name: &str| {
+        m.joints
+            .iter()
+            .zip(&m.plan.rotors)
+            .any(|(j, r)| j.name == name && r.is_some())
+    };
+    assert!(!is_rotor("axle_fl1") && is_rotor("axle_fl2"));
+}

@@ -1,6 +1,6 @@
 """Parameter sweeps on dask.distributed (cosim/sweep.py, docs/sweeps.md): a LocalCluster of two
-worker processes gives the same table as a serial run, bit for bit, and unpacks the FMU once
-per worker."""
+worker processes gives the same table as a serial run, bit for bit, whatever the batches of
+cases its tasks run in one instance, and unpacks the FMU once per worker."""
 
 import sys
 
@@ -45,6 +45,12 @@ def test_local_cluster_equals_serial_bit_for_bit(client, fmus, tmp_path):
     serial = sweep.run_serial(fmu, cases, OUTPUTS, stop_time=0.5)
     parallel = sweep.run_dask(client, fmu, cases, OUTPUTS, stop_time=0.5)
     assert bits(parallel) == bits(serial)
+    # The tasks run batches of cases in one instance, reset by fmi2Reset between them: the
+    # default (two tasks per worker), one task for all six cases (five resets) and one case per
+    # task give the serial run's table, whose every case has an instance of its own.
+    assert sweep.batch_size(len(cases), 2) == 2
+    for batch in (len(cases), 1):
+        assert bits(sweep.run_dask(client, fmu, cases, OUTPUTS, stop_time=0.5, batch=batch)) == bits(serial)
     # The rows follow the cases, and the study means something: the ball dissipates more
     # energy in its impacts the lower the restitution, for each law.
     assert [{k: r[k] for k in PARAMS} for r in parallel] == cases
