@@ -3,9 +3,9 @@
 //!
 //! - **Explicit → implicit.** Every accepted Dormand-Prince step estimates `h·ρ` from its last
 //!   two stages ([`Dopri5::stiffness`], Hairer's estimate, free). From [`CHECK_TRIGGER`] on
-//!   ([`CHECK_AFTER`] steps in a row), the estimate is checked by two power iterations of
+//!   ([`CHECK_AFTER`] steps in a row), the estimate is checked by three power iterations of
 //!   directional differences from the
-//!   step's error estimate ([`Dopri5::stiffness_check`], two evaluations), which sees the
+//!   step's error estimate ([`Dopri5::stiffness_check`], three evaluations), which sees the
 //!   stiff components that Hairer's estimate misses once the controller keeps them small.
 //!   A checked `h·ρ` from [`STIFF_LIMIT`] on means the step size is bounded by stability (or
 //!   about to be: the boundary is 3.31 on the negative real axis), not accuracy; it counts
