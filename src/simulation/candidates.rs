@@ -102,6 +102,7 @@ impl Simulation {
         d2.eval_state.copy_from_slice(&d2.state);
         engine::events::event_values(&m2, &mut d2, false);
         c.model = m2;
+        c.direct_reads.0.clear();
         c.data = d2;
         self.refreshes += 1;
         Ok(())

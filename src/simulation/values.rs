@@ -127,6 +127,7 @@ impl Simulation {
         };
         let c = self.running()?;
         c.model = model;
+        c.direct_reads.0.clear();
         // the islands are formed again, with the new value, at the next step
         c.islands = None;
         c.data.outputs_valid = false;
