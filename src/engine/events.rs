@@ -167,6 +167,19 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
             if c.law != Law::Impulse && closing > 0.0 {
                 bound = bound.min(0.5 * c.max_penetration / closing);
             }
+            // One that opens: half the time to separation at the present speed, but not less
+            // than `0.5 rtol^{1/(n+1)} δ_max / v` ([`touch_step`]), so that the steps shrink
+            // toward the separation. The step that crosses it integrates through the end of
+            // the force `K δⁿ`, whose derivatives are unbounded there and which the error
+            // estimate does not see; the velocity it changes grows as its length to the power
+            // n + 1, so a length ∝ rtol^{1/(n+1)} keeps that error in proportion to rtol
+            // (two spheres, error of the final velocities: rtol 1e-6 3.3e-5 → 7.3e-7, 1e-8
+            // 5.1e-7 → 8.7e-9, 1e-10 3.2e-9 → 9.4e-11, for 2-8 % more evaluations).
+            if c.law != Law::Impulse && closing < 0.0 && delta > 0.0 {
+                if let Some(floor) = touch_step(m, i, -closing, 1.0 / (c.exponent + 1.0)) {
+                    bound = bound.min((0.5 * delta / -closing).max(floor));
+                }
+            }
             continue;
         }
         // (an inactive contact may overlap a hair: an impulse contact right after its impact)
@@ -193,20 +206,31 @@ pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
     let mut bound = f64::INFINITY;
     for (i, c) in m.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux_new[i];
-        let Some(b) = c.sphere_body else { continue };
         let touched = c.law != Law::Impulse && d.contact_memory[i].active && delta <= 1e-6 * c.max_penetration;
         if !touched || closing.is_nan() || closing <= 0.0 {
             continue;
         }
-        let (k, n) = (c.stiffness, c.exponent);
-        let mass = m.bodies[b].mass;
-        if !(k > 0.0 && n > 0.0 && mass > 0.0) {
-            continue;
+        if let Some(h) = touch_step(m, i, closing, 0.2) {
+            bound = bound.min(h);
         }
-        let delta_max = crate::math::powf((n + 1.0) * mass * closing * closing / (2.0 * k), 1.0 / (n + 1.0));
-        bound = bound.min(0.5 * crate::math::powf(m.solver.rtol, 0.2) * delta_max / closing);
     }
     bound
+}
+
+/// `0.5 rtol^power δ_max / v` for contact `i` at the normal speed `v`, with `δ_max` the
+/// penetration that stores the sphere's kinetic energy at that speed (see
+/// [`first_contact_step`]); None for a contact without a sphere body or with a law that
+/// stores no energy.
+fn touch_step(m: &Model, i: usize, speed: f64, power: f64) -> Option<f64> {
+    let c = &m.contacts[i];
+    let b = c.sphere_body?;
+    let (k, n) = (c.stiffness, c.exponent);
+    let mass = m.bodies[b].mass;
+    if !(k > 0.0 && n > 0.0 && mass > 0.0 && speed > 0.0) {
+        return None;
+    }
+    let delta_max = crate::math::powf((n + 1.0) * mass * speed * speed / (2.0 * k), 1.0 / (n + 1.0));
+    Some(0.5 * crate::math::powf(m.solver.rtol, power) * delta_max / speed)
 }
 
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
