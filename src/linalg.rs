@@ -142,6 +142,22 @@ pub fn pivoted_cholesky_solve(l: &[f64], n: usize, perm: &[usize], rank: usize, 
     }
 }
 
+/// The row of `k..n` whose `magnitude` is largest (the first of equals): the pivot of column
+/// `k`; None when that magnitude is zero or not finite (singular to working precision).
+#[inline(always)]
+fn pivot_row(k: usize, n: usize, magnitude: impl Fn(usize) -> f64) -> Option<usize> {
+    let mut piv = k;
+    let mut best = magnitude(k);
+    for i in k + 1..n {
+        let v = magnitude(i);
+        if v > best {
+            best = v;
+            piv = i;
+        }
+    }
+    (best > 0.0 && best.is_finite()).then_some(piv)
+}
+
 /// Factors the row-major `n × n` matrix `a` in place as `P·A = L·U` (unit lower `L` below the
 /// diagonal, `U` on and above it); `perm[i]` is the original row now in row `i`. Returns
 /// false when a pivot is zero or not finite (the matrix is singular to working precision).
@@ -151,18 +167,9 @@ pub fn lu_in_place(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool {
         *p = i;
     }
     for k in 0..n {
-        let mut piv = k;
-        let mut best = a[k * n + k].abs();
-        for i in k + 1..n {
-            let v = a[i * n + k].abs();
-            if v > best {
-                best = v;
-                piv = i;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot_row(k, n, |i| a[i * n + k].abs()) else {
             return false;
-        }
+        };
         if piv != k {
             for j in 0..n {
                 a.swap(k * n + j, piv * n + j);
@@ -247,18 +254,9 @@ pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool 
     let (re, im) = a[..2 * n * n].split_at_mut(n * n);
     for k in 0..n {
         let modulus2 = |i: usize| re[i * n + k] * re[i * n + k] + im[i * n + k] * im[i * n + k];
-        let mut piv = k;
-        let mut best = modulus2(k);
-        for i in k + 1..n {
-            let v = modulus2(i);
-            if v > best {
-                best = v;
-                piv = i;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot_row(k, n, modulus2) else {
             return false;
-        }
+        };
         if piv != k {
             for j in 0..n {
                 re.swap(k * n + j, piv * n + j);

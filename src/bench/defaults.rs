@@ -29,13 +29,14 @@ pub const RAIL_GOAL: f64 = 5e-3;
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 8] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7];
 
-/// A CSV row: part, scene, setting, tolerance, error, CPU and wall time, counters, note.
+/// A CSV row: part, scene, setting, tolerance (empty: none), error, CPU and wall time,
+/// counters, note.
 #[allow(clippy::too_many_arguments)]
 fn row(
     part: &str,
     scene: &str,
     setting: &str,
-    tol: String,
+    tol: Option<f64>,
     error: f64,
     cpu: f64,
     wall: f64,
@@ -46,7 +47,7 @@ fn row(
         part.into(),
         scene.into(),
         setting.into(),
-        tol,
+        tol.map(|t| format!("{t:e}")).unwrap_or_default(),
         f(error),
         f(cpu),
         f(wall),
@@ -124,7 +125,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                     "sweep",
                     &name,
                     method.name(),
-                    format!("{tol:e}"),
+                    Some(tol),
                     error,
                     cpu,
                     wall,
@@ -209,6 +210,9 @@ fn rail_defaults(
     repeats: usize,
     csv: &mut Csv,
 ) -> Result<(), String> {
+    let auto_row = |part, tol, error, cpu, wall, c: &Counters, note| {
+        row(part, "rail_vehicle", "auto", Some(tol), error, cpu, wall, c, note)
+    };
     let bundled = RunSpec::new(scene.clone(), origin, scene.model.stop_time, scene.model.interval);
     let mut former_scene = scene.clone();
     former_scene.solver.method = Method::Dopri5;
@@ -267,7 +271,7 @@ fn rail_defaults(
             "rail_defaults",
             "rail_vehicle",
             label,
-            String::new(),
+            None,
             e,
             cpu,
             wall,
@@ -303,17 +307,7 @@ fn rail_defaults(
             c.rhs_evals,
             c_old.rhs_evals as f64 / c.rhs_evals as f64
         );
-        csv.push(row(
-            "rail_tightened",
-            "rail_vehicle",
-            "auto",
-            format!("{tol:e}"),
-            e,
-            cpu,
-            wall,
-            &c,
-            String::new(),
-        ));
+        csv.push(auto_row("rail_tightened", tol, e, cpu, wall, &c, String::new()));
         if e <= e_old {
             break;
         }
@@ -356,17 +350,7 @@ fn rail_defaults(
         );
         println!("{line}");
         let note = format!("max_step {max_step}; rhs share {:.3}", rhs_time / cpu);
-        csv.push(row(
-            "rail_goal",
-            "rail_vehicle",
-            "auto",
-            format!("{tol:e}"),
-            e,
-            cpu,
-            wall,
-            &c,
-            note,
-        ));
+        csv.push(auto_row("rail_goal", tol, e, cpu, wall, &c, note));
         if e <= TARGET_ERROR && best.as_ref().is_none_or(|b| cpu < b.0) {
             best = Some((cpu, line));
         }
