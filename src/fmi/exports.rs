@@ -239,66 +239,76 @@ pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
     call(found, "fmi2Reset", lifecycle::RESET, |inst| inst.reset())
 }
 
-/// `fmi2GetReal`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetReal(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::get_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
-    })
-}
-
-/// `fmi2GetInteger` (Integer and enumeration variables)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetInteger(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Integer,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::get_values(inst, Access::Integer, vr, nvr, value, nvr, |x| x.round() as fmi2Integer) }
-    })
-}
-
-/// `fmi2GetBoolean`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBoolean(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Boolean,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe {
-            glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| {
-                fmi2Boolean::from(x != 0.0)
+/// Defines an exported getter and setter of one FMI 2.0 type (`note`: what the doc adds).
+macro_rules! accessors {
+    ($get:ident, $set:ident, $ty:ty, $note:literal, $access:expr, $to_c:expr, $from_c:expr) => {
+        #[doc = concat!("`", stringify!($get), "`", $note)]
+        ///
+        /// # Safety
+        /// `vr` and `value` hold `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn $get(
+            c: fmi2Component,
+            vr: *const fmi2ValueReference,
+            nvr: usize,
+            value: *mut $ty,
+        ) -> fmi2Status {
+            // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+            let found = unsafe { instance(c) };
+            call(found, stringify!($get), lifecycle::GET_VALUES, |inst| {
+                // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+                unsafe { glue::get_values(inst, $access, vr, nvr, value, nvr, $to_c) }
             })
         }
-    })
+
+        #[doc = concat!("`", stringify!($set), "`", $note)]
+        ///
+        /// # Safety
+        /// `vr` and `value` hold `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn $set(
+            c: fmi2Component,
+            vr: *const fmi2ValueReference,
+            nvr: usize,
+            value: *const $ty,
+        ) -> fmi2Status {
+            // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+            let found = unsafe { instance(c) };
+            call(found, stringify!($set), lifecycle::SET_VALUES, |inst| {
+                // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+                unsafe { glue::set_values(inst, $access, vr, nvr, value, nvr, $from_c) }
+            })
+        }
+    };
 }
+
+accessors!(
+    fmi2GetReal,
+    fmi2SetReal,
+    fmi2Real,
+    "",
+    Access::Real,
+    |x: f64| x,
+    |x: f64| x
+);
+accessors!(
+    fmi2GetInteger,
+    fmi2SetInteger,
+    fmi2Integer,
+    " (Integer and enumeration variables)",
+    Access::Integer,
+    |x: f64| x.round() as fmi2Integer,
+    f64::from
+);
+accessors!(
+    fmi2GetBoolean,
+    fmi2SetBoolean,
+    fmi2Boolean,
+    "",
+    Access::Boolean,
+    |x: f64| fmi2Boolean::from(x != 0.0),
+    |b: fmi2Boolean| f64::from(u8::from(b != FMI2_FALSE))
+);
 
 /// `fmi2GetString` (this model has no String variables: only `nvr = 0` succeeds)
 ///
@@ -316,67 +326,6 @@ pub unsafe extern "C" fn fmi2GetString(
     call(found, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
         // SAFETY: `vr` holds `nvr` elements (this function's contract).
         unsafe { glue::no_strings(inst, vr, nvr, false) }
-    })
-}
-
-/// `fmi2SetReal`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetReal(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::set_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
-    })
-}
-
-/// `fmi2SetInteger` (Integer and enumeration variables)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetInteger(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Integer,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::set_values(inst, Access::Integer, vr, nvr, value, nvr, f64::from) }
-    })
-}
-
-/// `fmi2SetBoolean`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetBoolean(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Boolean,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe {
-            glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| {
-                f64::from(u8::from(b != FMI2_FALSE))
-            })
-        }
     })
 }
 

@@ -129,3 +129,14 @@ pub fn dense_error(m: &dyn Integrator, exact: impl Fn(f64) -> Vec<f64>) -> f64 {
 pub fn order(e_h: f64, e_half: f64) -> f64 {
     (e_h / e_half).log2()
 }
+
+/// Asserts that `errors` at step sizes that halve from one to the next fall with order `p`:
+/// both observed orders within 0.3 of it.
+pub fn assert_order(what: &str, p: f64, errors: [f64; 3]) {
+    let [e1, e2, e3] = errors;
+    let (p1, p2) = (order(e1, e2), order(e2, e3));
+    assert!(
+        (p1 - p).abs() < 0.3 && (p2 - p).abs() < 0.3,
+        "{what}: orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e})"
+    );
+}

@@ -17,21 +17,60 @@ impl OdeSystem for Band {
     }
 }
 
+/// A stage matrix for the `I − h A⊗J` factorisations.
+const STAGES: [[f64; 3]; 3] = [[0.2, -0.05, 0.01], [0.4, 0.3, -0.02], [0.37, 0.5, 0.11]];
+
+/// [`Band`] of size `n` at a fixed state: the state, `f` there, the scratch of a Jacobian
+/// evaluation and the counters of those evaluations.
+struct BandPoint {
+    y: Vec<f64>,
+    f0: Vec<f64>,
+    y_pert: Vec<f64>,
+    f1: Vec<f64>,
+    stats: Stats,
+}
+
+impl BandPoint {
+    fn new(n: usize) -> BandPoint {
+        let y: Vec<f64> = (0..n).map(|i| 0.1 + 0.01 * i as f64).collect();
+        let mut f0 = vec![0.0; n];
+        Band.rhs(0.0, &y, &mut f0);
+        let (y_pert, f1, stats) = (vec![0.0; n], vec![0.0; n], Stats::default());
+        BandPoint {
+            y,
+            f0,
+            y_pert,
+            f1,
+            stats,
+        }
+    }
+
+    /// Evaluates `jac` at the point.
+    fn evaluate(&mut self, jac: &mut SparseJacobian) {
+        jac.evaluate(
+            &mut Band,
+            0.0,
+            &self.y,
+            &self.f0,
+            &mut self.y_pert,
+            &mut self.f1,
+            &mut self.stats,
+        );
+    }
+}
+
 #[test]
 fn coloured_jacobian_matches_the_probe_and_sparse_lu_solves_like_dense() {
     let n = 40;
-    let y: Vec<f64> = (0..n).map(|i| 0.1 + 0.01 * i as f64).collect();
-    let mut f0 = vec![0.0; n];
-    Band.rhs(0.0, &y, &mut f0);
-    let (mut yp, mut f1, mut st) = (vec![0.0; n], vec![0.0; n], Stats::default());
+    let mut at = BandPoint::new(n);
     let mut jac = SparseJacobian::new(n);
-    jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
-    assert_eq!((jac.probes, st.rhs_evals), (1, n as u64));
+    at.evaluate(&mut jac);
+    assert_eq!((jac.probes, at.stats.rhs_evals), (1, n as u64));
     let probed = jac.val.clone();
     assert!(jac.colours() <= 6, "{} colours", jac.colours());
-    jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+    at.evaluate(&mut jac);
     assert_eq!(jac.coloured, 1);
-    assert_eq!(st.rhs_evals, (n + jac.colours()) as u64);
+    assert_eq!(at.stats.rhs_evals, (n + jac.colours()) as u64);
     for (a, b) in probed.iter().zip(&jac.val) {
         assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
     }
@@ -43,7 +82,7 @@ fn coloured_jacobian_matches_the_probe_and_sparse_lu_solves_like_dense() {
         }
     }
     let b: Vec<f64> = (0..3 * n).map(|i| (i as f64).sin()).collect();
-    let a = [[0.2, -0.05, 0.01], [0.4, 0.3, -0.02], [0.37, 0.5, 0.11]];
+    let a = STAGES;
     for kron in [false, true] {
         let m = if kron { 3 * n } else { n };
         let (mut d, mut s) = (Lu::new(m, false), Lu::new(m, true));
@@ -66,13 +105,10 @@ fn coloured_jacobian_matches_the_probe_and_sparse_lu_solves_like_dense() {
 #[test]
 fn solves_and_coloured_jacobians_on_an_analysed_pattern_do_not_allocate() {
     let n = 60;
-    let y: Vec<f64> = (0..n).map(|i| 0.1 + 0.01 * i as f64).collect();
-    let mut f0 = vec![0.0; n];
-    Band.rhs(0.0, &y, &mut f0);
-    let (mut yp, mut f1, mut st) = (vec![0.0; n], vec![0.0; n], Stats::default());
+    let mut at = BandPoint::new(n);
     let mut jac = SparseJacobian::new(n);
-    jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
-    let a = [[0.2, -0.05, 0.01], [0.4, 0.3, -0.02], [0.37, 0.5, 0.11]];
+    at.evaluate(&mut jac);
+    let a = STAGES;
     let (mut s1, mut s3) = (Lu::new(n, true), Lu::new(3 * n, true));
     assert!(s1.factor_shifted(JacRef::Sparse(&jac), 1e-2) && s3.factor_kron(JacRef::Sparse(&jac), 1e-2, &a));
     let (mut x1, mut x3) = (vec![1.0; n], vec![1.0; 3 * n]);
@@ -88,7 +124,7 @@ fn solves_and_coloured_jacobians_on_an_analysed_pattern_do_not_allocate() {
         s1.solve(&mut x1);
         s3.solve(&mut x3);
         let t3 = count();
-        jac.evaluate(&mut Band, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+        at.evaluate(&mut jac);
         let t4 = count();
         for (a, d) in allocs.iter_mut().zip([t1 - t0, t2 - t1, t3 - t2, t4 - t3]) {
             *a += d;
