@@ -377,6 +377,12 @@ mod tests {
         }
     }
 
+    /// `A x` for the row-major square matrix `a`.
+    fn mat_vec(a: &[f64], x: &[f64]) -> Vec<f64> {
+        let n = x.len();
+        (0..n).map(|i| (0..n).map(|k| a[i * n + k] * x[k]).sum()).collect()
+    }
+
     #[test]
     fn pivoted_cholesky_drops_dependent_rows() {
         // rows: r0, r1, r0 + r1 of a rank-2 Gram matrix
@@ -392,16 +398,11 @@ mod tests {
         let rank = pivoted_cholesky_in_place(&mut a, 3, &mut perm, 1e-10);
         assert_eq!(rank, 2);
         // a consistent right-hand side: b = A x0
-        let x0 = [0.3, -0.2, 0.5];
-        let mut b = [0.0; 3];
-        for i in 0..3 {
-            b[i] = (0..3).map(|k| orig[i * 3 + k] * x0[k]).sum();
-        }
-        let mut x = b;
+        let b = mat_vec(&orig, &[0.3, -0.2, 0.5]);
+        let mut x = b.clone();
         let mut work = [0.0; 3];
         pivoted_cholesky_solve(&a, 3, &perm, rank, &mut x, &mut work);
-        for i in 0..3 {
-            let r: f64 = (0..3).map(|k| orig[i * 3 + k] * x[k]).sum();
+        for (i, r) in mat_vec(&orig, &x).into_iter().enumerate() {
             assert!((r - b[i]).abs() < 1e-12, "row {i}: {r} vs {}", b[i]);
         }
     }
@@ -448,10 +449,7 @@ mod tests {
         // zero leading pivot: fails without row exchanges
         let a0 = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0];
         let x_true = [1.0, -2.0, 0.5];
-        let mut b = [0.0; 3];
-        for i in 0..3 {
-            b[i] = (0..3).map(|j| a0[i * 3 + j] * x_true[j]).sum();
-        }
+        let mut b = mat_vec(&a0, &x_true);
         let mut a = a0;
         let mut perm = [0; 3];
         assert!(lu_in_place(&mut a, 3, &mut perm));
