@@ -32,7 +32,7 @@ mod sparse_lu;
 #[cfg(test)]
 mod tests;
 
-pub use self::sparse_jacobian::SparseJacobian;
+pub use self::sparse_jacobian::{EvalPoint, SparseJacobian};
 pub use self::sparse_lu::{SparseLu, SupernodalThreshold};
 use crate::linalg;
 use std::sync::atomic::{AtomicU8, Ordering};

@@ -4,8 +4,8 @@
 //! its shapes: [`Scene::group_pair_contact`] writes that contact.
 
 use super::{
-    direction, item_name, length, magnitude, quote, ref_axis_across, surface_extent, u_axis_in_plane,
-    validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
+    direction, item_name, length, magnitude, perpendicular, quote, surface_extent, validate_law_keys, vector,
+    ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -439,14 +439,19 @@ impl Scene {
                     need("normal", s.normal.is_some())?;
                     need("u_axis", s.u_axis.is_some())?;
                     need("size", s.size.is_some())?;
-                    u_axis_in_plane(origin, &item, s.normal, s.u_axis)?;
+                    perpendicular((origin, &item), ("u_axis", s.u_axis), ("normal", s.normal))?;
                 }
                 ShapeType::Cylinder => {
                     need("axis_point", s.axis_point.is_some())?;
                     need("axis", s.axis.is_some())?;
                     need("cylinder_radius", s.cylinder_radius.is_some())?;
                     need("length", s.length.is_some())?;
-                    ref_axis_across(origin, &item, s.axis, s.theta_range, s.ref_axis)?;
+                    if s.theta_range.is_some() && s.ref_axis.is_none() {
+                        return Err(err("ref_axis", "required with theta_range".into()));
+                    }
+                    if s.ref_axis.is_some() {
+                        perpendicular((origin, &item), ("ref_axis", s.ref_axis), ("axis", s.axis))?;
+                    }
                 }
             }
             let e = groups.entry(s.group.as_str()).or_insert((true, true));

@@ -403,7 +403,7 @@ impl Scene {
                 need("normal", c.normal.is_some())?;
                 need("u_axis", c.u_axis.is_some())?;
                 need("size", c.size.is_some())?;
-                u_axis_in_plane(origin, item, c.normal, c.u_axis)?;
+                perpendicular((origin, item), ("u_axis", c.u_axis), ("normal", c.normal))?;
             }
             ContactType::SphereCylinder => {
                 need("axis_point", c.axis_point.is_some())?;
@@ -417,7 +417,12 @@ impl Scene {
                         "must exceed the sphere radius for an inside contact".into(),
                     ));
                 }
-                ref_axis_across(origin, item, c.axis, c.theta_range, c.ref_axis)?;
+                if c.theta_range.is_some() && c.ref_axis.is_none() {
+                    return Err(err("ref_axis", "required with theta_range".into()));
+                }
+                if c.ref_axis.is_some() {
+                    perpendicular((origin, item), ("ref_axis", c.ref_axis), ("axis", c.axis))?;
+                }
             }
         }
         let materials = c.sphere_material.is_some() && c.material.is_some();
@@ -452,44 +457,21 @@ pub(super) fn surface_extent(
     Ok(())
 }
 
-/// A rectangle's `u_axis` perpendicular to its `normal`.
-pub(super) fn u_axis_in_plane(
-    origin: &str,
-    item: &str,
-    normal: Option<[f64; 3]>,
-    u_axis: Option<[f64; 3]>,
+/// The direction `field` (`v`) perpendicular to the direction `other` (`w`), where both are
+/// given (an absent one counts as zero).
+pub(super) fn perpendicular(
+    (origin, item): (&str, &str),
+    (field, v): (&str, Option<[f64; 3]>),
+    (other, w): (&str, Option<[f64; 3]>),
 ) -> Result<(), SceneError> {
-    let n = unit(normal.unwrap_or_default());
-    let u = unit(u_axis.unwrap_or_default());
-    if (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]).abs() > 1e-6 {
+    let (w, v) = (unit(w.unwrap_or_default()), unit(v.unwrap_or_default()));
+    if (w[0] * v[0] + w[1] * v[1] + w[2] * v[2]).abs() > 1e-6 {
         return Err(SceneError::new(
             origin,
             item,
-            "u_axis",
-            "must be perpendicular to normal",
+            field,
+            format!("must be perpendicular to {other}"),
         ));
-    }
-    Ok(())
-}
-
-/// A cylindrical patch's `ref_axis`: given with `theta_range`, and perpendicular to `axis`.
-pub(super) fn ref_axis_across(
-    origin: &str,
-    item: &str,
-    axis: Option<[f64; 3]>,
-    theta_range: Option<[f64; 2]>,
-    ref_axis: Option<[f64; 3]>,
-) -> Result<(), SceneError> {
-    let err = |msg: &str| SceneError::new(origin, item, "ref_axis", msg);
-    if theta_range.is_some() && ref_axis.is_none() {
-        return Err(err("required with theta_range"));
-    }
-    if let Some(r) = ref_axis {
-        let a = unit(axis.unwrap_or_default());
-        let r = unit(r);
-        if (a[0] * r[0] + a[1] * r[1] + a[2] * r[2]).abs() > 1e-6 {
-            return Err(err("must be perpendicular to axis"));
-        }
     }
     Ok(())
 }

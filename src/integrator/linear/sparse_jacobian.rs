@@ -4,6 +4,18 @@
 
 use crate::integrator::{OdeSystem, Stats};
 
+/// Where a Jacobian is evaluated: `sys` at `(t, y)` with `f0 = f(t, y)`; `y_pert` and `f1`
+/// are scratch for the perturbed evaluations, which count in `stats`.
+pub struct EvalPoint<'a> {
+    pub sys: &'a mut dyn OdeSystem,
+    pub t: f64,
+    pub y: &'a [f64],
+    pub f0: &'a [f64],
+    pub y_pert: &'a mut [f64],
+    pub f1: &'a mut [f64],
+    pub stats: &'a mut Stats,
+}
+
 /// A Jacobian in compressed sparse columns with its column colouring. The diagonal is always
 /// part of the pattern; rows are sorted within each column.
 #[derive(Debug, Clone, Default)]
@@ -88,40 +100,19 @@ impl SparseJacobian {
         (y + dy) - y
     }
 
-    /// The Jacobian at `(t, y)`: by colours when a pattern is held and still holds, else by a
-    /// full probe (joined to the pattern held, if any). `f0 = f(t, y)` on entry; `y_pert` and
-    /// `f1` are scratch. Counts the evaluations in `stats`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn evaluate(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-        f0: &[f64],
-        y_pert: &mut [f64],
-        f1: &mut [f64],
-        stats: &mut Stats,
-    ) {
-        if self.valid && self.coloured_evaluation(sys, t, y, f0, y_pert, f1, stats) {
+    /// The Jacobian at `at`: by colours when a pattern is held and still holds, else by a full
+    /// probe (joined to the pattern held, if any).
+    pub fn evaluate(&mut self, mut at: EvalPoint) {
+        if self.valid && self.coloured_evaluation(&mut at) {
             self.last_coloured = true;
             return;
         }
-        self.probe(sys, t, y, f0, y_pert, f1, stats);
+        self.probe(at);
     }
 
     /// Probes every column (n evaluations), joins the nonzeros found to the pattern held (if
     /// any), colours the result and sets the values.
-    #[allow(clippy::too_many_arguments)]
-    pub fn probe(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-        f0: &[f64],
-        y_pert: &mut [f64],
-        f1: &mut [f64],
-        stats: &mut Stats,
-    ) {
+    pub fn probe(&mut self, at: EvalPoint) {
         let n = self.n;
         let old = if self.valid {
             Some((std::mem::take(&mut self.col_ptr), std::mem::take(&mut self.row_idx)))
@@ -132,12 +123,12 @@ impl SparseJacobian {
         self.row_idx.clear();
         self.val.clear();
         self.col_ptr.push(0);
-        y_pert.copy_from_slice(y);
+        at.y_pert.copy_from_slice(at.y);
         for j in 0..n {
-            let dy = Self::increment(y[j]);
-            y_pert[j] = y[j] + dy;
-            sys.rhs(t, y_pert, f1);
-            y_pert[j] = y[j];
+            let dy = Self::increment(at.y[j]);
+            at.y_pert[j] = at.y[j] + dy;
+            at.sys.rhs(at.t, at.y_pert, at.f1);
+            at.y_pert[j] = at.y[j];
             // rows: the nonzero differences, the diagonal, and the old pattern's rows
             for i in 0..n {
                 self.mark[i] = usize::MAX;
@@ -149,15 +140,15 @@ impl SparseJacobian {
             }
             self.mark[j] = j;
             for i in 0..n {
-                if self.mark[i] == j || f1[i] != f0[i] {
+                if self.mark[i] == j || at.f1[i] != at.f0[i] {
                     self.row_idx.push(i);
-                    self.val.push((f1[i] - f0[i]) / dy);
+                    self.val.push((at.f1[i] - at.f0[i]) / dy);
                 }
             }
             self.col_ptr.push(self.row_idx.len());
         }
         self.mark.iter_mut().for_each(|m| *m = usize::MAX);
-        stats.rhs_evals += n as u64;
+        at.stats.rhs_evals += n as u64;
         self.probes += 1;
         self.colour();
         self.valid = true;
@@ -242,37 +233,27 @@ impl SparseJacobian {
     /// would change it by: the pattern has grown (an entry below that changes `I − hγJ` by
     /// less than 1e-6 for steps hγ ≤ 1). (Smaller changes are second-order terms of two columns
     /// perturbed together where each derivative is zero, e.g. `ω × Iω` at `ω = 0`.)
-    #[allow(clippy::too_many_arguments)]
-    fn coloured_evaluation(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-        f0: &[f64],
-        y_pert: &mut [f64],
-        f1: &mut [f64],
-        stats: &mut Stats,
-    ) -> bool {
+    fn coloured_evaluation(&mut self, at: &mut EvalPoint) -> bool {
         let n = self.n;
-        y_pert.copy_from_slice(y);
+        at.y_pert.copy_from_slice(at.y);
         let colours = self.colours();
         for c in 0..colours {
             let cols = &self.colour_cols[self.colour_ptr[c]..self.colour_ptr[c + 1]];
             let mut dy_max = 0.0_f64;
             for &j in cols {
-                self.dy[j] = Self::increment(y[j]);
-                y_pert[j] = y[j] + self.dy[j];
+                self.dy[j] = Self::increment(at.y[j]);
+                at.y_pert[j] = at.y[j] + self.dy[j];
                 dy_max = dy_max.max(self.dy[j]);
             }
-            sys.rhs(t, y_pert, f1);
-            stats.rhs_evals += 1;
+            at.sys.rhs(at.t, at.y_pert, at.f1);
+            at.stats.rhs_evals += 1;
             for &j in cols {
-                y_pert[j] = y[j];
+                at.y_pert[j] = at.y[j];
                 let dy = self.dy[j];
                 for k in self.col_ptr[j]..self.col_ptr[j + 1] {
                     let i = self.row_idx[k];
                     if !self.dense_row[i] {
-                        self.val[k] = (f1[i] - f0[i]) / dy;
+                        self.val[k] = (at.f1[i] - at.f0[i]) / dy;
                         self.mark[i] = c;
                     }
                 }
@@ -280,7 +261,7 @@ impl SparseJacobian {
             for i in 0..n {
                 if self.mark[i] != c
                     && !self.dense_row[i]
-                    && (f1[i] - f0[i]).abs() > 1e-6 * self.row_scale[i].max(1.0) * dy_max
+                    && (at.f1[i] - at.f0[i]).abs() > 1e-6 * self.row_scale[i].max(1.0) * dy_max
                 {
                     return false;
                 }

@@ -45,26 +45,31 @@ impl BandPoint {
         }
     }
 
+    /// The point of size `n` and a Jacobian evaluated there (a probe).
+    fn probed(n: usize) -> (BandPoint, SparseJacobian) {
+        let (mut at, mut jac) = (BandPoint::new(n), SparseJacobian::new(n));
+        at.evaluate(&mut jac);
+        (at, jac)
+    }
+
     /// Evaluates `jac` at the point.
     fn evaluate(&mut self, jac: &mut SparseJacobian) {
-        jac.evaluate(
-            &mut Band,
-            0.0,
-            &self.y,
-            &self.f0,
-            &mut self.y_pert,
-            &mut self.f1,
-            &mut self.stats,
-        );
+        jac.evaluate(EvalPoint {
+            sys: &mut Band,
+            t: 0.0,
+            y: &self.y,
+            f0: &self.f0,
+            y_pert: &mut self.y_pert,
+            f1: &mut self.f1,
+            stats: &mut self.stats,
+        });
     }
 }
 
 #[test]
 fn coloured_jacobian_matches_the_probe_and_sparse_lu_solves_like_dense() {
     let n = 40;
-    let mut at = BandPoint::new(n);
-    let mut jac = SparseJacobian::new(n);
-    at.evaluate(&mut jac);
+    let (mut at, mut jac) = BandPoint::probed(n);
     assert_eq!((jac.probes, at.stats.rhs_evals), (1, n as u64));
     let probed = jac.val.clone();
     assert!(jac.colours() <= 6, "{} colours", jac.colours());
@@ -105,9 +110,7 @@ fn coloured_jacobian_matches_the_probe_and_sparse_lu_solves_like_dense() {
 #[test]
 fn solves_and_coloured_jacobians_on_an_analysed_pattern_do_not_allocate() {
     let n = 60;
-    let mut at = BandPoint::new(n);
-    let mut jac = SparseJacobian::new(n);
-    at.evaluate(&mut jac);
+    let (mut at, mut jac) = BandPoint::probed(n);
     let a = STAGES;
     let (mut s1, mut s3) = (Lu::new(n, true), Lu::new(3 * n, true));
     assert!(s1.factor_shifted(JacRef::Sparse(&jac), 1e-2) && s3.factor_kron(JacRef::Sparse(&jac), 1e-2, &a));
@@ -149,15 +152,25 @@ fn a_grown_pattern_is_probed_again_and_saved_patterns_load() {
             dy[3] = -y[3];
         }
     }
-    let (mut yp, mut f1, mut f0, mut st) = (vec![0.0; 4], vec![0.0; 4], vec![0.0; 4], Stats::default());
+    let mut st = Stats::default();
+    // the Jacobian at y (f there evaluated first)
+    let mut evaluate_at = |jac: &mut SparseJacobian, y: [f64; 4]| {
+        let (mut f0, mut y_pert, mut f1) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        Grow.rhs(0.0, &y, &mut f0);
+        jac.evaluate(EvalPoint {
+            sys: &mut Grow,
+            t: 0.0,
+            y: &y,
+            f0: &f0,
+            y_pert: &mut y_pert,
+            f1: &mut f1,
+            stats: &mut st,
+        });
+    };
     let mut jac = SparseJacobian::new(4);
-    let y = [1.0, 1.0, -1.0, 1.0];
-    Grow.rhs(0.0, &y, &mut f0);
-    jac.evaluate(&mut Grow, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+    evaluate_at(&mut jac, [1.0, 1.0, -1.0, 1.0]);
     assert_eq!((jac.nnz(), jac.colours()), (5, 2), "the diagonal and (0, 1)");
-    let y = [1.0, 1.0, 1.0, 1.0];
-    Grow.rhs(0.0, &y, &mut f0);
-    jac.evaluate(&mut Grow, 0.0, &y, &f0, &mut yp, &mut f1, &mut st);
+    evaluate_at(&mut jac, [1.0, 1.0, 1.0, 1.0]);
     assert_eq!(jac.probes, 2, "the new entries of row 1 were noticed");
     assert_eq!(jac.nnz(), 7, "diagonal, (0, 1), (1, 2), (1, 3)");
     let mut v = Vec::new();
