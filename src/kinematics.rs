@@ -73,24 +73,21 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
     let mut vel = p.vel;
     let mut acc = p.acc;
     match j.kind {
-        JointType::Revolute => {
-            let h = p.rot * j.axis;
-            let pj = p.pos + p.rot * j.anchor;
-            let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
-            quat = p.quat * rel * j.rot0;
-            pos = pj + p.rot * (rel * j.offset);
-            let s = Spatial::new(h, pj.cross(&h));
-            vel = vel.add(&s.scale(w[0]));
-            let sdot = p.vel.cross_motion(&s);
-            acc = acc.add(&sdot.scale(w[0]));
-            d.dof_s[j.qvel] = s;
-            d.dof_sdot[j.qvel] = sdot;
-        }
-        JointType::Prismatic => {
-            let t = p.rot * j.axis;
-            quat = p.quat * j.rot0;
-            pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
-            let s = Spatial::new(Vector3::zeros(), t);
+        JointType::Revolute | JointType::Prismatic => {
+            // the motion subspace of the one degree of freedom
+            let s = if j.kind == JointType::Revolute {
+                let h = p.rot * j.axis;
+                let pj = p.pos + p.rot * j.anchor;
+                let rel = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(j.axis), q[0]);
+                quat = p.quat * rel * j.rot0;
+                pos = pj + p.rot * (rel * j.offset);
+                Spatial::new(h, pj.cross(&h))
+            } else {
+                let t = p.rot * j.axis;
+                quat = p.quat * j.rot0;
+                pos = p.pos + p.rot * (j.offset + j.axis * q[0]);
+                Spatial::new(Vector3::zeros(), t)
+            };
             vel = vel.add(&s.scale(w[0]));
             let sdot = p.vel.cross_motion(&s);
             acc = acc.add(&sdot.scale(w[0]));

@@ -142,6 +142,22 @@ pub fn pivoted_cholesky_solve(l: &[f64], n: usize, perm: &[usize], rank: usize, 
     }
 }
 
+/// The row of `k..n` whose `magnitude` is largest (the first of equals): the pivot of column
+/// `k`; None when that magnitude is zero or not finite (singular to working precision).
+#[inline(always)]
+fn pivot_row(k: usize, n: usize, magnitude: impl Fn(usize) -> f64) -> Option<usize> {
+    let mut piv = k;
+    let mut best = magnitude(k);
+    for i in k + 1..n {
+        let v = magnitude(i);
+        if v > best {
+            best = v;
+            piv = i;
+        }
+    }
+    (best > 0.0 && best.is_finite()).then_some(piv)
+}
+
 /// Factors the row-major `n × n` matrix `a` in place as `P·A = L·U` (unit lower `L` below the
 /// diagonal, `U` on and above it); `perm[i]` is the original row now in row `i`. Returns
 /// false when a pivot is zero or not finite (the matrix is singular to working precision).
@@ -151,18 +167,9 @@ pub fn lu_in_place(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool {
         *p = i;
     }
     for k in 0..n {
-        let mut piv = k;
-        let mut best = a[k * n + k].abs();
-        for i in k + 1..n {
-            let v = a[i * n + k].abs();
-            if v > best {
-                best = v;
-                piv = i;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot_row(k, n, |i| a[i * n + k].abs()) else {
             return false;
-        }
+        };
         if piv != k {
             for j in 0..n {
                 a.swap(k * n + j, piv * n + j);
@@ -247,18 +254,9 @@ pub fn lu_in_place_complex(a: &mut [f64], n: usize, perm: &mut [usize]) -> bool 
     let (re, im) = a[..2 * n * n].split_at_mut(n * n);
     for k in 0..n {
         let modulus2 = |i: usize| re[i * n + k] * re[i * n + k] + im[i * n + k] * im[i * n + k];
-        let mut piv = k;
-        let mut best = modulus2(k);
-        for i in k + 1..n {
-            let v = modulus2(i);
-            if v > best {
-                best = v;
-                piv = i;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot_row(k, n, modulus2) else {
             return false;
-        }
+        };
         if piv != k {
             for j in 0..n {
                 re.swap(k * n + j, piv * n + j);
@@ -379,6 +377,12 @@ mod tests {
         }
     }
 
+    /// `A x` for the row-major square matrix `a`.
+    fn mat_vec(a: &[f64], x: &[f64]) -> Vec<f64> {
+        let n = x.len();
+        (0..n).map(|i| (0..n).map(|k| a[i * n + k] * x[k]).sum()).collect()
+    }
+
     #[test]
     fn pivoted_cholesky_drops_dependent_rows() {
         // rows: r0, r1, r0 + r1 of a rank-2 Gram matrix
@@ -394,16 +398,11 @@ mod tests {
         let rank = pivoted_cholesky_in_place(&mut a, 3, &mut perm, 1e-10);
         assert_eq!(rank, 2);
         // a consistent right-hand side: b = A x0
-        let x0 = [0.3, -0.2, 0.5];
-        let mut b = [0.0; 3];
-        for i in 0..3 {
-            b[i] = (0..3).map(|k| orig[i * 3 + k] * x0[k]).sum();
-        }
-        let mut x = b;
+        let b = mat_vec(&orig, &[0.3, -0.2, 0.5]);
+        let mut x = b.clone();
         let mut work = [0.0; 3];
         pivoted_cholesky_solve(&a, 3, &perm, rank, &mut x, &mut work);
-        for i in 0..3 {
-            let r: f64 = (0..3).map(|k| orig[i * 3 + k] * x[k]).sum();
+        for (i, r) in mat_vec(&orig, &x).into_iter().enumerate() {
             assert!((r - b[i]).abs() < 1e-12, "row {i}: {r} vs {}", b[i]);
         }
     }
@@ -450,10 +449,7 @@ mod tests {
         // zero leading pivot: fails without row exchanges
         let a0 = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0];
         let x_true = [1.0, -2.0, 0.5];
-        let mut b = [0.0; 3];
-        for i in 0..3 {
-            b[i] = (0..3).map(|j| a0[i * 3 + j] * x_true[j]).sum();
-        }
+        let mut b = mat_vec(&a0, &x_true);
         let mut a = a0;
         let mut perm = [0; 3];
         assert!(lu_in_place(&mut a, 3, &mut perm));

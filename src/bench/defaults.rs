@@ -14,7 +14,9 @@
 //!    times the cost of one RHS against the run time (what bounds it).
 
 use super::scaling::rhs_and_event_cost;
-use super::work_precision::{error_of, position_outputs, truth_of, truth_outputs, Truth};
+use super::work_precision::{
+    at_error, error_of, position_outputs, truth_of, truth_outputs, Cost, Truth, AUTO_MARGIN, RTOLS,
+};
 use super::{f, median, record, sweep_point, time_runs, Counters, Csv, RunSpec, SweepArgs};
 use crate::compile::compile;
 use crate::scene::{Method, Scene};
@@ -22,48 +24,19 @@ use std::path::Path;
 
 /// Error at which the methods are compared (relative to the range of motion).
 pub const TARGET_ERROR: f64 = 1e-6;
-/// Auto's CPU time may exceed the best fixed method's by this factor.
-pub const AUTO_MARGIN: f64 = 1.3;
 /// The rail vehicle's CPU goal for 5 s within [`TARGET_ERROR`] [s].
 pub const RAIL_GOAL: f64 = 5e-3;
-/// Relative tolerances of the sweep.
-const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
 /// Fixed steps of the rk4 sweep [s].
 const STEPS: [f64; 8] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7];
 
-/// One point of a sweep: its error, CPU time and RHS evaluations.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Point {
-    pub(crate) error: f64,
-    pub(crate) cpu: f64,
-    pub(crate) rhs: f64,
-}
-
-/// `(cpu, rhs)` at `target` error, interpolated log-log between the loosest point that
-/// reaches it and the point before it (the loosest point itself when it already does);
-/// None when no point reaches it.
-pub(crate) fn at_error(points: &[Point], target: f64) -> Option<(f64, f64)> {
-    let i = points.iter().position(|p| p.error <= target)?;
-    if i == 0 {
-        return Some((points[0].cpu, points[0].rhs));
-    }
-    let (a, b) = (points[i - 1], points[i]);
-    let s = if b.error > 0.0 && a.error > b.error {
-        (target.ln() - a.error.ln()) / (b.error.ln() - a.error.ln())
-    } else {
-        1.0
-    };
-    let lerp = |x: f64, y: f64| (x.ln() + s * (y.ln() - x.ln())).exp();
-    Some((lerp(a.cpu, b.cpu), lerp(a.rhs, b.rhs)))
-}
-
-/// A CSV row: part, scene, setting, tolerance, error, CPU and wall time, counters, note.
+/// A CSV row: part, scene, setting, tolerance (empty: none), error, CPU and wall time,
+/// counters, note.
 #[allow(clippy::too_many_arguments)]
 fn row(
     part: &str,
     scene: &str,
     setting: &str,
-    tol: String,
+    tol: Option<f64>,
     error: f64,
     cpu: f64,
     wall: f64,
@@ -74,7 +47,7 @@ fn row(
         part.into(),
         scene.into(),
         setting.into(),
-        tol,
+        tol.map(|t| format!("{t:e}")).unwrap_or_default(),
         f(error),
         f(cpu),
         f(wall),
@@ -152,7 +125,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                     "sweep",
                     &name,
                     method.name(),
-                    format!("{tol:e}"),
+                    Some(tol),
                     error,
                     cpu,
                     wall,
@@ -160,7 +133,7 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                     note,
                 ));
                 if error.is_finite() {
-                    points.push(Point {
+                    points.push(Cost {
                         error,
                         cpu,
                         rhs: c.rhs_evals as f64,
@@ -237,6 +210,9 @@ fn rail_defaults(
     repeats: usize,
     csv: &mut Csv,
 ) -> Result<(), String> {
+    let auto_row = |part, tol, error, cpu, wall, c: &Counters, note| {
+        row(part, "rail_vehicle", "auto", Some(tol), error, cpu, wall, c, note)
+    };
     let bundled = RunSpec::new(scene.clone(), origin, scene.model.stop_time, scene.model.interval);
     let mut former_scene = scene.clone();
     former_scene.solver.method = Method::Dopri5;
@@ -295,7 +271,7 @@ fn rail_defaults(
             "rail_defaults",
             "rail_vehicle",
             label,
-            String::new(),
+            None,
             e,
             cpu,
             wall,
@@ -331,17 +307,7 @@ fn rail_defaults(
             c.rhs_evals,
             c_old.rhs_evals as f64 / c.rhs_evals as f64
         );
-        csv.push(row(
-            "rail_tightened",
-            "rail_vehicle",
-            "auto",
-            format!("{tol:e}"),
-            e,
-            cpu,
-            wall,
-            &c,
-            String::new(),
-        ));
+        csv.push(auto_row("rail_tightened", tol, e, cpu, wall, &c, String::new()));
         if e <= e_old {
             break;
         }
@@ -384,17 +350,7 @@ fn rail_defaults(
         );
         println!("{line}");
         let note = format!("max_step {max_step}; rhs share {:.3}", rhs_time / cpu);
-        csv.push(row(
-            "rail_goal",
-            "rail_vehicle",
-            "auto",
-            format!("{tol:e}"),
-            e,
-            cpu,
-            wall,
-            &c,
-            note,
-        ));
+        csv.push(auto_row("rail_goal", tol, e, cpu, wall, &c, note));
         if e <= TARGET_ERROR && best.as_ref().is_none_or(|b| cpu < b.0) {
             best = Some((cpu, line));
         }

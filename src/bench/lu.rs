@@ -154,6 +154,16 @@ fn residual(a: &[f64], m: usize, x: &[f64], b: &[f64]) -> f64 {
     worst / bmax
 }
 
+/// Factors the iteration matrix of a form (`I − h A⊗J` when `kron`, else `I − cJ`) with
+/// [`C`] and [`A`]; false if singular.
+fn factor(lu: &mut Lu, jac: JacRef, kron: bool) -> bool {
+    if kron {
+        lu.factor_kron(jac, C, &A)
+    } else {
+        lu.factor_shifted(jac, C)
+    }
+}
+
 /// The dense iteration matrix of a form, row-major.
 fn dense_matrix(jd: &[f64], n: usize, kron: bool) -> Vec<f64> {
     let m = if kron { 3 * n } else { n };
@@ -246,11 +256,7 @@ pub fn run(ns: &[usize], dense_max: usize, repeats: usize, csv_path: &Path) -> R
                 // (a) own dense LU (the integrators' code path)
                 let mut lu = Lu::new(m, false);
                 let tf = time_one(reps, || {
-                    let ok = if kron {
-                        lu.factor_kron(JacRef::Dense(&jd), C, &A)
-                    } else {
-                        lu.factor_shifted(JacRef::Dense(&jd), C)
-                    };
+                    let ok = factor(&mut lu, JacRef::Dense(&jd), kron);
                     assert!(ok);
                 });
                 let mut x = b.clone();
@@ -314,20 +320,12 @@ pub fn run(ns: &[usize], dense_max: usize, repeats: usize, csv_path: &Path) -> R
                     s.threshold = threshold;
                 }
                 let t0 = Instant::now();
-                let ok = if kron {
-                    lu.factor_kron(JacRef::Sparse(&jac), C, &A)
-                } else {
-                    lu.factor_shifted(JacRef::Sparse(&jac), C)
-                };
+                let ok = factor(&mut lu, JacRef::Sparse(&jac), kron);
                 assert!(ok, "sparse LU failed at n = {n}");
                 let first = t0.elapsed().as_secs_f64();
                 let mut x = b.clone();
                 let tf = time_one(reps, || {
-                    let ok = if kron {
-                        lu.factor_kron(JacRef::Sparse(&jac), C, &A)
-                    } else {
-                        lu.factor_shifted(JacRef::Sparse(&jac), C)
-                    };
+                    let ok = factor(&mut lu, JacRef::Sparse(&jac), kron);
                     assert!(ok);
                 });
                 let ts = time_one(reps, || {

@@ -9,7 +9,7 @@ use crate::scene::{Method, Scene};
 use std::path::Path;
 
 /// Relative tolerances of the adaptive sweep.
-const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
+pub(crate) const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
 /// `auto` may cost this much more than the best fixed method at the error of any point.
 pub const AUTO_MARGIN: f64 = 1.3;
 /// Fixed steps of the rk4 sweep [s].
@@ -354,12 +354,37 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// What a sweep point cost at its error: CPU time and RHS evaluations.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Cost {
+    pub(crate) error: f64,
+    pub(crate) cpu: f64,
+    pub(crate) rhs: f64,
+}
+
+/// `(cpu, rhs)` at `target` error, interpolated log-log between the loosest point that
+/// reaches it and the point before it (the loosest point itself when it already does);
+/// None when no point reaches it.
+pub(crate) fn at_error(points: &[Cost], target: f64) -> Option<(f64, f64)> {
+    let i = points.iter().position(|p| p.error <= target)?;
+    if i == 0 {
+        return Some((points[0].cpu, points[0].rhs));
+    }
+    let (a, b) = (points[i - 1], points[i]);
+    let s = if b.error > 0.0 && a.error > b.error {
+        (target.ln() - a.error.ln()) / (b.error.ln() - a.error.ln())
+    } else {
+        1.0
+    };
+    let lerp = |x: f64, y: f64| (x.ln() + s * (y.ln() - x.ln())).exp();
+    Some((lerp(a.cpu, b.cpu), lerp(a.rhs, b.rhs)))
+}
+
 /// The table row of `auto` against the best fixed method of a scene: at the error of every
 /// successful point of every method (within the range auto's sweep reaches), auto's CPU time
 /// and RHS evaluations interpolated log-log at that error against the least of the fixed
 /// methods' (each interpolated likewise); the worst ratios.
 fn auto_against_best(name: &str, points: &[Point]) -> Option<String> {
-    use super::defaults::{at_error, Point as Cost};
     let curve = |m: Method| -> Vec<Cost> {
         points
             .iter()

@@ -46,6 +46,16 @@ pub(super) fn attrs<'k, V: AsRef<str>>(pairs: impl IntoIterator<Item = (&'k str,
         .collect()
 }
 
+/// Writes the empty element `<tag …/>` with the attributes `pairs` (escaped by [`attrs`]).
+pub(super) fn empty<'k, V: AsRef<str>>(
+    w: &mut Writer<Vec<u8>>,
+    tag: &str,
+    pairs: impl IntoIterator<Item = (&'k str, V)>,
+) -> io::Result<()> {
+    w.create_element(tag).with_attributes(attrs(pairs)).write_empty()?;
+    Ok(())
+}
+
 /// The `initial` attribute: exact for parameters, calculated for calculated parameters and
 /// for outputs without a start value, none for inputs.
 pub(super) fn initial_of(v: &Variable) -> Option<&'static str> {
@@ -307,14 +317,10 @@ pub(super) fn write_units(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io:
             w.create_element("Unit")
                 .with_attributes(attrs([("name", unit.name)]))
                 .write_inner_content(|w| {
-                    w.create_element("BaseUnit")
-                        .with_attributes(attrs(base.iter().map(|(a, v)| (*a, v.as_str()))))
-                        .write_empty()?;
+                    empty(w, "BaseUnit", base.iter().map(|(a, v)| (*a, v.as_str())))?;
                     for (name, factor) in unit.display {
                         let factor = format_real(*factor);
-                        w.create_element("DisplayUnit")
-                            .with_attributes(attrs([("name", *name), ("factor", factor.as_str())]))
-                            .write_empty()?;
+                        empty(w, "DisplayUnit", [("name", *name), ("factor", factor.as_str())])?;
                     }
                     Ok(())
                 })?;
@@ -340,9 +346,7 @@ pub(super) fn write_type_definitions(
             let items = |w: &mut Writer<Vec<u8>>| -> io::Result<()> {
                 for (name, value) in e.items() {
                     let value = value.to_string();
-                    w.create_element("Item")
-                        .with_attributes(attrs([("name", name), ("value", value.as_str())]))
-                        .write_empty()?;
+                    empty(w, "Item", [("name", name), ("value", value.as_str())])?;
                 }
                 Ok(())
             };
@@ -373,23 +377,23 @@ pub(super) fn write_categories_and_experiment(
         for (name, description) in LOG_CATEGORIES {
             let name = name.to_str().unwrap_or_default();
             let description = description.replace("fmi2", version.prefix());
-            w.create_element("Category")
-                .with_attributes(attrs([("name", name), ("description", description.as_str())]))
-                .write_empty()?;
+            empty(w, "Category", [("name", name), ("description", description.as_str())])?;
         }
         Ok(())
     })?;
     let stop = format_real(scene.model.stop_time);
     let tolerance = format_real(scene.solver.rtol);
     let step = format_real(scene.model.interval);
-    w.create_element("DefaultExperiment")
-        .with_attributes(attrs([
+    empty(
+        w,
+        "DefaultExperiment",
+        [
             ("startTime", "0"),
             ("stopTime", stop.as_str()),
             ("tolerance", tolerance.as_str()),
             ("stepSize", step.as_str()),
-        ]))
-        .write_empty()?;
+        ],
+    )?;
     Ok(())
 }
 
@@ -400,8 +404,10 @@ pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated
     w.create_element("fmiModelDescription")
         .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi2, generated)))
         .write_inner_content(|w| {
-            w.create_element("CoSimulation")
-                .with_attributes(attrs([
+            empty(
+                w,
+                "CoSimulation",
+                [
                     ("modelIdentifier", m.name.as_str()),
                     ("canHandleVariableCommunicationStepSize", "true"),
                     ("canInterpolateInputs", "false"),
@@ -412,8 +418,8 @@ pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated
                     ("canGetAndSetFMUstate", "true"),
                     ("canSerializeFMUstate", "true"),
                     ("providesDirectionalDerivative", "false"),
-                ]))
-                .write_empty()?;
+                ],
+            )?;
             write_units(w, &table)?;
             write_type_definitions(w, &table, Version::Fmi2)?;
             write_categories_and_experiment(w, scene, Version::Fmi2)?;
@@ -442,9 +448,7 @@ pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated
                                     .collect();
                                 a.push(("dependencies", deps.join(" ")));
                             }
-                            w.create_element("Unknown")
-                                .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
-                                .write_empty()?;
+                            empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
                         }
                         Ok(())
                     })?;
@@ -515,9 +519,7 @@ pub(super) fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -
                     "Enumeration"
                 }
             };
-            w.create_element(tag)
-                .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
-                .write_empty()?;
+            empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
             Ok(())
         })?;
     Ok(())

@@ -14,7 +14,7 @@
 //!   names 1-based indices), the outputs with their `dependencies`.
 
 use super::description::{
-    attrs, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
+    attrs, empty, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
     used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
 };
 use crate::fmi::lifecycle::Version;
@@ -42,8 +42,10 @@ fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result
     w.create_element("fmiModelDescription")
         .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi3, generated)))
         .write_inner_content(|w| {
-            w.create_element("CoSimulation")
-                .with_attributes(attrs([
+            empty(
+                w,
+                "CoSimulation",
+                [
                     ("modelIdentifier", scene.model.name.as_str()),
                     ("canBeInstantiatedOnlyOncePerProcess", "false"),
                     ("canGetAndSetFMUState", "true"),
@@ -58,8 +60,8 @@ fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result
                     ("canReturnEarlyAfterIntermediateUpdate", "false"),
                     ("hasEventMode", "false"),
                     ("providesEvaluateDiscreteStates", "false"),
-                ]))
-                .write_empty()?;
+                ],
+            )?;
             write_units(w, &table)?;
             write_type_definitions(w, &table, Version::Fmi3)?;
             write_categories_and_experiment(w, scene, Version::Fmi3)?;
@@ -76,7 +78,7 @@ fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result
                 if used_units(&table).iter().any(|u| u.name == "s") {
                     time.push(("unit", "s"));
                 }
-                w.create_element("Float64").with_attributes(attrs(time)).write_empty()?;
+                empty(w, "Float64", time)?;
                 for (vr, v) in table.vars.iter().enumerate() {
                     write_variable(w, vr, v)?;
                 }
@@ -101,18 +103,15 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
                 .map(|d| (d - 1).to_string())
                 .collect();
             let deps = deps.join(" ");
-            w.create_element("Output")
-                .with_attributes(attrs([
-                    ("valueReference", vr.as_str()),
-                    ("dependencies", deps.as_str()),
-                ]))
-                .write_empty()?;
+            empty(
+                w,
+                "Output",
+                [("valueReference", vr.as_str()), ("dependencies", deps.as_str())],
+            )?;
         }
         for &i in &initial {
             let vr = (i - 1).to_string();
-            w.create_element("InitialUnknown")
-                .with_attributes(attrs([("valueReference", vr.as_str())]))
-                .write_empty()?;
+            empty(w, "InitialUnknown", [("valueReference", vr.as_str())])?;
         }
         Ok(())
     })?;
@@ -169,8 +168,6 @@ fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Resul
             "Enumeration"
         }
     };
-    w.create_element(tag)
-        .with_attributes(attrs(a.iter().map(|(k, v)| (*k, v.as_str()))))
-        .write_empty()?;
+    empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
     Ok(())
 }

@@ -32,6 +32,21 @@ unsafe fn instance<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
     unsafe { glue::instance(c, Version::Fmi2) }
 }
 
+/// Exported functions that look up their instance, check the calling state and forward to
+/// the instance or to the bodies both FMI versions share (`glue`), as FMI 3.0's: `fn
+/// name(arguments after the component) [lifecycle mask] |instance| body;`.
+macro_rules! forward {
+    ($($(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty),* $(,)?) [$mask:ident] |$inst:pat_param| $body:expr;)*) => {$(
+        $(#[$doc])*
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(c: fmi2Component, $($arg: $ty),*) -> fmi2Status {
+            // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
+            let found = unsafe { instance(c) };
+            call(found, stringify!($name), lifecycle::$mask, |$inst| $body)
+        }
+    )*};
+}
+
 // ---------------------------------------------------------------------------------------
 // Common functions
 // ---------------------------------------------------------------------------------------
@@ -48,23 +63,16 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
     c"2.0".as_ptr()
 }
 
-/// `fmi2SetDebugLogging`
-///
-/// # Safety
-/// `categories` holds `n_categories` strings, each NULL or NUL-terminated.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetDebugLogging(
-    c: fmi2Component,
-    logging_on: fmi2Boolean,
-    n_categories: usize,
-    categories: *const fmi2String,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetDebugLogging", lifecycle::SET_DEBUG_LOGGING, |inst| {
-        // SAFETY: `categories` holds `n_categories` strings (this function's contract).
-        unsafe { glue::set_debug_logging(inst, logging_on != FMI2_FALSE, n_categories, categories) }
-    })
+forward! {
+    /// `fmi2SetDebugLogging`
+    ///
+    /// # Safety
+    /// `categories` holds `n_categories` strings, each NULL or NUL-terminated.
+    fn fmi2SetDebugLogging(logging_on: fmi2Boolean, n_categories: usize, categories: *const fmi2String)
+        [SET_DEBUG_LOGGING] |inst| {
+            // SAFETY: `categories` holds `n_categories` strings (this function's contract).
+            unsafe { glue::set_debug_logging(inst, logging_on != FMI2_FALSE, n_categories, categories) }
+        };
 }
 
 /// `fmi2Instantiate`: reads `<resources>/scene.toml`, checks the GUID, copies the callbacks
@@ -160,527 +168,326 @@ pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
     unsafe { glue::free_instance(c, Version::Fmi2) }
 }
 
-/// `fmi2SetupExperiment`
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetupExperiment(
-    c: fmi2Component,
-    tolerance_defined: fmi2Boolean,
-    tolerance: fmi2Real,
-    start_time: fmi2Real,
-    stop_time_defined: fmi2Boolean,
-    stop_time: fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetupExperiment", lifecycle::SETUP_EXPERIMENT, |inst| {
-        inst.setup_experiment(
-            (tolerance_defined != FMI2_FALSE).then_some(tolerance),
-            start_time,
-            (stop_time_defined != FMI2_FALSE).then_some(stop_time),
-        )
-    })
-}
-
-/// `fmi2EnterInitializationMode`
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(
-        found,
-        "fmi2EnterInitializationMode",
-        lifecycle::ENTER_INITIALIZATION_MODE,
-        |inst| inst.enter_initialization_mode(),
+forward! {
+    /// `fmi2SetupExperiment`
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2SetupExperiment(
+        tolerance_defined: fmi2Boolean,
+        tolerance: fmi2Real,
+        start_time: fmi2Real,
+        stop_time_defined: fmi2Boolean,
+        stop_time: fmi2Real,
     )
-}
+        [SETUP_EXPERIMENT] |inst| {
+            inst.setup_experiment(
+                (tolerance_defined != FMI2_FALSE).then_some(tolerance),
+                start_time,
+                (stop_time_defined != FMI2_FALSE).then_some(stop_time),
+            )
+        };
 
-/// `fmi2ExitInitializationMode`: checks every parameter's range (the message names the
-/// variable) and compiles the model.
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(
-        found,
-        "fmi2ExitInitializationMode",
-        lifecycle::EXIT_INITIALIZATION_MODE,
-        |inst| inst.exit_initialization_mode(),
+    /// `fmi2EnterInitializationMode`
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2EnterInitializationMode() [ENTER_INITIALIZATION_MODE] |inst| inst.enter_initialization_mode();
+
+    /// `fmi2ExitInitializationMode`: checks every parameter's range (the message names the
+    /// variable) and compiles the model.
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2ExitInitializationMode() [EXIT_INITIALIZATION_MODE] |inst| inst.exit_initialization_mode();
+
+    /// `fmi2Terminate`
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2Terminate() [TERMINATE] |inst| inst.terminate();
+
+    /// `fmi2Reset`
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2Reset() [RESET] |inst| inst.reset();
+
+    /// `fmi2GetReal`
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2GetReal(vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Real)
+        [GET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe { glue::get_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
+        };
+
+    /// `fmi2GetInteger` (Integer and enumeration variables)
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2GetInteger(vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Integer)
+        [GET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe { glue::get_values(inst, Access::Integer, vr, nvr, value, nvr, |x| x.round() as fmi2Integer) }
+        };
+
+    /// `fmi2GetBoolean`
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2GetBoolean(vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Boolean)
+        [GET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe {
+                glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| {
+                    fmi2Boolean::from(x != 0.0)
+                })
+            }
+        };
+
+    /// `fmi2GetString` (this model has no String variables: only `nvr = 0` succeeds)
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2GetString(vr: *const fmi2ValueReference, nvr: usize, _value: *mut fmi2String)
+        [GET_VALUES] |inst| {
+            // SAFETY: `vr` holds `nvr` elements (this function's contract).
+            unsafe { glue::no_strings(inst, vr, nvr, false) }
+        };
+
+    /// `fmi2SetReal`
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2SetReal(vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Real)
+        [SET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe { glue::set_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
+        };
+
+    /// `fmi2SetInteger` (Integer and enumeration variables)
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2SetInteger(vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Integer)
+        [SET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe { glue::set_values(inst, Access::Integer, vr, nvr, value, nvr, f64::from) }
+        };
+
+    /// `fmi2SetBoolean`
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2SetBoolean(vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Boolean)
+        [SET_VALUES] |inst| {
+            // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
+            unsafe {
+                glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| {
+                    f64::from(u8::from(b != FMI2_FALSE))
+                })
+            }
+        };
+
+    /// `fmi2SetString` (this model has no String variables: only `nvr = 0` succeeds)
+    ///
+    /// # Safety
+    /// `vr` and `value` hold `nvr` elements.
+    fn fmi2SetString(vr: *const fmi2ValueReference, nvr: usize, _value: *const fmi2String)
+        [SET_VALUES] |inst| {
+            // SAFETY: `vr` holds `nvr` elements (this function's contract).
+            unsafe { glue::no_strings(inst, vr, nvr, true) }
+        };
+
+    /// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.
+    ///
+    /// # Safety
+    /// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+    /// before use).
+    fn fmi2GetFMUstate(state: *mut fmi2FMUstate)
+        [FMU_STATE] |inst| {
+            // SAFETY: `state` points to NULL or to a live state (this function's contract).
+            unsafe { glue::store_state(state, inst.save()) }
+        };
+
+    /// `fmi2SetFMUstate`: copies the state into the instance (the state stays valid), including
+    /// its lifecycle state, time and stop time.
+    ///
+    /// # Safety
+    /// See the module docs (`state` is looked up before use).
+    fn fmi2SetFMUstate(state: fmi2FMUstate)
+        [FMU_STATE] |inst| {
+            // SAFETY: the host does not free `state` during the call (FMI 2.0).
+            unsafe { glue::set_state(inst, state) }
+        };
+
+    /// `fmi2FreeFMUstate`: frees `*state` (NULL is ignored) and sets it to NULL.
+    ///
+    /// # Safety
+    /// `state` is NULL or valid for reading and writing one handle (whose value is looked up
+    /// before use).
+    fn fmi2FreeFMUstate(state: *mut fmi2FMUstate)
+        [FMU_STATE] |_| {
+            // SAFETY: `state` is NULL or a readable and writable handle (this function's contract);
+            // no other thread uses it (FMI 2.0).
+            unsafe { glue::free_state(state) }
+        };
+
+    /// `fmi2SerializedFMUstateSize`
+    ///
+    /// # Safety
+    /// `size` is NULL or writable (`state` is looked up before use).
+    fn fmi2SerializedFMUstateSize(state: fmi2FMUstate, size: *mut usize)
+        [FMU_STATE] |_| {
+            // SAFETY: `size` is NULL or writable; the host does not free `state` during the call.
+            unsafe { glue::serialized_size(state, size) }
+        };
+
+    /// `fmi2SerializeFMUstate`: writes exactly `fmi2SerializedFMUstateSize` bytes.
+    ///
+    /// # Safety
+    /// `serialized` holds `size` writable bytes (`state` is looked up before use).
+    fn fmi2SerializeFMUstate(state: fmi2FMUstate, serialized: *mut fmi2Byte, size: usize)
+        [FMU_STATE] |_| {
+            // SAFETY: `serialized` holds `size` writable bytes; the host does not free `state`.
+            unsafe { glue::serialize(state, serialized as *mut u8, size) }
+        };
+
+    /// `fmi2DeSerializeFMUstate`: checks magic, version and length, then allocates a state (or
+    /// overwrites `*state` when it is not NULL).
+    ///
+    /// # Safety
+    /// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
+    /// handle (whose value is looked up before use).
+    fn fmi2DeSerializeFMUstate(serialized: *const fmi2Byte, size: usize, state: *mut fmi2FMUstate)
+        [FMU_STATE] |inst| {
+            // SAFETY: `serialized` holds `size` bytes; `state` is NULL or a valid handle slot.
+            unsafe { glue::deserialize(inst, serialized as *const u8, size, state) }
+        };
+
+    /// `fmi2GetDirectionalDerivative`: not supported (`providesDirectionalDerivative` is false).
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2GetDirectionalDerivative(
+        _v_unknown_ref: *const fmi2ValueReference,
+        _n_unknown: usize,
+        _v_known_ref: *const fmi2ValueReference,
+        _n_known: usize,
+        _dv_known: *const fmi2Real,
+        _dv_unknown: *mut fmi2Real,
     )
-}
-
-/// `fmi2Terminate`
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2Terminate", lifecycle::TERMINATE, |inst| inst.terminate())
-}
-
-/// `fmi2Reset`
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2Reset", lifecycle::RESET, |inst| inst.reset())
-}
-
-/// `fmi2GetReal`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetReal(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetReal", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::get_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
-    })
-}
-
-/// `fmi2GetInteger` (Integer and enumeration variables)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetInteger(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Integer,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetInteger", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::get_values(inst, Access::Integer, vr, nvr, value, nvr, |x| x.round() as fmi2Integer) }
-    })
-}
-
-/// `fmi2GetBoolean`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBoolean(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *mut fmi2Boolean,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetBoolean", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe {
-            glue::get_values(inst, Access::Boolean, vr, nvr, value, nvr, |x| {
-                fmi2Boolean::from(x != 0.0)
-            })
-        }
-    })
-}
-
-/// `fmi2GetString` (this model has no String variables: only `nvr = 0` succeeds)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetString(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    _value: *mut fmi2String,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetString", lifecycle::GET_VALUES, |inst| {
-        // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        unsafe { glue::no_strings(inst, vr, nvr, false) }
-    })
-}
-
-/// `fmi2SetReal`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetReal(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetReal", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::set_values(inst, Access::Real, vr, nvr, value, nvr, |x| x) }
-    })
-}
-
-/// `fmi2SetInteger` (Integer and enumeration variables)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetInteger(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Integer,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetInteger", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe { glue::set_values(inst, Access::Integer, vr, nvr, value, nvr, f64::from) }
-    })
-}
-
-/// `fmi2SetBoolean`
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetBoolean(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    value: *const fmi2Boolean,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetBoolean", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` and `value` hold `nvr` elements (this function's contract).
-        unsafe {
-            glue::set_values(inst, Access::Boolean, vr, nvr, value, nvr, |b| {
-                f64::from(u8::from(b != FMI2_FALSE))
-            })
-        }
-    })
-}
-
-/// `fmi2SetString` (this model has no String variables: only `nvr = 0` succeeds)
-///
-/// # Safety
-/// `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetString(
-    c: fmi2Component,
-    vr: *const fmi2ValueReference,
-    nvr: usize,
-    _value: *const fmi2String,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetString", lifecycle::SET_VALUES, |inst| {
-        // SAFETY: `vr` holds `nvr` elements (this function's contract).
-        unsafe { glue::no_strings(inst, vr, nvr, true) }
-    })
-}
-
-/// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.
-///
-/// # Safety
-/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
-/// before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetFMUstate", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: `state` points to NULL or to a live state (this function's contract).
-        unsafe { glue::store_state(state, inst.save()) }
-    })
-}
-
-/// `fmi2SetFMUstate`: copies the state into the instance (the state stays valid), including
-/// its lifecycle state, time and stop time.
-///
-/// # Safety
-/// See the module docs (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SetFMUstate", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: the host does not free `state` during the call (FMI 2.0).
-        unsafe { glue::set_state(inst, state) }
-    })
-}
-
-/// `fmi2FreeFMUstate`: frees `*state` (NULL is ignored) and sets it to NULL.
-///
-/// # Safety
-/// `state` is NULL or valid for reading and writing one handle (whose value is looked up
-/// before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2FreeFMUstate", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `state` is NULL or a readable and writable handle (this function's contract);
-        // no other thread uses it (FMI 2.0).
-        unsafe { glue::free_state(state) }
-    })
-}
-
-/// `fmi2SerializedFMUstateSize`
-///
-/// # Safety
-/// `size` is NULL or writable (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
-    c: fmi2Component,
-    state: fmi2FMUstate,
-    size: *mut usize,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SerializedFMUstateSize", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `size` is NULL or writable; the host does not free `state` during the call.
-        unsafe { glue::serialized_size(state, size) }
-    })
-}
-
-/// `fmi2SerializeFMUstate`: writes exactly `fmi2SerializedFMUstateSize` bytes.
-///
-/// # Safety
-/// `serialized` holds `size` writable bytes (`state` is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SerializeFMUstate(
-    c: fmi2Component,
-    state: fmi2FMUstate,
-    serialized: *mut fmi2Byte,
-    size: usize,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2SerializeFMUstate", lifecycle::FMU_STATE, |_| {
-        // SAFETY: `serialized` holds `size` writable bytes; the host does not free `state`.
-        unsafe { glue::serialize(state, serialized as *mut u8, size) }
-    })
-}
-
-/// `fmi2DeSerializeFMUstate`: checks magic, version and length, then allocates a state (or
-/// overwrites `*state` when it is not NULL).
-///
-/// # Safety
-/// `serialized` holds `size` bytes; `state` is NULL or valid for reading and writing one
-/// handle (whose value is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
-    c: fmi2Component,
-    serialized: *const fmi2Byte,
-    size: usize,
-    state: *mut fmi2FMUstate,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2DeSerializeFMUstate", lifecycle::FMU_STATE, |inst| {
-        // SAFETY: `serialized` holds `size` bytes; `state` is NULL or a valid handle slot.
-        unsafe { glue::deserialize(inst, serialized as *const u8, size, state) }
-    })
-}
-
-/// `fmi2GetDirectionalDerivative`: not supported (`providesDirectionalDerivative` is false).
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
-    c: fmi2Component,
-    _v_unknown_ref: *const fmi2ValueReference,
-    _n_unknown: usize,
-    _v_known_ref: *const fmi2ValueReference,
-    _n_known: usize,
-    _dv_known: *const fmi2Real,
-    _dv_unknown: *mut fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(
-        found,
-        "fmi2GetDirectionalDerivative",
-        lifecycle::GET_DIRECTIONAL_DERIVATIVE,
-        |_| Err(Failure::error("not supported (providesDirectionalDerivative is false)")),
-    )
+        [GET_DIRECTIONAL_DERIVATIVE] |_| Err(Failure::error("not supported (providesDirectionalDerivative is false)"));
 }
 
 // ---------------------------------------------------------------------------------------
 // Co-simulation functions
 // ---------------------------------------------------------------------------------------
 
-/// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs` is false).
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
-    c: fmi2Component,
-    _vr: *const fmi2ValueReference,
-    _nvr: usize,
-    _order: *const fmi2Integer,
-    _value: *const fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(
-        found,
-        "fmi2SetRealInputDerivatives",
-        lifecycle::SET_REAL_INPUT_DERIVATIVES,
-        |_| Err(Failure::error("not supported (canInterpolateInputs is false)")),
+forward! {
+    /// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs` is false).
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2SetRealInputDerivatives(
+        _vr: *const fmi2ValueReference,
+        _nvr: usize,
+        _order: *const fmi2Integer,
+        _value: *const fmi2Real,
     )
-}
+        [SET_REAL_INPUT_DERIVATIVES] |_| Err(Failure::error("not supported (canInterpolateInputs is false)"));
 
-/// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
-    c: fmi2Component,
-    _vr: *const fmi2ValueReference,
-    _nvr: usize,
-    _order: *const fmi2Integer,
-    _value: *mut fmi2Real,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(
-        found,
-        "fmi2GetRealOutputDerivatives",
-        lifecycle::GET_REAL_OUTPUT_DERIVATIVES,
-        |_| Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)")),
+    /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder` is 0).
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2GetRealOutputDerivatives(
+        _vr: *const fmi2ValueReference,
+        _nvr: usize,
+        _order: *const fmi2Integer,
+        _value: *mut fmi2Real,
     )
-}
+        [GET_REAL_OUTPUT_DERIVATIVES] |_| Err(Failure::error("not supported (maxOutputDerivativeOrder is 0)"));
 
-/// `fmi2DoStep`: integrates from `current_communication_point` (which must be the current
-/// time) to exactly `current_communication_point + communication_step_size`.
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2DoStep(
-    c: fmi2Component,
-    current_communication_point: fmi2Real,
-    communication_step_size: fmi2Real,
-    _no_set_fmu_state_prior_to_current_point: fmi2Boolean,
-) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2DoStep", lifecycle::DO_STEP, |inst| {
-        inst.do_step(current_communication_point, communication_step_size)
-            .map(|_| ())
-    })
-}
+    /// `fmi2DoStep`: integrates from `current_communication_point` (which must be the current
+    /// time) to exactly `current_communication_point + communication_step_size`.
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2DoStep(
+        current_communication_point: fmi2Real,
+        communication_step_size: fmi2Real,
+        _no_set_fmu_state_prior_to_current_point: fmi2Boolean,
+    )
+        [DO_STEP] |inst| {
+            inst.do_step(current_communication_point, communication_step_size)
+                .map(|_| ())
+        };
 
-/// `fmi2CancelStep`: never allowed, since `fmi2DoStep` never returns `fmi2Pending`.
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2CancelStep", lifecycle::CANCEL_STEP, |_| Ok(()))
-}
+    /// `fmi2CancelStep`: never allowed, since `fmi2DoStep` never returns `fmi2Pending`.
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2CancelStep() [CANCEL_STEP] |_| Ok(());
 
-/// `fmi2GetStatus`: not supported (only meaningful after `fmi2Pending`, never returned).
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, _kind: c_int, _value: *mut c_int) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetStatus", lifecycle::GET_STATUS, |_| {
-        Err(Failure::error(
-            "not supported: fmi2DoStep is synchronous and never returns fmi2Pending",
-        ))
-    })
-}
+    /// `fmi2GetStatus`: not supported (only meaningful after `fmi2Pending`, never returned).
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2GetStatus(_kind: c_int, _value: *mut c_int)
+        [GET_STATUS] |_| {
+            Err(Failure::error(
+                "not supported: fmi2DoStep is synchronous and never returns fmi2Pending",
+            ))
+        };
 
-/// `fmi2GetRealStatus`: answers `fmi2LastSuccessfulTime`.
-///
-/// # Safety
-/// `value` is NULL or writable.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Real) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetRealStatus", lifecycle::GET_STATUS, |inst| {
-        let x = inst.real_status(kind)?;
-        // SAFETY: `value` is NULL or writable (this function's contract).
-        let out = unsafe { glue::slice_mut(value, 1, "value") }?;
-        out[0] = x;
-        Ok(())
-    })
-}
+    /// `fmi2GetRealStatus`: answers `fmi2LastSuccessfulTime`.
+    ///
+    /// # Safety
+    /// `value` is NULL or writable.
+    fn fmi2GetRealStatus(kind: c_int, value: *mut fmi2Real)
+        [GET_STATUS] |inst| {
+            let x = inst.real_status(kind)?;
+            // SAFETY: `value` is NULL or writable (this function's contract).
+            let out = unsafe { glue::slice_mut(value, 1, "value") }?;
+            out[0] = x;
+            Ok(())
+        };
 
-/// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2Integer) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetIntegerStatus", lifecycle::GET_STATUS, |_| {
-        Err(Failure::error(format!("status kind {kind} has no Integer value")))
-    })
-}
+    /// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2GetIntegerStatus(kind: c_int, _value: *mut fmi2Integer)
+        [GET_STATUS] |_| {
+            Err(Failure::error(format!("status kind {kind} has no Integer value")))
+        };
 
-/// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
-///
-/// # Safety
-/// `value` is NULL or writable.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, kind: c_int, value: *mut fmi2Boolean) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetBooleanStatus", lifecycle::GET_STATUS, |inst| {
-        let b = inst.boolean_status(kind)?;
-        // SAFETY: `value` is NULL or writable (this function's contract).
-        let out = unsafe { glue::slice_mut(value, 1, "value") }?;
-        out[0] = if b { FMI2_TRUE } else { FMI2_FALSE };
-        Ok(())
-    })
-}
+    /// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
+    ///
+    /// # Safety
+    /// `value` is NULL or writable.
+    fn fmi2GetBooleanStatus(kind: c_int, value: *mut fmi2Boolean)
+        [GET_STATUS] |inst| {
+            let b = inst.boolean_status(kind)?;
+            // SAFETY: `value` is NULL or writable (this function's contract).
+            let out = unsafe { glue::slice_mut(value, 1, "value") }?;
+            out[0] = if b { FMI2_TRUE } else { FMI2_FALSE };
+            Ok(())
+        };
 
-/// `fmi2GetStringStatus`: not supported (`fmi2PendingStatus` needs an asynchronous step).
-///
-/// # Safety
-/// See the module docs (only `c`, which is looked up before use).
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, kind: c_int, _value: *mut fmi2String) -> fmi2Status {
-    // SAFETY: FMI 2.0: the host does not call or free `c` on another thread meanwhile.
-    let found = unsafe { instance(c) };
-    call(found, "fmi2GetStringStatus", lifecycle::GET_STATUS, |_| {
-        Err(Failure::error(format!(
-            "not supported (status kind {kind}; fmi2PendingStatus needs an asynchronous step)"
-        )))
-    })
+    /// `fmi2GetStringStatus`: not supported (`fmi2PendingStatus` needs an asynchronous step).
+    ///
+    /// # Safety
+    /// See the module docs (only `c`, which is looked up before use).
+    fn fmi2GetStringStatus(kind: c_int, _value: *mut fmi2String)
+        [GET_STATUS] |_| {
+            Err(Failure::error(format!(
+                "not supported (status kind {kind}; fmi2PendingStatus needs an asynchronous step)"
+            )))
+        };
 }
 
 /// The state-machine state of an instance, or `None` when `c` is not a live instance (for

@@ -235,83 +235,6 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
 // Getting and setting values: Float64 (Real), Int32 (Integer), Int64 (Enumeration), Boolean
 // ---------------------------------------------------------------------------------------
 
-/// Defines an exported getter and setter of one FMI 3.0 type that this model uses.
-macro_rules! accessors {
-    ($get:ident, $set:ident, $ty:ty, $access:expr, $to_c:expr, $from_c:expr) => {
-        #[doc = concat!("`", stringify!($get), "`")]
-        ///
-        /// # Safety
-        /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
-        #[no_mangle]
-        pub unsafe extern "C" fn $get(
-            instance: fmi3Instance,
-            vr: *const fmi3ValueReference,
-            nvr: usize,
-            values: *mut $ty,
-            n_values: usize,
-        ) -> fmi3Status {
-            with(instance, stringify!($get), lifecycle::GET_VALUES, |inst| {
-                // SAFETY: `vr` holds `nvr` elements, `values` `n_values` (this function's
-                // contract).
-                unsafe { glue::get_values(inst, $access, vr, nvr, values.cast(), n_values, $to_c) }
-            })
-        }
-
-        #[doc = concat!("`", stringify!($set), "`")]
-        ///
-        /// # Safety
-        /// `vr` holds `nvr` elements and `values` `n_values`.
-        #[no_mangle]
-        pub unsafe extern "C" fn $set(
-            instance: fmi3Instance,
-            vr: *const fmi3ValueReference,
-            nvr: usize,
-            values: *const $ty,
-            n_values: usize,
-        ) -> fmi3Status {
-            with(instance, stringify!($set), lifecycle::SET_VALUES, |inst| {
-                // SAFETY: `vr` holds `nvr` elements, `values` `n_values` (this function's
-                // contract).
-                unsafe { glue::set_values(inst, $access, vr, nvr, values.cast(), n_values, $from_c) }
-            })
-        }
-    };
-}
-
-accessors!(
-    fmi3GetFloat64,
-    fmi3SetFloat64,
-    fmi3Float64,
-    Access::Real,
-    |x: f64| x,
-    |x: f64| x
-);
-accessors!(
-    fmi3GetInt32,
-    fmi3SetInt32,
-    fmi3Int32,
-    Access::Integer,
-    |x: f64| x.round() as i32,
-    |x: i32| f64::from(x)
-);
-accessors!(
-    fmi3GetInt64,
-    fmi3SetInt64,
-    fmi3Int64,
-    Access::Int64,
-    |x: f64| x.round() as i64,
-    |x: i64| x as f64
-);
-// (read and written as bytes: any nonzero byte is true)
-accessors!(
-    fmi3GetBoolean,
-    fmi3SetBoolean,
-    fmi3Boolean,
-    Access::Boolean,
-    |x: f64| byte(x != 0.0),
-    |b: u8| f64::from(byte(b != 0))
-);
-
 /// Exported functions that check their instance and state and forward to the instance or to
 /// the bodies both FMI versions share (`crate::fmi::glue`): `fn name(arguments after the
 /// instance) [lifecycle mask] |instance| body;`.
@@ -323,6 +246,80 @@ macro_rules! forward {
             with(instance, stringify!($name), lifecycle::$mask, |$inst| $body)
         }
     )*};
+}
+
+forward! {
+    /// `fmi3GetFloat64`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
+    fn fmi3GetFloat64(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Float64, n_values: usize)
+        [GET_VALUES] |inst| unsafe {
+            glue::get_values(inst, Access::Real, vr, nvr, values.cast(), n_values, |x: f64| x)
+        };
+
+    /// `fmi3SetFloat64`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values`.
+    fn fmi3SetFloat64(vr: *const fmi3ValueReference, nvr: usize, values: *const fmi3Float64, n_values: usize)
+        [SET_VALUES] |inst| unsafe {
+            glue::set_values(inst, Access::Real, vr, nvr, values.cast(), n_values, |x: f64| x)
+        };
+
+    /// `fmi3GetInt32`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
+    fn fmi3GetInt32(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Int32, n_values: usize)
+        [GET_VALUES] |inst| unsafe {
+            glue::get_values(inst, Access::Integer, vr, nvr, values.cast(), n_values, |x: f64| x.round() as i32)
+        };
+
+    /// `fmi3SetInt32`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values`.
+    fn fmi3SetInt32(vr: *const fmi3ValueReference, nvr: usize, values: *const fmi3Int32, n_values: usize)
+        [SET_VALUES] |inst| unsafe {
+            glue::set_values(inst, Access::Integer, vr, nvr, values.cast(), n_values, |x: i32| f64::from(x))
+        };
+
+    /// `fmi3GetInt64`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
+    fn fmi3GetInt64(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Int64, n_values: usize)
+        [GET_VALUES] |inst| unsafe {
+            glue::get_values(inst, Access::Int64, vr, nvr, values.cast(), n_values, |x: f64| x.round() as i64)
+        };
+
+    /// `fmi3SetInt64`
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values`.
+    fn fmi3SetInt64(vr: *const fmi3ValueReference, nvr: usize, values: *const fmi3Int64, n_values: usize)
+        [SET_VALUES] |inst| unsafe {
+            glue::set_values(inst, Access::Int64, vr, nvr, values.cast(), n_values, |x: i64| x as f64)
+        };
+
+    /// `fmi3GetBoolean` (read and written as bytes: any nonzero byte is true)
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
+    fn fmi3GetBoolean(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Boolean, n_values: usize)
+        [GET_VALUES] |inst| unsafe {
+            glue::get_values(inst, Access::Boolean, vr, nvr, values.cast(), n_values, |x: f64| byte(x != 0.0))
+        };
+
+    /// `fmi3SetBoolean` (read and written as bytes: any nonzero byte is true)
+    ///
+    /// # Safety
+    /// `vr` holds `nvr` elements and `values` `n_values`.
+    fn fmi3SetBoolean(vr: *const fmi3ValueReference, nvr: usize, values: *const fmi3Boolean, n_values: usize)
+        [SET_VALUES] |inst| unsafe {
+            glue::set_values(inst, Access::Boolean, vr, nvr, values.cast(), n_values, |b: u8| f64::from(byte(b != 0)))
+        };
 }
 
 forward! {

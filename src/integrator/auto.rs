@@ -115,6 +115,24 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
 }
 
 impl<I: ImplicitMethod + Integrator> Auto<I> {
+    /// Hands the implicit method to `load` (which reads a saved state or warm memory into it),
+    /// built first when there is none yet; `what` names the part in the error when none can be.
+    fn load_implicit(&mut self, what: &str, load: impl FnOnce(&mut I) -> Result<(), String>) -> Result<(), String> {
+        match (&mut self.implicit, self.build) {
+            (Some(i), _) => load(i),
+            (None, Some(build)) => {
+                let c = self.explicit.core();
+                let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
+                load(&mut fresh)?;
+                self.implicit = Some(fresh);
+                Ok(())
+            }
+            (None, None) => Err(format!(
+                "{what} is implicit, but this integrator has no implicit method"
+            )),
+        }
+    }
+
     /// The method for systems of size `n`, with the explicit method's tolerances and largest
     /// step and the builder of an implicit method for the same (None: never stiff).
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64, build: Option<ImplicitBuilder<I>>) -> Self {
@@ -419,20 +437,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             return Err("the auto integrator state holds an out-of-range switching memory".into());
         }
         if stiff {
-            match (&mut self.implicit, self.build) {
-                (Some(i), _) => i.load_state(own)?,
-                (None, Some(build)) => {
-                    let c = self.explicit.core();
-                    let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
-                    fresh.load_state(own)?;
-                    self.implicit = Some(fresh);
-                }
-                (None, None) => {
-                    return Err(
-                        "the auto integrator state is implicit, but this integrator has no implicit method".into(),
-                    )
-                }
-            }
+            self.load_implicit("the auto integrator state", |i| i.load_state(own))?;
         } else {
             self.explicit.load_state(own)?;
         }
@@ -461,21 +466,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             None => self.active_mut().set_warm_state(&[]),
             Some((&flag, rest)) if flag == 0.0 || flag == 1.0 => {
                 if flag == 1.0 {
-                    match (&mut self.implicit, self.build) {
-                        (Some(i), _) => i.set_warm_state(rest)?,
-                        (None, Some(build)) => {
-                            let c = self.explicit.core();
-                            let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
-                            fresh.set_warm_state(rest)?;
-                            self.implicit = Some(fresh);
-                        }
-                        (None, None) => {
-                            return Err(
-                                "the auto integrator's memory is implicit, but this integrator has no implicit method"
-                                    .into(),
-                            )
-                        }
-                    }
+                    self.load_implicit("the auto integrator's memory", |i| i.set_warm_state(rest))?;
                 } else {
                     self.explicit.set_warm_state(rest)?;
                 }

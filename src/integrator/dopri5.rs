@@ -319,12 +319,7 @@ mod tests {
                 assert!((m.t() - 0.3 - h).abs() < 1e-15);
                 dense_error(&m, |t| exact(t).to_vec())
             };
-            let (e1, e2, e3) = (err(0.1), err(0.05), err(0.025));
-            let (p1, p2) = (order(e1, e2), order(e2, e3));
-            assert!(
-                (p1 - 5.0).abs() < 0.3 && (p2 - 5.0).abs() < 0.3,
-                "{name}: orders {p1} {p2} (errors {e1:e} {e2:e} {e3:e})"
-            );
+            assert_order(name, 5.0, [err(0.1), err(0.05), err(0.025)]);
         }
     }
 

@@ -16,7 +16,7 @@
 //!   bits.
 
 use super::core::{restore_blocks, save_blocks, StateReader, StepCore};
-use super::linear::{JacRef, LinearStats, SparseJacobian};
+use super::linear::{EvalPoint, JacRef, LinearStats, SparseJacobian};
 use super::{Integrator, IntegratorError, OdeSystem, WARM_JACOBIAN_MAX};
 use crate::scene::Method;
 
@@ -314,11 +314,19 @@ impl NewtonCore {
         let n = self.n();
         sys.rhs(core.t, &core.y, &mut self.f0);
         if let Some(s) = &mut self.sparse {
-            let (f0, yp, f1) = (&self.f0, &mut self.y_pert, &mut self.f1);
+            let at = EvalPoint {
+                sys,
+                t: core.t,
+                y: &core.y,
+                f0: &self.f0,
+                y_pert: &mut self.y_pert,
+                f1: &mut self.f1,
+                stats: &mut core.stats,
+            };
             if probe {
-                s.probe(sys, core.t, &core.y, f0, yp, f1, &mut core.stats);
+                s.probe(at);
             } else {
-                s.evaluate(sys, core.t, &core.y, f0, yp, f1, &mut core.stats);
+                s.evaluate(at);
             }
             core.stats.rhs_evals += 1;
             core.stats.jac_evals += 1;

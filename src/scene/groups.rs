@@ -4,8 +4,8 @@
 //! its shapes: [`Scene::group_pair_contact`] writes that contact.
 
 use super::{
-    direction, item_name, length, magnitude, quote, unit, validate_law_keys, vector, ContactSpec, ContactType,
-    ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
+    direction, item_name, length, magnitude, perpendicular, quote, surface_extent, validate_law_keys, vector,
+    ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -428,21 +428,7 @@ impl Scene {
                     length(origin, &item, f, v)?;
                 }
             }
-            if let Some([a, b]) = s.size {
-                if !(a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite()) {
-                    return Err(err(
-                        "size",
-                        format!("both side lengths must be finite and > 0 (got [{a}, {b}])"),
-                    ));
-                }
-                magnitude(origin, &item, "size", a.max(b))?;
-            }
-            if let Some([a, b]) = s.theta_range {
-                if !(a.is_finite() && b.is_finite()) || a >= b {
-                    return Err(err("theta_range", "needs finite min < max".into()));
-                }
-                magnitude(origin, &item, "theta_range", a.abs().max(b.abs()))?;
-            }
+            surface_extent(origin, &item, s.size, s.theta_range)?;
             match s.kind {
                 ShapeType::Sphere => {
                     need("radius", s.radius.is_some())?;
@@ -453,11 +439,7 @@ impl Scene {
                     need("normal", s.normal.is_some())?;
                     need("u_axis", s.u_axis.is_some())?;
                     need("size", s.size.is_some())?;
-                    let n = unit(s.normal.unwrap_or_default());
-                    let u = unit(s.u_axis.unwrap_or_default());
-                    if (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]).abs() > 1e-6 {
-                        return Err(err("u_axis", "must be perpendicular to normal".into()));
-                    }
+                    perpendicular((origin, &item), ("u_axis", s.u_axis), ("normal", s.normal))?;
                 }
                 ShapeType::Cylinder => {
                     need("axis_point", s.axis_point.is_some())?;
@@ -467,12 +449,8 @@ impl Scene {
                     if s.theta_range.is_some() && s.ref_axis.is_none() {
                         return Err(err("ref_axis", "required with theta_range".into()));
                     }
-                    if let Some(r) = s.ref_axis {
-                        let a = unit(s.axis.unwrap_or_default());
-                        let r = unit(r);
-                        if (a[0] * r[0] + a[1] * r[1] + a[2] * r[2]).abs() > 1e-6 {
-                            return Err(err("ref_axis", "must be perpendicular to axis".into()));
-                        }
+                    if s.ref_axis.is_some() {
+                        perpendicular((origin, &item), ("ref_axis", s.ref_axis), ("axis", s.axis))?;
                     }
                 }
             }

@@ -385,21 +385,7 @@ impl Scene {
                 length(origin, item, f, v)?;
             }
         }
-        if let Some([a, b]) = c.size {
-            if !(a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite()) {
-                return Err(err(
-                    "size",
-                    format!("both side lengths must be finite and > 0 (got [{a}, {b}])"),
-                ));
-            }
-            magnitude(origin, item, "size", a.max(b))?;
-        }
-        if let Some([a, b]) = c.theta_range {
-            if !(a.is_finite() && b.is_finite()) || a >= b {
-                return Err(err("theta_range", "needs finite min < max".into()));
-            }
-            magnitude(origin, item, "theta_range", a.abs().max(b.abs()))?;
-        }
+        surface_extent(origin, item, c.size, c.theta_range)?;
         let need = |f: &str, present: bool| -> Result<(), SceneError> {
             if present {
                 Ok(())
@@ -417,11 +403,7 @@ impl Scene {
                 need("normal", c.normal.is_some())?;
                 need("u_axis", c.u_axis.is_some())?;
                 need("size", c.size.is_some())?;
-                let n = unit(c.normal.unwrap_or_default());
-                let u = unit(c.u_axis.unwrap_or_default());
-                if (n[0] * u[0] + n[1] * u[1] + n[2] * u[2]).abs() > 1e-6 {
-                    return Err(err("u_axis", "must be perpendicular to normal".into()));
-                }
+                perpendicular((origin, item), ("u_axis", c.u_axis), ("normal", c.normal))?;
             }
             ContactType::SphereCylinder => {
                 need("axis_point", c.axis_point.is_some())?;
@@ -438,18 +420,60 @@ impl Scene {
                 if c.theta_range.is_some() && c.ref_axis.is_none() {
                     return Err(err("ref_axis", "required with theta_range".into()));
                 }
-                if let Some(r) = c.ref_axis {
-                    let a = unit(c.axis.unwrap_or_default());
-                    let r = unit(r);
-                    if (a[0] * r[0] + a[1] * r[1] + a[2] * r[2]).abs() > 1e-6 {
-                        return Err(err("ref_axis", "must be perpendicular to axis".into()));
-                    }
+                if c.ref_axis.is_some() {
+                    perpendicular((origin, item), ("ref_axis", c.ref_axis), ("axis", c.axis))?;
                 }
             }
         }
         let materials = c.sphere_material.is_some() && c.material.is_some();
         validate_law_keys(origin, item, c, materials)
     }
+}
+
+/// The side lengths and the angular range of a surface (`[[contact]]` or `[[shape]]`), where
+/// given: finite, positive and ordered, and within the largest magnitude.
+pub(super) fn surface_extent(
+    origin: &str,
+    item: &str,
+    size: Option<[f64; 2]>,
+    theta_range: Option<[f64; 2]>,
+) -> Result<(), SceneError> {
+    let err = |field: &str, msg: String| SceneError::new(origin, item, field, msg);
+    if let Some([a, b]) = size {
+        if !(a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite()) {
+            return Err(err(
+                "size",
+                format!("both side lengths must be finite and > 0 (got [{a}, {b}])"),
+            ));
+        }
+        magnitude(origin, item, "size", a.max(b))?;
+    }
+    if let Some([a, b]) = theta_range {
+        if !(a.is_finite() && b.is_finite()) || a >= b {
+            return Err(err("theta_range", "needs finite min < max".into()));
+        }
+        magnitude(origin, item, "theta_range", a.abs().max(b.abs()))?;
+    }
+    Ok(())
+}
+
+/// The direction `field` (`v`) perpendicular to the direction `other` (`w`), where both are
+/// given (an absent one counts as zero).
+pub(super) fn perpendicular(
+    (origin, item): (&str, &str),
+    (field, v): (&str, Option<[f64; 3]>),
+    (other, w): (&str, Option<[f64; 3]>),
+) -> Result<(), SceneError> {
+    let (w, v) = (unit(w.unwrap_or_default()), unit(v.unwrap_or_default()));
+    if (w[0] * v[0] + w[1] * v[1] + w[2] * v[2]).abs() > 1e-6 {
+        return Err(SceneError::new(
+            origin,
+            item,
+            field,
+            format!("must be perpendicular to {other}"),
+        ));
+    }
+    Ok(())
 }
 
 /// The law constants of a contact (or of a contact group's template contact): what

@@ -9,7 +9,7 @@
 
 use crate::common;
 
-use common::{compile, energy_balance, get, open, rk4_step, start, vec_out};
+use common::{compile, energy_balance, get, open, rel, rk4_step, start, vec_out};
 use contact_fmu::contact::{self, geometry, ContactElement, Shape};
 use contact_fmu::kinematics;
 use contact_fmu::model::{ContactEvent, ContactEventKind};
@@ -49,10 +49,6 @@ fn one_impact(scene: impl Into<contact_fmu::scene::Scene>) -> (Simulation, [Cont
         ContactEventKind::Separation,
     ];
     (s, kinds.map(|k| first(&ev, k)))
-}
-
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / b.abs()
 }
 
 /// A scene "t" with gravity `gravity` along −z, dopri5 at these tolerances and steel.

@@ -456,13 +456,20 @@ unsafe fn every_call_on_a_dead_handle_is_an_error(c: fmi2Component) {
     assert!(string.is_null());
 }
 
-#[test]
-fn freed_and_garbage_component_handles_are_errors_not_crashes() {
-    let _alone = exclusive();
-    let u = Unpacked::new("stale component");
+/// With every handle test held off: the scene unpacked as `name`, and an instance of it
+/// initialised and stepped once.
+fn stepped_once(name: &str) -> (RwLockWriteGuard<'static, ()>, Unpacked, Component) {
+    let alone = exclusive();
+    let u = Unpacked::new(name);
     let c = u.instantiate();
     c.init();
     assert_eq!(c.step(0.0, 1e-3), OK);
+    (alone, u, c)
+}
+
+#[test]
+fn freed_and_garbage_component_handles_are_errors_not_crashes() {
+    let (_alone, u, c) = stepped_once("stale component");
     let mut state: fmi2FMUstate = ptr::null_mut();
     // SAFETY: a live instance and a state slot.
     unsafe { assert_eq!(fmi2GetFMUstate(c.0, &mut state), OK) };
@@ -490,11 +497,7 @@ fn freed_and_garbage_component_handles_are_errors_not_crashes() {
 
 #[test]
 fn freed_and_garbage_fmu_states_are_errors_not_crashes() {
-    let _alone = exclusive();
-    let u = Unpacked::new("stale state");
-    let c = u.instantiate();
-    c.init();
-    assert_eq!(c.step(0.0, 1e-3), OK);
+    let (_alone, _u, c) = stepped_once("stale state");
     let mut state: fmi2FMUstate = ptr::null_mut();
     let mut size = 0usize;
     let mut elsewhere = 1.5;

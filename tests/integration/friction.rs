@@ -8,17 +8,13 @@
 
 use crate::common;
 
-use common::{energy_balance, get, start, vec_out};
+use common::{energy_balance, get, rel, start, vec_out};
 use contact_fmu::model::ContactEventKind;
 use contact_fmu::scene::{BodySpec, ContactSpec, Law, Method, Scene, GROUND};
 use contact_fmu::scene_builder::{Plane, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 
 const G: f64 = 9.81;
-
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / b.abs()
-}
 
 /// A scene "t" with gravity `g` (world vector) and the given solver.
 fn header(g: [f64; 3], method: Method, rtol: f64, atol: f64, max_step: f64) -> SceneBuilder {

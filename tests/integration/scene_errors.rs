@@ -1,9 +1,9 @@
 //! Bad scenes: each one gets a message naming the file, the item and the field, and none
 //! panics — through the library (parse, validate, compile) and through the command line.
 
+use crate::common;
 use contact_fmu::simulation::Simulation;
 use std::path::PathBuf;
-use std::process::Command;
 
 const ORIGIN: &str = "bad.toml";
 
@@ -268,21 +268,12 @@ fn other_mistakes_are_reported_without_panicking() {
 // command line
 
 fn temp_scene(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("contact_fmu_scene_errors_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
+    common::temp_scene("scene_errors", name, text)
 }
 
 /// Runs `contact-fmu simulate <path>`; returns (success, stderr).
 fn simulate(path: &std::path::Path) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_contact-fmu"))
-        .args(["simulate", path.to_str().unwrap(), "--stop-time", "0.01", "--quiet"])
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .expect("cannot run contact-fmu");
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    common::run_command(&["simulate", path.to_str().unwrap(), "--stop-time", "0.01", "--quiet"])
 }
 
 #[test]

@@ -5,13 +5,13 @@
 //! contact cannot take. Each bad input gets one error naming the file, the item and the field
 //! — never a hang, a panic or a broken FMU. And compilation is linear in the number of bodies.
 
+use crate::common::{self, run_command};
 use contact_fmu::compile::compile;
 use contact_fmu::export::model_description_xml;
 use contact_fmu::scene::{Scene, SceneError};
 use contact_fmu::simulation::{SimError, Simulation};
 use contact_fmu::variables::VariableTable;
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::Instant;
 
 const ORIGIN: &str = "inputs.toml";
@@ -666,7 +666,7 @@ fn kelvin_voigt_chosen_by_parameter_without_a_stiffness_names_the_parameter_and_
     assert!(!msg.contains("kelvin_voigt = 1"), "kelvin_voigt is no way out: {msg}");
     // the message is the same through the command line
     let path = temp_scene("kelvin_voigt.toml", GOOD);
-    let (ok, err) = run(&[
+    let (ok, err) = run_command(&[
         "simulate",
         path.to_str().unwrap(),
         "--quiet",
@@ -710,21 +710,7 @@ fn flores_chosen_by_parameter_with_zero_restitution_names_the_parameter() {
 // the command line
 
 fn temp_scene(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("contact_fmu_scene_inputs_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-/// Runs the command line; returns (success, stderr).
-fn run(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_contact-fmu"))
-        .args(args)
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .expect("cannot run contact-fmu");
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    common::temp_scene("scene_inputs", name, text)
 }
 
 #[test]
@@ -790,7 +776,7 @@ fn command_line_gives_one_line_and_a_failure_status_for_each_case() {
                 "simulate" => vec!["simulate", p.to_str().unwrap(), "--quiet"],
                 _ => vec!["export", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
             };
-            let (ok, err) = run(&args);
+            let (ok, err) = run_command(&args);
             eprintln!("{command} {file}: {}", err.trim());
             assert!(!ok, "{file}: exit status 0");
             let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
@@ -808,7 +794,7 @@ fn command_line_gives_one_line_and_a_failure_status_for_each_case() {
     }
     // --set with a range error: the parameter is named
     let p = temp_scene("good.toml", GOOD);
-    let (ok, err) = run(&["simulate", p.to_str().unwrap(), "--quiet", "--set", "solver.rtol=0.5"]);
+    let (ok, err) = run_command(&["simulate", p.to_str().unwrap(), "--quiet", "--set", "solver.rtol=0.5"]);
     assert!(
         !ok && err.contains("solver.rtol") && err.contains("[1e-14, 0.01]"),
         "{err}"
@@ -825,7 +811,7 @@ fn a_model_name_of_200_characters_exports_a_complete_fmu() {
     let library = p.with_file_name("stand-in.so");
     std::fs::write(&library, "not a real library").unwrap();
     let binary = format!("linux64={}", library.display());
-    let (ok, err) = run(&[
+    let (ok, err) = run_command(&[
         "export",
         p.to_str().unwrap(),
         "-o",

@@ -101,3 +101,29 @@ pub fn rk4_step(acc: impl Fn(f64, f64) -> f64, x: f64, v: f64, h: f64) -> (f64, 
     let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
     (xn, vn)
 }
+
+/// Writes `text` into the file `name` of a temporary folder of this process for the tests of
+/// `group`; returns the file's path.
+pub fn temp_scene(group: &str, name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("contact_fmu_{group}_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs the command line `contact-fmu args…` (with backtraces, so that a panic would show);
+/// returns (success, stderr).
+pub fn run_command(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_contact-fmu"))
+        .args(args)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("cannot run contact-fmu");
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Relative difference `|a − b| / |b|`.
+pub fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
