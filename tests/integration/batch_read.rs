@@ -115,7 +115,12 @@ fn repeated_batches_of_free_body_reads_equal_single_reads() {
         s.get_many(list, &mut batch).unwrap();
         for (k, &vr) in list.iter().enumerate() {
             let one = s.get(vr).unwrap();
-            assert!(same(batch[k], one), "{}: {} in a batch, {one} alone", s.variables()[vr].name, batch[k]);
+            assert!(
+                same(batch[k], one),
+                "{}: {} in a batch, {one} alone",
+                s.variables()[vr].name,
+                batch[k]
+            );
         }
     };
     let mut points = 0;
