@@ -29,8 +29,8 @@ fn balance(s: &mut Simulation) -> f64 {
 
 /// The bundled slider-crank with its crank pivot driven by the input `motor`, at rtol 1e-9,
 /// atol 1e-12: the energy balance is checked to 1e-6 of the kinetic energy, which the scene's
-/// own tolerances (rtol 1e-7, chosen for 1e-6 of the range of motion) do not resolve over the
-/// block's impacts (7e-6 there).
+/// own tolerances (rtol 1e-6, chosen for 1e-6 of the range of motion) do not resolve over the
+/// block's impacts (7e-6 already at rtol 1e-7).
 fn driven_crank() -> Simulation {
     let text = std::fs::read_to_string(common::bundled("slider_crank")).unwrap();
     let text = format!("{text}\n[[input]]\nname = \"motor\"\ntype = \"joint_motion\"\njoint = \"crank_pivot\"\n");
