@@ -33,7 +33,10 @@ Timestep: MuJoCo's semi-implicit Euler, MJ_DT = 1e-4 s (contact duration 1.66 ms
 
 contact-fmu runs `contact-fmu bench run` (timing inside the process, setup excluded), the
 scene's own settings (dopri5, rtol 1e-6), stop time FMU_TIME[N]; MuJoCo runs the same window
-with the same pairs, and 1 s with all pairs. Times are per simulated second, medians of
+with the same pairs, and 1 s with all pairs. contact-fmu also runs the same spheres with contact
+groups (every pair may touch, as in MuJoCo's "all pairs"; the scene of `contact-fmu bench
+islands`, written by its --write-scene): the default method (auto, rtol 1e-6) as independent
+islands, the same window. Times are per simulated second, medians of
 BENCH_REPEATS (3) runs, wall clock and CPU time (contact-fmu: its engine thread; MuJoCo: the
 process around mj_step).
 
@@ -278,6 +281,14 @@ def write_scene(n):
         return path, tomllib.load(f)
 
 
+def write_islands_scene(n, t_end):
+    """The same spheres with contact groups (every pair may touch, MuJoCo's "all pairs"), the
+    default method, as independent islands: the scene of `contact-fmu bench islands`."""
+    path = os.path.join(WORK, f"sphere_box_groups_{n}.toml")
+    subprocess.run([EXE, "bench", "islands", "--n", str(n), "--time", repr(t_end), "--write-scene", path], check=True)
+    return path
+
+
 def run_fmu(path, t_end, repeats=REPEATS, sets=(), csv_path=None, interval=None):
     cmd = [EXE, "bench", "run", path, "--stop-time", repr(t_end), "--interval", repr(interval or t_end / 10),
            "--repeats", str(repeats)]
@@ -421,7 +432,8 @@ def speed(params_for):
     rows = []
     print(f"\nsphere_box: time per simulated second [s] (medians of {REPEATS}; wall clock, CPU in brackets)")
     print(f"{'N':>6s} {'pairs':>6s} {'fmu T':>6s} {'contact-fmu':>20s} {'steps':>6s} {'events':>7s} "
-          f"{'MuJoCo same pairs':>20s} {'MuJoCo all pairs 1 s':>21s} {'ratio (CPU)':>11s} {'KE end fmu/MJ':>14s}")
+          f"{'MuJoCo same pairs':>20s} {'MuJoCo all pairs 1 s':>21s} {'ratio (CPU)':>11s} {'KE end fmu/MJ':>14s} "
+          f"{'islands CPU, / same, / all':>25s}")
     for n in sorted(set(NS + MJ_ONLY_NS)):
         path, scene = write_scene(n)
         t_fmu = FMU_TIME.get(n, 0.05)
@@ -436,6 +448,9 @@ def speed(params_for):
                 with open(traj) as fh:
                     last = list(csv.DictReader(fh))[-1]
                 row["fmu_ke_end"] = float(last["energy.kinetic"]) + float(last["energy.contact"])
+            g = run_fmu(write_islands_scene(n, t_fmu), t_fmu, repeats=REPEATS if n < 3000 else 1)
+            row.update(fmu_islands_seconds=g["seconds"], fmu_islands_cpu=g["cpu"], fmu_islands_steps=g["steps"],
+                       fmu_islands_status=g["status"])
         a = run_mujoco(scene, params_for, MJ_DT, t_fmu, all_pairs=False)
         b = run_mujoco(scene, params_for, MJ_DT, MJ_TIME_ALL, all_pairs=True)
         row.update(mj_same_seconds=a["seconds"], mj_same_cpu=a["cpu"], mj_ke_end=a["ke"], mj_same_ncon=a["ncon"],
@@ -443,8 +458,10 @@ def speed(params_for):
         fs = f"{row['fmu_seconds']:9.3g} ({row['fmu_cpu']:7.3g})" if "fmu_seconds" in row else f"{'—':>20s}"
         ratio = f"{row['fmu_cpu'] / row['mj_same_cpu']:11.0f}" if "fmu_cpu" in row else f"{'—':>11s}"
         ke = f"{row['fmu_ke_end'] / row['mj_ke_end']:14.4f}" if "fmu_ke_end" in row else f"{'—':>14s}"
+        isl = (f"{row['fmu_islands_cpu']:9.3g} {row['fmu_islands_cpu'] / row['mj_same_cpu']:6.1f}x "
+               f"{row['fmu_islands_cpu'] / row['mj_all_cpu']:6.1f}x") if "fmu_islands_cpu" in row else f"{'—':>25s}"
         print(f"{n:6d} {row['contacts']:6d} {t_fmu:6.2f} {fs} {row.get('fmu_steps', 0):6d} {row.get('fmu_events', 0):7d} "
-              f"{a['seconds']:9.3g} ({a['cpu']:7.3g}) {b['seconds']:9.3g} ({b['cpu']:7.3g}) {ratio} {ke}", flush=True)
+              f"{a['seconds']:9.3g} ({a['cpu']:7.3g}) {b['seconds']:9.3g} ({b['cpu']:7.3g}) {ratio} {ke} {isl}", flush=True)
         rows.append(row)
     return rows
 
@@ -452,7 +469,7 @@ def speed(params_for):
 def slopes(rows):
     """Least-squares exponents of CPU time per simulated second against N (N ≥ 100)."""
     out = {}
-    for key in ["fmu_cpu", "mj_same_cpu", "mj_all_cpu"]:
+    for key in ["fmu_cpu", "fmu_islands_cpu", "mj_same_cpu", "mj_all_cpu"]:
         pts = [(r["n"], r[key]) for r in rows if r["n"] >= 100 and r.get(key)]
         if len(pts) >= 2:
             x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
@@ -469,7 +486,10 @@ def plot(rows):
     fig, ax = plt.subplots(figsize=(6, 4.2))
     r = [x for x in rows if "fmu_cpu" in x]
     ax.loglog([x["n"] for x in r], [x["fmu_cpu"] for x in r], "o-",
-              label="contact-fmu (dopri5, rtol 1e-6; 0.1 s simulated, 0.05 s for N ≥ 1,000)")
+              label="contact-fmu, pair list, one integrator (dopri5, rtol 1e-6)")
+    ri = [x for x in rows if "fmu_islands_cpu" in x]
+    ax.loglog([x["n"] for x in ri], [x["fmu_islands_cpu"] for x in ri], "D-",
+              label="contact-fmu, contact groups as islands (the defaults)")
     ax.loglog([x["n"] for x in rows], [x["mj_same_cpu"] for x in rows], "s-",
               label=f"MuJoCo, same pairs (dt {MJ_DT:g} s)")
     ax.loglog([x["n"] for x in rows], [x["mj_all_cpu"] for x in rows], "^--",

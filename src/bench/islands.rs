@@ -29,7 +29,7 @@ pub struct Settings {
 }
 
 /// The groups scene of `n` spheres with the default method (`islands`: as islands).
-fn grouped(n: usize, time: f64, margin: f64, islands: bool) -> Scene {
+pub fn grouped(n: usize, time: f64, margin: f64, islands: bool) -> Scene {
     let mut s = scenes::sphere_box_groups(n, time);
     s.solver.method = Method::Auto;
     s.solver.max_step = 0.0;

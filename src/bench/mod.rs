@@ -156,6 +156,10 @@ pub enum BenchCommand {
         /// Output CSV.
         #[arg(long, default_value = "docs/islands.csv")]
         csv: PathBuf,
+        /// Write the groups scene for the first N (the default method, as islands) to this file
+        /// and exit (for `scripts/bench_mujoco.py` and profiling).
+        #[arg(long)]
+        write_scene: Option<PathBuf>,
     },
     /// Contact groups against the explicit pair list (spheres in a box): compile time, one
     /// RHS, broad phase by sweep and prune and by grid.
@@ -284,6 +288,16 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             None => scaling::run(&n, time, repeats, &csv),
         },
         BenchCommand::Islands {
+            write_scene: Some(p),
+            n,
+            time,
+            margin,
+            ..
+        } => {
+            let text = islands::grouped(n.first().copied().unwrap_or(100), time, margin, true).to_toml();
+            std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
+        }
+        BenchCommand::Islands {
             n,
             time,
             repeats,
@@ -291,6 +305,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             compare_time,
             margin,
             csv,
+            write_scene: None,
         } => islands::run(
             &n,
             &islands::Settings {

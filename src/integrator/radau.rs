@@ -131,6 +131,12 @@ impl Eigenbasis {
 /// times as long as the last (beyond, the collocation polynomial).
 const SPAN_BEFORE: f64 = 20.0;
 
+/// ... and at least this fraction of it: the interpolant's weights on the step before grow as
+/// `(h/before)³` (about 30 at 1/8, 6e7 at 1e-3), so a step before that was cut short (ended at
+/// a contact's reach, or a rounding-length arrival, whose `f` is not the one stored) would
+/// amplify its data; the step size grows by at most 8× from one step to the next otherwise.
+const SPAN_BEFORE_MIN: f64 = 0.125;
+
 /// The Radau IIA 5 method (scene name `"radau5"`).
 pub struct Radau5 {
     core: StepCore,
@@ -439,15 +445,16 @@ impl ImplicitMethod for Radau5 {
 
     /// The two-step interpolant (Hermite, through the state and `f` at the start of the step
     /// before, at the start and at the end of the last step) when there was a step before and
-    /// it is at most [`SPAN_BEFORE`] times as long; otherwise (the first step after a start)
-    /// the collocation polynomial.
+    /// it is at most [`SPAN_BEFORE`] and at least [`SPAN_BEFORE_MIN`] times as long;
+    /// otherwise (the first step after a start, a step after a short one) the collocation
+    /// polynomial.
     fn dense_output(&self, t: f64, out: &mut [f64]) {
         let core = &self.core;
         let (y0, y1, f1) = (&core.y_prev, &core.y, &core.f);
         let [z0, z1, z2, f0, yb, fb, tb] = &self.dense;
         let before = core.t_prev - tb[0];
         core.interpolate(t, out, |th, h, out| {
-            if before > 0.0 && before <= SPAN_BEFORE * h {
+            if before >= SPAN_BEFORE_MIN * h && before <= SPAN_BEFORE * h {
                 let w = Self::two_step_weights(-before / h, th);
                 for (m, o) in out.iter_mut().enumerate() {
                     *o = w[0] * yb[m] + w[1] * y0[m] + w[2] * y1[m] + h * (w[3] * fb[m] + w[4] * f0[m] + w[5] * f1[m]);
@@ -552,6 +559,32 @@ mod tests {
         let (p1, p2) = (order(d1, d2), order(d2, d3));
         assert!(p1 > 5.7 && p2 > 5.7, "two-step {p1} {p2} ({d1:e} {d2:e} {d3:e})");
         assert!(d3 < 0.1 * c3, "two-step {d3:e}, collocation {c3:e} ({c1:e} {c2:e})");
+    }
+
+    #[test]
+    fn a_step_after_a_short_one_interpolates_as_accurately_as_its_ends() {
+        // a step cut short (ended at a contact's reach, or a rounding-length arrival), then one
+        // 1e3 and 1e6 times as long: the dense output of the long step stays within the
+        // collocation polynomial's accuracy (the two-step interpolant's weights on the short
+        // step would grow as (h/before)³)
+        let h = 0.05;
+        // the collocation polynomial of a step of h after a start, as the yardstick
+        let mut first = Radau5::new(3, 1e-13, 1e-13, f64::INFINITY);
+        first.reset(&mut Smooth, 1.0, &Smooth::exact(1.0), h);
+        fixed_step(&mut first, &mut Smooth, h);
+        let yardstick = dense_error(&first, |t| Smooth::exact(t).to_vec());
+        for ratio in [1e3, 1e6] {
+            let short = h / ratio;
+            let mut m = Radau5::new(3, 1e-13, 1e-13, f64::INFINITY);
+            m.reset(&mut Smooth, 1.0 - short, &Smooth::exact(1.0 - short), short);
+            fixed_step(&mut m, &mut Smooth, short);
+            fixed_step(&mut m, &mut Smooth, h);
+            let err = dense_error(&m, |t| Smooth::exact(t).to_vec());
+            assert!(
+                err < 2.0 * yardstick,
+                "after a step {ratio:e} times shorter: dense output off by {err:e} (a first step: {yardstick:e})"
+            );
+        }
     }
 
     #[test]
