@@ -348,13 +348,9 @@ fn is_implicit(method: Method) -> bool {
 }
 
 /// Numbers of an implicit method's dense output in its saved state (sdirk: 3 vectors;
-/// radau5: the 3 stage increments, f at the last step's start, the state and f at the
-/// start of the step before, and that step's start time).
-fn dense_len(method: Method, n: usize) -> usize {
-    match method {
-        Method::Radau5 => 6 * n + 1,
-        _ => 3 * n,
-    }
+/// radau5: the 3 stage increments of its collocation polynomial).
+fn dense_len(_method: Method, n: usize) -> usize {
+    3 * n
 }
 
 /// Where the Newton part of an implicit method's saved state begins (system size `n`).
