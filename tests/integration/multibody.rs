@@ -1305,6 +1305,21 @@ fn parallelogram_passes_its_change_points_on_its_branch() {
 // ---------------------------------------------------------------------------------------------
 // the lean path of free bodies
 
+/// The right-hand side at `y` by the engine's path (`lean`, what the integrators call) and by
+/// the full evaluation (`general`: every body's kinematics and dynamics, the outputs' path).
+fn lean_and_general(
+    m: &contact_fmu::model::Model,
+    d: &mut contact_fmu::model::Data,
+    y: &[f64],
+    lean: &mut [f64],
+    general: &mut [f64],
+) {
+    Rhs { model: m, data: d }.rhs(0.0, y, lean);
+    d.eval_state.copy_from_slice(y);
+    assert!(contact_fmu::forward::evaluate(m, d));
+    contact_fmu::forward::state_derivative(m, d, general);
+}
+
 #[test]
 fn lean_right_hand_side_matches_the_general_path() {
     // A slider-crank (a loop: the general path) beside two free spheres, spinning, turned and
@@ -1359,14 +1374,7 @@ fn lean_right_hand_side_matches_the_general_path() {
             .iter_mut()
             .enumerate()
             .for_each(|(i, v)| *v += 0.1 * (k * i) as f64 % 0.7);
-        Rhs {
-            model: &m,
-            data: &mut d,
-        }
-        .rhs(0.0, &y, &mut lean);
-        d.eval_state.copy_from_slice(&y);
-        assert!(contact_fmu::forward::evaluate(&m, &mut d));
-        contact_fmu::forward::state_derivative(&m, &d, &mut general);
+        lean_and_general(&m, &mut d, &y, &mut lean, &mut general);
         assert!(d.contact_out.iter().any(|o| o.force > 0.0));
         let scale = general.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
         let worst = lean
@@ -1427,14 +1435,7 @@ fn rotor_right_hand_side_matches_the_full_evaluation() {
         let q = nalgebra::UnitQuaternion::from_euler_angles(a, b, 0.0);
         y[car.qpos + 3..car.qpos + 7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
         y[m.nq + car.qvel + 2] = 0.05 * k as f64;
-        Rhs {
-            model: &m,
-            data: &mut d,
-        }
-        .rhs(0.0, &y, &mut lean);
-        d.eval_state.copy_from_slice(&y);
-        assert!(contact_fmu::forward::evaluate(&m, &mut d));
-        contact_fmu::forward::state_derivative(&m, &d, &mut full);
+        lean_and_general(&m, &mut d, &y, &mut lean, &mut full);
         // each part against its own scale: position rates, accelerations, dissipated power
         for (part, range) in [("q̇", 0..m.nq), ("q̈", m.nq..m.nq + m.nv), ("power", m.nq + m.nv..n)] {
             let scale = full[range.clone()].iter().fold(0.0_f64, |a, x| a.max(x.abs()));
