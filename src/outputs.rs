@@ -206,6 +206,16 @@ pub fn output(m: &Model, d: &mut Data, target: VarRef) -> Option<f64> {
     evaluated(m, d, target)
 }
 
+/// The state slot an output reads as it is: a free body's centre-of-mass position or
+/// velocity component (None for anything else).
+pub fn state_slot(m: &Model, target: VarRef) -> Option<usize> {
+    match target {
+        VarRef::BodyPosition(b, k) => m.plan.free_body(b).map(|fb| fb.qpos + k),
+        VarRef::BodyVelocity(b, k) => m.plan.free_body(b).map(|fb| m.nq + fb.qvel + k),
+        _ => None,
+    }
+}
+
 /// [`output`] from data prepared for it ([`prepare`] with at least [`needs`]`(target)`).
 pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
     let value = match target {
@@ -244,12 +254,12 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         VarRef::Stiffness(i) => m.contacts[i].stiffness,
         // a free body's coordinates: its centre of mass, the quaternion (normalised as the
         // kinematics do), the centre-of-mass velocity
-        VarRef::BodyPosition(b, k) => match m.plan.free_body(b) {
-            Some(fb) => d.state[fb.qpos + k],
+        VarRef::BodyPosition(b, k) => match state_slot(m, target) {
+            Some(slot) => d.state[slot],
             None => d.body_pos[b][k],
         },
-        VarRef::BodyVelocity(b, k) => match m.plan.free_body(b) {
-            Some(fb) => d.state[m.nq + fb.qvel + k],
+        VarRef::BodyVelocity(b, k) => match state_slot(m, target) {
+            Some(slot) => d.state[slot],
             None => com_velocity(d, b)[k],
         },
         VarRef::BodyAngularVelocity(b, k) => d.body_vel[b].ang[k],

@@ -110,16 +110,13 @@ impl Compiled {
     /// [`outputs::evaluated`] does); else leaves it empty. Re-uses the buffers (no allocation
     /// once they have grown to the largest batch).
     fn plan_direct_reads(&mut self, table: &VariableTable, vrs: impl Iterator<Item = usize>) {
-        let (m, plan) = (&self.model, &self.model.plan);
         let (list, slots) = &mut self.direct_reads;
         list.clear();
         slots.clear();
         for vr in vrs {
-            let slot = table.vars.get(vr).and_then(|var| match (var.causality, var.target) {
-                (Causality::Parameter | Causality::Input, _) => None,
-                (_, VarRef::BodyPosition(b, k)) => plan.free_body(b).map(|fb| fb.qpos + k),
-                (_, VarRef::BodyVelocity(b, k)) => plan.free_body(b).map(|fb| m.nq + fb.qvel + k),
-                _ => None,
+            let slot = table.vars.get(vr).and_then(|var| match var.causality {
+                Causality::Parameter | Causality::Input => None,
+                _ => outputs::state_slot(&self.model, var.target),
             });
             let Some(slot) = slot else {
                 list.clear();
