@@ -17,6 +17,7 @@ impl Simulation {
             model,
             data,
             islands: Some(is),
+            direct_reads,
             ..
         }) = self.compiled.as_mut()
         else {
@@ -38,6 +39,7 @@ impl Simulation {
         is.gather_contacts(&m2, &mut d2);
         *model = m2;
         *data = d2;
+        direct_reads.0.clear();
         Ok(())
     }
 
