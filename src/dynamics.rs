@@ -554,10 +554,10 @@ pub fn project_state(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRo
 /// Jacobian is off by O(|Δq|), which only slows the already tiny corrections). Works on
 /// `d.eval_state` and copies the result to `d.state`.
 fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) -> bool {
-    let nl = m.fixed_rows();
-    if nl == 0 {
+    if m.loop_rows() == 0 {
         return false;
     }
+    let nl = m.fixed_rows();
     let (nq, nv) = (m.nq, m.nv);
     d.eval_state.copy_from_slice(&d.state);
     kinematics(m, d);

@@ -142,9 +142,10 @@ pub fn evaluate_outputs(m: &Model, d: &mut Data) {
 
 /// The kinematics part of [`evaluate_outputs`] alone (the same functions at the same state),
 /// for reads of body positions, orientations and velocities; false (nothing done) when
-/// [`evaluate_outputs`] would take the full evaluation (loops, resting contacts).
+/// [`evaluate_outputs`] would take the full evaluation for them (loops, resting contacts;
+/// drives alone need it only for their forces).
 pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
-    if m.fixed_rows() > 0 || any_resting(m, d) {
+    if m.loop_rows() > 0 || any_resting(m, d) {
         return false;
     }
     d.eval_state.copy_from_slice(&d.state);

@@ -470,6 +470,12 @@ impl Model {
     /// Number of the constraint rows that are always on: the loops' rows, then one row per
     /// driven joint (the rows of resting contacts follow).
     pub fn fixed_rows(&self) -> usize {
-        self.loops.last().map(|l| l.row + l.rows()).unwrap_or(0) + self.drives.len()
+        self.loop_rows() + self.drives.len()
+    }
+    /// Number of the loops' constraint rows (the first of the fixed rows). A drive's row holds
+    /// by construction (the driven coordinate is prescribed), so without loops there is
+    /// nothing to project and no position or velocity output needs the constrained solve.
+    pub fn loop_rows(&self) -> usize {
+        self.loops.last().map(|l| l.row + l.rows()).unwrap_or(0)
     }
 }
