@@ -72,7 +72,7 @@ pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
             }
             // a drive's force is a multiplier of the constrained solve: its power is added
             // there ([`drive_power`])
-            Input::JointMotion { .. } => {}
+            Input::JointMotion => {}
         }
     }
     d.input_power = input_power;

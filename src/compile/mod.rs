@@ -307,7 +307,6 @@ pub fn compile_with_candidates(
             ));
         };
         drives.push(Drive {
-            name: inp.name.clone(),
             qpos: joints[t].qpos,
             qvel: joints[t].qvel,
             row: nc,
@@ -402,12 +401,7 @@ pub fn compile_with_candidates(
                 body: i.body.as_deref().and_then(to_body).unwrap_or(0),
                 direction: to_v(i.direction.unwrap_or([1.0, 0.0, 0.0])).normalize(),
             },
-            InputType::JointMotion => Input::JointMotion {
-                drive: drives
-                    .iter()
-                    .position(|dr: &Drive| dr.name == i.name)
-                    .unwrap_or_default(),
-            },
+            InputType::JointMotion => Input::JointMotion,
             InputType::JointForce => {
                 let names = i.joint.iter().chain(i.joints.iter().flatten());
                 let qvels = names

@@ -149,8 +149,6 @@ pub struct SpringDamper {
 /// when it sets them.
 #[derive(Debug, Clone)]
 pub struct Drive {
-    /// The input's name (`<name>.q`, `.qd`, `.qdd`, `.force`).
-    pub name: String,
     /// Position index of the driven coordinate.
     pub qpos: usize,
     /// Velocity index of the driven coordinate.
@@ -183,11 +181,9 @@ pub enum Input {
         /// Velocity indices.
         qvels: Vec<usize>,
     },
-    /// Prescribed motion of a 1-DOF tree joint (three input values).
-    JointMotion {
-        /// Index in [`Model::drives`].
-        drive: usize,
-    },
+    /// Prescribed motion of a 1-DOF tree joint (three input values; the joint and its
+    /// constraint row are in [`Model::drives`]).
+    JointMotion,
 }
 
 /// A free body on the lean path: a free joint to the ground with no child body and no loop
