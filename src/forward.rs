@@ -59,11 +59,7 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
         // when there are no loops and nothing rests).
         let resting = any_resting(m, d);
         if m.nc > 0 && (resting || m.fixed_rows() > 0) {
-            dynamics::constraints(m, d, contact::resting_rows);
-            dynamics::solve_constrained(m, d);
-            if !m.drives.is_empty() {
-                d.input_power += dynamics::drive_power(m, d);
-            }
+            constrained_accelerations(m, d);
             if resting {
                 let friction = contact::resting_friction(m, d);
                 if friction != 0.0 {
@@ -78,6 +74,17 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
         d.qacc.iter_mut().for_each(|x| *x = f64::NAN);
     }
     ok
+}
+
+/// q̈ from the constrained equations of motion at `d.eval_state` (the loops' rows, the drives'
+/// and the resting contacts'), and the drives' power, which only that solve yields (their
+/// forces are its multipliers).
+fn constrained_accelerations(m: &Model, d: &mut Data) {
+    dynamics::constraints(m, d, contact::resting_rows);
+    dynamics::solve_constrained(m, d);
+    if !m.drives.is_empty() {
+        d.input_power += dynamics::drive_power(m, d);
+    }
 }
 
 /// The right-hand side's evaluation at `d.eval_state`: `d.qacc` and `d.dissipation` as
@@ -110,11 +117,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
             // bodies' blocks always hold a valid factor (their constant M̄ from `Data::new`, or
             // the general path's at the last full evaluation), and their entries of q̈ are
             // overwritten below.
-            dynamics::constraints(m, d, contact::resting_rows);
-            dynamics::solve_constrained(m, d);
-            if !m.drives.is_empty() {
-                d.input_power += dynamics::drive_power(m, d);
-            }
+            constrained_accelerations(m, d);
         } else {
             dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);
         }
