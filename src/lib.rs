@@ -40,4 +40,5 @@ pub mod scene;
 pub mod scene_builder;
 pub mod simulation;
 pub mod spatial;
+pub mod union_find;
 pub mod variables;

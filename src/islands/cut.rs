@@ -6,6 +6,7 @@ use crate::compile::Parameters;
 use crate::model::groups::Candidate;
 use crate::model::{Input, Model};
 use crate::scene::{Scene, GROUND};
+use crate::union_find::UnionFind;
 use std::collections::HashMap;
 
 /// Per scene body, the scene items that name it (to cut an island's part of the scene in
@@ -79,32 +80,11 @@ impl SceneIndex {
     }
 }
 
-/// Union-find over the bodies.
-struct Sets(Vec<usize>);
-
-impl Sets {
-    fn root(&mut self, mut a: usize) -> usize {
-        while self.0[a] != a {
-            self.0[a] = self.0[self.0[a]];
-            a = self.0[a];
-        }
-        a
-    }
-    fn join(&mut self, a: Option<usize>, b: Option<usize>) {
-        if let (Some(a), Some(b)) = (a, b) {
-            let (ra, rb) = (self.root(a), self.root(b));
-            if ra != rb {
-                self.0[ra.max(rb)] = ra.min(rb);
-            }
-        }
-    }
-}
-
 /// The islands of model `m` with the candidate pairs `candidates`: the bodies of each, in
 /// scene order, the islands ordered by their first body.
 pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
     let nb = m.bodies.len();
-    let mut sets = Sets((0..nb).collect());
+    let mut sets = UnionFind::new(nb);
     for j in &m.joints {
         sets.join(j.parent, Some(j.child));
     }

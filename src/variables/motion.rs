@@ -2,6 +2,7 @@
 //! the input work.
 
 use super::*;
+use crate::union_find::UnionFind;
 
 /// The three inputs of a `joint_motion` input `inp` whose values start at `first` among the
 /// inputs' values: `<name>.q`, `<name>.qd`, `<name>.qdd`.
@@ -112,21 +113,14 @@ pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
         .map(|(i, b)| (b.name.as_str(), i))
         .collect();
     // the bodies joined by joints (the ground joins nothing)
-    let mut parent: Vec<usize> = (0..scene.body.len()).collect();
-    fn root(p: &mut [usize], mut a: usize) -> usize {
-        while p[a] != a {
-            p[a] = p[p[a]];
-            a = p[a];
-        }
-        a
-    }
+    let mut sets = UnionFind::new(scene.body.len());
     for j in &scene.joint {
-        if let (Some(&a), Some(&b)) = (body.get(j.parent.as_str()), body.get(j.child.as_str())) {
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            parent[ra.max(rb)] = ra.min(rb);
-        }
+        sets.join(
+            body.get(j.parent.as_str()).copied(),
+            body.get(j.child.as_str()).copied(),
+        );
     }
-    let component = |name: &str, p: &mut Vec<usize>| body.get(name).map(|&b| root(p, b));
+    let component = |name: &str, sets: &mut UnionFind| body.get(name).map(|&b| sets.root(b));
     // per drive: its component and the value references of its q and qd
     let mut moving = Vec::new();
     for d in &drives {
@@ -145,11 +139,11 @@ pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
             })
             .map(|(vr, _)| vr)
             .collect();
-        moving.push((component(child, &mut parent), refs));
+        moving.push((component(child, &mut sets), refs));
     }
     let all: Vec<usize> = moving.iter().flat_map(|(_, r)| r.iter().copied()).collect();
-    let of_bodies = |bodies: &[Option<usize>], p: &mut Vec<usize>| -> Vec<usize> {
-        let comps: Vec<usize> = bodies.iter().flatten().map(|&b| root(p, b)).collect();
+    let of_bodies = |bodies: &[Option<usize>], sets: &mut UnionFind| -> Vec<usize> {
+        let comps: Vec<usize> = bodies.iter().flatten().map(|&b| sets.root(b)).collect();
         moving
             .iter()
             .filter(|(c, _)| c.is_some_and(|c| comps.contains(&c)))
@@ -167,10 +161,10 @@ pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
             | VarRef::BodyAngularVelocity(b, _)
             | VarRef::BodyQuaternion(b, _)
             | VarRef::BodyContactForce(b, _)
-            | VarRef::BodyContactTorque(b, _) => of_bodies(&[Some(b)], &mut parent),
+            | VarRef::BodyContactTorque(b, _) => of_bodies(&[Some(b)], &mut sets),
             VarRef::JointQ(j) | VarRef::JointQd(j) => {
                 let child = scene.joint.get(j).and_then(|j| scene_body(&j.child));
-                of_bodies(&[child], &mut parent)
+                of_bodies(&[child], &mut sets)
             }
             VarRef::ContactDelta(i)
             | VarRef::ContactDeltaDot(i)
@@ -179,7 +173,7 @@ pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
             | VarRef::ContactFrictionForce(i, _)
             | VarRef::ContactSlipVelocity(i) => {
                 let c = &scene.contact[i];
-                of_bodies(&[scene_body(&c.sphere_body), scene_body(&c.body)], &mut parent)
+                of_bodies(&[scene_body(&c.sphere_body), scene_body(&c.body)], &mut sets)
             }
             VarRef::EnergyKinetic
             | VarRef::EnergyPotential
