@@ -66,19 +66,6 @@ pub(super) fn report(log: fmi3LogMessageCallback, environment: fmi3InstanceEnvir
     }
 }
 
-/// Writes one value through a pointer the host passed, or fails when it is NULL.
-///
-/// # Safety
-/// `p` is NULL or valid for writing one `T`.
-unsafe fn put<T>(p: *mut T, value: T, what: &str) -> Result<(), Failure> {
-    if p.is_null() {
-        return Err(Failure::error(format!("{what} is NULL")));
-    }
-    // SAFETY: `p` is not NULL and writable (this function's contract).
-    unsafe { p.write(value) };
-    Ok(())
-}
-
 /// `fmi3Boolean` as the byte the host reads (0 or 1).
 fn byte(b: bool) -> u8 {
     u8::from(b)
@@ -438,10 +425,10 @@ pub unsafe extern "C" fn fmi3DoStep(
         // SAFETY: the pointers are not NULL and writable (this function's contract); the
         // booleans are written as the bytes 0 and 1.
         unsafe {
-            put(event_handling_needed.cast::<u8>(), 0, "eventHandlingNeeded")?;
-            put(terminate_simulation.cast::<u8>(), 0, "terminateSimulation")?;
-            put(early_return.cast::<u8>(), byte(stopped_early), "earlyReturn")?;
-            put(last_successful_time, inst.time(), "lastSuccessfulTime")?;
+            event_handling_needed.cast::<u8>().write(0);
+            terminate_simulation.cast::<u8>().write(0);
+            early_return.cast::<u8>().write(byte(stopped_early));
+            last_successful_time.write(inst.time());
         }
         result.map(|_| ())
     })
