@@ -4,6 +4,15 @@
 use super::*;
 use crate::union_find::UnionFind;
 
+/// The kind of the joint a motion input drives (prismatic when it is not a revolute joint of the
+/// scene: validation has refused anything else).
+fn driven_kind(scene: &Scene, joint: &str) -> JointType {
+    match scene.joint.iter().find(|j| j.name == joint) {
+        Some(j) if j.kind == JointType::Revolute => JointType::Revolute,
+        _ => JointType::Prismatic,
+    }
+}
+
 /// The three inputs of a `joint_motion` input `inp` whose values start at `first` among the
 /// inputs' values: `<name>.q`, `<name>.qd`, `<name>.qdd`.
 pub(super) fn motion_inputs(
@@ -13,15 +22,8 @@ pub(super) fn motion_inputs(
     start: &[f64],
 ) -> Vec<Variable> {
     let joint = inp.joint.clone().unwrap_or_default();
-    let revolute = scene
-        .joint
-        .iter()
-        .any(|j| j.name == joint && j.kind == JointType::Revolute);
-    let units: [&'static str; 3] = if revolute {
-        ["rad", "rad/s", "rad/s2"]
-    } else {
-        ["m", "m/s", "m/s2"]
-    };
+    let (q_unit, qd_unit) = joint_units(driven_kind(scene, &joint));
+    let units = [q_unit, qd_unit, if q_unit == "rad" { "rad/s2" } else { "m/s2" }];
     let what = [
         format!(
             "coordinate of joint '{joint}' set at the start of the communication step (0: the scene's \
@@ -71,11 +73,7 @@ pub(super) fn motion_outputs(scene: &Scene, v: &mut Vec<Variable>) {
         .enumerate()
     {
         let joint = inp.joint.clone().unwrap_or_default();
-        let revolute = scene
-            .joint
-            .iter()
-            .any(|j| j.name == joint && j.kind == JointType::Revolute);
-        let (unit, what) = if revolute {
+        let (unit, what) = if driven_kind(scene, &joint) == JointType::Revolute {
             ("N.m", "torque the drive exerts on the child body about the axis")
         } else {
             ("N", "force the drive exerts on the child body along the axis")
