@@ -252,9 +252,9 @@ forward! {
     /// # Safety
     /// `vr` and `value` hold `nvr` elements.
     fn fmi2GetString(vr: *const fmi2ValueReference, nvr: usize, _value: *mut fmi2String)
-        [GET_VALUES] |inst| {
+        [GET_VALUES] |_| {
             // SAFETY: `vr` holds `nvr` elements (this function's contract).
-            unsafe { glue::no_strings(inst, vr, nvr, false) }
+            unsafe { glue::none_of("String", vr, nvr) }
         };
 
     /// `fmi2SetReal`
@@ -296,9 +296,9 @@ forward! {
     /// # Safety
     /// `vr` and `value` hold `nvr` elements.
     fn fmi2SetString(vr: *const fmi2ValueReference, nvr: usize, _value: *const fmi2String)
-        [SET_VALUES] |inst| {
+        [SET_VALUES] |_| {
             // SAFETY: `vr` holds `nvr` elements (this function's contract).
-            unsafe { glue::no_strings(inst, vr, nvr, true) }
+            unsafe { glue::none_of("String", vr, nvr) }
         };
 
     /// `fmi2GetFMUstate`: allocates a state when `*state` is NULL, otherwise overwrites it.

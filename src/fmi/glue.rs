@@ -241,17 +241,20 @@ pub(crate) unsafe fn set_values<T: Copy>(
     inst.set_values(access, vrs, |k| convert(vals[k]))
 }
 
-/// Reads or writes String variables: this model has none, so only an empty list succeeds.
+/// A get or set of `type_name` variables, of which this model has none (String; in FMI 3.0
+/// also the integer and binary types it does not use): an empty list succeeds, any value
+/// reference is refused.
 ///
 /// # Safety
 /// `vr` holds `nvr` elements.
-pub(crate) unsafe fn no_strings(inst: &mut Instance, vr: *const u32, nvr: usize, set: bool) -> FmiResult {
+pub(crate) unsafe fn none_of(type_name: &str, vr: *const u32, nvr: usize) -> FmiResult {
     // SAFETY: `vr` holds `nvr` elements (this function's contract).
     let vrs = unsafe { slice(vr, nvr, "vr") }?;
-    if set {
-        inst.set_values(Access::String, vrs, |_| 0.0)
-    } else {
-        inst.get_values(Access::String, vrs, |_, _| {})
+    match vrs.first() {
+        Some(v) => Err(Failure::error(format!(
+            "value reference {v} is not a {type_name} variable: this model has none"
+        ))),
+        None => Ok(()),
     }
 }
 

@@ -123,10 +123,9 @@ pub enum Access {
     Integer,
     /// `fmi3Int64`: FMI 3.0's enumerations
     Int64,
-    /// `fmi2Boolean`, `fmi3Boolean`
+    /// `fmi2Boolean`, `fmi3Boolean` (String variables this model has none of:
+    /// [`crate::fmi::glue::none_of`])
     Boolean,
-    /// `fmi2String`, `fmi3String`
-    String,
 }
 
 impl Access {
@@ -138,7 +137,6 @@ impl Access {
             (Access::Integer, Version::Fmi3) => "Int32",
             (Access::Int64, _) => "Int64",
             (Access::Boolean, _) => "Boolean",
-            (Access::String, _) => "String",
         }
     }
     fn accepts(self, t: VarType, v: Version) -> bool {
@@ -484,7 +482,6 @@ impl Instance {
         vrs: &[fmi2ValueReference],
         mut put: impl FnMut(usize, f64),
     ) -> FmiResult {
-        no_strings(access, vrs)?;
         // (FMI 3.0's time is read as a Float64 beside the table's variables)
         let time = self.time_vr().filter(|_| access == Access::Real);
         for &vr in vrs {
@@ -543,7 +540,6 @@ impl Instance {
         vrs: &[fmi2ValueReference],
         value: impl Fn(usize) -> f64,
     ) -> FmiResult {
-        no_strings(access, vrs)?;
         for (k, &vr) in vrs.iter().enumerate() {
             let var = self.variable(vr, access)?;
             match var.causality {
@@ -763,16 +759,6 @@ impl std::fmt::Display for Num {
 /// True for the variables the model computes (outputs, calculated parameters).
 fn computed(var: &Variable) -> bool {
     matches!(var.causality, Causality::Output | Causality::CalculatedParameter)
-}
-
-/// This model has no String variables: a String access with any value reference is refused.
-fn no_strings(access: Access, vrs: &[fmi2ValueReference]) -> FmiResult {
-    match vrs.first() {
-        Some(vr) if access == Access::String => Err(Failure::error(format!(
-            "this model has no String variables (value reference {vr})"
-        ))),
-        _ => Ok(()),
-    }
 }
 
 #[cfg(test)]

@@ -334,14 +334,14 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements.
     fn fmi3GetString(vr: *const fmi3ValueReference, nvr: usize, _values: *mut fmi3String, _n_values: usize)
-        [GET_VALUES] |inst| unsafe { glue::no_strings(inst, vr, nvr, false) };
+        [GET_VALUES] |_| unsafe { glue::none_of("String", vr, nvr) };
 
     /// `fmi3SetString` (this model has no String variables: only an empty list succeeds)
     ///
     /// # Safety
     /// `vr` holds `nvr` elements.
     fn fmi3SetString(vr: *const fmi3ValueReference, nvr: usize, _values: *const fmi3String, _n_values: usize)
-        [SET_VALUES] |inst| unsafe { glue::no_strings(inst, vr, nvr, true) };
+        [SET_VALUES] |_| unsafe { glue::none_of("String", vr, nvr) };
 
     /// `fmi3GetFMUState`: allocates a state when `*state` is NULL, otherwise overwrites it.
     ///

@@ -10,24 +10,8 @@
 use super::exports::{report, with};
 use super::types::*;
 use crate::fmi::glue;
-use crate::fmi::instance::{Failure, FmiResult};
+use crate::fmi::instance::Failure;
 use crate::fmi::lifecycle;
-
-/// A get or set of `type_name` variables, of which this model has none: an empty list
-/// succeeds, any value reference is refused.
-///
-/// # Safety
-/// `vr` holds `nvr` elements.
-unsafe fn none_of(type_name: &str, vr: *const fmi3ValueReference, nvr: usize) -> FmiResult {
-    // SAFETY: `vr` holds `nvr` elements (this function's contract).
-    let vrs = unsafe { glue::slice(vr, nvr, "vr") }?;
-    match vrs.first() {
-        Some(v) => Err(Failure::error(format!(
-            "value reference {v} is not a {type_name} variable: this model has none"
-        ))),
-        None => Ok(()),
-    }
-}
 
 /// Getters and setters of the FMI 3.0 types this model does not use: `(instance, vr, nvr,`
 /// then the type's own arguments, which are not read.
@@ -45,7 +29,7 @@ macro_rules! no_variables {
             $($arg: $ty),*
         ) -> fmi3Status {
             // SAFETY: `vr` holds `nvr` elements (this function's contract).
-            with(instance, stringify!($name), lifecycle::$mask, |_| unsafe { none_of($type_name, vr, nvr) })
+            with(instance, stringify!($name), lifecycle::$mask, |_| unsafe { glue::none_of($type_name, vr, nvr) })
         }
     )*};
 }
