@@ -39,6 +39,7 @@ use super::core::{StateReader, StepCore};
 use super::dopri5::Dopri5;
 use super::linear::JacRef;
 use super::newton::ImplicitMethod;
+use super::second_order::SecondOrder;
 use super::{Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 
@@ -112,6 +113,8 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     jv: Vec<f64>,
     /// Switches made (both directions).
     switches: u64,
+    /// The system's second-order structure, handed to the implicit method when it is built.
+    second_order: Option<SecondOrder>,
 }
 
 impl<I: ImplicitMethod + Integrator> Auto<I> {
@@ -121,8 +124,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         match (&mut self.implicit, self.build) {
             (Some(i), _) => load(i),
             (None, Some(build)) => {
-                let c = self.explicit.core();
-                let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
+                let mut fresh = self.build_with(build);
                 load(&mut fresh)?;
                 self.implicit = Some(fresh);
                 Ok(())
@@ -155,7 +157,18 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             y_pert: vec![0.0; n],
             jv: vec![0.0; n],
             switches: 0,
+            second_order: None,
         }
+    }
+
+    /// The implicit method built for the explicit one's system, with the structure declared.
+    fn build_with(&self, build: ImplicitBuilder<I>) -> I {
+        let c = self.explicit.core();
+        let mut fresh = build(c.y.len(), c.rtol, c.atol, c.hmax);
+        if let Some(s) = &self.second_order {
+            Integrator::use_second_order(&mut fresh, s);
+        }
+        fresh
     }
 
     /// Whether the implicit method has been built (at the first switch or a load).
@@ -167,8 +180,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     fn implicit_built(&mut self) -> Option<&mut I> {
         if self.implicit.is_none() {
             let build = self.build?;
-            let c = self.explicit.core();
-            self.implicit = Some(build(c.y.len(), c.rtol, c.atol, c.hmax));
+            self.implicit = Some(self.build_with(build));
         }
         self.implicit.as_mut()
     }
@@ -369,6 +381,13 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
 
     fn interpolate(&self, t: f64, out: &mut [f64]) {
         self.active().interpolate(t, out);
+    }
+
+    fn use_second_order(&mut self, s: &SecondOrder) {
+        if let Some(i) = &mut self.implicit {
+            Integrator::use_second_order(i, s);
+        }
+        self.second_order = Some(s.clone());
     }
 
     /// The implicit method's, whichever is active (None without one).

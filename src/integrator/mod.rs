@@ -19,6 +19,7 @@ pub mod newton;
 pub mod radau;
 pub mod rk4;
 pub mod sdirk;
+pub mod second_order;
 
 #[cfg(test)]
 pub(crate) mod alloc_counter;
@@ -120,6 +121,10 @@ pub trait Integrator {
     fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.reset(sys, t, y, h);
     }
+    /// Declares the system's second-order structure (positions, velocities, integrals): an
+    /// implicit method with dense linear algebra then factors its iteration matrices reduced
+    /// to the velocities ([`second_order`]). Explicit methods ignore it.
+    fn use_second_order(&mut self, _s: &second_order::SecondOrder) {}
     /// What the implicit methods' linear algebra did (None for explicit methods).
     fn linear_stats(&self) -> Option<linear::LinearStats> {
         None

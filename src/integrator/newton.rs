@@ -17,6 +17,7 @@
 
 use super::core::{restore_blocks, save_blocks, StateReader, StepCore};
 use super::linear::{EvalPoint, JacRef, LinearStats, SparseJacobian};
+use super::second_order::SecondOrder;
 use super::{Integrator, IntegratorError, OdeSystem, WARM_JACOBIAN_MAX};
 use crate::scene::Method;
 
@@ -469,6 +470,8 @@ pub trait ImplicitMethod {
     fn factor(&mut self, h: f64) -> bool;
     /// What the linear algebra did (see [`LinearStats`]).
     fn linear_stats(&self) -> LinearStats;
+    /// See [`Integrator::use_second_order`] (nothing by default).
+    fn use_second_order(&mut self, _s: &SecondOrder) {}
 
     /// Starts at `(t, y)` with first step `h` (0: choose one); the memory is left alone.
     fn start(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
@@ -638,6 +641,10 @@ impl<M: ImplicitMethod> Integrator for M {
 
     fn linear_stats(&self) -> Option<LinearStats> {
         Some(ImplicitMethod::linear_stats(self))
+    }
+
+    fn use_second_order(&mut self, s: &SecondOrder) {
+        ImplicitMethod::use_second_order(self, s);
     }
 
     fn core(&self) -> &StepCore {

@@ -22,9 +22,11 @@
 use super::core::StepCore;
 use super::linear::{self, JacRef, LinearStats, Lu};
 use super::newton::{ImplicitMethod, NewtonCore};
+use super::second_order::{Reduction, SecondOrder};
 use super::{error_norm, OdeSystem};
 use crate::linalg;
 use crate::scene::Method;
+use nalgebra::Complex;
 
 const SQ6: f64 = 2.449_489_742_783_178;
 /// Nodes.
@@ -151,6 +153,9 @@ pub struct Radau5 {
     err: Vec<f64>,
     work: Vec<f64>,
     basis: Eigenbasis,
+    /// The iteration matrices reduced to the velocities, for a system that declared its
+    /// second-order structure (dense linear algebra only).
+    reduction: Option<Box<Reduction>>,
 }
 
 impl Radau5 {
@@ -180,6 +185,7 @@ impl Radau5 {
             err: v(n),
             work: v(n),
             basis: Eigenbasis::new(),
+            reduction: None,
         }
     }
 
@@ -245,8 +251,23 @@ impl Radau5 {
                 }
                 let (w1, w23) = dz.split_at_mut(n);
                 let (w2, w3) = w23.split_at_mut(n);
-                self.lu_err.solve(w1);
-                linalg::lu_solve_complex(&self.lu_complex, n, &self.perm_complex, w2, w3, &mut self.work_complex);
+                match self.reduction.as_deref_mut().filter(|r| r.active) {
+                    Some(r) => {
+                        r.solve_real(w1);
+                        r.solve_complex(w2, w3);
+                    }
+                    None => {
+                        self.lu_err.solve(w1);
+                        linalg::lu_solve_complex(
+                            &self.lu_complex,
+                            n,
+                            &self.perm_complex,
+                            w2,
+                            w3,
+                            &mut self.work_complex,
+                        );
+                    }
+                }
                 for m in 0..n {
                     let w = [dz[m], dz[n + m], dz[2 * n + m]];
                     for (s, row) in t.iter().enumerate() {
@@ -280,7 +301,7 @@ impl Radau5 {
             self.work[m] = g0 * (DD[0] * self.z[m] + DD[1] * self.z[n + m] + DD[2] * self.z[2 * n + m]);
             self.err[m] = self.work[m] + g0 * h * core.f[m];
         }
-        self.lu_err.solve(&mut self.err);
+        solve_real(&mut self.lu_err, &mut self.reduction, &mut self.err);
         for m in 0..n {
             self.stage[m] = core.y[m] + self.z[2 * n + m];
         }
@@ -295,13 +316,21 @@ impl Radau5 {
             for m in 0..n {
                 self.err[m] = self.work[m] + g0 * h * self.fz[0][m];
             }
-            self.lu_err.solve(&mut self.err);
+            solve_real(&mut self.lu_err, &mut self.reduction, &mut self.err);
             for m in 0..n {
                 self.stage[m] = core.y[m] + self.z[2 * n + m];
             }
             e = error_norm(&self.err, &core.y, &self.stage, core.rtol, core.atol);
         }
         e
+    }
+}
+
+/// Solves `(I − hγ₀J) x = x` in place: reduced when the last factorisation was.
+fn solve_real(lu: &mut Lu, reduction: &mut Option<Box<Reduction>>, x: &mut [f64]) {
+    match reduction.as_deref_mut().filter(|r| r.active) {
+        Some(r) => r.solve_real(x),
+        None => lu.solve(x),
     }
 }
 
@@ -340,11 +369,18 @@ impl ImplicitMethod for Radau5 {
         let (alpha, beta) = (self.basis.alpha, self.basis.beta);
         let (err, big) = (&mut self.lu_err, &mut self.lu_big);
         let (lu_complex, perm_complex) = (&mut self.lu_complex, &mut self.perm_complex);
+        let reduction = &mut self.reduction;
         self.newton.factor(h, |jac| match (jac, big) {
             (JacRef::Dense(dense), None) => {
                 // h/(α + iβ) = h (α − iβ)/(α² + β²)
                 let d = alpha * alpha + beta * beta;
                 let (cr, ci) = (h * alpha / d, -h * beta / d);
+                if let Some(ok) = reduction
+                    .as_deref_mut()
+                    .and_then(|r| r.factor(dense, n, h * gamma0(), Complex::new(cr, ci)))
+                {
+                    return ok;
+                }
                 let (lu_re, lu_im) = lu_complex.split_at_mut(n * n);
                 for ((r, i), j) in lu_re.iter_mut().zip(lu_im.iter_mut()).zip(dense) {
                     *r = -cr * j;
@@ -358,6 +394,13 @@ impl ImplicitMethod for Radau5 {
             (_, Some(big)) => big.factor_kron(jac, h, &A) && err.factor_shifted(jac, h * gamma0()),
             (JacRef::Sparse(_), None) => unreachable!("a sparse Jacobian on the dense path"),
         })
+    }
+
+    fn use_second_order(&mut self, s: &SecondOrder) {
+        let n = self.core.y.len();
+        if self.lu_big.is_none() && matches!(self.lu_err, Lu::Dense { .. }) && s.nq + s.nv <= n {
+            self.reduction = Some(Box::new(Reduction::new(s, n)));
+        }
     }
 
     fn linear_stats(&self) -> LinearStats {

@@ -7,6 +7,7 @@
 //! ground. Degrees of freedom are numbered tree by tree (depth first), so the joint-space mass
 //! matrix is block diagonal with one dense block per independent tree.
 
+use crate::integrator::second_order::{Block, SecondOrder};
 use crate::model::contact::ContactElement;
 use crate::scene::JointType;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -437,6 +438,25 @@ impl Model {
     /// of a state without it).
     pub fn nstate(&self) -> usize {
         self.nq + self.nv + 1 + usize::from(!self.inputs.is_empty())
+    }
+    /// The state's second-order structure: each joint's positions and velocities; the
+    /// integrals (dissipated energy, input work) follow them.
+    pub fn second_order(&self) -> SecondOrder {
+        SecondOrder {
+            nq: self.nq,
+            nv: self.nv,
+            blocks: self
+                .joints
+                .iter()
+                .filter(|j| j.nq() > 0)
+                .map(|j| Block {
+                    q0: j.qpos,
+                    nq: j.nq(),
+                    v0: j.qvel,
+                    nv: j.nv(),
+                })
+                .collect(),
+        }
     }
     /// Index of the dissipated-energy state.
     pub fn dissipated_index(&self) -> usize {

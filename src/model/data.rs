@@ -314,7 +314,11 @@ impl Data {
             counters: Counters::default(),
             solver: Solver {
                 stepper: Some(Stepper {
-                    method: integrator::create(&model.solver, n),
+                    method: {
+                        let mut method = integrator::create(&model.solver, n);
+                        method.use_second_order(&model.second_order());
+                        method
+                    },
                     start: vec![0.0; n],
                 }),
                 started: false,
