@@ -546,7 +546,12 @@ mod tests {
         let tol = 1e-6;
         let mut imp = Radau5::new(1, tol, tol, f64::INFINITY);
         let y = run(&mut imp, &mut ProtheroRobinson { lambda }, 0.0, &[0.0], 10.0);
-        assert!((y[0] - 10f64.sin()).abs() < 10.0 * tol);
+        assert!(
+            (y[0] - 10f64.sin()).abs() < 10.0 * tol,
+            "error {:e} {:?}",
+            (y[0] - 10f64.sin()).abs(),
+            imp.stats()
+        );
         let mut exp = Dopri5::new(1, tol, tol, f64::INFINITY);
         run(&mut exp, &mut ProtheroRobinson { lambda }, 0.0, &[0.0], 10.0);
         assert!(

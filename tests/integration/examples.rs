@@ -268,7 +268,7 @@ fn slider_crank_continuous_converges_to_piecewise_as_stiffness_grows() {
 #[test]
 fn rail_vehicle_traction_accelerates_the_centre_of_mass() {
     let mut sim = frictionless_rail_vehicle();
-    // the bound (1e-9 of the speed) is below what the bundled tolerance (rtol 5e-6, about 1e-6
+    // the bound (1e-9 of the speed) is below what the bundled tolerance (rtol 4e-6, about 1e-6
     // of the range of motion) resolves: this test sets its own
     sim.set_by_name("solver.rtol", 1e-8).expect("rtol");
     sim.set_by_name("solver.atol", 1e-10).expect("atol");

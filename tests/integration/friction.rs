@@ -445,7 +445,7 @@ const RAIL_MU: f64 = 0.3;
 /// body's speed, the mean wheel-rail penetration, the energy balance (total + dissipated
 /// energy against the work of the brake torques, relative to the initial energy) and the
 /// number of wheels sliding at the end. At rtol 1e-8, atol 1e-10: the energy balance is checked
-/// to 1e-8, which the scene's own tolerances (rtol 5e-6, chosen for 1e-6 of the range of
+/// to 1e-8, which the scene's own tolerances (rtol 4e-6, chosen for 1e-6 of the range of
 /// motion, docs/benchmarks.md §17) do not resolve while all eight wheels slide (6e-6 there).
 fn brake(torque: f64, t_end: f64) -> (f64, f64, f64, usize) {
     let mut s = Simulation::from_file(&common::bundled("rail_vehicle")).unwrap();

@@ -251,7 +251,7 @@ def test_flat_track_runs_as_the_bundled_rail_vehicle(unzipped, make_instance):
     # The same vehicle on rails at rest: the car body's motion equal to solver tolerance; the
     # wheel loads within 1e-3 of Q0 (the side frames here may pitch, the bundled ones may not: the
     # two wheels of a frame share its load a little differently while the car body pitches).
-    # Both at the track scene's tolerances (the bundled rail vehicle's own, rtol 5e-6, are
+    # Both at the track scene's tolerances (the bundled rail vehicle's own, rtol 4e-6, are
     # chosen for 1e-6 of its range of motion: 2.9e-7 m here).
     a = make_instance(unzipped["rail_vehicle_track"], "track")
     b = make_instance(unzipped["rail_vehicle"], "bundled")
