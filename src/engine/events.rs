@@ -9,7 +9,7 @@
 
 use super::modes;
 use crate::contact;
-use crate::forward::{any_resting, evaluate};
+use crate::forward::{any_resting, evaluate, planned_kinematics};
 use crate::kinematics::{kinematics, kinematics_path};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
@@ -29,12 +29,20 @@ enum Probe {
 }
 
 /// Evaluates the event functions and the per-contact (δ, δ̇) at `d.eval_state` into
-/// `d.events.g`/`aux` (`at_step_end`: into `g_new`/`aux_new`).
+/// `d.events.g`/`aux` (`at_step_end`: into `g_new`/`aux_new`), after the full kinematics
+/// (the evaluation when a contact rests).
 pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
+    event_values_after(m, d, at_step_end, kinematics);
+}
+
+/// [`event_values`] after `kinematics_of` (the evaluation when a contact rests): the full
+/// kinematics, or the plan's ([`planned_kinematics`]) where nothing after reads more than the
+/// poses and velocities of the free bodies.
+fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of: fn(&Model, &mut Data)) {
     if any_resting(m, d) {
         evaluate(m, d);
     } else {
-        kinematics(m, d);
+        kinematics_of(m, d);
     }
     let n_contacts = m.contacts.len();
     for i in 0..n_contacts {
@@ -263,7 +271,9 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     }
     let (t0, t1) = (method.t_prev(), method.t());
     d.eval_state.copy_from_slice(method.y());
-    event_values(m, d, true);
+    // (the event functions need the poses and velocities only; what follows the step, an
+    // event's handling or a projection, evaluates the full kinematics again)
+    event_values_after(m, d, true, planned_kinematics);
     // Earliest relevant crossing.
     let mut t_first = t1;
     let mut any = false;
