@@ -152,24 +152,26 @@ pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
         return false;
     }
     d.eval_state.copy_from_slice(&d.state);
+    planned_kinematics(m, d);
+    true
+}
+
+/// Kinematics at `d.eval_state` through the plan: the general joints', then the free bodies'
+/// lean ones (poses and velocities; their motion subspaces, bias accelerations and spatial
+/// inertias are left as they were: code that reads those calls [`kinematics`]).
+pub fn planned_kinematics(m: &Model, d: &mut Data) {
     for &ji in &m.plan.general.joints {
         joint_kinematics(m, d, ji);
     }
     for fb in &m.plan.free {
         free_body_kinematics(m, d, fb);
     }
-    true
 }
 
 /// Kinematics through the plan (the general joints', then the free bodies' lean ones), the
 /// applied and contact forces, and the dissipated power, at `d.eval_state`.
 fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
-    for &ji in &m.plan.general.joints {
-        joint_kinematics(m, d, ji);
-    }
-    for fb in &m.plan.free {
-        free_body_kinematics(m, d, fb);
-    }
+    planned_kinematics(m, d);
     let mut power = dynamics::applied_forces(m, d);
     if !m.contacts.is_empty() {
         power += contact::apply_forces(m, d);

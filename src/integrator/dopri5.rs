@@ -155,39 +155,48 @@ impl Integrator for Dopri5 {
             let (h, last) = self.core.trial_step(t_max)?;
             let t_new = self.core.step_end(h, last, t_max);
             let core = &mut self.core;
-            let (t, y, k1) = (core.t, &core.y, &mut core.f);
+            let t = core.t;
             let [k2, k3, k4, k5, k6, k7] = &mut self.k;
-            let tmp = &mut self.tmp;
+            // (the vectors as slices of length n, so that the loops need no bounds checks)
+            let (y, k1) = (&core.y[..n], &core.f[..n]);
+            let (tmp, y_new, e) = (&mut self.tmp[..n], &mut self.y_new[..n], &mut self.err[..n]);
             for i in 0..n {
                 tmp[i] = y[i] + h * A21 * k1[i];
             }
             sys.rhs(t + C2 * h, tmp, k2);
+            let k2 = &k2[..n];
             for i in 0..n {
                 tmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
             }
             sys.rhs(t + C3 * h, tmp, k3);
+            let k3 = &k3[..n];
             for i in 0..n {
                 tmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
             }
             sys.rhs(t + C4 * h, tmp, k4);
+            let k4 = &k4[..n];
             for i in 0..n {
                 tmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
             }
             sys.rhs(t + C5 * h, tmp, k5);
+            let k5 = &k5[..n];
             for i in 0..n {
                 tmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
             }
             sys.rhs(t_new, tmp, k6);
-            let y_new = &mut self.y_new;
+            let k6 = &k6[..n];
             for i in 0..n {
                 y_new[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
             }
             sys.rhs(t_new, y_new, k7);
             core.stats.rhs_evals += 6;
-            for i in 0..n {
-                self.err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            {
+                let k7 = &k7[..n];
+                for i in 0..n {
+                    e[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+                }
             }
-            let err = error_norm(&self.err, y, y_new, core.rtol, core.atol);
+            let err = error_norm(e, y, y_new, core.rtol, core.atol);
             if !err.is_finite() {
                 core.stats.rejected += 1;
                 core.h = h * 0.1;
@@ -203,26 +212,29 @@ impl Integrator for Dopri5 {
             let h_new = if rejected_before { (h / fac).min(h) } else { h / fac };
             if err <= 1.0 {
                 self.err_old = err.max(1e-4);
+                let k7s = &k7[..n];
                 // stiffness estimate: k6 and k7 are f at the stage state `tmp` and at y_new,
                 // both at t_new
                 let (mut num, mut den) = (0.0, 0.0);
                 for i in 0..n {
                     let w = 1.0 / (core.atol + core.rtol * y[i].abs().max(y_new[i].abs()));
-                    num += (w * (k7[i] - k6[i])).powi(2);
+                    num += (w * (k7s[i] - k6[i])).powi(2);
                     den += (w * (y_new[i] - tmp[i])).powi(2);
                 }
                 self.stiffness = if den > 0.0 { h * (num / den).sqrt() } else { 0.0 };
+                let [c0, c1, c2, c3] = &mut self.cont;
+                let (c0, c1, c2, c3) = (&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n]);
                 for i in 0..n {
                     let dy = y_new[i] - y[i];
                     let bspl = h * k1[i] - dy;
-                    self.cont[0][i] = dy;
-                    self.cont[1][i] = bspl;
-                    self.cont[2][i] = dy - h * k7[i] - bspl;
-                    self.cont[3][i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+                    c0[i] = dy;
+                    c1[i] = bspl;
+                    c2[i] = dy - h * k7s[i] - bspl;
+                    c3[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7s[i]);
                 }
-                std::mem::swap(k1, k7);
+                std::mem::swap(&mut core.f, k7);
                 std::mem::swap(&mut core.y_prev, &mut core.y);
-                std::mem::swap(&mut core.y, y_new);
+                std::mem::swap(&mut core.y, &mut self.y_new);
                 core.advance(t_new);
                 // keep the unclipped proposal when the step was cut short by t_max
                 core.set_next_step(h_new, last);
