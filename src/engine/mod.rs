@@ -78,6 +78,17 @@ pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
 /// current state, or, when the method continues its last step, at the step's start and end
 /// (as they were when the step was taken).
 pub fn resync(m: &Model, d: &mut Data) {
+    resync_with(m, d, events::event_values);
+}
+
+/// [`resync`] of the contact groups' entry alone, after the broad phase's reference poses
+/// changed and nothing else did (the contacts' entries do not depend on them).
+pub fn resync_margins(m: &Model, d: &mut Data) {
+    resync_with(m, d, events::margin_event_values);
+}
+
+/// Evaluates `values` at the ends of the method's last step (`d.state` when it has none).
+fn resync_with(m: &Model, d: &mut Data, values: fn(&Model, &mut Data, bool)) {
     let step_ends = d
         .solver
         .started
@@ -88,15 +99,15 @@ pub fn resync(m: &Model, d: &mut Data) {
             if let Some(i) = d.solver.method() {
                 d.eval_state.copy_from_slice(&i.core().y_prev);
             }
-            events::event_values(m, d, false);
+            values(m, d, false);
             if let Some(i) = d.solver.method() {
                 d.eval_state.copy_from_slice(i.y());
             }
-            events::event_values(m, d, true);
+            values(m, d, true);
         }
         None => {
             d.eval_state.copy_from_slice(&d.state);
-            events::event_values(m, d, false);
+            values(m, d, false);
         }
     }
 }

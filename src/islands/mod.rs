@@ -347,7 +347,7 @@ impl Islands {
                     for (lb, &gb) in island.bodies.iter().enumerate() {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
                     }
-                    engine::resync(&island.model, &mut island.data);
+                    engine::resync_margins(&island.model, &mut island.data);
                     out.push(island);
                     continue;
                 }
