@@ -39,7 +39,7 @@ use crate::model::data::EVENT_LOG_CAPACITY;
 use crate::model::groups::Candidate;
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 mod cut;
@@ -316,7 +316,6 @@ impl Islands {
         memory: &Memory,
         old: Vec<Island>,
     ) -> Result<(), EngineError> {
-        let was: HashSet<Candidate> = self.candidates.iter().copied().collect();
         let fresh = old.is_empty();
         // per body: the step its island would have taken next (a new island starts with the
         // least of its bodies')
@@ -339,10 +338,16 @@ impl Islands {
                 per_island[self.island_of[b]].push(*c);
             }
         }
-        let mut kept: HashMap<usize, Island> = old.into_iter().map(|i| (i.bodies[0], i)).collect();
+        // the former islands by their first body
+        let mut by_first = vec![usize::MAX; m.bodies.len()];
+        for (k, island) in old.iter().enumerate() {
+            by_first[island.bodies[0]] = k;
+        }
+        let mut old: Vec<Option<Island>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (bodies, cands) in parts.into_iter().zip(per_island) {
-            if let Some(mut island) = kept.remove(&bodies[0]) {
+            let former = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
+            if let Some(mut island) = former {
                 if island.bodies == bodies && island.candidates == cands {
                     for (lb, &gb) in island.bodies.iter().enumerate() {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
@@ -362,7 +367,7 @@ impl Islands {
             if !fresh {
                 let n = island.explicit.len();
                 for (k, c) in island.candidates.iter().enumerate() {
-                    if was.contains(c) {
+                    if self.candidate_index.contains_key(c) {
                         continue;
                     }
                     let g = contact::gap(&island.model, &island.data, n + k);
@@ -381,7 +386,7 @@ impl Islands {
             }
             out.push(island);
         }
-        for island in kept.into_values() {
+        for island in old.into_iter().flatten() {
             self.retire(island);
         }
         self.parts = out;
