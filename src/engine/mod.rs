@@ -81,10 +81,16 @@ pub fn resync(m: &Model, d: &mut Data) {
     resync_with(m, d, events::event_values);
 }
 
-/// [`resync`] of the contact groups' entry alone, after the broad phase's reference poses
-/// changed and nothing else did (the contacts' entries do not depend on them).
+/// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
+/// method's last step reaches past the data's time, the contacts' entries are those of the
+/// step's ends already (they do not depend on the reference poses) and only the contact
+/// groups' entry is evaluated again; otherwise everything is.
 pub fn resync_margins(m: &Model, d: &mut Data) {
-    resync_with(m, d, events::margin_event_values);
+    if d.solver.ahead_of(d.time) {
+        resync_with(m, d, events::margin_event_values);
+    } else {
+        resync(m, d);
+    }
 }
 
 /// Evaluates `values` at the ends of the method's last step (`d.state` when it has none).
