@@ -84,12 +84,16 @@ pub fn resync(m: &Model, d: &mut Data) {
 /// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
 /// method's last step reaches past the data's time, the contacts' entries are those of the
 /// step's ends already (they do not depend on the reference poses) and only the contact
-/// groups' entry is evaluated again; otherwise everything is.
+/// groups' entry at the step's end is evaluated again (the next advance accepts the step,
+/// or stops at an event inside it and evaluates everything there, before it reads one);
+/// otherwise everything is.
 pub fn resync_margins(m: &Model, d: &mut Data) {
-    if d.solver.ahead_of(d.time) {
-        resync_with(m, d, events::margin_event_values);
-    } else {
-        resync(m, d);
+    match d.solver.method() {
+        Some(i) if d.solver.ahead_of(d.time) => {
+            d.eval_state.copy_from_slice(i.y());
+            events::margin_event_values(m, d, true);
+        }
+        _ => resync(m, d),
     }
 }
 
