@@ -97,3 +97,44 @@ impl Pool {
         self.parts.insert(key, part);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Islands, Source};
+    use crate::bench::islands::grouped;
+    use crate::compile::{compile, Parameters};
+
+    /// Every model the pool holds after islands merged and split is the one compilation
+    /// gives for its bodies and candidate pairs (compared field by field through their
+    /// debug form, which prints every number so that it reads back exactly), with the same
+    /// numbering against the scene.
+    #[test]
+    fn pooled_parts_are_those_compilation_gives() {
+        let scene = grouped(64, 0.02, 0.0015, true);
+        let origin = "pool test";
+        let (m, mut d) = compile(&scene, origin).unwrap();
+        let src = Source { scene: &scene, origin };
+        let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
+        is.advance(&src, &m, &mut d, 0.02, false).unwrap();
+        assert!(
+            is.rebuilds > 0 && is.pooled > 0,
+            "rebuilds {}, pooled {}",
+            is.rebuilds,
+            is.pooled
+        );
+        assert!(!is.pool.parts.is_empty());
+        for (key, part) in &is.pool.parts {
+            let fresh = super::compile(&src, &is.params, &is.index, &is.joint_coords, key).unwrap();
+            assert_eq!(
+                format!("{:?}", part.model),
+                format!("{:?}", fresh.model),
+                "bodies {:?}",
+                key.0
+            );
+            assert_eq!(part.coords, fresh.coords);
+            assert_eq!(part.explicit, fresh.explicit);
+            assert_eq!(part.inputs, fresh.inputs);
+            assert_eq!(part.driven, fresh.driven);
+        }
+    }
+}
