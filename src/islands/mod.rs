@@ -19,7 +19,8 @@
 //! 3. the coordinates are gathered into the scene's data; once a body moved an eighth of the
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
-//!    the others are compiled anew with their contacts' memory carried over.
+//!    the others are formed anew with their contacts' memory carried over, their model
+//!    compiled or taken from the pool of the islands that ended (`pool.rs`).
 //!
 //! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
 //! farther apart than the margin, and neither body moves half of it before the list is made
