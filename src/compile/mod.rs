@@ -56,6 +56,32 @@ pub fn compile_with_candidates(
     origin: &str,
     candidates: Option<&[Candidate]>,
 ) -> Result<(Model, Data), SceneError> {
+    let mut model = compile_model(scene, params, origin, candidates)?;
+    let mut data = Data::new(&model);
+    // the drives' coordinates start at their inputs' q (0: the scene's configuration), their
+    // rates at qd (the velocities below keep them)
+    for dr in &model.drives {
+        data.state[dr.qpos] = data.inputs[dr.value];
+    }
+    let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, params);
+    model.warnings.extend(warnings);
+    data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
+    data.eval_state.copy_from_slice(&data.state);
+    kinematics(&model, &mut data);
+    for b in 0..model.bodies.len() {
+        data.broad_reference[b] = (data.body_pos[b], data.body_quat[b]);
+    }
+    Ok((model, data))
+}
+
+/// The model of [`compile_with_candidates`] alone: no data, so no initial state (for a caller
+/// that sets every coordinate itself, such as an island taking the scene's).
+pub fn compile_model(
+    scene: &Scene,
+    params: &Parameters,
+    origin: &str,
+    candidates: Option<&[Candidate]>,
+) -> Result<Model, SceneError> {
     params.check(scene, origin)?;
     let nb = scene.body.len();
     // Name → index maps, built once: every lookup below is O(1), so compilation is linear in
@@ -418,7 +444,7 @@ pub fn compile_with_candidates(
         .collect();
 
     let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, trees.len());
-    let mut model = Model {
+    let model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),
         bodies,
@@ -457,21 +483,7 @@ pub fn compile_with_candidates(
             ));
         }
     }
-    let mut data = Data::new(&model);
-    // the drives' coordinates start at their inputs' q (0: the scene's configuration), their
-    // rates at qd (the velocities below keep them)
-    for dr in &model.drives {
-        data.state[dr.qpos] = data.inputs[dr.value];
-    }
-    let (qvel, warnings) = velocities::initial_velocities(&model, &mut data, params);
-    model.warnings.extend(warnings);
-    data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
-    data.eval_state.copy_from_slice(&data.state);
-    kinematics(&model, &mut data);
-    for b in 0..nb {
-        data.broad_reference[b] = (data.body_pos[b], data.body_quat[b]);
-    }
-    Ok((model, data))
+    Ok(model)
 }
 
 /// Checks that every body reaches the ground through its tree joints (`parent_joint`,

@@ -63,14 +63,27 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
         };
         g[2 * n_contacts + i] = slip;
     }
-    // contact groups: (time to move half the margin, largest displacement)
+    store_margin_values(m, d, at_step_end);
+}
+
+/// The contact groups' entry of the event values at `d.eval_state` (kinematics evaluated
+/// there): (time to move half the margin, largest displacement) into `aux` (`at_step_end`:
+/// `aux_new`).
+fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
     let (moved, time) = contact::groups::margin_values(m, d);
     let aux = if at_step_end {
         &mut d.events.aux_new
     } else {
         &mut d.events.aux
     };
-    aux[n_contacts] = (time, moved);
+    aux[m.contacts.len()] = (time, moved);
+}
+
+/// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
+/// phase's reference poses changed: the contacts' entries do not depend on them).
+pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
+    kinematics(m, d);
+    store_margin_values(m, d, at_step_end);
 }
 
 /// Kinematics of the two bodies of contact `i` (and their ancestors) only: enough for its

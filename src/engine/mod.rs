@@ -78,6 +78,27 @@ pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
 /// current state, or, when the method continues its last step, at the step's start and end
 /// (as they were when the step was taken).
 pub fn resync(m: &Model, d: &mut Data) {
+    resync_with(m, d, events::event_values);
+}
+
+/// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
+/// method's last step reaches past the data's time, the contacts' entries are those of the
+/// step's ends already (they do not depend on the reference poses) and only the contact
+/// groups' entry at the step's end is evaluated again (the next advance accepts the step,
+/// or stops at an event inside it and evaluates everything there, before it reads one);
+/// otherwise everything is.
+pub fn resync_margins(m: &Model, d: &mut Data) {
+    match d.solver.method() {
+        Some(i) if d.solver.ahead_of(d.time) => {
+            d.eval_state.copy_from_slice(i.y());
+            events::margin_event_values(m, d, true);
+        }
+        _ => resync(m, d),
+    }
+}
+
+/// Evaluates `values` at the ends of the method's last step (`d.state` when it has none).
+fn resync_with(m: &Model, d: &mut Data, values: fn(&Model, &mut Data, bool)) {
     let step_ends = d
         .solver
         .started
@@ -88,15 +109,15 @@ pub fn resync(m: &Model, d: &mut Data) {
             if let Some(i) = d.solver.method() {
                 d.eval_state.copy_from_slice(&i.core().y_prev);
             }
-            events::event_values(m, d, false);
+            values(m, d, false);
             if let Some(i) = d.solver.method() {
                 d.eval_state.copy_from_slice(i.y());
             }
-            events::event_values(m, d, true);
+            values(m, d, true);
         }
         None => {
             d.eval_state.copy_from_slice(&d.state);
-            events::event_values(m, d, false);
+            values(m, d, false);
         }
     }
 }

@@ -19,7 +19,8 @@
 //! 3. the coordinates are gathered into the scene's data; once a body moved an eighth of the
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
-//!    the others are compiled anew with their contacts' memory carried over.
+//!    the others are formed anew with their contacts' memory carried over, their model
+//!    compiled or taken from the pool of the islands that ended (`pool.rs`).
 //!
 //! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
 //! farther apart than the margin, and neither body moves half of it before the list is made
@@ -30,24 +31,26 @@
 //! reads them as before. A saved state adds each island's whole state ([`Islands::save`]), so
 //! a restored simulation continues bit for bit.
 
-use crate::compile::{compile_with_candidates, Parameters};
+use crate::compile::Parameters;
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::kinematics::kinematics;
 use crate::model::contact::ContactMemory;
 use crate::model::data::EVENT_LOG_CAPACITY;
 use crate::model::groups::Candidate;
-use crate::model::{nq_of, nv_of, state, ContactEvent, Counters, Data, Model};
+use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 mod cut;
+mod pool;
 mod saved;
 
 use cut::candidate_body;
-use cut::{cut, SceneIndex};
+use cut::SceneIndex;
 pub use cut::{partition, wanted};
+use pool::{Compiled, Pool};
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
 /// than the round is planned for: it only stops when a collision sped a body up; less than
@@ -61,6 +64,10 @@ const REBUILD_FRACTION: f64 = 0.125;
 /// The fraction of the margin a round is planned for (0.25 and 0.35 measured: 0.35 takes 25 %
 /// fewer rounds at the same steps).
 pub const ROUND_FRACTION: f64 = 0.35;
+
+/// The pool of compiled parts holds up to this many per body of the scene (then it starts
+/// empty again).
+const POOL_PER_BODY: usize = 4;
 
 fn fail(time: f64, message: impl Into<String>) -> EngineError {
     EngineError {
@@ -114,8 +121,10 @@ pub struct Islands {
     retired_log: Vec<ContactEvent>,
     /// How often the candidate pairs were found again.
     pub rebuilds: u64,
-    /// Islands compiled (a diagnostic).
+    /// Islands formed anew (a diagnostic).
     pub compiled: u64,
+    /// Of those, the islands whose model came from the pool (a diagnostic).
+    pub pooled: u64,
     /// Rounds (a diagnostic).
     pub rounds: u64,
 
@@ -131,6 +140,8 @@ pub struct Islands {
     n_explicit: usize,
     index: SceneIndex,
     params: Arc<Parameters>,
+    /// The compiled parts of islands that ended.
+    pool: Pool,
 }
 
 /// The scene and its origin: what an island is compiled from (with the parameter values the
@@ -245,6 +256,7 @@ impl Islands {
             retired_log: Vec::new(),
             rebuilds: 0,
             compiled: 0,
+            pooled: 0,
             rounds: 0,
             time: d.time,
             round_end: f64::INFINITY,
@@ -253,6 +265,7 @@ impl Islands {
             n_explicit: m.groups.n_explicit,
             index: SceneIndex::of(src.scene),
             params: Arc::new(params),
+            pool: Pool::default(),
         }
     }
 
@@ -304,7 +317,6 @@ impl Islands {
         memory: &Memory,
         old: Vec<Island>,
     ) -> Result<(), EngineError> {
-        let was: HashSet<Candidate> = self.candidates.iter().copied().collect();
         let fresh = old.is_empty();
         // per body: the step its island would have taken next (a new island starts with the
         // least of its bodies')
@@ -327,19 +339,25 @@ impl Islands {
                 per_island[self.island_of[b]].push(*c);
             }
         }
-        let mut kept: HashMap<usize, Island> = old.into_iter().map(|i| (i.bodies[0], i)).collect();
+        // the former islands by their first body
+        let mut by_first = vec![usize::MAX; m.bodies.len()];
+        for (k, island) in old.iter().enumerate() {
+            by_first[island.bodies[0]] = k;
+        }
+        let mut old: Vec<Option<Island>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (bodies, cands) in parts.into_iter().zip(per_island) {
-            if let Some(mut island) = kept.remove(&bodies[0]) {
+            let former = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
+            if let Some(mut island) = former {
                 if island.bodies == bodies && island.candidates == cands {
                     for (lb, &gb) in island.bodies.iter().enumerate() {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
                     }
-                    engine::resync(&island.model, &mut island.data);
+                    engine::resync_margins(&island.model, &mut island.data);
                     out.push(island);
                     continue;
                 }
-                self.retire(&island);
+                self.retire(island);
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
             let mut island = self.compile_island(src, d, bodies, cands, memory)?;
@@ -350,7 +368,7 @@ impl Islands {
             if !fresh {
                 let n = island.explicit.len();
                 for (k, c) in island.candidates.iter().enumerate() {
-                    if was.contains(c) {
+                    if self.candidate_index.contains_key(c) {
                         continue;
                     }
                     let g = contact::gap(&island.model, &island.data, n + k);
@@ -369,8 +387,8 @@ impl Islands {
             }
             out.push(island);
         }
-        for island in kept.into_values() {
-            self.retire(&island);
+        for island in old.into_iter().flatten() {
+            self.retire(island);
         }
         self.parts = out;
         self.candidates = candidates.to_vec();
@@ -378,8 +396,9 @@ impl Islands {
         Ok(())
     }
 
-    /// Keeps the counters and the dissipated energy of an island that ends.
-    fn retire(&mut self, island: &Island) {
+    /// Keeps the counters and the dissipated energy of an island that ends, and its
+    /// compiled part in the pool.
+    fn retire(&mut self, island: Island) {
         self.retired = add(self.retired, island.data.counters);
         self.dissipated_base += island.dissipated();
         self.input_work_base += island.input_work();
@@ -388,33 +407,50 @@ impl Islands {
                 self.retired_log.push(ContactEvent { contact: g, ..*e });
             }
         }
+        let part = Compiled {
+            model: island.model,
+            coords: island.coords,
+            explicit: island.explicit,
+            inputs: island.inputs,
+            driven: island.driven,
+        };
+        let limit = POOL_PER_BODY * self.island_of.len();
+        self.pool.put(
+            (island.bodies, island.candidates),
+            part,
+            self.params.solver.max_steps,
+            limit,
+        );
     }
 
-    /// Compiles the island of `bodies` with the candidate pairs `candidates` (scene
-    /// numbering) and sets its data from the scene's data `d` (coordinates, inputs, flags, the
-    /// broad phase's reference poses) and the contacts' memory.
+    /// The island of `bodies` with the candidate pairs `candidates` (scene numbering), its
+    /// model from the pool or compiled, its data set from the scene's data `d` (coordinates,
+    /// inputs, flags, the broad phase's reference poses) and the contacts' memory.
     fn compile_island(
-        &self,
+        &mut self,
         src: &Source,
         d: &Data,
         bodies: Vec<usize>,
         candidates: Vec<Candidate>,
         memory: &Memory,
     ) -> Result<Island, EngineError> {
-        let cut = cut(src.scene, &self.params, &self.index, &bodies, &candidates);
-        let (mut model, mut data) = compile_with_candidates(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
-            .map_err(|e| fail(d.time, format!("an island could not be compiled: {e}")))?;
-        model.groups.stale_fraction = ISLAND_STALE_FRACTION;
+        let key = (bodies, candidates);
+        let ((bodies, candidates), part) = match self.pool.take(&key) {
+            Some(pooled) => {
+                self.pooled += 1;
+                pooled
+            }
+            None => {
+                let part = pool::compile(src, &self.params, &self.index, &self.joint_coords, &key)
+                    .map_err(|e| fail(d.time, e))?;
+                (key, part)
+            }
+        };
+        let model = part.model;
         // (the scene's data keeps the log; an island's holds the events of one advance and
         // starts small: a full log's buffer would cost more to clear than the island to
         // compile)
-        data.event_log = Vec::new();
-        let mut coords = Vec::new();
-        for j in &model.joints {
-            let (qpos, qvel) = self.joint_coords[bodies[j.child]];
-            coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
-            coords.extend((0..nv_of(j.kind)).map(|k| (model.nq + j.qvel + k, qvel + k)));
-        }
+        let mut data = Data::with_event_log(&model, 0);
         let diss = model.dissipated_index();
         data.state[diss] = 0.0;
         if let Some(i) = model.input_work_index() {
@@ -422,28 +458,13 @@ impl Islands {
         }
         data.clamp_events = d.clamp_events;
         data.log_peaks = d.log_peaks;
-        let (scene_first, _) = src.scene.input_values();
-        let mut inputs = Vec::new();
-        for &g in &cut.inputs {
-            for k in 0..src.scene.input[g].values() {
-                inputs.push((inputs.len(), scene_first[g] + k));
-            }
-        }
-        for &(l, g) in &inputs {
+        for &(l, g) in &part.inputs {
             data.inputs[l] = d.inputs[g];
         }
-        // a drive's coordinates: the scene's state index of the island's
-        let scene_index = |l: usize| coords.iter().find(|&&(a, _)| a == l).map(|&(_, b)| b);
-        let driven = model
-            .drives
-            .iter()
-            .flat_map(|dr| [dr.qpos, model.nq + dr.qvel])
-            .filter_map(|l| Some((l, scene_index(l)?)))
-            .collect();
-        for (k, &g) in cut.explicit.iter().enumerate() {
+        for (k, &g) in part.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
         }
-        let n = cut.explicit.len();
+        let n = part.explicit.len();
         for (k, c) in candidates.iter().enumerate() {
             data.contact_memory[n + k] = memory.candidates.get(c).copied().unwrap_or_default();
         }
@@ -454,11 +475,11 @@ impl Islands {
             model,
             data,
             bodies,
-            coords,
-            explicit: cut.explicit,
+            coords: part.coords,
+            explicit: part.explicit,
             candidates,
-            inputs,
-            driven,
+            inputs: part.inputs,
+            driven: part.driven,
             saved: Vec::new(),
             saved_log: 0,
         };

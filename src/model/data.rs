@@ -283,6 +283,12 @@ impl Data {
     /// Allocates every buffer for `model`, creates its integrator and sets the initial
     /// positions (velocities zero; [`crate::compile`] sets them).
     pub fn new(model: &Model) -> Data {
+        Data::with_event_log(model, EVENT_LOG_CAPACITY)
+    }
+
+    /// [`Data::new`] with room for `log_capacity` contact events reserved (an island's data
+    /// holds the events of one advance: a full log's buffer would cost more than the island).
+    pub fn with_event_log(model: &Model, log_capacity: usize) -> Data {
         let nb = model.bodies.len();
         let (nv, nc, n) = (model.nv, model.nc, model.nstate());
         let ncontacts = model.contacts.len();
@@ -328,7 +334,7 @@ impl Data {
             },
             clamp_events: true,
             log_peaks: false,
-            event_log: Vec::with_capacity(if ncontacts > 0 { EVENT_LOG_CAPACITY } else { 0 }),
+            event_log: Vec::with_capacity(if ncontacts > 0 { log_capacity } else { 0 }),
             outputs_valid: false,
             kinematics_valid: false,
             events: EventWork {

@@ -1,0 +1,140 @@
+//! The compiled part of an island (its model and how it maps onto the scene), and the pool
+//! that keeps it when the island ends: an island formed again from the same bodies and
+//! candidate pairs — a sphere alone again after a collision, a pair that meets again — takes
+//! its model from there instead of compiling its part of the scene anew. A model depends on
+//! nothing else (the scene and the parameter values are the islands' own), so a pooled model
+//! is the one compilation would give, and the results do not depend on the pool.
+
+use super::cut::{cut, SceneIndex};
+use super::{Source, ISLAND_STALE_FRACTION};
+use crate::compile::{compile_model, Parameters};
+use crate::model::groups::Candidate;
+use crate::model::{nq_of, nv_of, Model};
+use std::collections::HashMap;
+
+/// An island's model and its numbering against the scene's.
+pub(super) struct Compiled {
+    /// The island's model.
+    pub(super) model: Model,
+    /// (island, scene) index pairs of the position and velocity coordinates.
+    pub(super) coords: Vec<(usize, usize)>,
+    /// The scene's index of each of the island's declared contacts.
+    pub(super) explicit: Vec<usize>,
+    /// (island, scene) index pairs of the input values.
+    pub(super) inputs: Vec<(usize, usize)>,
+    /// (island, scene) index pairs of the driven joints' coordinates and rates.
+    pub(super) driven: Vec<(usize, usize)>,
+}
+
+/// An island's bodies and candidate pairs (scene numbering): what its model is compiled from.
+pub(super) type Key = (Vec<usize>, Vec<Candidate>);
+
+/// Compiles the island of the bodies and candidate pairs `key` from `src` with the parameter
+/// values `params` (`index`: the scene's items per body, `joint_coords`: per scene body the
+/// first position and velocity index of its joint in the scene's state).
+pub(super) fn compile(
+    src: &Source,
+    params: &Parameters,
+    index: &SceneIndex,
+    joint_coords: &[(usize, usize)],
+    key: &Key,
+) -> Result<Compiled, String> {
+    let (bodies, candidates) = key;
+    let cut = cut(src.scene, params, index, bodies, candidates);
+    let mut model = compile_model(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
+        .map_err(|e| format!("an island could not be compiled: {e}"))?;
+    model.groups.stale_fraction = ISLAND_STALE_FRACTION;
+    let mut coords = Vec::new();
+    for j in &model.joints {
+        let (qpos, qvel) = joint_coords[bodies[j.child]];
+        coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
+        coords.extend((0..nv_of(j.kind)).map(|k| (model.nq + j.qvel + k, qvel + k)));
+    }
+    let (scene_first, _) = src.scene.input_values();
+    let mut inputs = Vec::new();
+    for &g in &cut.inputs {
+        for k in 0..src.scene.input[g].values() {
+            inputs.push((inputs.len(), scene_first[g] + k));
+        }
+    }
+    // a drive's coordinates: the scene's state index of the island's
+    let scene_index = |l: usize| coords.iter().find(|&&(a, _)| a == l).map(|&(_, b)| b);
+    let driven = model
+        .drives
+        .iter()
+        .flat_map(|dr| [dr.qpos, model.nq + dr.qvel])
+        .filter_map(|l| Some((l, scene_index(l)?)))
+        .collect();
+    Ok(Compiled {
+        model,
+        coords,
+        explicit: cut.explicit,
+        inputs,
+        driven,
+    })
+}
+
+/// The compiled parts of islands that ended, by their bodies and candidate pairs.
+#[derive(Default)]
+pub(super) struct Pool {
+    parts: HashMap<Key, Compiled>,
+}
+
+impl Pool {
+    /// The part compiled for `key`, taken out of the pool (with the key), if there is one.
+    pub(super) fn take(&mut self, key: &Key) -> Option<(Key, Compiled)> {
+        self.parts.remove_entry(key)
+    }
+
+    /// Keeps the part of an island that ended, its model's largest step count set back to
+    /// `max_steps` (the parameter values': the rounds set it before every advance). Beyond
+    /// `limit` parts the pool starts empty again.
+    pub(super) fn put(&mut self, key: Key, mut part: Compiled, max_steps: u64, limit: usize) {
+        if self.parts.len() >= limit {
+            self.parts.clear();
+        }
+        part.model.solver.max_steps = max_steps;
+        self.parts.insert(key, part);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Islands, Source};
+    use crate::bench::islands::grouped;
+    use crate::compile::{compile, Parameters};
+
+    /// Every model the pool holds after islands merged and split is the one compilation
+    /// gives for its bodies and candidate pairs (compared field by field through their
+    /// debug form, which prints every number so that it reads back exactly), with the same
+    /// numbering against the scene.
+    #[test]
+    fn pooled_parts_are_those_compilation_gives() {
+        let scene = grouped(64, 0.02, 0.0015, true);
+        let origin = "pool test";
+        let (m, mut d) = compile(&scene, origin).unwrap();
+        let src = Source { scene: &scene, origin };
+        let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
+        is.advance(&src, &m, &mut d, 0.02, false).unwrap();
+        assert!(
+            is.rebuilds > 0 && is.pooled > 0,
+            "rebuilds {}, pooled {}",
+            is.rebuilds,
+            is.pooled
+        );
+        assert!(!is.pool.parts.is_empty());
+        for (key, part) in &is.pool.parts {
+            let fresh = super::compile(&src, &is.params, &is.index, &is.joint_coords, key).unwrap();
+            assert_eq!(
+                format!("{:?}", part.model),
+                format!("{:?}", fresh.model),
+                "bodies {:?}",
+                key.0
+            );
+            assert_eq!(part.coords, fresh.coords);
+            assert_eq!(part.explicit, fresh.explicit);
+            assert_eq!(part.inputs, fresh.inputs);
+            assert_eq!(part.driven, fresh.driven);
+        }
+    }
+}
