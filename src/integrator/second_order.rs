@@ -113,10 +113,11 @@ impl ReducedRows {
 /// The factors of `I − cJ` reduced to the velocities, for a real or complex shift `c`.
 #[derive(Debug, Clone)]
 pub struct ReducedLu<T> {
-    c: T,
     inv_c: T,
-    /// Per block (in order), `Q⁻¹` (`nq × nq`), then `P = Q⁻¹ T` (`nq × nv`).
+    /// Per block (in order), `Q⁻¹` (`nq × nq`), then `cP = c Q⁻¹ T` (`nq × nv`).
     blocks: Vec<T>,
+    /// Where each block's numbers start in `blocks`.
+    offsets: Vec<usize>,
     /// The LU factors of `S` (`nv × nv`, row-major) and their row permutation.
     s: Vec<T>,
     perm: Vec<usize>,
@@ -125,15 +126,26 @@ pub struct ReducedLu<T> {
     work_m: Vec<T>,
 }
 
+/// A joint with one position and one velocity (revolute, prismatic): its `Q` and `P` are
+/// numbers, and the reduction takes the short way.
+fn scalar(b: &Block) -> bool {
+    b.nq == 1 && b.nv == 1
+}
+
 impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
     /// Room for structure `s`.
     pub fn new(s: &SecondOrder) -> ReducedLu<T> {
-        let per_block: usize = s.blocks.iter().map(|b| b.nq * (b.nq + b.nv)).sum();
+        let mut offsets = Vec::with_capacity(s.blocks.len());
+        let mut per_block = 0;
+        for b in &s.blocks {
+            offsets.push(per_block);
+            per_block += b.nq * (b.nq + b.nv);
+        }
         let largest = s.blocks.iter().map(|b| b.nq).max().unwrap_or(0);
         ReducedLu {
-            c: T::zero(),
             inv_c: T::zero(),
             blocks: vec![T::zero(); per_block],
+            offsets,
             s: vec![T::zero(); s.nv * s.nv],
             perm: vec![0; s.nv],
             work_q: vec![T::zero(); largest],
@@ -145,11 +157,18 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
     /// structure ([`SecondOrder::holds`]), and `c ≠ 0`. False when `I − cJ` is singular or
     /// a factor is not finite.
     pub fn factor(&mut self, s: &SecondOrder, jac: &[f64], n: usize, c: T) -> bool {
-        self.c = c;
         let nq = s.nq;
-        let mut off = 0;
-        for b in &s.blocks {
-            let (qinv, p) = self.blocks[off..off + b.nq * (b.nq + b.nv)].split_at_mut(b.nq * b.nq);
+        for (b, &off) in s.blocks.iter().zip(&self.offsets) {
+            let (qinv, cp) = self.blocks[off..off + b.nq * (b.nq + b.nv)].split_at_mut(b.nq * b.nq);
+            if scalar(b) {
+                let q = T::one() - c.scale(jac[b.q0 * n + b.q0]);
+                if q.norm1() == 0.0 {
+                    return false;
+                }
+                qinv[0] = T::one() / q;
+                cp[0] = c * qinv[0].scale(jac[b.q0 * n + nq + b.v0]);
+                continue;
+            }
             // Q = I − c Jqq, inverted by Gauss-Jordan with partial pivoting on [Q | I]
             let w = 2 * b.nq;
             let m = &mut self.work_m[..b.nq * w];
@@ -169,72 +188,71 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
             for i in 0..b.nq {
                 qinv[i * b.nq..(i + 1) * b.nq].copy_from_slice(&m[i * w + b.nq..i * w + w]);
             }
-            // P = Q⁻¹ T
+            // cP = c Q⁻¹ T
             for i in 0..b.nq {
                 for k in 0..b.nv {
                     let mut acc = T::zero();
                     for l in 0..b.nq {
                         acc += qinv[i * b.nq + l].scale(jac[(b.q0 + l) * n + nq + b.v0 + k]);
                     }
-                    p[i * b.nv + k] = acc;
+                    cp[i * b.nv + k] = c * acc;
                 }
             }
-            off += b.nq * (b.nq + b.nv);
         }
-        // S / c = I / c − Av − c Aq P (divided by c: its entries scale as those of I − cJ, so
+        // S / c = I / c − Av − Aq (cP) (divided by c: its entries scale as those of I − cJ, so
         // that a huge step does not overflow where the whole matrix would not)
         let nv = s.nv;
         let inv_c = T::one() / c;
         self.inv_c = inv_c;
-        for i in 0..nv {
+        for (i, srow) in self.s.chunks_exact_mut(nv).enumerate() {
             let row = &jac[(nq + i) * n..(nq + i + 1) * n];
-            for k in 0..nv {
-                let mut x = T::from_real(-row[nq + k]);
-                if i == k {
-                    x += inv_c;
-                }
-                self.s[i * nv + k] = x;
+            for (x, &a) in srow.iter_mut().zip(&row[nq..nq + nv]) {
+                *x = T::from_real(-a);
             }
-            let mut off = 0;
-            for b in &s.blocks {
-                let p = &self.blocks[off + b.nq * b.nq..off + b.nq * (b.nq + b.nv)];
+            srow[i] += inv_c;
+            for (b, &off) in s.blocks.iter().zip(&self.offsets) {
+                let cp = &self.blocks[off + b.nq * b.nq..off + b.nq * (b.nq + b.nv)];
+                if scalar(b) {
+                    srow[b.v0] -= cp[0].scale(row[b.q0]);
+                    continue;
+                }
                 for k in 0..b.nv {
                     let mut acc = T::zero();
                     for l in 0..b.nq {
-                        acc += p[l * b.nv + k].scale(row[b.q0 + l]);
+                        acc += cp[l * b.nv + k].scale(row[b.q0 + l]);
                     }
-                    self.s[i * nv + b.v0 + k] -= c * acc;
+                    srow[b.v0 + k] -= acc;
                 }
-                off += b.nq * (b.nq + b.nv);
             }
         }
         lu_in_place(&mut self.s, nv, &mut self.perm)
     }
 
     /// Solves `(I − cJ) x = x` in place with the factors and the rows `r` of the same
-    /// Jacobian.
-    pub fn solve(&mut self, s: &SecondOrder, r: &ReducedRows, x: &mut [T]) {
-        let (nq, nv, c) = (s.nq, s.nv, self.c);
+    /// Jacobian; `c` is the shift the factors are for.
+    pub fn solve(&mut self, s: &SecondOrder, r: &ReducedRows, c: T, x: &mut [T]) {
+        let (nq, nv) = (s.nq, s.nv);
         let (xq, rest) = x.split_at_mut(nq);
         let (xv, xe) = rest.split_at_mut(nv);
         // Q⁻¹ bq
-        let mut off = 0;
-        for b in &s.blocks {
+        for (b, &off) in s.blocks.iter().zip(&self.offsets) {
+            if scalar(b) {
+                xq[b.q0] *= self.blocks[off];
+                continue;
+            }
             let qinv = &self.blocks[off..off + b.nq * b.nq];
             let w = &mut self.work_q[..b.nq];
-            for i in 0..b.nq {
+            for (i, wi) in w.iter_mut().enumerate() {
                 let mut acc = T::zero();
                 for l in 0..b.nq {
                     acc += qinv[i * b.nq + l] * xq[b.q0 + l];
                 }
-                w[i] = acc;
+                *wi = acc;
             }
             xq[b.q0..b.q0 + b.nq].copy_from_slice(w);
-            off += b.nq * (b.nq + b.nv);
         }
         // (S / c) xv = bv / c + Aq Q⁻¹ bq
-        for (i, v) in xv.iter_mut().enumerate() {
-            let row = &r.aq[i * nq..(i + 1) * nq];
+        for (v, row) in xv.iter_mut().zip(r.aq.chunks_exact(nq.max(1))) {
             let mut acc = T::zero();
             for (a, q) in row.iter().zip(xq.iter()) {
                 acc += q.scale(*a);
@@ -242,18 +260,20 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
             *v = *v * self.inv_c + acc;
         }
         lu_solve(&self.s, nv, &self.perm, xv);
-        // xq = Q⁻¹ bq + c P xv
-        let mut off = 0;
-        for b in &s.blocks {
-            let p = &self.blocks[off + b.nq * b.nq..off + b.nq * (b.nq + b.nv)];
+        // xq = Q⁻¹ bq + cP xv
+        for (b, &off) in s.blocks.iter().zip(&self.offsets) {
+            let cp = &self.blocks[off + b.nq * b.nq..off + b.nq * (b.nq + b.nv)];
+            if scalar(b) {
+                xq[b.q0] += cp[0] * xv[b.v0];
+                continue;
+            }
             for i in 0..b.nq {
                 let mut acc = T::zero();
                 for k in 0..b.nv {
-                    acc += p[i * b.nv + k] * xv[b.v0 + k];
+                    acc += cp[i * b.nv + k] * xv[b.v0 + k];
                 }
-                xq[b.q0 + i] += c * acc;
+                xq[b.q0 + i] += acc;
             }
-            off += b.nq * (b.nq + b.nv);
         }
         // xe = be + c (Eq xq + Ev xv)
         let nqv = nq + nv;
@@ -278,6 +298,9 @@ pub struct Reduction {
     real: ReducedLu<f64>,
     complex: ReducedLu<Complex<f64>>,
     work: Vec<Complex<f64>>,
+    /// The shifts of the last factorisation.
+    c_real: f64,
+    c_complex: Complex<f64>,
     /// The last factorisation was reduced (the Jacobian had the structure).
     pub active: bool,
 }
@@ -291,6 +314,8 @@ impl Reduction {
             real: ReducedLu::new(s),
             complex: ReducedLu::new(s),
             work: vec![Complex::new(0.0, 0.0); n],
+            c_real: 0.0,
+            c_complex: Complex::new(0.0, 0.0),
             active: false,
         }
     }
@@ -304,6 +329,7 @@ impl Reduction {
             return None;
         }
         self.rows.load(&self.s, jac, n);
+        (self.c_real, self.c_complex) = (c_real, c_complex);
         self.active = self.real.factor(&self.s, jac, n, c_real) && self.complex.factor(&self.s, jac, n, c_complex);
         // (a reduced factorisation that fails leaves the decision to the whole matrix's)
         self.active.then_some(true)
@@ -311,7 +337,7 @@ impl Reduction {
 
     /// Solves `(I − c_r J) x = x` in place.
     pub fn solve_real(&mut self, x: &mut [f64]) {
-        self.real.solve(&self.s, &self.rows, x);
+        self.real.solve(&self.s, &self.rows, self.c_real, x);
     }
 
     /// Solves `(I − c_c J) (re + i im) = re + i im` in place.
@@ -319,7 +345,7 @@ impl Reduction {
         for ((w, r), i) in self.work.iter_mut().zip(re.iter()).zip(im.iter()) {
             *w = Complex::new(*r, *i);
         }
-        self.complex.solve(&self.s, &self.rows, &mut self.work);
+        self.complex.solve(&self.s, &self.rows, self.c_complex, &mut self.work);
         for ((w, r), i) in self.work.iter().zip(re.iter_mut()).zip(im.iter_mut()) {
             *r = w.re;
             *i = w.im;
@@ -503,7 +529,7 @@ mod tests {
         let mut lu = ReducedLu::<f64>::new(&s);
         assert!(lu.factor(&s, &j, n, 0.021));
         let mut x = b.clone();
-        lu.solve(&s, &rows, &mut x);
+        lu.solve(&s, &rows, 0.021, &mut x);
         for (a, e) in x.iter().zip(reference(&j, n, 0.021, &b)) {
             assert!((a - e).abs() <= 1e-13 * e.abs().max(1.0), "{a} against {e}");
         }
@@ -516,7 +542,7 @@ mod tests {
         let mut lu = ReducedLu::<Complex<f64>>::new(&s);
         assert!(lu.factor(&s, &j, n, c));
         let mut x = bc.clone();
-        lu.solve(&s, &rows, &mut x);
+        lu.solve(&s, &rows, c, &mut x);
         for (a, e) in x.iter().zip(reference(&j, n, c, &bc)) {
             assert!((a - e).norm() <= 1e-13 * e.norm().max(1.0), "{a} against {e}");
         }
