@@ -462,66 +462,65 @@ pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated
     Ok(out)
 }
 
-pub(super) fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
-    let vr_text = vr.to_string();
+/// The attributes both FMI versions give a variable: those of the variable (name, value
+/// reference, description, causality, variability, initial) and those of its type (unit,
+/// display unit, a parameter's range, start). FMI 2.0 writes the second on the type's element
+/// inside the `ScalarVariable`, FMI 3.0 both on its one element. An enumeration's
+/// `declaredType`, which stands in a different place in each version, is left to the caller.
+pub(super) fn variable_attributes(vr: usize, v: &Variable) -> [Vec<(&'static str, String)>; 2] {
+    let mut own = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
     let description = describe(v);
-    let mut attributes = vec![("name", v.name.as_str()), ("valueReference", vr_text.as_str())];
     if !description.is_empty() {
-        attributes.push(("description", description.as_str()));
+        own.push(("description", description));
     }
-    attributes.push(("causality", v.causality.name()));
-    attributes.push(("variability", v.variability.name()));
+    own.push(("causality", v.causality.name().to_string()));
+    own.push(("variability", v.variability.name().to_string()));
     if let Some(initial) = initial_of(v) {
-        attributes.push(("initial", initial));
+        own.push(("initial", initial.to_string()));
     }
-    let start_allowed = initial_of(v) != Some("calculated");
-    let start = if start_allowed { v.start } else { None };
+    let start = if initial_of(v) == Some("calculated") {
+        None
+    } else {
+        v.start
+    };
+    let parameter = v.causality == Causality::Parameter;
+    let mut typed = Vec::new();
+    match v.vtype {
+        VarType::Real => {
+            typed.extend(v.unit.map(|u| ("unit", u.to_string())));
+            typed.extend(v.display_unit.map(|d| ("displayUnit", d.to_string())));
+            if parameter {
+                typed.extend(range_attributes(v.range));
+            }
+            typed.extend(start.map(|s| ("start", format_real(s))));
+        }
+        VarType::Integer => {
+            if parameter {
+                typed.extend(range_attributes(v.range));
+            }
+            typed.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
+        }
+        VarType::Boolean => typed.extend(start.map(|s| ("start", (s != 0.0).to_string()))),
+        VarType::Enumeration(_) => typed.extend(start.map(|s| ("start", format!("{}", s.round() as i64)))),
+    }
+    [own, typed]
+}
+
+/// One `ScalarVariable` and its type's element.
+pub(super) fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
+    let [own, mut typed] = variable_attributes(vr, v);
+    let tag = match v.vtype {
+        VarType::Real => "Real",
+        VarType::Integer => "Integer",
+        VarType::Boolean => "Boolean",
+        VarType::Enumeration(e) => {
+            typed.insert(0, ("declaredType", e.type_name().to_string()));
+            "Enumeration"
+        }
+    };
     w.create_element("ScalarVariable")
-        .with_attributes(attrs(attributes))
-        .write_inner_content(|w| {
-            let mut a: Vec<(&str, String)> = Vec::new();
-            let tag = match v.vtype {
-                VarType::Real => {
-                    if let Some(u) = v.unit {
-                        a.push(("unit", u.to_string()));
-                    }
-                    if let Some(d) = v.display_unit {
-                        a.push(("displayUnit", d.to_string()));
-                    }
-                    if v.causality == Causality::Parameter {
-                        a.extend(range_attributes(v.range));
-                    }
-                    if let Some(s) = start {
-                        a.push(("start", format_real(s)));
-                    }
-                    "Real"
-                }
-                VarType::Integer => {
-                    if v.causality == Causality::Parameter {
-                        a.extend(range_attributes(v.range));
-                    }
-                    if let Some(s) = start {
-                        a.push(("start", format!("{}", s.round() as i64)));
-                    }
-                    "Integer"
-                }
-                VarType::Boolean => {
-                    if let Some(s) = start {
-                        a.push(("start", (if s != 0.0 { "true" } else { "false" }).to_string()));
-                    }
-                    "Boolean"
-                }
-                VarType::Enumeration(e) => {
-                    a.push(("declaredType", e.type_name().to_string()));
-                    if let Some(s) = start {
-                        a.push(("start", format!("{}", s.round() as i64)));
-                    }
-                    "Enumeration"
-                }
-            };
-            empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
-            Ok(())
-        })?;
+        .with_attributes(attrs(own))
+        .write_inner_content(|w| empty(w, tag, typed))?;
     Ok(())
 }
 

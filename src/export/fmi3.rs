@@ -14,12 +14,12 @@
 //!   names 1-based indices), the outputs with their `dependencies`.
 
 use super::description::{
-    attrs, empty, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
-    used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
+    attrs, empty, model_structure, output_dependencies, root_attributes, used_units, variable_attributes,
+    write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
 };
 use crate::fmi::lifecycle::Version;
 use crate::scene::Scene;
-use crate::variables::{Causality, VarType, Variable, VariableTable};
+use crate::variables::{VarType, Variable, VariableTable};
 use quick_xml::Writer;
 use std::io;
 
@@ -121,53 +121,16 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
 /// One variable: the element of its type with FMI 3.0's attributes (the same values as the
 /// FMI 2.0 `ScalarVariable`).
 fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
-    let mut a: Vec<(&str, String)> = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
-    let description = super::description::describe(v);
-    if !description.is_empty() {
-        a.push(("description", description));
-    }
-    a.push(("causality", v.causality.name().to_string()));
-    a.push(("variability", v.variability.name().to_string()));
-    if let Some(initial) = initial_of(v) {
-        a.push(("initial", initial.to_string()));
-    }
-    let start = if initial_of(v) == Some("calculated") {
-        None
-    } else {
-        v.start
-    };
-    let parameter = v.causality == Causality::Parameter;
+    let [mut a, typed] = variable_attributes(vr, v);
     let tag = match v.vtype {
-        VarType::Real => {
-            if let Some(e) = v.unit {
-                a.push(("unit", e.to_string()));
-            }
-            if let Some(d) = v.display_unit {
-                a.push(("displayUnit", d.to_string()));
-            }
-            if parameter {
-                a.extend(range_attributes(v.range));
-            }
-            a.extend(start.map(|s| ("start", format_real(s))));
-            "Float64"
-        }
-        VarType::Integer => {
-            if parameter {
-                a.extend(range_attributes(v.range));
-            }
-            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
-            "Int32"
-        }
-        VarType::Boolean => {
-            a.extend(start.map(|s| ("start", (s != 0.0).to_string())));
-            "Boolean"
-        }
+        VarType::Real => "Float64",
+        VarType::Integer => "Int32",
+        VarType::Boolean => "Boolean",
         VarType::Enumeration(e) => {
             a.insert(2, ("declaredType", e.type_name().to_string()));
-            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
             "Enumeration"
         }
     };
-    empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
-    Ok(())
+    a.extend(typed);
+    empty(w, tag, a)
 }
