@@ -397,69 +397,99 @@ pub(super) fn write_categories_and_experiment(
     Ok(())
 }
 
-pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+/// A `modelDescription.xml` of either FMI version: the root element, `CoSimulation` with the
+/// version's `capabilities`, the units, type definitions, log categories and default
+/// experiment, then `ModelVariables` and `ModelStructure` as the version writes them.
+pub(super) fn write_document(
+    scene: &Scene,
+    scene_text: &str,
+    version: Version,
+    generated: Option<&str>,
+    capabilities: &[(&str, &str)],
+    variables: impl FnOnce(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>,
+    structure: impl FnOnce(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>,
+) -> io::Result<Vec<u8>> {
     let table = VariableTable::from_scene(scene);
-    let m = &scene.model;
     let mut w = xml_writer()?;
     w.create_element("fmiModelDescription")
-        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi2, generated)))
+        .with_attributes(attrs(root_attributes(scene, scene_text, version, generated)))
         .write_inner_content(|w| {
+            let model_identifier = ("modelIdentifier", scene.model.name.as_str());
             empty(
                 w,
                 "CoSimulation",
-                [
-                    ("modelIdentifier", m.name.as_str()),
-                    ("canHandleVariableCommunicationStepSize", "true"),
-                    ("canInterpolateInputs", "false"),
-                    ("maxOutputDerivativeOrder", "0"),
-                    ("canRunAsynchronuously", "false"),
-                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
-                    ("canNotUseMemoryManagementFunctions", "true"),
-                    ("canGetAndSetFMUstate", "true"),
-                    ("canSerializeFMUstate", "true"),
-                    ("providesDirectionalDerivative", "false"),
-                ],
+                std::iter::once(model_identifier).chain(capabilities.iter().copied()),
             )?;
             write_units(w, &table)?;
-            write_type_definitions(w, &table, Version::Fmi2)?;
-            write_categories_and_experiment(w, scene, Version::Fmi2)?;
-            w.create_element("ModelVariables").write_inner_content(|w| {
-                for (vr, v) in table.vars.iter().enumerate() {
-                    write_variable(w, vr, v)?;
-                }
-                Ok(())
-            })?;
-            let (outputs, initial) = model_structure(&table);
-            w.create_element("ModelStructure").write_inner_content(|w| {
-                for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
-                    if list.is_empty() {
-                        continue;
-                    }
-                    w.create_element(tag).write_inner_content(|w| {
-                        for &i in list {
-                            let index = i.to_string();
-                            let mut a = vec![("index", index)];
-                            // Outputs state their direct dependencies (often none); initial
-                            // unknowns keep FMI's default (they may depend on every parameter).
-                            if tag == "Outputs" {
-                                let deps: Vec<String> = output_dependencies(&table, i - 1)
-                                    .iter()
-                                    .map(|d| d.to_string())
-                                    .collect();
-                                a.push(("dependencies", deps.join(" ")));
-                            }
-                            empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
-                        }
-                        Ok(())
-                    })?;
-                }
-                Ok(())
-            })?;
-            Ok(())
+            write_type_definitions(w, &table, version)?;
+            write_categories_and_experiment(w, scene, version)?;
+            w.create_element("ModelVariables")
+                .write_inner_content(|w| variables(w, &table))?;
+            structure(w, &table)
         })?;
     let mut out = w.into_inner();
     out.push(b'\n');
     Ok(out)
+}
+
+pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+    let capabilities = [
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("canInterpolateInputs", "false"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("canRunAsynchronuously", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canNotUseMemoryManagementFunctions", "true"),
+        ("canGetAndSetFMUstate", "true"),
+        ("canSerializeFMUstate", "true"),
+        ("providesDirectionalDerivative", "false"),
+    ];
+    let variables = |w: &mut Writer<Vec<u8>>, table: &VariableTable| {
+        for (vr, v) in table.vars.iter().enumerate() {
+            write_variable(w, vr, v)?;
+        }
+        Ok(())
+    };
+    write_document(
+        scene,
+        scene_text,
+        Version::Fmi2,
+        generated,
+        &capabilities,
+        variables,
+        write_structure,
+    )
+}
+
+/// FMI 2.0's `ModelStructure`: the outputs, then the initial unknowns, by 1-based index.
+fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let (outputs, initial) = model_structure(table);
+    w.create_element("ModelStructure").write_inner_content(|w| {
+        for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
+            if list.is_empty() {
+                continue;
+            }
+            w.create_element(tag).write_inner_content(|w| {
+                for &i in list {
+                    let index = i.to_string();
+                    let mut a = vec![("index", index)];
+                    // Outputs state their direct dependencies (often none); initial
+                    // unknowns keep FMI's default (they may depend on every parameter).
+                    if tag == "Outputs" {
+                        let deps: Vec<String> = output_dependencies(table, i - 1)
+                            .iter()
+                            .map(|d| d.to_string())
+                            .collect();
+                        a.push(("dependencies", deps.join(" ")));
+                    }
+                    empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
+                }
+                Ok(())
+            })?;
+        }
+        Ok(())
+    })?;
+    Ok(())
 }
 
 /// The attributes both FMI versions give a variable: those of the variable (name, value

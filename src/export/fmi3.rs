@@ -14,8 +14,7 @@
 //!   names 1-based indices), the outputs with their `dependencies`.
 
 use super::description::{
-    attrs, empty, model_structure, output_dependencies, root_attributes, used_units, variable_attributes,
-    write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
+    empty, model_structure, output_dependencies, used_units, variable_attributes, write_document,
 };
 use crate::fmi::lifecycle::Version;
 use crate::scene::Scene;
@@ -37,58 +36,49 @@ pub fn model_description_xml_dated(scene: &Scene, scene_text: &str, generated: O
 }
 
 fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
-    let table = VariableTable::from_scene(scene);
-    let mut w = xml_writer()?;
-    w.create_element("fmiModelDescription")
-        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi3, generated)))
-        .write_inner_content(|w| {
-            empty(
-                w,
-                "CoSimulation",
-                [
-                    ("modelIdentifier", scene.model.name.as_str()),
-                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
-                    ("canGetAndSetFMUState", "true"),
-                    ("canSerializeFMUState", "true"),
-                    ("providesDirectionalDerivatives", "false"),
-                    ("providesAdjointDerivatives", "false"),
-                    ("providesPerElementDependencies", "false"),
-                    ("canHandleVariableCommunicationStepSize", "true"),
-                    ("maxOutputDerivativeOrder", "0"),
-                    ("providesIntermediateUpdate", "false"),
-                    ("mightReturnEarlyFromDoStep", "true"),
-                    ("canReturnEarlyAfterIntermediateUpdate", "false"),
-                    ("hasEventMode", "false"),
-                    ("providesEvaluateDiscreteStates", "false"),
-                ],
-            )?;
-            write_units(w, &table)?;
-            write_type_definitions(w, &table, Version::Fmi3)?;
-            write_categories_and_experiment(w, scene, Version::Fmi3)?;
-            w.create_element("ModelVariables").write_inner_content(|w| {
-                // FMI 3.0's one independent variable, after the table's value references
-                let time_vr = table.vars.len().to_string();
-                let mut time = vec![
-                    ("name", "time"),
-                    ("valueReference", time_vr.as_str()),
-                    ("description", "Simulation time"),
-                    ("causality", "independent"),
-                    ("variability", "continuous"),
-                ];
-                if used_units(&table).iter().any(|u| u.name == "s") {
-                    time.push(("unit", "s"));
-                }
-                empty(w, "Float64", time)?;
-                for (vr, v) in table.vars.iter().enumerate() {
-                    write_variable(w, vr, v)?;
-                }
-                Ok(())
-            })?;
-            write_structure(w, &table)
-        })?;
-    let mut out = w.into_inner();
-    out.push(b'\n');
-    Ok(out)
+    let capabilities = [
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canGetAndSetFMUState", "true"),
+        ("canSerializeFMUState", "true"),
+        ("providesDirectionalDerivatives", "false"),
+        ("providesAdjointDerivatives", "false"),
+        ("providesPerElementDependencies", "false"),
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("providesIntermediateUpdate", "false"),
+        ("mightReturnEarlyFromDoStep", "true"),
+        ("canReturnEarlyAfterIntermediateUpdate", "false"),
+        ("hasEventMode", "false"),
+        ("providesEvaluateDiscreteStates", "false"),
+    ];
+    let variables = |w: &mut Writer<Vec<u8>>, table: &VariableTable| {
+        // FMI 3.0's one independent variable, after the table's value references
+        let time_vr = table.vars.len().to_string();
+        let mut time = vec![
+            ("name", "time"),
+            ("valueReference", time_vr.as_str()),
+            ("description", "Simulation time"),
+            ("causality", "independent"),
+            ("variability", "continuous"),
+        ];
+        if used_units(table).iter().any(|u| u.name == "s") {
+            time.push(("unit", "s"));
+        }
+        empty(w, "Float64", time)?;
+        for (vr, v) in table.vars.iter().enumerate() {
+            write_variable(w, vr, v)?;
+        }
+        Ok(())
+    };
+    write_document(
+        scene,
+        scene_text,
+        Version::Fmi3,
+        generated,
+        &capabilities,
+        variables,
+        write_structure,
+    )
 }
 
 /// `ModelStructure`: every output with the value references it depends on directly, then the
