@@ -397,19 +397,34 @@ pub(super) fn write_categories_and_experiment(
     Ok(())
 }
 
-/// A `modelDescription.xml` of either FMI version: the root element, `CoSimulation` with the
-/// version's `capabilities`, the units, type definitions, log categories and default
-/// experiment, then `ModelVariables` and `ModelStructure` as the version writes them.
+/// Writes a part of a model description that covers the whole variable table.
+pub(super) type TableWriter = fn(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>;
+
+/// What the model description of one FMI version writes in its own way.
+pub(super) struct Layout {
+    /// The FMI version.
+    pub version: Version,
+    /// `CoSimulation`'s attributes after `modelIdentifier`.
+    pub capabilities: &'static [(&'static str, &'static str)],
+    /// What `ModelVariables` holds before the table's variables (FMI 3.0: `time`).
+    pub independent: Option<TableWriter>,
+    /// One variable of the table, with its value reference.
+    pub variable: fn(&mut Writer<Vec<u8>>, usize, &Variable) -> io::Result<()>,
+    /// `ModelStructure`.
+    pub structure: TableWriter,
+}
+
+/// A `modelDescription.xml` of either FMI version: the root element, `CoSimulation`, the
+/// units, type definitions, log categories and default experiment, `ModelVariables` and
+/// `ModelStructure`, each as `layout` writes it.
 pub(super) fn write_document(
     scene: &Scene,
     scene_text: &str,
-    version: Version,
     generated: Option<&str>,
-    capabilities: &[(&str, &str)],
-    variables: impl FnOnce(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>,
-    structure: impl FnOnce(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>,
+    layout: &Layout,
 ) -> io::Result<Vec<u8>> {
     let table = VariableTable::from_scene(scene);
+    let version = layout.version;
     let mut w = xml_writer()?;
     w.create_element("fmiModelDescription")
         .with_attributes(attrs(root_attributes(scene, scene_text, version, generated)))
@@ -418,22 +433,31 @@ pub(super) fn write_document(
             empty(
                 w,
                 "CoSimulation",
-                std::iter::once(model_identifier).chain(capabilities.iter().copied()),
+                std::iter::once(model_identifier).chain(layout.capabilities.iter().copied()),
             )?;
             write_units(w, &table)?;
             write_type_definitions(w, &table, version)?;
             write_categories_and_experiment(w, scene, version)?;
-            w.create_element("ModelVariables")
-                .write_inner_content(|w| variables(w, &table))?;
-            structure(w, &table)
+            w.create_element("ModelVariables").write_inner_content(|w| {
+                if let Some(independent) = layout.independent {
+                    independent(w, &table)?;
+                }
+                for (vr, v) in table.vars.iter().enumerate() {
+                    (layout.variable)(w, vr, v)?;
+                }
+                Ok(())
+            })?;
+            (layout.structure)(w, &table)
         })?;
     let mut out = w.into_inner();
     out.push(b'\n');
     Ok(out)
 }
 
-pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
-    let capabilities = [
+/// FMI 2.0's way.
+const FMI2: Layout = Layout {
+    version: Version::Fmi2,
+    capabilities: &[
         ("canHandleVariableCommunicationStepSize", "true"),
         ("canInterpolateInputs", "false"),
         ("maxOutputDerivativeOrder", "0"),
@@ -443,22 +467,14 @@ pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated
         ("canGetAndSetFMUstate", "true"),
         ("canSerializeFMUstate", "true"),
         ("providesDirectionalDerivative", "false"),
-    ];
-    let variables = |w: &mut Writer<Vec<u8>>, table: &VariableTable| {
-        for (vr, v) in table.vars.iter().enumerate() {
-            write_variable(w, vr, v)?;
-        }
-        Ok(())
-    };
-    write_document(
-        scene,
-        scene_text,
-        Version::Fmi2,
-        generated,
-        &capabilities,
-        variables,
-        write_structure,
-    )
+    ],
+    independent: None,
+    variable: write_variable,
+    structure: write_structure,
+};
+
+pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+    write_document(scene, scene_text, generated, &FMI2)
 }
 
 /// FMI 2.0's `ModelStructure`: the outputs, then the initial unknowns, by 1-based index.
@@ -537,7 +553,7 @@ pub(super) fn variable_attributes(vr: usize, v: &Variable) -> [Vec<(&'static str
 }
 
 /// One `ScalarVariable` and its type's element.
-pub(super) fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
+fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
     let [own, mut typed] = variable_attributes(vr, v);
     let tag = match v.vtype {
         VarType::Real => "Real",

@@ -14,7 +14,7 @@
 //!   names 1-based indices), the outputs with their `dependencies`.
 
 use super::description::{
-    empty, model_structure, output_dependencies, used_units, variable_attributes, write_document,
+    empty, model_structure, output_dependencies, used_units, variable_attributes, write_document, Layout,
 };
 use crate::fmi::lifecycle::Version;
 use crate::scene::Scene;
@@ -36,7 +36,13 @@ pub fn model_description_xml_dated(scene: &Scene, scene_text: &str, generated: O
 }
 
 fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
-    let capabilities = [
+    write_document(scene, scene_text, generated, &FMI3)
+}
+
+/// FMI 3.0's way.
+const FMI3: Layout = Layout {
+    version: Version::Fmi3,
+    capabilities: &[
         ("canBeInstantiatedOnlyOncePerProcess", "false"),
         ("canGetAndSetFMUState", "true"),
         ("canSerializeFMUState", "true"),
@@ -50,35 +56,26 @@ fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result
         ("canReturnEarlyAfterIntermediateUpdate", "false"),
         ("hasEventMode", "false"),
         ("providesEvaluateDiscreteStates", "false"),
+    ],
+    independent: Some(write_time),
+    variable: write_variable,
+    structure: write_structure,
+};
+
+/// FMI 3.0's one independent variable, after the table's value references.
+fn write_time(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let time_vr = table.vars.len().to_string();
+    let mut time = vec![
+        ("name", "time"),
+        ("valueReference", time_vr.as_str()),
+        ("description", "Simulation time"),
+        ("causality", "independent"),
+        ("variability", "continuous"),
     ];
-    let variables = |w: &mut Writer<Vec<u8>>, table: &VariableTable| {
-        // FMI 3.0's one independent variable, after the table's value references
-        let time_vr = table.vars.len().to_string();
-        let mut time = vec![
-            ("name", "time"),
-            ("valueReference", time_vr.as_str()),
-            ("description", "Simulation time"),
-            ("causality", "independent"),
-            ("variability", "continuous"),
-        ];
-        if used_units(table).iter().any(|u| u.name == "s") {
-            time.push(("unit", "s"));
-        }
-        empty(w, "Float64", time)?;
-        for (vr, v) in table.vars.iter().enumerate() {
-            write_variable(w, vr, v)?;
-        }
-        Ok(())
-    };
-    write_document(
-        scene,
-        scene_text,
-        Version::Fmi3,
-        generated,
-        &capabilities,
-        variables,
-        write_structure,
-    )
+    if used_units(table).iter().any(|u| u.name == "s") {
+        time.push(("unit", "s"));
+    }
+    empty(w, "Float64", time)
 }
 
 /// `ModelStructure`: every output with the value references it depends on directly, then the
