@@ -534,6 +534,11 @@ impl InputSpec {
         InputSpec::on(name, InputType::JointForce, None, Some(joint), None)
     }
 
+    /// A prescribed motion of the 1-DOF `joint` (its coordinate, rate and acceleration).
+    pub fn joint_motion(name: &str, joint: &str) -> InputSpec {
+        InputSpec::on(name, InputType::JointMotion, None, Some(joint), None)
+    }
+
     /// The same generalised force on each of the 1-DOF `joints` [N or N m].
     pub fn joint_forces(name: &str, joints: &[&str]) -> InputSpec {
         InputSpec {
