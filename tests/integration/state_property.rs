@@ -33,7 +33,7 @@ fn ball() -> Scene {
 }
 
 fn bundled(name: &str) -> Scene {
-    Scene::from_str(&std::fs::read_to_string(common::bundled(name)).unwrap(), name).unwrap()
+    Scene::from_file(&common::bundled(name)).unwrap()
 }
 
 /// The scene, the contact whose law is varied, and the time span to run.
