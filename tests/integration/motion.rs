@@ -142,6 +142,14 @@ fn drive_at(t: f64) -> [f64; 3] {
     [TABLE_A * s, TABLE_A * TABLE_W * c, -TABLE_A * TABLE_W * TABLE_W * s]
 }
 
+/// Gives the input `shake` the table's drive at communication point `t`.
+fn set_drive(s: &mut Simulation, t: f64) {
+    let [q, qd, qdd] = drive_at(t);
+    for (name, value) in [("shake.q", q), ("shake.qd", qd), ("shake.qdd", qdd)] {
+        s.set_by_name(name, value).unwrap();
+    }
+}
+
 /// The closed form: the ball in free flight between impacts on the piecewise quadratic table;
 /// each impact `v⁺ = v_t − e (v⁻ − v_t)`. Returns the ball's height at every communication point
 /// (k h, k = 0..=n) and the impacts (time, normal impulse).
@@ -197,10 +205,7 @@ fn a_ball_bounces_on_a_driven_table_at_the_closed_form_impacts() {
     let mut s = vibrating_table();
     let mut worst_height = 0.0_f64;
     for k in 0..n {
-        let [q, qd, qdd] = drive_at(k as f64 * h);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * h);
         s.step_to((k + 1) as f64 * h).unwrap();
         worst_height = worst_height.max((get(&mut s, "ball.r[3]") - heights[k + 1]).abs());
     }
@@ -225,10 +230,7 @@ fn a_ball_bounces_on_a_driven_table_at_the_closed_form_impacts() {
     let mut worst = 0.0_f64;
     let mut s = vibrating_table();
     for k in 0..until {
-        let [q, qd, qdd] = drive_at(k as f64 * h);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * h);
         s.step_to((k + 1) as f64 * h).unwrap();
         worst = worst.max((get(&mut s, "ball.r[3]") - heights[k + 1]).abs());
         // the table follows the host's quadratic exactly
@@ -298,10 +300,7 @@ direction = [0.0, 0.0, 1.0]
     let mut s = vibrating_table();
     let e0 = balance(&mut s);
     for k in 0..400 {
-        let [q, qd, qdd] = drive_at(k as f64 * 1e-3);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * 1e-3);
         s.step_to((k + 1) as f64 * 1e-3).unwrap();
     }
     let scale = BALL_M * G * Z0;
