@@ -265,28 +265,14 @@ fn the_energy_balance_counts_the_work_of_every_kind_of_input() {
     assert!(drift < 1e-6, "rail vehicle: {drift:e}");
 
     // a torque on a free body spinning it up, and a drive: the vibrating table
-    let text = r#"
-[model]
-name = "spun"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 1.0
-interval = 1e-2
-
-[[body]]
-name = "wheel"
-mass = 2.0
-inertia = [0.01, 0.02, 0.03]
-position = [0.0, 0.0, 1.0]
-angular_velocity = [0.0, 0.0, 1.0]
-
-[[input]]
-name = "spin"
-type = "torque"
-body = "wheel"
-direction = [0.0, 0.0, 1.0]
-"#;
-    let mut s = Simulation::from_scene_str(text, "spun.toml").unwrap();
-    s.initialize(0.0).unwrap();
+    let wheel = BodySpec::new("wheel", 2.0, [0.01, 0.02, 0.03], [0.0, 0.0, 1.0]).angular_velocity([0.0, 0.0, 1.0]);
+    let scene = SceneBuilder::new("spun")
+        .gravity([0.0, 0.0, -G])
+        .experiment(1.0, 1e-2)
+        .body(wheel)
+        .input(InputSpec::torque("spin", "wheel", [0.0, 0.0, 1.0]))
+        .build();
+    let mut s = common::start(scene);
     let e0 = balance(&mut s);
     s.set_by_name("spin", 0.5).unwrap();
     s.step_to(1.0).unwrap();
