@@ -20,7 +20,7 @@ pub use validate::{
     check_max_step, item_name, quote, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
     MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE,
 };
-use validate::{check_name, direction, length, magnitude, perpendicular, surface_extent, validate_law_keys, vector};
+use validate::{check_name, length, magnitude, validate_law_keys, vector};
 
 /// An error in a scene: names the file (origin), the item and the field.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]

@@ -4,8 +4,8 @@
 //! its shapes: [`Scene::group_pair_contact`] writes that contact.
 
 use super::{
-    direction, item_name, length, magnitude, perpendicular, quote, surface_extent, validate_law_keys, vector,
-    ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
+    item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
+    Scene, SceneError, Side, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -344,55 +344,20 @@ impl Scene {
                     Err(err(f, format!("required for a {} shape", kind_word(s.kind))))
                 }
             };
-            for (f, v) in [("center", s.center), ("origin", s.origin), ("axis_point", s.axis_point)] {
-                if let Some(v) = v {
-                    vector(origin, &item, f, &v)?;
-                }
+            if let Some(center) = s.center {
+                vector(origin, &item, "center", &center)?;
             }
-            for (f, v) in [
-                ("normal", s.normal),
-                ("u_axis", s.u_axis),
-                ("axis", s.axis),
-                ("ref_axis", s.ref_axis),
-            ] {
-                if let Some(v) = v {
-                    direction(origin, &item, f, v)?;
-                }
+            if let Some(radius) = s.radius {
+                length(origin, &item, "radius", radius)?;
             }
-            for (f, v) in [
-                ("radius", s.radius),
-                ("cylinder_radius", s.cylinder_radius),
-                ("length", s.length),
-            ] {
-                if let Some(v) = v {
-                    length(origin, &item, f, v)?;
-                }
-            }
-            surface_extent(origin, &item, s.size, s.theta_range)?;
+            s.check_surface_keys(origin, &item)?;
             match s.kind {
                 ShapeType::Sphere => {
                     need("radius", s.radius.is_some())?;
                     need("center", s.center.is_some() || s.body != GROUND)?;
                 }
-                ShapeType::Plane => {
-                    need("origin", s.origin.is_some())?;
-                    need("normal", s.normal.is_some())?;
-                    need("u_axis", s.u_axis.is_some())?;
-                    need("size", s.size.is_some())?;
-                    perpendicular((origin, &item), ("u_axis", s.u_axis), ("normal", s.normal))?;
-                }
-                ShapeType::Cylinder => {
-                    need("axis_point", s.axis_point.is_some())?;
-                    need("axis", s.axis.is_some())?;
-                    need("cylinder_radius", s.cylinder_radius.is_some())?;
-                    need("length", s.length.is_some())?;
-                    if s.theta_range.is_some() && s.ref_axis.is_none() {
-                        return Err(err("ref_axis", "required with theta_range".into()));
-                    }
-                    if s.ref_axis.is_some() {
-                        perpendicular((origin, &item), ("ref_axis", s.ref_axis), ("axis", s.axis))?;
-                    }
-                }
+                ShapeType::Plane => s.check_plane(origin, &item, need)?,
+                ShapeType::Cylinder => s.check_cylinder(origin, &item, need)?,
             }
             let e = groups.entry(s.group.as_str()).or_insert((true, true));
             e.0 &= s.kind == ShapeType::Sphere;

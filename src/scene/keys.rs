@@ -54,6 +54,86 @@ macro_rules! surface_keys {
             #[serde(default)]
             pub side: $crate::scene::Side,
         }}
+        surface_checks!($name);
+    };
+}
+
+/// The checks of the surface keys, for an item with [`surface_keys!`].
+macro_rules! surface_checks {
+    ($name:ident) => {
+        impl $name {
+            /// Checks every surface key given, whether or not the item's type uses it: points
+            /// finite, directions nonzero, lengths positive, the extent ordered.
+            pub(crate) fn check_surface_keys(&self, origin: &str, item: &str) -> Result<(), $crate::scene::SceneError> {
+                use $crate::scene::validate::{direction, length, surface_extent, vector};
+                for (f, v) in [("origin", self.origin), ("axis_point", self.axis_point)] {
+                    if let Some(v) = v {
+                        vector(origin, item, f, &v)?;
+                    }
+                }
+                for (f, v) in [
+                    ("normal", self.normal),
+                    ("u_axis", self.u_axis),
+                    ("axis", self.axis),
+                    ("ref_axis", self.ref_axis),
+                ] {
+                    if let Some(v) = v {
+                        direction(origin, item, f, v)?;
+                    }
+                }
+                for (f, v) in [("cylinder_radius", self.cylinder_radius), ("length", self.length)] {
+                    if let Some(v) = v {
+                        length(origin, item, f, v)?;
+                    }
+                }
+                surface_extent(origin, item, self.size, self.theta_range)
+            }
+
+            /// Checks that a plane has the keys it needs (`need` reports a missing one) and
+            /// that its axes are perpendicular.
+            pub(crate) fn check_plane(
+                &self,
+                origin: &str,
+                item: &str,
+                need: impl Fn(&str, bool) -> Result<(), $crate::scene::SceneError>,
+            ) -> Result<(), $crate::scene::SceneError> {
+                need("origin", self.origin.is_some())?;
+                need("normal", self.normal.is_some())?;
+                need("u_axis", self.u_axis.is_some())?;
+                need("size", self.size.is_some())?;
+                $crate::scene::validate::perpendicular((origin, item), ("u_axis", self.u_axis), ("normal", self.normal))
+            }
+
+            /// Checks that a cylinder has the keys it needs (`need` reports a missing one),
+            /// `ref_axis` with `theta_range`, perpendicular to the axis.
+            pub(crate) fn check_cylinder(
+                &self,
+                origin: &str,
+                item: &str,
+                need: impl Fn(&str, bool) -> Result<(), $crate::scene::SceneError>,
+            ) -> Result<(), $crate::scene::SceneError> {
+                need("axis_point", self.axis_point.is_some())?;
+                need("axis", self.axis.is_some())?;
+                need("cylinder_radius", self.cylinder_radius.is_some())?;
+                need("length", self.length.is_some())?;
+                if self.theta_range.is_some() && self.ref_axis.is_none() {
+                    return Err($crate::scene::SceneError::new(
+                        origin,
+                        item,
+                        "ref_axis",
+                        "required with theta_range",
+                    ));
+                }
+                if self.ref_axis.is_some() {
+                    $crate::scene::validate::perpendicular(
+                        (origin, item),
+                        ("ref_axis", self.ref_axis),
+                        ("axis", self.axis),
+                    )?;
+                }
+                Ok(())
+            }
+        }
     };
 }
 
