@@ -296,38 +296,20 @@ pub(super) fn inputs(scene: &Scene, v: &mut Vec<Variable>) {
 /// The outputs: bodies, joints, contacts, energies, counters.
 pub(super) fn outputs(scene: &Scene, v: &mut Vec<Variable>) {
     for (i, b) in scene.body.iter().enumerate() {
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(with_display(
-                out(
-                    format!("{}.r[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m"),
-                    VarRef::BodyPosition(i, k),
-                    format!("centre-of-mass position, world {axis}"),
-                ),
-                "mm",
-            ));
-        }
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(with_display(
-                out(
-                    format!("{}.v[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m/s"),
-                    VarRef::BodyVelocity(i, k),
-                    format!("centre-of-mass velocity, world {axis}"),
-                ),
-                "km/h",
-            ));
-        }
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(out(
-                format!("{}.w[{}]", b.name, k + 1),
-                VarType::Real,
-                Some("rad/s"),
-                VarRef::BodyAngularVelocity(i, k),
-                format!("angular velocity, world {axis}"),
-            ));
+        let vectors: [(_, _, ComponentRef, _, _); 3] = [
+            ("r", "m", VarRef::BodyPosition, "centre-of-mass position", Some("mm")),
+            (
+                "v",
+                "m/s",
+                VarRef::BodyVelocity,
+                "centre-of-mass velocity",
+                Some("km/h"),
+            ),
+            ("w", "rad/s", VarRef::BodyAngularVelocity, "angular velocity", None),
+        ];
+        for (key, unit, target, what, display_unit) in vectors {
+            let components = world_vector(&b.name, key, unit, |k| target(i, k), what, false);
+            v.extend(components.map(|x| Variable { display_unit, ..x }));
         }
         for (k, part) in ["w (scalar part)", "x", "y", "z"].iter().enumerate() {
             v.push(out(
@@ -564,20 +546,17 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         }
     }
     for (i, c) in scene.contact.iter().enumerate() {
-        for (k, axis) in AXES.iter().enumerate() {
-            // A resting impulse-law contact's friction follows its normal force, a
-            // constraint force solved with the applied forces (inputs included), like
-            // `<contact>.force`.
-            let mut f = out(
-                format!("{}.friction_force[{}]", c.name, k + 1),
-                VarType::Real,
-                Some("N"),
-                VarRef::ContactFrictionForce(i, k),
-                format!("friction force on the sphere, world {axis}"),
-            );
-            f.depends_on_inputs = has_inputs;
-            v.push(f);
-        }
+        // A resting impulse-law contact's friction follows its normal force, a constraint force
+        // solved with the applied forces (inputs included), like `<contact>.force`.
+        let friction = |k| VarRef::ContactFrictionForce(i, k);
+        v.extend(world_vector(
+            &c.name,
+            "friction_force",
+            "N",
+            friction,
+            "friction force on the sphere",
+            has_inputs,
+        ));
         v.push(out(
             format!("{}.slip_velocity", c.name),
             VarType::Real,
