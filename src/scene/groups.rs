@@ -167,24 +167,6 @@ impl ContactGroupSpec {
             stiction_velocity: None,
         }
     }
-
-    /// Sets the restitution.
-    pub fn restitution(mut self, e: f64) -> ContactGroupSpec {
-        self.restitution = e;
-        self
-    }
-
-    /// Sets the stiffness.
-    pub fn stiffness(mut self, k: f64) -> ContactGroupSpec {
-        self.stiffness = Some(k);
-        self
-    }
-
-    /// Sets the Coulomb friction coefficient.
-    pub fn friction(mut self, mu: f64) -> ContactGroupSpec {
-        self.friction = Some(mu);
-        self
-    }
 }
 
 /// Broad-phase algorithms.
