@@ -2,7 +2,7 @@
 //! cylinder (the other shape of a `[[contact]]`, a `[[shape]]`) and the contact-law keys (a
 //! `[[contact]]`, a `[[contact_group]]`).
 //!
-//! [`scene_item!`] appends them to an item's own fields. They are not a `#[serde(flatten)]`
+//! `scene_item!` appends them to an item's own fields. They are not a `#[serde(flatten)]`
 //! struct because flattening makes serde buffer the table: a TOML error in a shared key would
 //! then point at the table's header instead of the key, and an unknown key would no longer be
 //! told the keys it could have been.
@@ -15,7 +15,7 @@ macro_rules! scene_item {
 }
 
 /// Appends the surface keys of a plane (`origin`, `normal`, `u_axis`, `size`) and of a
-/// cylinder (`axis_point` … `side`) to a [`scene_item!`].
+/// cylinder (`axis_point` … `side`) to a `scene_item!`.
 macro_rules! surface_keys {
     ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
@@ -58,7 +58,7 @@ macro_rules! surface_keys {
     };
 }
 
-/// The checks of the surface keys, for an item with [`surface_keys!`].
+/// The checks of the surface keys, for an item with `surface_keys!`.
 macro_rules! surface_checks {
     ($name:ident) => {
         impl $name {
@@ -138,7 +138,7 @@ macro_rules! surface_checks {
 }
 
 /// Appends the contact-law keys after the law and the restitution (`stiffness` …
-/// `stiction_velocity`) to a [`scene_item!`].
+/// `stiction_velocity`) to a `scene_item!`.
 macro_rules! law_keys {
     ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
