@@ -8,17 +8,16 @@ The vehicle FMU comes from `contact-fmu export fmu/rail_vehicle/scene.toml`; the
 built (`cosim/build_driver.py`) when `--driver` is not given or missing.
 """
 
-import argparse
 import sys
 from pathlib import Path
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from cosim import build_driver  # noqa: E402
-    from cosim.ssp import ROOT, pack_ssp  # noqa: E402
+    from cosim.ssp import ROOT, pack_command, pack_ssp  # noqa: E402
 else:
     from . import build_driver
-    from .ssp import ROOT, pack_ssp
+    from .ssp import ROOT, pack_command, pack_ssp
 
 DEFAULT_OUTPUT = ROOT / "target" / "cosim" / "rail_vehicle_speed_control.ssp"
 VEHICLE = ROOT / "target" / "fmu" / "rail_vehicle.fmu"
@@ -34,12 +33,7 @@ def build(output=DEFAULT_OUTPUT, vehicle=VEHICLE, driver=None):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--vehicle", type=Path, default=VEHICLE)
-    parser.add_argument("--driver", type=Path)
-    parser.add_argument("-o", "--output", type=Path, default=DEFAULT_OUTPUT)
-    args = parser.parse_args()
-    print(f"wrote {build(args.output, args.vehicle, args.driver)}")
+    pack_command(__doc__.splitlines()[0], build, VEHICLE, "driver", DEFAULT_OUTPUT)
 
 
 if __name__ == "__main__":

@@ -9,17 +9,16 @@ The vehicle FMU comes from `contact-fmu export fmu/rail_vehicle_track/scene.toml
 `cargo run --release` exports it); the track FMU is built when `--track` is not given or missing.
 """
 
-import argparse
 import sys
 from pathlib import Path
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from cosim import build_driver  # noqa: E402
-    from cosim.ssp import ROOT, pack_ssp  # noqa: E402
+    from cosim.ssp import ROOT, pack_command, pack_ssp  # noqa: E402
 else:
     from . import build_driver
-    from .ssp import ROOT, pack_ssp
+    from .ssp import ROOT, pack_command, pack_ssp
 
 TRACK_DIR = ROOT / "cosim" / "track"
 SOURCE = TRACK_DIR / "track_irregularity.py"
@@ -46,12 +45,7 @@ def build(output=DEFAULT_OUTPUT, vehicle=VEHICLE, track=None, ssd=SSD):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--vehicle", type=Path, default=VEHICLE)
-    parser.add_argument("--track", type=Path)
-    parser.add_argument("-o", "--output", type=Path, default=DEFAULT_OUTPUT)
-    args = parser.parse_args()
-    print(f"wrote {build(args.output, args.vehicle, args.track)}")
+    pack_command(__doc__.splitlines()[0], build, VEHICLE, "track", DEFAULT_OUTPUT)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ An `.ssp` is a zip holding `SystemStructure.ssd` and the FMUs it names (`source`
 archive's root). `read_system` takes either an `.ssp` (extracted into a directory) or an `.ssd`.
 """
 
+import argparse
 import json
 import math
 import shutil
@@ -115,6 +116,17 @@ def pack_ssp(output, fmus, ssd=SSD):
         for source, fmu in fmus.items():
             z.write(fmu, source)
     return output
+
+
+def pack_command(description, build, vehicle, other, output):
+    """The command line of a script that packs the vehicle FMU with one `other` FMU into an
+    `.ssp`: `--vehicle`, `--<other>` and `-o`, handed to `build(output, vehicle, other)`."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--vehicle", type=Path, default=vehicle)
+    parser.add_argument(f"--{other}", type=Path)
+    parser.add_argument("-o", "--output", type=Path, default=output)
+    args = parser.parse_args()
+    print(f"wrote {build(args.output, args.vehicle, getattr(args, other))}")
 
 
 def unpack_ssd_dir(directory, fmus, ssd=SSD):

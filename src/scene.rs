@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
+#[macro_use]
+mod keys;
 mod groups;
 mod inputs;
 mod validate;
@@ -18,7 +20,7 @@ pub use validate::{
     check_max_step, item_name, quote, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
     MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE,
 };
-use validate::{check_name, direction, length, magnitude, perpendicular, surface_extent, validate_law_keys, vector};
+use validate::{check_name, length, magnitude, validate_law_keys, vector};
 
 /// An error in a scene: names the file (origin), the item and the field.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
@@ -458,107 +460,43 @@ pub enum ImpulseMethod {
     EffectiveMass,
 }
 
-/// `[[contact]]`
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ContactSpec {
-    /// Name.
-    pub name: String,
-    /// Element type.
-    #[serde(rename = "type")]
-    pub kind: ContactType,
-    /// Force law.
-    pub law: Law,
-    /// Coefficient of restitution e (0..=1).
-    #[serde(default = "default_restitution")]
-    pub restitution: f64,
-    /// Body that carries the sphere.
-    pub sphere_body: String,
-    /// Sphere centre, world frame [m].
-    pub center: [f64; 3],
-    /// Sphere radius [m].
-    pub radius: f64,
-    /// Sphere material.
-    #[serde(default)]
-    pub sphere_material: Option<String>,
-    /// Body that carries the other shape.
-    pub body: String,
-    /// Material of the other shape.
-    #[serde(default)]
-    pub material: Option<String>,
-    /// sphere_sphere: centre of the other sphere, world frame [m].
-    #[serde(default)]
-    pub other_center: Option<[f64; 3]>,
-    /// sphere_sphere: radius of the other sphere [m].
-    #[serde(default)]
-    pub other_radius: Option<f64>,
-    /// sphere_plane: centre of the rectangle [m].
-    #[serde(default)]
-    pub origin: Option<[f64; 3]>,
-    /// sphere_plane: outward normal.
-    #[serde(default)]
-    pub normal: Option<[f64; 3]>,
-    /// sphere_plane: first in-plane axis.
-    #[serde(default)]
-    pub u_axis: Option<[f64; 3]>,
-    /// sphere_plane: side lengths [lu, lv] [m].
-    #[serde(default)]
-    pub size: Option<[f64; 2]>,
-    /// sphere_cylinder: a point on the axis (the middle of the patch's length) [m].
-    #[serde(default)]
-    pub axis_point: Option<[f64; 3]>,
-    /// sphere_cylinder: axis direction.
-    #[serde(default)]
-    pub axis: Option<[f64; 3]>,
-    /// sphere_cylinder: cylinder radius [m].
-    #[serde(default)]
-    pub cylinder_radius: Option<f64>,
-    /// sphere_cylinder: length along the axis [m].
-    #[serde(default)]
-    pub length: Option<f64>,
-    /// sphere_cylinder: angular range [min, max] from `ref_axis` [rad].
-    #[serde(default)]
-    pub theta_range: Option<[f64; 2]>,
-    /// sphere_cylinder: direction (perpendicular to the axis) where θ = 0.
-    #[serde(default)]
-    pub ref_axis: Option<[f64; 3]>,
-    /// sphere_cylinder: outside (convex) or inside (concave).
-    #[serde(default)]
-    pub side: Side,
-    /// Contact stiffness K [N/m^n]; derived for the Hertz family when absent.
-    #[serde(default)]
-    pub stiffness: Option<f64>,
-    /// Kelvin-Voigt damping c [N s/m].
-    #[serde(default)]
-    pub damping: Option<f64>,
-    /// Exponent n (default 1.5).
-    #[serde(default)]
-    pub exponent: Option<f64>,
-    /// Largest admissible penetration [m].
-    #[serde(default)]
-    pub max_penetration: Option<f64>,
-    /// Floor on the remembered impact velocity δ̇⁻ [m/s]; for the impulse law, approach
-    /// speeds below it end in a resting contact.
-    #[serde(default)]
-    pub min_impact_velocity: Option<f64>,
-    /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
-    #[serde(default)]
-    pub impulse_method: ImpulseMethod,
-    /// Coulomb (sliding) friction coefficient μ (default 0: no friction).
-    #[serde(default)]
-    pub friction: Option<f64>,
-    /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
-    #[serde(default)]
-    pub static_friction: Option<f64>,
-    /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
-    #[serde(default)]
-    pub stribeck_velocity: Option<f64>,
-    /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
-    #[serde(default)]
-    pub viscous_friction: Option<f64>,
-    /// Regularisation velocity v_s [m/s] of the continuous friction law.
-    #[serde(default)]
-    pub stiction_velocity: Option<f64>,
+scene_item! {
+    [surface_keys, law_keys]
+    /// `[[contact]]`
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    #[serde(deny_unknown_fields)]
+    pub struct ContactSpec {
+        /// Name.
+        pub name: String,
+        /// Element type.
+        #[serde(rename = "type")]
+        pub kind: ContactType,
+        /// Force law.
+        pub law: Law,
+        /// Coefficient of restitution e (0..=1).
+        #[serde(default = "default_restitution")]
+        pub restitution: f64,
+        /// Body that carries the sphere.
+        pub sphere_body: String,
+        /// Sphere centre, world frame [m].
+        pub center: [f64; 3],
+        /// Sphere radius [m].
+        pub radius: f64,
+        /// Sphere material.
+        #[serde(default)]
+        pub sphere_material: Option<String>,
+        /// Body that carries the other shape.
+        pub body: String,
+        /// Material of the other shape.
+        #[serde(default)]
+        pub material: Option<String>,
+        /// sphere_sphere: centre of the other sphere, world frame [m].
+        #[serde(default)]
+        pub other_center: Option<[f64; 3]>,
+        /// sphere_sphere: radius of the other sphere [m].
+        #[serde(default)]
+        pub other_radius: Option<f64>,
+    }
 }
 
 impl ContactSpec {

@@ -444,45 +444,10 @@ impl ContactSpec {
         }
     }
 
-    /// `restitution` e.
-    pub fn restitution(mut self, e: f64) -> ContactSpec {
-        self.restitution = e;
-        self
-    }
-
     /// `sphere_material` and `material` (of the other shape).
     pub fn materials(mut self, sphere: &str, other: &str) -> ContactSpec {
         self.sphere_material = Some(sphere.to_string());
         self.material = Some(other.to_string());
-        self
-    }
-
-    optional_keys! {
-        /// `stiffness` K [N/m^n].
-        stiffness: f64,
-        /// `damping` c [N s/m] (Kelvin-Voigt).
-        damping: f64,
-        /// `exponent` n of the force law.
-        exponent: f64,
-        /// `max_penetration` [m].
-        max_penetration: f64,
-        /// `min_impact_velocity` [m/s].
-        min_impact_velocity: f64,
-        /// `friction`: Coulomb coefficient μ.
-        friction: f64,
-        /// `static_friction` μ_s.
-        static_friction: f64,
-        /// `stribeck_velocity` [m/s].
-        stribeck_velocity: f64,
-        /// `viscous_friction` σ [s/m].
-        viscous_friction: f64,
-        /// `stiction_velocity` v_s [m/s] (regularisation).
-        stiction_velocity: f64,
-    }
-
-    /// `impulse_method` (impulse law).
-    pub fn impulse_method(mut self, m: ImpulseMethod) -> ContactSpec {
-        self.impulse_method = m;
         self
     }
 
@@ -499,6 +464,52 @@ impl ContactSpec {
         self
     }
 }
+
+/// The chainable setters of the contact-law keys (`restitution`, the optional constants,
+/// `impulse_method`) of a `[[contact]]` and a `[[contact_group]]`.
+macro_rules! law_key_setters {
+    ($spec:ty) => {
+        impl $spec {
+            /// `restitution` e.
+            pub fn restitution(mut self, e: f64) -> Self {
+                self.restitution = e;
+                self
+            }
+
+            optional_keys! {
+                /// `stiffness` K [N/m^n].
+                stiffness: f64,
+                /// `damping` c [N s/m] (Kelvin-Voigt).
+                damping: f64,
+                /// `exponent` n of the force law.
+                exponent: f64,
+                /// `max_penetration` [m].
+                max_penetration: f64,
+                /// `min_impact_velocity` [m/s].
+                min_impact_velocity: f64,
+                /// `friction`: Coulomb coefficient μ.
+                friction: f64,
+                /// `static_friction` μ_s.
+                static_friction: f64,
+                /// `stribeck_velocity` [m/s].
+                stribeck_velocity: f64,
+                /// `viscous_friction` σ [s/m].
+                viscous_friction: f64,
+                /// `stiction_velocity` v_s [m/s] (regularisation).
+                stiction_velocity: f64,
+            }
+
+            /// `impulse_method` (impulse law).
+            pub fn impulse_method(mut self, m: ImpulseMethod) -> Self {
+                self.impulse_method = m;
+                self
+            }
+        }
+    };
+}
+
+law_key_setters!(ContactSpec);
+law_key_setters!(ContactGroupSpec);
 
 impl InputSpec {
     fn on(
@@ -532,6 +543,11 @@ impl InputSpec {
     /// A generalised force on the 1-DOF `joint` [N or N m].
     pub fn joint_force(name: &str, joint: &str) -> InputSpec {
         InputSpec::on(name, InputType::JointForce, None, Some(joint), None)
+    }
+
+    /// A prescribed motion of the 1-DOF `joint` (its coordinate, rate and acceleration).
+    pub fn joint_motion(name: &str, joint: &str) -> InputSpec {
+        InputSpec::on(name, InputType::JointMotion, None, Some(joint), None)
     }
 
     /// The same generalised force on each of the 1-DOF `joints` [N or N m].

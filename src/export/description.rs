@@ -397,131 +397,176 @@ pub(super) fn write_categories_and_experiment(
     Ok(())
 }
 
-pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+/// Writes a part of a model description that covers the whole variable table.
+pub(super) type TableWriter = fn(&mut Writer<Vec<u8>>, &VariableTable) -> io::Result<()>;
+
+/// What the model description of one FMI version writes in its own way.
+pub(super) struct Layout {
+    /// The FMI version.
+    pub version: Version,
+    /// `CoSimulation`'s attributes after `modelIdentifier`.
+    pub capabilities: &'static [(&'static str, &'static str)],
+    /// What `ModelVariables` holds before the table's variables (FMI 3.0: `time`).
+    pub independent: Option<TableWriter>,
+    /// One variable of the table, with its value reference.
+    pub variable: fn(&mut Writer<Vec<u8>>, usize, &Variable) -> io::Result<()>,
+    /// `ModelStructure`.
+    pub structure: TableWriter,
+}
+
+/// A `modelDescription.xml` of either FMI version: the root element, `CoSimulation`, the
+/// units, type definitions, log categories and default experiment, `ModelVariables` and
+/// `ModelStructure`, each as `layout` writes it.
+pub(super) fn write_document(
+    scene: &Scene,
+    scene_text: &str,
+    generated: Option<&str>,
+    layout: &Layout,
+) -> io::Result<Vec<u8>> {
     let table = VariableTable::from_scene(scene);
-    let m = &scene.model;
+    let version = layout.version;
     let mut w = xml_writer()?;
     w.create_element("fmiModelDescription")
-        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi2, generated)))
+        .with_attributes(attrs(root_attributes(scene, scene_text, version, generated)))
         .write_inner_content(|w| {
+            let model_identifier = ("modelIdentifier", scene.model.name.as_str());
             empty(
                 w,
                 "CoSimulation",
-                [
-                    ("modelIdentifier", m.name.as_str()),
-                    ("canHandleVariableCommunicationStepSize", "true"),
-                    ("canInterpolateInputs", "false"),
-                    ("maxOutputDerivativeOrder", "0"),
-                    ("canRunAsynchronuously", "false"),
-                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
-                    ("canNotUseMemoryManagementFunctions", "true"),
-                    ("canGetAndSetFMUstate", "true"),
-                    ("canSerializeFMUstate", "true"),
-                    ("providesDirectionalDerivative", "false"),
-                ],
+                std::iter::once(model_identifier).chain(layout.capabilities.iter().copied()),
             )?;
             write_units(w, &table)?;
-            write_type_definitions(w, &table, Version::Fmi2)?;
-            write_categories_and_experiment(w, scene, Version::Fmi2)?;
+            write_type_definitions(w, &table, version)?;
+            write_categories_and_experiment(w, scene, version)?;
             w.create_element("ModelVariables").write_inner_content(|w| {
+                if let Some(independent) = layout.independent {
+                    independent(w, &table)?;
+                }
                 for (vr, v) in table.vars.iter().enumerate() {
-                    write_variable(w, vr, v)?;
+                    (layout.variable)(w, vr, v)?;
                 }
                 Ok(())
             })?;
-            let (outputs, initial) = model_structure(&table);
-            w.create_element("ModelStructure").write_inner_content(|w| {
-                for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
-                    if list.is_empty() {
-                        continue;
-                    }
-                    w.create_element(tag).write_inner_content(|w| {
-                        for &i in list {
-                            let index = i.to_string();
-                            let mut a = vec![("index", index)];
-                            // Outputs state their direct dependencies (often none); initial
-                            // unknowns keep FMI's default (they may depend on every parameter).
-                            if tag == "Outputs" {
-                                let deps: Vec<String> = output_dependencies(&table, i - 1)
-                                    .iter()
-                                    .map(|d| d.to_string())
-                                    .collect();
-                                a.push(("dependencies", deps.join(" ")));
-                            }
-                            empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
-                        }
-                        Ok(())
-                    })?;
-                }
-                Ok(())
-            })?;
-            Ok(())
+            (layout.structure)(w, &table)
         })?;
     let mut out = w.into_inner();
     out.push(b'\n');
     Ok(out)
 }
 
-pub(super) fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
-    let vr_text = vr.to_string();
+/// FMI 2.0's way.
+const FMI2: Layout = Layout {
+    version: Version::Fmi2,
+    capabilities: &[
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("canInterpolateInputs", "false"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("canRunAsynchronuously", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canNotUseMemoryManagementFunctions", "true"),
+        ("canGetAndSetFMUstate", "true"),
+        ("canSerializeFMUstate", "true"),
+        ("providesDirectionalDerivative", "false"),
+    ],
+    independent: None,
+    variable: write_variable,
+    structure: write_structure,
+};
+
+pub(super) fn write_model_description(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
+    write_document(scene, scene_text, generated, &FMI2)
+}
+
+/// FMI 2.0's `ModelStructure`: the outputs, then the initial unknowns, by 1-based index.
+fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let (outputs, initial) = model_structure(table);
+    w.create_element("ModelStructure").write_inner_content(|w| {
+        for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
+            if list.is_empty() {
+                continue;
+            }
+            w.create_element(tag).write_inner_content(|w| {
+                for &i in list {
+                    let index = i.to_string();
+                    let mut a = vec![("index", index)];
+                    // Outputs state their direct dependencies (often none); initial
+                    // unknowns keep FMI's default (they may depend on every parameter).
+                    if tag == "Outputs" {
+                        let deps: Vec<String> = output_dependencies(table, i - 1)
+                            .iter()
+                            .map(|d| d.to_string())
+                            .collect();
+                        a.push(("dependencies", deps.join(" ")));
+                    }
+                    empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
+                }
+                Ok(())
+            })?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// The attributes both FMI versions give a variable: those of the variable (name, value
+/// reference, description, causality, variability, initial) and those of its type (unit,
+/// display unit, a parameter's range, start). FMI 2.0 writes the second on the type's element
+/// inside the `ScalarVariable`, FMI 3.0 both on its one element. An enumeration's
+/// `declaredType`, which stands in a different place in each version, is left to the caller.
+pub(super) fn variable_attributes(vr: usize, v: &Variable) -> [Vec<(&'static str, String)>; 2] {
+    let mut own = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
     let description = describe(v);
-    let mut attributes = vec![("name", v.name.as_str()), ("valueReference", vr_text.as_str())];
     if !description.is_empty() {
-        attributes.push(("description", description.as_str()));
+        own.push(("description", description));
     }
-    attributes.push(("causality", v.causality.name()));
-    attributes.push(("variability", v.variability.name()));
+    own.push(("causality", v.causality.name().to_string()));
+    own.push(("variability", v.variability.name().to_string()));
     if let Some(initial) = initial_of(v) {
-        attributes.push(("initial", initial));
+        own.push(("initial", initial.to_string()));
     }
-    let start_allowed = initial_of(v) != Some("calculated");
-    let start = if start_allowed { v.start } else { None };
+    let start = if initial_of(v) == Some("calculated") {
+        None
+    } else {
+        v.start
+    };
+    let parameter = v.causality == Causality::Parameter;
+    let mut typed = Vec::new();
+    match v.vtype {
+        VarType::Real => {
+            typed.extend(v.unit.map(|u| ("unit", u.to_string())));
+            typed.extend(v.display_unit.map(|d| ("displayUnit", d.to_string())));
+            if parameter {
+                typed.extend(range_attributes(v.range));
+            }
+            typed.extend(start.map(|s| ("start", format_real(s))));
+        }
+        VarType::Integer => {
+            if parameter {
+                typed.extend(range_attributes(v.range));
+            }
+            typed.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
+        }
+        VarType::Boolean => typed.extend(start.map(|s| ("start", (s != 0.0).to_string()))),
+        VarType::Enumeration(_) => typed.extend(start.map(|s| ("start", format!("{}", s.round() as i64)))),
+    }
+    [own, typed]
+}
+
+/// One `ScalarVariable` and its type's element.
+fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
+    let [own, mut typed] = variable_attributes(vr, v);
+    let tag = match v.vtype {
+        VarType::Real => "Real",
+        VarType::Integer => "Integer",
+        VarType::Boolean => "Boolean",
+        VarType::Enumeration(e) => {
+            typed.insert(0, ("declaredType", e.type_name().to_string()));
+            "Enumeration"
+        }
+    };
     w.create_element("ScalarVariable")
-        .with_attributes(attrs(attributes))
-        .write_inner_content(|w| {
-            let mut a: Vec<(&str, String)> = Vec::new();
-            let tag = match v.vtype {
-                VarType::Real => {
-                    if let Some(u) = v.unit {
-                        a.push(("unit", u.to_string()));
-                    }
-                    if let Some(d) = v.display_unit {
-                        a.push(("displayUnit", d.to_string()));
-                    }
-                    if v.causality == Causality::Parameter {
-                        a.extend(range_attributes(v.range));
-                    }
-                    if let Some(s) = start {
-                        a.push(("start", format_real(s)));
-                    }
-                    "Real"
-                }
-                VarType::Integer => {
-                    if v.causality == Causality::Parameter {
-                        a.extend(range_attributes(v.range));
-                    }
-                    if let Some(s) = start {
-                        a.push(("start", format!("{}", s.round() as i64)));
-                    }
-                    "Integer"
-                }
-                VarType::Boolean => {
-                    if let Some(s) = start {
-                        a.push(("start", (if s != 0.0 { "true" } else { "false" }).to_string()));
-                    }
-                    "Boolean"
-                }
-                VarType::Enumeration(e) => {
-                    a.push(("declaredType", e.type_name().to_string()));
-                    if let Some(s) = start {
-                        a.push(("start", format!("{}", s.round() as i64)));
-                    }
-                    "Enumeration"
-                }
-            };
-            empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
-            Ok(())
-        })?;
+        .with_attributes(attrs(own))
+        .write_inner_content(|w| empty(w, tag, typed))?;
     Ok(())
 }
 

@@ -14,12 +14,11 @@
 //!   names 1-based indices), the outputs with their `dependencies`.
 
 use super::description::{
-    attrs, empty, format_real, initial_of, model_structure, output_dependencies, range_attributes, root_attributes,
-    used_units, write_categories_and_experiment, write_type_definitions, write_units, xml_writer,
+    empty, model_structure, output_dependencies, used_units, variable_attributes, write_document, Layout,
 };
 use crate::fmi::lifecycle::Version;
 use crate::scene::Scene;
-use crate::variables::{Causality, VarType, Variable, VariableTable};
+use crate::variables::{VarType, Variable, VariableTable};
 use quick_xml::Writer;
 use std::io;
 
@@ -37,58 +36,46 @@ pub fn model_description_xml_dated(scene: &Scene, scene_text: &str, generated: O
 }
 
 fn write(scene: &Scene, scene_text: &str, generated: Option<&str>) -> io::Result<Vec<u8>> {
-    let table = VariableTable::from_scene(scene);
-    let mut w = xml_writer()?;
-    w.create_element("fmiModelDescription")
-        .with_attributes(attrs(root_attributes(scene, scene_text, Version::Fmi3, generated)))
-        .write_inner_content(|w| {
-            empty(
-                w,
-                "CoSimulation",
-                [
-                    ("modelIdentifier", scene.model.name.as_str()),
-                    ("canBeInstantiatedOnlyOncePerProcess", "false"),
-                    ("canGetAndSetFMUState", "true"),
-                    ("canSerializeFMUState", "true"),
-                    ("providesDirectionalDerivatives", "false"),
-                    ("providesAdjointDerivatives", "false"),
-                    ("providesPerElementDependencies", "false"),
-                    ("canHandleVariableCommunicationStepSize", "true"),
-                    ("maxOutputDerivativeOrder", "0"),
-                    ("providesIntermediateUpdate", "false"),
-                    ("mightReturnEarlyFromDoStep", "true"),
-                    ("canReturnEarlyAfterIntermediateUpdate", "false"),
-                    ("hasEventMode", "false"),
-                    ("providesEvaluateDiscreteStates", "false"),
-                ],
-            )?;
-            write_units(w, &table)?;
-            write_type_definitions(w, &table, Version::Fmi3)?;
-            write_categories_and_experiment(w, scene, Version::Fmi3)?;
-            w.create_element("ModelVariables").write_inner_content(|w| {
-                // FMI 3.0's one independent variable, after the table's value references
-                let time_vr = table.vars.len().to_string();
-                let mut time = vec![
-                    ("name", "time"),
-                    ("valueReference", time_vr.as_str()),
-                    ("description", "Simulation time"),
-                    ("causality", "independent"),
-                    ("variability", "continuous"),
-                ];
-                if used_units(&table).iter().any(|u| u.name == "s") {
-                    time.push(("unit", "s"));
-                }
-                empty(w, "Float64", time)?;
-                for (vr, v) in table.vars.iter().enumerate() {
-                    write_variable(w, vr, v)?;
-                }
-                Ok(())
-            })?;
-            write_structure(w, &table)
-        })?;
-    let mut out = w.into_inner();
-    out.push(b'\n');
-    Ok(out)
+    write_document(scene, scene_text, generated, &FMI3)
+}
+
+/// FMI 3.0's way.
+const FMI3: Layout = Layout {
+    version: Version::Fmi3,
+    capabilities: &[
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canGetAndSetFMUState", "true"),
+        ("canSerializeFMUState", "true"),
+        ("providesDirectionalDerivatives", "false"),
+        ("providesAdjointDerivatives", "false"),
+        ("providesPerElementDependencies", "false"),
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("providesIntermediateUpdate", "false"),
+        ("mightReturnEarlyFromDoStep", "true"),
+        ("canReturnEarlyAfterIntermediateUpdate", "false"),
+        ("hasEventMode", "false"),
+        ("providesEvaluateDiscreteStates", "false"),
+    ],
+    independent: Some(write_time),
+    variable: write_variable,
+    structure: write_structure,
+};
+
+/// FMI 3.0's one independent variable, after the table's value references.
+fn write_time(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
+    let time_vr = table.vars.len().to_string();
+    let mut time = vec![
+        ("name", "time"),
+        ("valueReference", time_vr.as_str()),
+        ("description", "Simulation time"),
+        ("causality", "independent"),
+        ("variability", "continuous"),
+    ];
+    if used_units(table).iter().any(|u| u.name == "s") {
+        time.push(("unit", "s"));
+    }
+    empty(w, "Float64", time)
 }
 
 /// `ModelStructure`: every output with the value references it depends on directly, then the
@@ -121,53 +108,16 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
 /// One variable: the element of its type with FMI 3.0's attributes (the same values as the
 /// FMI 2.0 `ScalarVariable`).
 fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
-    let mut a: Vec<(&str, String)> = vec![("name", v.name.clone()), ("valueReference", vr.to_string())];
-    let description = super::description::describe(v);
-    if !description.is_empty() {
-        a.push(("description", description));
-    }
-    a.push(("causality", v.causality.name().to_string()));
-    a.push(("variability", v.variability.name().to_string()));
-    if let Some(initial) = initial_of(v) {
-        a.push(("initial", initial.to_string()));
-    }
-    let start = if initial_of(v) == Some("calculated") {
-        None
-    } else {
-        v.start
-    };
-    let parameter = v.causality == Causality::Parameter;
+    let [mut a, typed] = variable_attributes(vr, v);
     let tag = match v.vtype {
-        VarType::Real => {
-            if let Some(e) = v.unit {
-                a.push(("unit", e.to_string()));
-            }
-            if let Some(d) = v.display_unit {
-                a.push(("displayUnit", d.to_string()));
-            }
-            if parameter {
-                a.extend(range_attributes(v.range));
-            }
-            a.extend(start.map(|s| ("start", format_real(s))));
-            "Float64"
-        }
-        VarType::Integer => {
-            if parameter {
-                a.extend(range_attributes(v.range));
-            }
-            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
-            "Int32"
-        }
-        VarType::Boolean => {
-            a.extend(start.map(|s| ("start", (s != 0.0).to_string())));
-            "Boolean"
-        }
+        VarType::Real => "Float64",
+        VarType::Integer => "Int32",
+        VarType::Boolean => "Boolean",
         VarType::Enumeration(e) => {
             a.insert(2, ("declaredType", e.type_name().to_string()));
-            a.extend(start.map(|s| ("start", format!("{}", s.round() as i64))));
             "Enumeration"
         }
     };
-    empty(w, tag, a.iter().map(|(k, v)| (*k, v.as_str())))?;
-    Ok(())
+    a.extend(typed);
+    empty(w, tag, a)
 }

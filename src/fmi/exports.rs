@@ -139,20 +139,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             logging_on: logging_on != FMI2_FALSE,
             early_return: false,
         };
-        match catch_unwind(AssertUnwindSafe(|| Instance::new(args))) {
-            Ok(Ok(inst)) => glue::register(inst),
-            Ok(Err(message)) => {
-                report(&message);
-                ptr::null_mut()
-            }
-            Err(payload) => {
-                report(&format!(
-                    "fmi2Instantiate: internal error (panic): {}",
-                    glue::panic_text(payload.as_ref())
-                ));
-                ptr::null_mut()
-            }
-        }
+        glue::instantiate(args, report)
     }));
     result.unwrap_or(ptr::null_mut())
 }

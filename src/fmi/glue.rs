@@ -7,7 +7,7 @@
 //! two threads at once (FMI 2.0 and 3.0 alike). Each function's `# Safety` names its other
 //! pointers.
 
-use super::instance::{Access, Failure, FmiResult, Instance};
+use super::instance::{Access, Failure, FmiResult, Instance, InstantiateArgs};
 use super::lifecycle::Version;
 use super::registry::{INSTANCES, STATES};
 use super::saved::SavedState;
@@ -48,6 +48,19 @@ pub(crate) unsafe fn instance<'a>(c: *mut c_void, version: Version) -> Option<&'
 /// Leaks a new instance into the registry of live handles; the handle the host receives.
 pub(crate) fn register(inst: Instance) -> *mut c_void {
     INSTANCES.register(Box::new(inst)) as *mut c_void
+}
+
+/// Creates the instance `args` describe and registers it: its handle, or NULL once `report`
+/// has been given the reason (the instance's refusal, or a panic while creating it).
+pub(crate) fn instantiate(args: InstantiateArgs, report: impl Fn(&str)) -> *mut c_void {
+    let function = args.function;
+    let message = match catch_unwind(AssertUnwindSafe(|| Instance::new(args))) {
+        Ok(Ok(inst)) => return register(inst),
+        Ok(Err(message)) => message,
+        Err(payload) => format!("{function}: internal error (panic): {}", panic_text(payload.as_ref())),
+    };
+    report(&message);
+    ptr::null_mut()
 }
 
 /// Frees the instance behind `c` when it is a live instance of `version`; anything else is

@@ -35,23 +35,39 @@ pub const FMI2_MODEL_EXCHANGE: c_int = 0;
 /// `fmi2Type` value of Co-Simulation.
 pub const FMI2_CO_SIMULATION: c_int = 1;
 
-/// `fmi2Status`. Only ever produced by this library, so a Rust enum is safe to return.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub enum fmi2Status {
-    /// All well.
-    fmi2OK = 0,
-    /// Something questionable happened; the call did its job.
-    fmi2Warning = 1,
-    /// The step was not completed.
-    fmi2Discard = 2,
-    /// This instance cannot continue (free, reset or restore a state).
-    fmi2Error = 3,
-    /// No instance can continue.
-    fmi2Fatal = 4,
+/// Declares the status enum of an FMI version: the five statuses both versions share, under
+/// that version's names (`fmi_status!(fmi3Status: fmi3OK, fmi3Warning, fmi3Discard,
+/// fmi3Error, fmi3Fatal)`), then the version's own ones.
+macro_rules! fmi_status {
+    ($(#[$meta:meta])* $name:ident: $ok:ident, $warning:ident, $discard:ident, $error:ident, $fatal:ident $(, $($own:tt)*)?) => {
+        $(#[$meta])*
+        ///
+        /// Only ever produced by this library, so a Rust enum is safe to return.
+        #[repr(C)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+        pub enum $name {
+            /// All well.
+            $ok = 0,
+            /// Something questionable happened; the call did its job.
+            $warning = 1,
+            /// The step was not completed.
+            $discard = 2,
+            /// This instance cannot continue (free, reset or restore a state).
+            $error = 3,
+            /// No instance can continue.
+            $fatal = 4,
+            $($($own)*)?
+        }
+    };
+}
+pub(crate) use fmi_status;
+
+fmi_status!(
+    /// `fmi2Status`.
+    fmi2Status: fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal,
     /// Asynchronous step still running (never used here).
     fmi2Pending = 5,
-}
+);
 
 /// `fmi2StatusKind` values (received as a plain `int`, never transmuted).
 pub mod status_kind {

@@ -162,14 +162,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
             logging_on,
             early_return: early_return_allowed,
         };
-        match catch_unwind(AssertUnwindSafe(|| Instance::new(args))) {
-            Ok(Ok(inst)) => glue::register(inst),
-            Ok(Err(message)) => fail(&message),
-            Err(payload) => fail(&format!(
-                "fmi3InstantiateCoSimulation: internal error (panic): {}",
-                glue::panic_text(payload.as_ref())
-            )),
-        }
+        glue::instantiate(args, |message| report(log_message, instance_environment, message))
     }));
     result.unwrap_or(ptr::null_mut())
 }

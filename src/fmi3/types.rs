@@ -4,7 +4,7 @@
 
 #![allow(non_camel_case_types)]
 
-use crate::fmi::fmi2Status;
+use crate::fmi::types::{fmi2Status, fmi_status};
 use std::os::raw::{c_char, c_void};
 
 /// Declares type aliases, each documented with its C name.
@@ -40,21 +40,10 @@ c_types!(
 c_types!(fmi3Boolean = bool, fmi3Clock = bool, fmi3Char = c_char, fmi3String = *const c_char);
 c_types!(fmi3Byte = u8, fmi3Binary = *const u8);
 
-/// `fmi3Status`. Only ever produced by this library, so a Rust enum is safe to return.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub enum fmi3Status {
-    /// All well.
-    fmi3OK = 0,
-    /// Something questionable happened; the call did its job.
-    fmi3Warning = 1,
-    /// The step was not completed.
-    fmi3Discard = 2,
-    /// This instance cannot continue (free, reset or restore a state).
-    fmi3Error = 3,
-    /// No instance can continue.
-    fmi3Fatal = 4,
-}
+fmi_status!(
+    /// `fmi3Status`.
+    fmi3Status: fmi3OK, fmi3Warning, fmi3Discard, fmi3Error, fmi3Fatal
+);
 
 impl From<fmi2Status> for fmi3Status {
     /// The status of the same value (FMI 2.0's `fmi2Pending`, never produced, becomes an error).

@@ -447,7 +447,11 @@ pub trait ImplicitMethod {
     /// The same, to change.
     fn parts_mut(&mut self) -> (&mut StepCore, &mut NewtonCore);
     /// Clears the method's dense output to that of a zero-length step (`y_prev = y` is set).
-    fn clear_dense(&mut self);
+    fn clear_dense(&mut self) {
+        for c in self.dense_coefficients_mut() {
+            c.iter_mut().for_each(|x| *x = 0.0);
+        }
+    }
     /// Calls [`StepCore::first_step`] with the method's order and scratch.
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64);
     /// One attempt of a step of size `h`: (error norm, largest Newton contraction), or None

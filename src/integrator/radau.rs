@@ -343,12 +343,6 @@ impl ImplicitMethod for Radau5 {
         (&mut self.core, &mut self.newton)
     }
 
-    fn clear_dense(&mut self) {
-        for z in self.dense.iter_mut() {
-            z.iter_mut().for_each(|x| *x = 0.0);
-        }
-    }
-
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
         self.core.first_step(sys, h, 5, &mut self.work, &mut self.fz[1]);
     }

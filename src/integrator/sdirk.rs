@@ -159,12 +159,6 @@ impl ImplicitMethod for Sdirk {
         (&mut self.core, &mut self.newton)
     }
 
-    fn clear_dense(&mut self) {
-        for d in self.dense.iter_mut() {
-            d.iter_mut().for_each(|x| *x = 0.0);
-        }
-    }
-
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
         self.core.first_step(sys, h, 4, &mut self.work, &mut self.k[1]);
     }

@@ -4,8 +4,8 @@
 //! its shapes: [`Scene::group_pair_contact`] writes that contact.
 
 use super::{
-    direction, item_name, length, magnitude, perpendicular, quote, surface_extent, validate_law_keys, vector,
-    ContactSpec, ContactType, ImpulseMethod, Law, Scene, SceneError, Side, GROUND,
+    item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
+    Scene, SceneError, Side, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -23,60 +23,30 @@ pub enum ShapeType {
     Cylinder,
 }
 
-/// `[[shape]]`: one contact shape on a body, member of a group. The keys of each type are
-/// those of the `[[contact]]` element that uses it.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ShapeSpec {
-    /// Group name (a `[[contact_group]]` refers to it).
-    pub group: String,
-    /// Shape type.
-    #[serde(rename = "type")]
-    pub kind: ShapeType,
-    /// Body carrying the shape (`"ground"` for the world).
-    pub body: String,
-    /// Material (for the Hertz stiffness).
-    #[serde(default)]
-    pub material: Option<String>,
-    /// sphere: centre, world frame [m] (default: the body's centre of mass).
-    #[serde(default)]
-    pub center: Option<[f64; 3]>,
-    /// sphere: radius [m].
-    #[serde(default)]
-    pub radius: Option<f64>,
-    /// plane: centre of the rectangle [m].
-    #[serde(default)]
-    pub origin: Option<[f64; 3]>,
-    /// plane: outward normal.
-    #[serde(default)]
-    pub normal: Option<[f64; 3]>,
-    /// plane: first in-plane axis.
-    #[serde(default)]
-    pub u_axis: Option<[f64; 3]>,
-    /// plane: side lengths [m].
-    #[serde(default)]
-    pub size: Option<[f64; 2]>,
-    /// cylinder: a point on the axis (middle of the patch) [m].
-    #[serde(default)]
-    pub axis_point: Option<[f64; 3]>,
-    /// cylinder: axis direction.
-    #[serde(default)]
-    pub axis: Option<[f64; 3]>,
-    /// cylinder: radius ρ [m].
-    #[serde(default)]
-    pub cylinder_radius: Option<f64>,
-    /// cylinder: length of the patch [m].
-    #[serde(default)]
-    pub length: Option<f64>,
-    /// cylinder: angular range [rad].
-    #[serde(default)]
-    pub theta_range: Option<[f64; 2]>,
-    /// cylinder: direction where θ = 0.
-    #[serde(default)]
-    pub ref_axis: Option<[f64; 3]>,
-    /// cylinder: the side the spheres touch.
-    #[serde(default)]
-    pub side: Side,
+scene_item! {
+    [surface_keys]
+    /// `[[shape]]`: one contact shape on a body, member of a group. The keys of each type are
+    /// those of the `[[contact]]` element that uses it.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    #[serde(deny_unknown_fields)]
+    pub struct ShapeSpec {
+        /// Group name (a `[[contact_group]]` refers to it).
+        pub group: String,
+        /// Shape type.
+        #[serde(rename = "type")]
+        pub kind: ShapeType,
+        /// Body carrying the shape (`"ground"` for the world).
+        pub body: String,
+        /// Material (for the Hertz stiffness).
+        #[serde(default)]
+        pub material: Option<String>,
+        /// sphere: centre, world frame [m] (default: the body's centre of mass).
+        #[serde(default)]
+        pub center: Option<[f64; 3]>,
+        /// sphere: radius [m].
+        #[serde(default)]
+        pub radius: Option<f64>,
+    }
 }
 
 impl ShapeSpec {
@@ -155,54 +125,24 @@ impl ShapeSpec {
     }
 }
 
-/// `[[contact_group]]`: the spheres of group `groups[0]` touch the shapes of group
-/// `groups[1]` (the same group: its spheres touch each other). The law keys are those of a
-/// `[[contact]]`, for every pair of the two groups.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ContactGroupSpec {
-    /// Name: the prefix of the group pair's FMU variables.
-    pub name: String,
-    /// The sphere group, then the group of the shapes they touch.
-    pub groups: [String; 2],
-    /// Force law.
-    pub law: Law,
-    /// Coefficient of restitution e.
-    #[serde(default = "super::default_restitution")]
-    pub restitution: f64,
-    /// Stiffness K (default: Hertz's from the two shapes' materials, per pair).
-    #[serde(default)]
-    pub stiffness: Option<f64>,
-    /// Kelvin-Voigt damping c.
-    #[serde(default)]
-    pub damping: Option<f64>,
-    /// Exponent n.
-    #[serde(default)]
-    pub exponent: Option<f64>,
-    /// Largest admissible penetration (default: each pair's sphere radius).
-    #[serde(default)]
-    pub max_penetration: Option<f64>,
-    /// Floor on δ̇⁻ [m/s].
-    #[serde(default)]
-    pub min_impact_velocity: Option<f64>,
-    /// Impulse law: how impacts are solved.
-    #[serde(default)]
-    pub impulse_method: ImpulseMethod,
-    /// Coulomb μ.
-    #[serde(default)]
-    pub friction: Option<f64>,
-    /// Static μ_s.
-    #[serde(default)]
-    pub static_friction: Option<f64>,
-    /// Stribeck velocity [m/s].
-    #[serde(default)]
-    pub stribeck_velocity: Option<f64>,
-    /// Viscous friction σ [s/m].
-    #[serde(default)]
-    pub viscous_friction: Option<f64>,
-    /// Regularisation velocity [m/s].
-    #[serde(default)]
-    pub stiction_velocity: Option<f64>,
+scene_item! {
+    [law_keys]
+    /// `[[contact_group]]`: the spheres of group `groups[0]` touch the shapes of group
+    /// `groups[1]` (the same group: its spheres touch each other). The law keys are those of a
+    /// `[[contact]]`, for every pair of the two groups.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    #[serde(deny_unknown_fields)]
+    pub struct ContactGroupSpec {
+        /// Name: the prefix of the group pair's FMU variables.
+        pub name: String,
+        /// The sphere group, then the group of the shapes they touch.
+        pub groups: [String; 2],
+        /// Force law.
+        pub law: Law,
+        /// Coefficient of restitution e.
+        #[serde(default = "super::default_restitution")]
+        pub restitution: f64,
+    }
 }
 
 impl ContactGroupSpec {
@@ -226,24 +166,6 @@ impl ContactGroupSpec {
             viscous_friction: None,
             stiction_velocity: None,
         }
-    }
-
-    /// Sets the restitution.
-    pub fn restitution(mut self, e: f64) -> ContactGroupSpec {
-        self.restitution = e;
-        self
-    }
-
-    /// Sets the stiffness.
-    pub fn stiffness(mut self, k: f64) -> ContactGroupSpec {
-        self.stiffness = Some(k);
-        self
-    }
-
-    /// Sets the Coulomb friction coefficient.
-    pub fn friction(mut self, mu: f64) -> ContactGroupSpec {
-        self.friction = Some(mu);
-        self
     }
 }
 
@@ -404,55 +326,20 @@ impl Scene {
                     Err(err(f, format!("required for a {} shape", kind_word(s.kind))))
                 }
             };
-            for (f, v) in [("center", s.center), ("origin", s.origin), ("axis_point", s.axis_point)] {
-                if let Some(v) = v {
-                    vector(origin, &item, f, &v)?;
-                }
+            if let Some(center) = s.center {
+                vector(origin, &item, "center", &center)?;
             }
-            for (f, v) in [
-                ("normal", s.normal),
-                ("u_axis", s.u_axis),
-                ("axis", s.axis),
-                ("ref_axis", s.ref_axis),
-            ] {
-                if let Some(v) = v {
-                    direction(origin, &item, f, v)?;
-                }
+            if let Some(radius) = s.radius {
+                length(origin, &item, "radius", radius)?;
             }
-            for (f, v) in [
-                ("radius", s.radius),
-                ("cylinder_radius", s.cylinder_radius),
-                ("length", s.length),
-            ] {
-                if let Some(v) = v {
-                    length(origin, &item, f, v)?;
-                }
-            }
-            surface_extent(origin, &item, s.size, s.theta_range)?;
+            s.check_surface_keys(origin, &item)?;
             match s.kind {
                 ShapeType::Sphere => {
                     need("radius", s.radius.is_some())?;
                     need("center", s.center.is_some() || s.body != GROUND)?;
                 }
-                ShapeType::Plane => {
-                    need("origin", s.origin.is_some())?;
-                    need("normal", s.normal.is_some())?;
-                    need("u_axis", s.u_axis.is_some())?;
-                    need("size", s.size.is_some())?;
-                    perpendicular((origin, &item), ("u_axis", s.u_axis), ("normal", s.normal))?;
-                }
-                ShapeType::Cylinder => {
-                    need("axis_point", s.axis_point.is_some())?;
-                    need("axis", s.axis.is_some())?;
-                    need("cylinder_radius", s.cylinder_radius.is_some())?;
-                    need("length", s.length.is_some())?;
-                    if s.theta_range.is_some() && s.ref_axis.is_none() {
-                        return Err(err("ref_axis", "required with theta_range".into()));
-                    }
-                    if s.ref_axis.is_some() {
-                        perpendicular((origin, &item), ("ref_axis", s.ref_axis), ("axis", s.axis))?;
-                    }
-                }
+                ShapeType::Plane => s.check_plane(origin, &item, need)?,
+                ShapeType::Cylinder => s.check_cylinder(origin, &item, need)?,
             }
             let e = groups.entry(s.group.as_str()).or_insert((true, true));
             e.0 &= s.kind == ShapeType::Sphere;

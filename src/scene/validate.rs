@@ -357,35 +357,13 @@ impl Scene {
             }
         }
         // Every number given is checked, whether or not this type of contact uses it.
-        for (f, v) in [
-            ("other_center", c.other_center),
-            ("origin", c.origin),
-            ("axis_point", c.axis_point),
-        ] {
-            if let Some(v) = v {
-                vector(origin, item, f, &v)?;
-            }
+        if let Some(v) = c.other_center {
+            vector(origin, item, "other_center", &v)?;
         }
-        for (f, v) in [
-            ("normal", c.normal),
-            ("u_axis", c.u_axis),
-            ("axis", c.axis),
-            ("ref_axis", c.ref_axis),
-        ] {
-            if let Some(v) = v {
-                direction(origin, item, f, v)?;
-            }
+        if let Some(v) = c.other_radius {
+            length(origin, item, "other_radius", v)?;
         }
-        for (f, v) in [
-            ("other_radius", c.other_radius),
-            ("cylinder_radius", c.cylinder_radius),
-            ("length", c.length),
-        ] {
-            if let Some(v) = v {
-                length(origin, item, f, v)?;
-            }
-        }
-        surface_extent(origin, item, c.size, c.theta_range)?;
+        c.check_surface_keys(origin, item)?;
         let need = |f: &str, present: bool| -> Result<(), SceneError> {
             if present {
                 Ok(())
@@ -398,30 +376,14 @@ impl Scene {
                 need("other_center", c.other_center.is_some())?;
                 need("other_radius", c.other_radius.is_some())?;
             }
-            ContactType::SpherePlane => {
-                need("origin", c.origin.is_some())?;
-                need("normal", c.normal.is_some())?;
-                need("u_axis", c.u_axis.is_some())?;
-                need("size", c.size.is_some())?;
-                perpendicular((origin, item), ("u_axis", c.u_axis), ("normal", c.normal))?;
-            }
+            ContactType::SpherePlane => c.check_plane(origin, item, need)?,
             ContactType::SphereCylinder => {
-                need("axis_point", c.axis_point.is_some())?;
-                need("axis", c.axis.is_some())?;
-                need("cylinder_radius", c.cylinder_radius.is_some())?;
-                need("length", c.length.is_some())?;
-                let rho = c.cylinder_radius.unwrap_or(0.0);
-                if c.side == Side::Inside && rho <= c.radius {
+                c.check_cylinder(origin, item, need)?;
+                if c.side == Side::Inside && c.cylinder_radius.unwrap_or(0.0) <= c.radius {
                     return Err(err(
                         "cylinder_radius",
                         "must exceed the sphere radius for an inside contact".into(),
                     ));
-                }
-                if c.theta_range.is_some() && c.ref_axis.is_none() {
-                    return Err(err("ref_axis", "required with theta_range".into()));
-                }
-                if c.ref_axis.is_some() {
-                    perpendicular((origin, item), ("ref_axis", c.ref_axis), ("axis", c.axis))?;
                 }
             }
         }

@@ -184,22 +184,28 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
         output_variable(name, vtype, unit, target, description, depends_on_inputs)
     };
     for (b, body) in scene.body.iter().enumerate() {
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(out(
-                format!("{}.contact_force[{}]", body.name, k + 1),
-                VarType::Real,
-                Some("N"),
-                VarRef::BodyContactForce(b, k),
-                format!("total contact force on the body (normal and friction, every contact), world {axis}"),
-            ));
-        }
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(out(
-                format!("{}.contact_torque[{}]", body.name, k + 1),
-                VarType::Real,
-                Some("N.m"),
-                VarRef::BodyContactTorque(b, k),
-                format!("total contact torque on the body about its centre of mass, world {axis}"),
+        let vectors: [(_, _, ComponentRef, _); 2] = [
+            (
+                "contact_force",
+                "N",
+                VarRef::BodyContactForce,
+                "total contact force on the body (normal and friction, every contact)",
+            ),
+            (
+                "contact_torque",
+                "N.m",
+                VarRef::BodyContactTorque,
+                "total contact torque on the body about its centre of mass",
+            ),
+        ];
+        for (key, unit, target, what) in vectors {
+            v.extend(world_vector(
+                &body.name,
+                key,
+                unit,
+                |k| target(b, k),
+                what,
+                depends_on_inputs,
             ));
         }
     }

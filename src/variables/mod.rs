@@ -463,6 +463,31 @@ fn joint_units(kind: JointType) -> (&'static str, &'static str) {
 /// `x`, `y`, `z` for the components 0, 1, 2 of a world vector.
 const AXES: [&str; 3] = ["x", "y", "z"];
 
+/// The reference of component `k` of item `i` (e.g. [`VarRef::BodyPosition`]).
+type ComponentRef = fn(usize, usize) -> VarRef;
+
+/// The Real outputs `<owner>.<key>[1]` … `[3]` of a vector in world axes: component `k` reads
+/// `target(k)` and is described as `<what>, world <axis>`.
+fn world_vector(
+    owner: &str,
+    key: &str,
+    unit: &'static str,
+    target: impl Fn(usize) -> VarRef,
+    what: &str,
+    depends_on_inputs: bool,
+) -> [Variable; 3] {
+    std::array::from_fn(|k| {
+        output_variable(
+            format!("{owner}.{key}[{}]", k + 1),
+            VarType::Real,
+            Some(unit),
+            target(k),
+            format!("{what}, world {}", AXES[k]),
+            depends_on_inputs,
+        )
+    })
+}
+
 /// All variables of a scene, in value-reference order.
 #[derive(Debug, Clone)]
 pub struct VariableTable {

@@ -29,6 +29,29 @@ fn param(
     }
 }
 
+/// The Real parameters `<owner>.<key>[1]` … `[3]` of the triple `values`: component `k` sets
+/// `target(k)`.
+fn param_triple(
+    owner: &str,
+    key: &str,
+    values: [f64; 3],
+    unit: &'static str,
+    range: Range,
+    target: impl Fn(usize) -> VarRef,
+    description: &str,
+) -> [Variable; 3] {
+    std::array::from_fn(|k| {
+        param(
+            format!("{owner}.{key}[{}]", k + 1),
+            values[k],
+            Some(unit),
+            range,
+            target(k),
+            description,
+        )
+    })
+}
+
 /// `var`, tunable: contact-law constants may change between communication points (docs/fmi.md).
 fn tunable(mut var: Variable) -> Variable {
     var.variability = Variability::Tunable;
@@ -296,38 +319,20 @@ pub(super) fn inputs(scene: &Scene, v: &mut Vec<Variable>) {
 /// The outputs: bodies, joints, contacts, energies, counters.
 pub(super) fn outputs(scene: &Scene, v: &mut Vec<Variable>) {
     for (i, b) in scene.body.iter().enumerate() {
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(with_display(
-                out(
-                    format!("{}.r[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m"),
-                    VarRef::BodyPosition(i, k),
-                    format!("centre-of-mass position, world {axis}"),
-                ),
-                "mm",
-            ));
-        }
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(with_display(
-                out(
-                    format!("{}.v[{}]", b.name, k + 1),
-                    VarType::Real,
-                    Some("m/s"),
-                    VarRef::BodyVelocity(i, k),
-                    format!("centre-of-mass velocity, world {axis}"),
-                ),
-                "km/h",
-            ));
-        }
-        for (k, axis) in AXES.iter().enumerate() {
-            v.push(out(
-                format!("{}.w[{}]", b.name, k + 1),
-                VarType::Real,
-                Some("rad/s"),
-                VarRef::BodyAngularVelocity(i, k),
-                format!("angular velocity, world {axis}"),
-            ));
+        let vectors: [(_, _, ComponentRef, _, _); 3] = [
+            ("r", "m", VarRef::BodyPosition, "centre-of-mass position", Some("mm")),
+            (
+                "v",
+                "m/s",
+                VarRef::BodyVelocity,
+                "centre-of-mass velocity",
+                Some("km/h"),
+            ),
+            ("w", "rad/s", VarRef::BodyAngularVelocity, "angular velocity", None),
+        ];
+        for (key, unit, target, what, display_unit) in vectors {
+            let components = world_vector(&b.name, key, unit, |k| target(i, k), what, false);
+            v.extend(components.map(|x| Variable { display_unit, ..x }));
         }
         for (k, part) in ["w (scalar part)", "x", "y", "z"].iter().enumerate() {
             v.push(out(
@@ -511,26 +516,22 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         ));
     }
     for (i, b) in scene.body.iter().enumerate() {
-        for k in 0..3 {
-            v.push(param(
-                format!("{}.velocity[{}]", b.name, k + 1),
-                b.velocity[k],
-                Some("m/s"),
-                finite,
-                VarRef::InitialVelocity(i, k),
-                "initial centre-of-mass velocity, world frame (projected onto the joints)",
-            ));
-        }
-        for k in 0..3 {
-            v.push(param(
-                format!("{}.angular_velocity[{}]", b.name, k + 1),
-                b.angular_velocity[k],
-                Some("rad/s"),
-                finite,
-                VarRef::InitialAngularVelocity(i, k),
-                "initial angular velocity, world frame (projected onto the joints)",
-            ));
-        }
+        let what = "initial centre-of-mass velocity, world frame (projected onto the joints)";
+        let velocity = |k| VarRef::InitialVelocity(i, k);
+        v.extend(param_triple(
+            &b.name, "velocity", b.velocity, "m/s", finite, velocity, what,
+        ));
+        let what = "initial angular velocity, world frame (projected onto the joints)";
+        let angular_velocity = |k| VarRef::InitialAngularVelocity(i, k);
+        v.extend(param_triple(
+            &b.name,
+            "angular_velocity",
+            b.angular_velocity,
+            "rad/s",
+            finite,
+            angular_velocity,
+            what,
+        ));
     }
     // Integer twins of the enumerations, for hosts that ignore Enumeration variables. They
     // come after the variables above, so those value references do not move. 0 (the start) leaves the
@@ -564,20 +565,17 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         }
     }
     for (i, c) in scene.contact.iter().enumerate() {
-        for (k, axis) in AXES.iter().enumerate() {
-            // A resting impulse-law contact's friction follows its normal force, a
-            // constraint force solved with the applied forces (inputs included), like
-            // `<contact>.force`.
-            let mut f = out(
-                format!("{}.friction_force[{}]", c.name, k + 1),
-                VarType::Real,
-                Some("N"),
-                VarRef::ContactFrictionForce(i, k),
-                format!("friction force on the sphere, world {axis}"),
-            );
-            f.depends_on_inputs = has_inputs;
-            v.push(f);
-        }
+        // A resting impulse-law contact's friction follows its normal force, a constraint force
+        // solved with the applied forces (inputs included), like `<contact>.force`.
+        let friction = |k| VarRef::ContactFrictionForce(i, k);
+        v.extend(world_vector(
+            &c.name,
+            "friction_force",
+            "N",
+            friction,
+            "friction force on the sphere",
+            has_inputs,
+        ));
         v.push(out(
             format!("{}.slip_velocity", c.name),
             VarType::Real,
@@ -595,16 +593,16 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         max_exclusive: false,
     };
     for (i, b) in scene.body.iter().enumerate() {
-        for k in 0..3 {
-            v.push(param(
-                format!("{}.inertia[{}]", b.name, k + 1),
-                b.inertia[k],
-                Some("kg.m2"),
-                pos,
-                VarRef::Inertia(i, k),
-                "principal moment of inertia about the centre of mass (the three satisfy the triangle inequality)",
-            ));
-        }
+        let what = "principal moment of inertia about the centre of mass (the three satisfy the triangle inequality)";
+        v.extend(param_triple(
+            &b.name,
+            "inertia",
+            b.inertia,
+            "kg.m2",
+            pos,
+            |k| VarRef::Inertia(i, k),
+            what,
+        ));
     }
     for (i, c) in scene.contact.iter().enumerate() {
         v.push(param(

@@ -7,7 +7,7 @@
 
 use crate::common;
 
-use common::{compile, get, start, ORIGIN};
+use common::{compile, get, start, Rng, ORIGIN};
 use contact_fmu::bench::scenes::{sphere_box_groups, BALL_MASS, BALL_RADIUS};
 use contact_fmu::contact::broad::Candidate;
 use contact_fmu::contact::{self, geometry};
@@ -83,36 +83,6 @@ fn groups_give_the_trajectory_of_the_explicit_pair_list() {
     assert!(sc.candidate_refreshes() > 5);
     assert_eq!(sc.counters().events, impacts);
     assert!(diff < 1e-5, "difference {diff}");
-}
-
-/// A deterministic generator of numbers in [0, 1).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vector(&mut self, half: f64) -> [f64; 3] {
-        [
-            self.range(-half, half),
-            self.range(-half, half),
-            self.range(-half, half),
-        ]
-    }
-    fn unit(&mut self) -> Vector3<f64> {
-        loop {
-            let v = Vector3::from(self.vector(1.0));
-            if v.norm() > 0.1 && v.norm() < 1.0 {
-                return v.normalize();
-            }
-        }
-    }
 }
 
 /// A random scene: bodies at random poses carrying spheres (some off their centre of mass,

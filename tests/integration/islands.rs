@@ -10,65 +10,41 @@ use crate::common;
 
 use common::{energy_balance, get, start};
 use contact_fmu::bench::scenes::sphere_box_groups;
-use contact_fmu::scene::Scene;
+use contact_fmu::scene::{BodySpec, ContactSpec, Law, Scene, GROUND};
+use contact_fmu::scene_builder::{Plane, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 
 const G: f64 = 9.81;
 const R: f64 = 0.01;
 
 /// A steel ball of radius 10 mm at (x, 0, height) over a floor patch around x, with a Hertz
-/// contact (`hertz_ln`, e = 0.8): the TOML of its body and contact.
-fn ball(name: &str, x: f64, height: f64, vx: f64) -> String {
-    format!(
-        r#"
-[[body]]
-name = "{name}"
-mass = 0.0329
-inertia = [1.316e-6, 1.316e-6, 1.316e-6]
-position = [{x}, 0.0, {height}]
-velocity = [{vx}, 0.0, 0.0]
-
-[[contact]]
-name = "{name}_floor"
-type = "sphere_plane"
-law = "hertz_ln"
-restitution = 0.8
-sphere_body = "{name}"
-center = [{x}, 0.0, {height}]
-radius = {R}
-sphere_material = "steel"
-body = "ground"
-material = "steel"
-origin = [{x}, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [2.0, 2.0]
-"#
+/// contact (`hertz_ln`, e = 0.8): its body and contact.
+fn ball(name: &str, x: f64, height: f64, vx: f64) -> (BodySpec, ContactSpec) {
+    let body = BodySpec::new(name, 0.0329, [1.316e-6; 3], [x, 0.0, height]).velocity([vx, 0.0, 0.0]);
+    let floor = Plane::horizontal([x, 0.0, 0.0], [2.0, 2.0]);
+    let contact = ContactSpec::sphere_plane(
+        &format!("{name}_floor"),
+        Law::HertzLn,
+        Sphere::of(&body, R),
+        GROUND,
+        floor,
     )
+    .materials("steel", "steel")
+    .restitution(0.8);
+    (body, contact)
 }
 
-fn scene(balls: &[String], islands: bool) -> Scene {
-    let text = format!(
-        r#"
-[model]
-name = "islands"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 0.6
-interval = 0.01
-
-[solver]
-rtol = 1e-9
-atol = 1e-12
-islands = {islands}
-
-[[material]]
-name = "steel"
-youngs_modulus = 210e9
-poisson_ratio = 0.3
-{}"#,
-        balls.concat()
-    );
-    Scene::from_str(&text, "islands.toml").unwrap_or_else(|e| panic!("{e}"))
+fn scene(balls: &[(BodySpec, ContactSpec)], islands: bool) -> Scene {
+    let mut scene = SceneBuilder::new("islands")
+        .gravity([0.0, 0.0, -G])
+        .experiment(0.6, 0.01)
+        .tolerances(1e-9, 1e-12)
+        .steel()
+        .bodies(balls.iter().map(|(body, _)| body.clone()))
+        .contacts(balls.iter().map(|(_, contact)| contact.clone()))
+        .build();
+    scene.solver.islands = islands;
+    scene
 }
 
 /// Runs `scene` to `t_end` and returns the paths of `bodies` (side by side per point) and

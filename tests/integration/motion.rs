@@ -18,6 +18,8 @@ use crate::common;
 
 use common::get;
 use contact_fmu::model::ContactEventKind;
+use contact_fmu::scene::{BodySpec, ContactSpec, InputSpec, JointSpec, JointType, Law, Method, GROUND};
+use contact_fmu::scene_builder::{Plane, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 
 const G: f64 = 9.81;
@@ -110,67 +112,27 @@ const E: f64 = 0.8;
 const Z0: f64 = 0.025;
 
 fn vibrating_table() -> Simulation {
-    let text = format!(
-        r#"
-[model]
-name = "vibrating_table"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 1.0
-interval = 1e-3
-
-[solver]
-rtol = 1e-11
-atol = 1e-13
-
-[[body]]
-name = "table"
-mass = 10.0
-inertia = [0.1, 0.1, 0.1]
-position = [0.0, 0.0, 0.0]
-
-[[body]]
-name = "ball"
-mass = {BALL_M}
-inertia = [2e-6, 2e-6, 2e-6]
-position = [0.0, 0.0, {Z0}]
-
-[[joint]]
-name = "table_slide"
-type = "prismatic"
-parent = "ground"
-child = "table"
-axis = [0.0, 0.0, 1.0]
-
-[[joint]]
-name = "ball_slide"
-type = "prismatic"
-parent = "ground"
-child = "ball"
-axis = [0.0, 0.0, 1.0]
-
-[[contact]]
-name = "hit"
-type = "sphere_plane"
-law = "impulse"
-restitution = {E}
-sphere_body = "ball"
-center = [0.0, 0.0, {Z0}]
-radius = {BALL_R}
-body = "table"
-origin = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [1.0, 1.0]
-
-[[input]]
-name = "shake"
-type = "joint_motion"
-joint = "table_slide"
-"#
-    );
-    let mut s = Simulation::from_scene_str(&text, "vibrating_table.toml").unwrap();
-    s.initialize(0.0).unwrap();
-    s
+    let slide = |name, child| JointSpec::new(name, JointType::Prismatic, GROUND, child).axis([0.0, 0.0, 1.0]);
+    let ball = Sphere::new("ball", [0.0, 0.0, Z0], BALL_R);
+    let scene = SceneBuilder::new("vibrating_table")
+        .gravity([0.0, 0.0, -G])
+        .experiment(1.0, 1e-3)
+        .tolerances(1e-11, 1e-13)
+        .body(BodySpec::new("table", 10.0, [0.1, 0.1, 0.1], [0.0; 3]))
+        .body(BodySpec::new("ball", BALL_M, [2e-6, 2e-6, 2e-6], [0.0, 0.0, Z0]))
+        .joints([slide("table_slide", "table"), slide("ball_slide", "ball")])
+        .contact(
+            ContactSpec::sphere_plane(
+                "hit",
+                Law::Impulse,
+                ball,
+                "table",
+                Plane::horizontal([0.0; 3], [1.0, 1.0]),
+            )
+            .restitution(E),
+        )
+        .input(InputSpec::joint_motion("shake", "table_slide"));
+    common::start(scene)
 }
 
 /// The host's drive at communication point `t`: the table's `A sin ωt`, its rate and
@@ -178,6 +140,14 @@ joint = "table_slide"
 fn drive_at(t: f64) -> [f64; 3] {
     let (s, c) = (TABLE_W * t).sin_cos();
     [TABLE_A * s, TABLE_A * TABLE_W * c, -TABLE_A * TABLE_W * TABLE_W * s]
+}
+
+/// Gives the input `shake` the table's drive at communication point `t`.
+fn set_drive(s: &mut Simulation, t: f64) {
+    let [q, qd, qdd] = drive_at(t);
+    for (name, value) in [("shake.q", q), ("shake.qd", qd), ("shake.qdd", qdd)] {
+        s.set_by_name(name, value).unwrap();
+    }
 }
 
 /// The closed form: the ball in free flight between impacts on the piecewise quadratic table;
@@ -235,10 +205,7 @@ fn a_ball_bounces_on_a_driven_table_at_the_closed_form_impacts() {
     let mut s = vibrating_table();
     let mut worst_height = 0.0_f64;
     for k in 0..n {
-        let [q, qd, qdd] = drive_at(k as f64 * h);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * h);
         s.step_to((k + 1) as f64 * h).unwrap();
         worst_height = worst_height.max((get(&mut s, "ball.r[3]") - heights[k + 1]).abs());
     }
@@ -263,10 +230,7 @@ fn a_ball_bounces_on_a_driven_table_at_the_closed_form_impacts() {
     let mut worst = 0.0_f64;
     let mut s = vibrating_table();
     for k in 0..until {
-        let [q, qd, qdd] = drive_at(k as f64 * h);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * h);
         s.step_to((k + 1) as f64 * h).unwrap();
         worst = worst.max((get(&mut s, "ball.r[3]") - heights[k + 1]).abs());
         // the table follows the host's quadratic exactly
@@ -301,28 +265,14 @@ fn the_energy_balance_counts_the_work_of_every_kind_of_input() {
     assert!(drift < 1e-6, "rail vehicle: {drift:e}");
 
     // a torque on a free body spinning it up, and a drive: the vibrating table
-    let text = r#"
-[model]
-name = "spun"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 1.0
-interval = 1e-2
-
-[[body]]
-name = "wheel"
-mass = 2.0
-inertia = [0.01, 0.02, 0.03]
-position = [0.0, 0.0, 1.0]
-angular_velocity = [0.0, 0.0, 1.0]
-
-[[input]]
-name = "spin"
-type = "torque"
-body = "wheel"
-direction = [0.0, 0.0, 1.0]
-"#;
-    let mut s = Simulation::from_scene_str(text, "spun.toml").unwrap();
-    s.initialize(0.0).unwrap();
+    let wheel = BodySpec::new("wheel", 2.0, [0.01, 0.02, 0.03], [0.0, 0.0, 1.0]).angular_velocity([0.0, 0.0, 1.0]);
+    let scene = SceneBuilder::new("spun")
+        .gravity([0.0, 0.0, -G])
+        .experiment(1.0, 1e-2)
+        .body(wheel)
+        .input(InputSpec::torque("spin", "wheel", [0.0, 0.0, 1.0]))
+        .build();
+    let mut s = common::start(scene);
     let e0 = balance(&mut s);
     s.set_by_name("spin", 0.5).unwrap();
     s.step_to(1.0).unwrap();
@@ -336,10 +286,7 @@ direction = [0.0, 0.0, 1.0]
     let mut s = vibrating_table();
     let e0 = balance(&mut s);
     for k in 0..400 {
-        let [q, qd, qdd] = drive_at(k as f64 * 1e-3);
-        s.set_by_name("shake.q", q).unwrap();
-        s.set_by_name("shake.qd", qd).unwrap();
-        s.set_by_name("shake.qdd", qdd).unwrap();
+        set_drive(&mut s, k as f64 * 1e-3);
         s.step_to((k + 1) as f64 * 1e-3).unwrap();
     }
     let scale = BALL_M * G * Z0;
@@ -383,47 +330,25 @@ fn static_friction_follows_friction_when_only_friction_is_set() {
     let (m, r, v0, mu) = (1.0, 0.05, 1.0, 0.3);
     let k = 1e13;
     let delta0 = (m * G / k).powf(2.0 / 3.0);
-    let text = format!(
-        r#"
-[model]
-name = "slide"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 1.0
-interval = 1e-2
-
-[solver]
-method = "dopri5"
-rtol = 1e-11
-atol = 1e-15
-max_step = 1e-2
-max_steps = 10000000
-
-[[body]]
-name = "ball"
-mass = {m}
-inertia = [{i}, {i}, {i}]
-position = [0.0, 0.0, {z}]
-velocity = [{v0}, 0.0, 0.0]
-
-[[contact]]
-name = "floor"
-type = "sphere_plane"
-law = "hertz"
-stiffness = {k}
-sphere_body = "ball"
-center = [0.0, 0.0, {z}]
-radius = {r}
-body = "ground"
-origin = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [100.0, 100.0]
-stiction_velocity = 1e-7
-"#,
-        i = 0.4 * m * r * r,
-        z = r - delta0
-    );
-    let mut s = Simulation::from_scene_str(&text, "slide.toml").unwrap();
+    let ball = BodySpec::sphere("ball", m, r, [0.0, 0.0, r - delta0]).velocity([v0, 0.0, 0.0]);
+    let floor = ContactSpec::sphere_plane(
+        "floor",
+        Law::Hertz,
+        Sphere::of(&ball, r),
+        GROUND,
+        Plane::horizontal([0.0; 3], [100.0, 100.0]),
+    )
+    .stiffness(k)
+    .stiction_velocity(1e-7);
+    let mut scene = SceneBuilder::new("slide")
+        .gravity([0.0, 0.0, -G])
+        .experiment(1.0, 1e-2)
+        .solver(Method::Dopri5, 1e-11, 1e-15, 1e-2)
+        .body(ball)
+        .contact(floor)
+        .build();
+    scene.solver.max_steps = 10_000_000;
+    let mut s = common::open(scene.clone());
     // the host sets friction only; static friction follows it (a flat Stribeck curve)
     s.set_by_name("floor.friction", mu).unwrap();
     assert_eq!(get(&mut s, "floor.static_friction"), mu);
@@ -440,7 +365,7 @@ stiction_velocity = 1e-7
     println!("rolling onset {stick:.6} s, closed form {t_roll:.6} s ({off:.2e})");
     assert!(off <= 5e-3, "onset off by {off:e}");
     // the host may still set it apart
-    let mut s = Simulation::from_scene_str(&text, "slide.toml").unwrap();
+    let mut s = common::open(scene);
     s.set_by_name("floor.friction", mu).unwrap();
     s.set_by_name("floor.static_friction", 0.5).unwrap();
     assert_eq!(get(&mut s, "floor.static_friction"), 0.5);

@@ -7,30 +7,13 @@
 //! `cargo test --release --test integration scene_fuzz:: -- --nocapture` prints the tally.
 
 use crate::common;
+use common::Rng;
 
 use contact_fmu::simulation::Simulation;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use toml::Value;
 
 const SCENES: usize = 1000;
-
-/// xorshift64: the mutations depend on the seed only.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-    fn chance(&mut self, p: f64) -> bool {
-        ((self.next() >> 11) as f64 / (1u64 << 53) as f64) < p
-    }
-}
 
 /// The arrays of tables of a scene (`[[body]]`, `[[shape]]`, ...), by key.
 fn table_arrays(v: &Value) -> Vec<String> {

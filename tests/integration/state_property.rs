@@ -5,57 +5,41 @@
 //! with a message, and the simulation it was meant for stays as it was (no NaN reaches an
 //! output).
 
+use crate::common;
 use contact_fmu::checkpoint::Snapshot;
-use contact_fmu::scene::{Law, Method};
+use contact_fmu::scene::{BodySpec, ContactSpec, Law, Method, Scene, GROUND};
+use contact_fmu::scene_builder::{Plane, SceneBuilder, Sphere};
 use contact_fmu::simulation::Simulation;
 use proptest::prelude::*;
 
 /// A ball dropped on a floor with a given stiffness and damping, so that every law
 /// (Kelvin-Voigt included) can be selected by the `floor.law` parameter.
-const BALL: &str = r#"
-[model]
-name = "ball"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 0.6
-interval = 0.01
-
-[solver]
-rtol = 1e-8
-atol = 1e-10
-max_step = 1e-3
-
-[[body]]
-name = "ball"
-mass = 0.5
-inertia = [2e-4, 2e-4, 2e-4]
-position = [0.0, 0.0, 0.12]
-velocity = [0.3, 0.0, 0.0]
-
-[[contact]]
-name = "floor"
-type = "sphere_plane"
-law = "hertz_ln"
-restitution = 0.7
-sphere_body = "ball"
-center = [0.0, 0.0, 0.12]
-radius = 0.02
-body = "ground"
-stiffness = 2e7
-damping = 40.0
-origin = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [2.0, 2.0]
-"#;
-
-fn bundled(name: &str) -> String {
-    std::fs::read_to_string(format!("{}/fmu/{name}/scene.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+fn ball() -> Scene {
+    let ball = BodySpec::new("ball", 0.5, [2e-4; 3], [0.0, 0.0, 0.12]).velocity([0.3, 0.0, 0.0]);
+    let floor = Plane::horizontal([0.0; 3], [2.0, 2.0]);
+    SceneBuilder::new("ball")
+        .gravity([0.0, 0.0, -9.81])
+        .experiment(0.6, 0.01)
+        .tolerances(1e-8, 1e-10)
+        .max_step(1e-3)
+        .contact(
+            ContactSpec::sphere_plane("floor", Law::HertzLn, Sphere::of(&ball, 0.02), GROUND, floor)
+                .restitution(0.7)
+                .stiffness(2e7)
+                .damping(40.0),
+        )
+        .body(ball)
+        .build()
 }
 
-/// Scene text, the contact whose law is varied, and the time span to run.
-fn scene(k: usize) -> (String, &'static str, f64) {
+fn bundled(name: &str) -> Scene {
+    Scene::from_file(&common::bundled(name)).unwrap()
+}
+
+/// The scene, the contact whose law is varied, and the time span to run.
+fn scene(k: usize) -> (Scene, &'static str, f64) {
     match k {
-        0 => (BALL.to_string(), "floor", 0.6),
+        0 => (ball(), "floor", 0.6),
         1 => (bundled("bouncing_ball"), "ball_floor", 0.8),
         2 => (bundled("two_spheres"), "impact", 0.02),
         3 => (bundled("slider_crank"), "impact", 0.12),
@@ -70,16 +54,11 @@ fn outputs(sim: &mut Simulation) -> Vec<u64> {
         .collect()
 }
 
-/// A simulation of `text` with `method` and `law`; `continuation`: the integrator continues
+/// A simulation of `scene` with `method` and `law`; `continuation`: the integrator continues
 /// across communication points (its state then includes a step reaching past the save point).
-fn configured(text: &str, method: Method, contact: &str, law: Law, continuation: bool) -> Simulation {
-    let setting = format!("[solver]\ncontinuation = {continuation}");
-    let text = if text.lines().any(|l| l.trim() == "[solver]") {
-        text.replacen("\n[solver]", &format!("\n{setting}"), 1)
-    } else {
-        format!("{text}\n{setting}\n")
-    };
-    let mut s = Simulation::from_scene_str(&text, "scene.toml").unwrap();
+fn configured(mut scene: Scene, method: Method, contact: &str, law: Law, continuation: bool) -> Simulation {
+    scene.solver.continuation = continuation;
+    let mut s = common::open(scene);
     s.set_by_name("solver.method", method as i64 as f64).unwrap();
     if !contact.is_empty() {
         s.set_by_name(&format!("{contact}.law"), law as i64 as f64).unwrap();
@@ -100,10 +79,10 @@ fn check(
     split_fraction: f64,
     damage: usize,
 ) -> Result<usize, TestCaseError> {
-    let (text, contact, span) = scene(k);
+    let (scene, contact, span) = scene(k);
     let n = 24;
     let h = span / n as f64;
-    let mut a = configured(&text, method, contact, law, continuation);
+    let mut a = configured(scene.clone(), method, contact, law, continuation);
     a.initialize(0.0).unwrap();
     let split = ((split_fraction * n as f64) as usize).clamp(1, n - 1);
     for i in 1..=split {
@@ -118,7 +97,7 @@ fn check(
     } else {
         Method::Dopri5
     };
-    let mut b = configured(&text, other, "", law, continuation);
+    let mut b = configured(scene, other, "", law, continuation);
     b.initialize(0.0).unwrap();
     // Damaged bytes first: refused with a message, and `b` stays usable with finite outputs.
     let mut flipped = bytes.clone();

@@ -127,3 +127,55 @@ pub fn run_command(args: &[&str]) -> (bool, String) {
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
+
+/// xorshift64: a deterministic generator, its numbers depending on the seed only.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// The next 64 bits.
+    pub fn bits(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    /// A number in [0, 1).
+    pub fn next(&mut self) -> f64 {
+        (self.bits() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A number in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+
+    /// A whole number below `n` (0 when `n` is 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.bits() % n.max(1) as u64) as usize
+    }
+
+    /// True with probability `p`.
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.next() < p
+    }
+
+    /// A point of the cube [−half, half)³.
+    pub fn vector(&mut self, half: f64) -> [f64; 3] {
+        [
+            self.range(-half, half),
+            self.range(-half, half),
+            self.range(-half, half),
+        ]
+    }
+
+    /// A unit vector: a point of the cube whose norm is in (0.1, 1), normalised.
+    pub fn unit(&mut self) -> Vector3<f64> {
+        loop {
+            let v = Vector3::from(self.vector(1.0));
+            if v.norm() > 0.1 && v.norm() < 1.0 {
+                return v.normalize();
+            }
+        }
+    }
+}

@@ -1,0 +1,183 @@
+//! The keys that several scene items share, declared once: the surface keys of a plane or a
+//! cylinder (the other shape of a `[[contact]]`, a `[[shape]]`) and the contact-law keys (a
+//! `[[contact]]`, a `[[contact_group]]`).
+//!
+//! `scene_item!` appends them to an item's own fields. They are not a `#[serde(flatten)]`
+//! struct because flattening makes serde buffer the table: a TOML error in a shared key would
+//! then point at the table's header instead of the key, and an unknown key would no longer be
+//! told the keys it could have been.
+
+/// Declares a scene item: `scene_item! { [surface_keys, law_keys] <struct> }` is the struct
+/// with the surface keys, then the law keys, after its own fields (which end in a comma).
+macro_rules! scene_item {
+    ([] $($item:tt)*) => { $($item)* };
+    ([$next:ident $(, $rest:ident)*] $($item:tt)*) => { $next! { [$($rest),*] $($item)* } };
+}
+
+/// Appends the surface keys of a plane (`origin`, `normal`, `u_axis`, `size`) and of a
+/// cylinder (`axis_point` … `side`) to a `scene_item!`.
+macro_rules! surface_keys {
+    ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+        scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
+            $($fields)*
+            /// Plane: centre of the rectangle [m].
+            #[serde(default)]
+            pub origin: Option<[f64; 3]>,
+            /// Plane: outward normal.
+            #[serde(default)]
+            pub normal: Option<[f64; 3]>,
+            /// Plane: first in-plane axis.
+            #[serde(default)]
+            pub u_axis: Option<[f64; 3]>,
+            /// Plane: side lengths [lu, lv] [m].
+            #[serde(default)]
+            pub size: Option<[f64; 2]>,
+            /// Cylinder: a point on the axis (the middle of the patch's length) [m].
+            #[serde(default)]
+            pub axis_point: Option<[f64; 3]>,
+            /// Cylinder: axis direction.
+            #[serde(default)]
+            pub axis: Option<[f64; 3]>,
+            /// Cylinder: radius ρ [m].
+            #[serde(default)]
+            pub cylinder_radius: Option<f64>,
+            /// Cylinder: length of the patch along the axis [m].
+            #[serde(default)]
+            pub length: Option<f64>,
+            /// Cylinder: angular range [min, max] from `ref_axis` [rad].
+            #[serde(default)]
+            pub theta_range: Option<[f64; 2]>,
+            /// Cylinder: direction (perpendicular to the axis) where θ = 0.
+            #[serde(default)]
+            pub ref_axis: Option<[f64; 3]>,
+            /// Cylinder: the side the spheres touch, outside (convex) or inside (concave).
+            #[serde(default)]
+            pub side: $crate::scene::Side,
+        }}
+        surface_checks!($name);
+    };
+}
+
+/// The checks of the surface keys, for an item with `surface_keys!`.
+macro_rules! surface_checks {
+    ($name:ident) => {
+        impl $name {
+            /// Checks every surface key given, whether or not the item's type uses it: points
+            /// finite, directions nonzero, lengths positive, the extent ordered.
+            pub(crate) fn check_surface_keys(&self, origin: &str, item: &str) -> Result<(), $crate::scene::SceneError> {
+                use $crate::scene::validate::{direction, length, surface_extent, vector};
+                for (f, v) in [("origin", self.origin), ("axis_point", self.axis_point)] {
+                    if let Some(v) = v {
+                        vector(origin, item, f, &v)?;
+                    }
+                }
+                for (f, v) in [
+                    ("normal", self.normal),
+                    ("u_axis", self.u_axis),
+                    ("axis", self.axis),
+                    ("ref_axis", self.ref_axis),
+                ] {
+                    if let Some(v) = v {
+                        direction(origin, item, f, v)?;
+                    }
+                }
+                for (f, v) in [("cylinder_radius", self.cylinder_radius), ("length", self.length)] {
+                    if let Some(v) = v {
+                        length(origin, item, f, v)?;
+                    }
+                }
+                surface_extent(origin, item, self.size, self.theta_range)
+            }
+
+            /// Checks that a plane has the keys it needs (`need` reports a missing one) and
+            /// that its axes are perpendicular.
+            pub(crate) fn check_plane(
+                &self,
+                origin: &str,
+                item: &str,
+                need: impl Fn(&str, bool) -> Result<(), $crate::scene::SceneError>,
+            ) -> Result<(), $crate::scene::SceneError> {
+                need("origin", self.origin.is_some())?;
+                need("normal", self.normal.is_some())?;
+                need("u_axis", self.u_axis.is_some())?;
+                need("size", self.size.is_some())?;
+                $crate::scene::validate::perpendicular((origin, item), ("u_axis", self.u_axis), ("normal", self.normal))
+            }
+
+            /// Checks that a cylinder has the keys it needs (`need` reports a missing one),
+            /// `ref_axis` with `theta_range`, perpendicular to the axis.
+            pub(crate) fn check_cylinder(
+                &self,
+                origin: &str,
+                item: &str,
+                need: impl Fn(&str, bool) -> Result<(), $crate::scene::SceneError>,
+            ) -> Result<(), $crate::scene::SceneError> {
+                need("axis_point", self.axis_point.is_some())?;
+                need("axis", self.axis.is_some())?;
+                need("cylinder_radius", self.cylinder_radius.is_some())?;
+                need("length", self.length.is_some())?;
+                if self.theta_range.is_some() && self.ref_axis.is_none() {
+                    return Err($crate::scene::SceneError::new(
+                        origin,
+                        item,
+                        "ref_axis",
+                        "required with theta_range",
+                    ));
+                }
+                if self.ref_axis.is_some() {
+                    $crate::scene::validate::perpendicular(
+                        (origin, item),
+                        ("ref_axis", self.ref_axis),
+                        ("axis", self.axis),
+                    )?;
+                }
+                Ok(())
+            }
+        }
+    };
+}
+
+/// Appends the contact-law keys after the law and the restitution (`stiffness` …
+/// `stiction_velocity`) to a `scene_item!`.
+macro_rules! law_keys {
+    ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+        scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
+            $($fields)*
+            /// Contact stiffness K [N/m^n]; when absent, the Hertz family derives it from the
+            /// two materials (for a group pair, per pair of shapes).
+            #[serde(default)]
+            pub stiffness: Option<f64>,
+            /// Kelvin-Voigt damping c [N s/m].
+            #[serde(default)]
+            pub damping: Option<f64>,
+            /// Exponent n (default 1.5).
+            #[serde(default)]
+            pub exponent: Option<f64>,
+            /// Largest admissible penetration [m] (default: the sphere radius).
+            #[serde(default)]
+            pub max_penetration: Option<f64>,
+            /// Floor on the remembered impact velocity δ̇⁻ [m/s]; for the impulse law, approach
+            /// speeds below it end in a resting contact.
+            #[serde(default)]
+            pub min_impact_velocity: Option<f64>,
+            /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
+            #[serde(default)]
+            pub impulse_method: $crate::scene::ImpulseMethod,
+            /// Coulomb (sliding) friction coefficient μ (default 0: no friction).
+            #[serde(default)]
+            pub friction: Option<f64>,
+            /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
+            #[serde(default)]
+            pub static_friction: Option<f64>,
+            /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
+            #[serde(default)]
+            pub stribeck_velocity: Option<f64>,
+            /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
+            #[serde(default)]
+            pub viscous_friction: Option<f64>,
+            /// Regularisation velocity v_s [m/s] of the continuous friction law.
+            #[serde(default)]
+            pub stiction_velocity: Option<f64>,
+        }}
+    };
+}
