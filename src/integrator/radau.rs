@@ -369,11 +369,11 @@ impl ImplicitMethod for Radau5 {
                 // h/(α + iβ) = h (α − iβ)/(α² + β²)
                 let d = alpha * alpha + beta * beta;
                 let (cr, ci) = (h * alpha / d, -h * beta / d);
-                if let Some(ok) = reduction
+                if reduction
                     .as_deref_mut()
-                    .and_then(|r| r.factor(dense, n, h * gamma0(), Complex::new(cr, ci)))
+                    .is_some_and(|r| r.factor(dense, n, h * gamma0(), Complex::new(cr, ci)))
                 {
-                    return ok;
+                    return true;
                 }
                 let (lu_re, lu_im) = lu_complex.split_at_mut(n * n);
                 for ((r, i), j) in lu_re.iter_mut().zip(lu_im.iter_mut()).zip(dense) {

@@ -24,6 +24,7 @@
 //! same linear system, solved another way (results differ by rounding). [`SecondOrder::holds`]
 //! checks the structure on each Jacobian; a Jacobian without it is factored whole.
 
+use crate::linalg;
 use nalgebra::{Complex, ComplexField};
 
 /// The coordinates of one joint: its positions `q0..q0 + nq` and velocities `v0..v0 + nv`
@@ -113,17 +114,69 @@ impl ReducedRows {
 /// The factors of `I − cJ` reduced to the velocities, for a real or complex shift `c`.
 #[derive(Debug, Clone)]
 pub struct ReducedLu<T> {
+    /// The shift the factors are for, and its inverse.
+    c: T,
     inv_c: T,
     /// Per block (in order), `Q⁻¹` (`nq × nq`), then `cP = c Q⁻¹ T` (`nq × nv`).
     blocks: Vec<T>,
     /// Where each block's numbers start in `blocks`.
     offsets: Vec<usize>,
-    /// The LU factors of `S` (`nv × nv`, row-major) and their row permutation.
+    /// `S / c` (`nv × nv`, row-major), and its LU factors in `linalg`'s layout for `T`
+    /// ([`Field`]) with their permutation.
     s: Vec<T>,
+    lu: Vec<f64>,
     perm: Vec<usize>,
-    /// Scratch: a block's positions, and the largest block's elimination matrix.
+    /// Scratch: a block's positions and unit vectors, the largest block's `Q` and its LU
+    /// factors and permutation, and the solves' work.
     work_q: Vec<T>,
     work_m: Vec<T>,
+    lu_q: Vec<f64>,
+    perm_q: Vec<usize>,
+    work: Vec<f64>,
+}
+
+/// The two fields the iteration matrices are factored in, each by `linalg`'s LU for it (the
+/// complex one stores the real parts, then the imaginary parts).
+pub trait Field: ComplexField<RealField = f64> + Copy {
+    /// Numbers of `f64` per entry of the factors.
+    const PARTS: usize;
+    /// Factors the row-major `n × n` matrix `a` into `lu`; false when it is singular.
+    fn factor(a: &[Self], n: usize, lu: &mut [f64], perm: &mut [usize]) -> bool;
+    /// Solves with the factors of [`Field::factor`], in place (`work`: `2 · PARTS · n`).
+    fn solve(lu: &[f64], n: usize, perm: &[usize], x: &mut [Self], work: &mut [f64]);
+}
+
+impl Field for f64 {
+    const PARTS: usize = 1;
+    fn factor(a: &[f64], n: usize, lu: &mut [f64], perm: &mut [usize]) -> bool {
+        lu[..n * n].copy_from_slice(&a[..n * n]);
+        linalg::lu_in_place(lu, n, perm)
+    }
+    fn solve(lu: &[f64], n: usize, perm: &[usize], x: &mut [f64], work: &mut [f64]) {
+        linalg::lu_solve(lu, n, perm, x, work);
+    }
+}
+
+impl Field for Complex<f64> {
+    const PARTS: usize = 2;
+    fn factor(a: &[Complex<f64>], n: usize, lu: &mut [f64], perm: &mut [usize]) -> bool {
+        let (re, im) = lu[..2 * n * n].split_at_mut(n * n);
+        for ((r, i), z) in re.iter_mut().zip(im.iter_mut()).zip(&a[..n * n]) {
+            (*r, *i) = (z.re, z.im);
+        }
+        linalg::lu_in_place_complex(lu, n, perm)
+    }
+    fn solve(lu: &[f64], n: usize, perm: &[usize], x: &mut [Complex<f64>], work: &mut [f64]) {
+        let (re, rest) = work[..4 * n].split_at_mut(n);
+        let (im, scratch) = rest.split_at_mut(n);
+        for ((r, i), z) in re.iter_mut().zip(im.iter_mut()).zip(&x[..n]) {
+            (*r, *i) = (z.re, z.im);
+        }
+        linalg::lu_solve_complex(lu, n, perm, re, im, scratch);
+        for ((r, i), z) in re.iter().zip(im.iter()).zip(&mut x[..n]) {
+            *z = Complex::new(*r, *i);
+        }
+    }
 }
 
 /// A joint with one position and one velocity (revolute, prismatic): its `Q` and `P` are
@@ -132,7 +185,7 @@ fn scalar(b: &Block) -> bool {
     b.nq == 1 && b.nv == 1
 }
 
-impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
+impl<T: Field> ReducedLu<T> {
     /// Room for structure `s`.
     pub fn new(s: &SecondOrder) -> ReducedLu<T> {
         let mut offsets = Vec::with_capacity(s.blocks.len());
@@ -143,13 +196,18 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
         }
         let largest = s.blocks.iter().map(|b| b.nq).max().unwrap_or(0);
         ReducedLu {
+            c: T::zero(),
             inv_c: T::zero(),
             blocks: vec![T::zero(); per_block],
             offsets,
             s: vec![T::zero(); s.nv * s.nv],
+            lu: vec![0.0; T::PARTS * s.nv * s.nv],
             perm: vec![0; s.nv],
             work_q: vec![T::zero(); largest],
-            work_m: vec![T::zero(); largest * 2 * largest],
+            work_m: vec![T::zero(); largest * largest],
+            lu_q: vec![0.0; T::PARTS * largest * largest],
+            perm_q: vec![0; largest],
+            work: vec![0.0; 2 * T::PARTS * s.nv.max(largest)],
         }
     }
 
@@ -158,6 +216,7 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
     /// a factor is not finite.
     pub fn factor(&mut self, s: &SecondOrder, jac: &[f64], n: usize, c: T) -> bool {
         let nq = s.nq;
+        self.c = c;
         for (b, &off) in s.blocks.iter().zip(&self.offsets) {
             let (qinv, cp) = self.blocks[off..off + b.nq * (b.nq + b.nv)].split_at_mut(b.nq * b.nq);
             if scalar(b) {
@@ -169,24 +228,29 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
                 cp[0] = c * qinv[0].scale(jac[b.q0 * n + nq + b.v0]);
                 continue;
             }
-            // Q = I − c Jqq, inverted by Gauss-Jordan with partial pivoting on [Q | I]
-            let w = 2 * b.nq;
-            let m = &mut self.work_m[..b.nq * w];
+            // Q = I − c Jqq, factored, and Q⁻¹ column by column
+            let m = &mut self.work_m[..b.nq * b.nq];
             for i in 0..b.nq {
                 for k in 0..b.nq {
                     let mut x = -c.scale(jac[(b.q0 + i) * n + b.q0 + k]);
                     if i == k {
                         x += T::one();
                     }
-                    m[i * w + k] = x;
-                    m[i * w + b.nq + k] = if i == k { T::one() } else { T::zero() };
+                    m[i * b.nq + k] = x;
                 }
             }
-            if !gauss_jordan(m, b.nq, w) {
+            if !T::factor(m, b.nq, &mut self.lu_q, &mut self.perm_q) {
                 return false;
             }
-            for i in 0..b.nq {
-                qinv[i * b.nq..(i + 1) * b.nq].copy_from_slice(&m[i * w + b.nq..i * w + w]);
+            let e = &mut self.work_q[..b.nq];
+            for k in 0..b.nq {
+                e.iter_mut()
+                    .enumerate()
+                    .for_each(|(i, x)| *x = if i == k { T::one() } else { T::zero() });
+                T::solve(&self.lu_q, b.nq, &self.perm_q, e, &mut self.work);
+                for (i, x) in e.iter().enumerate() {
+                    qinv[i * b.nq + k] = *x;
+                }
             }
             // cP = c Q⁻¹ T
             for i in 0..b.nq {
@@ -225,13 +289,13 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
                 }
             }
         }
-        lu_in_place(&mut self.s, nv, &mut self.perm)
+        T::factor(&self.s, nv, &mut self.lu, &mut self.perm)
     }
 
     /// Solves `(I − cJ) x = x` in place with the factors and the rows `r` of the same
-    /// Jacobian; `c` is the shift the factors are for.
-    pub fn solve(&mut self, s: &SecondOrder, r: &ReducedRows, c: T, x: &mut [T]) {
-        let (nq, nv) = (s.nq, s.nv);
+    /// Jacobian.
+    pub fn solve(&mut self, s: &SecondOrder, r: &ReducedRows, x: &mut [T]) {
+        let (nq, nv, c) = (s.nq, s.nv, self.c);
         let (xq, rest) = x.split_at_mut(nq);
         let (xv, xe) = rest.split_at_mut(nv);
         // Q⁻¹ bq
@@ -259,7 +323,7 @@ impl<T: ComplexField<RealField = f64> + Copy> ReducedLu<T> {
             }
             *v = *v * self.inv_c + acc;
         }
-        lu_solve(&self.s, nv, &self.perm, xv);
+        T::solve(&self.lu, nv, &self.perm, xv, &mut self.work);
         // xq = Q⁻¹ bq + cP xv
         for (b, &off) in s.blocks.iter().zip(&self.offsets) {
             let cp = &self.blocks[off + b.nq * b.nq..off + b.nq * (b.nq + b.nv)];
@@ -298,9 +362,6 @@ pub struct Reduction {
     real: ReducedLu<f64>,
     complex: ReducedLu<Complex<f64>>,
     work: Vec<Complex<f64>>,
-    /// The shifts of the last factorisation.
-    c_real: f64,
-    c_complex: Complex<f64>,
     /// The last factorisation was reduced (the Jacobian had the structure).
     pub active: bool,
 }
@@ -314,30 +375,25 @@ impl Reduction {
             real: ReducedLu::new(s),
             complex: ReducedLu::new(s),
             work: vec![Complex::new(0.0, 0.0); n],
-            c_real: 0.0,
-            c_complex: Complex::new(0.0, 0.0),
             active: false,
         }
     }
 
     /// Factors `I − c_r J` and `I − c_c J` reduced when the row-major `n × n` Jacobian has
-    /// the structure and the factors are regular and finite (then `Some(true)`, and
-    /// [`Reduction::active`]); None otherwise (factor the whole matrices).
-    pub fn factor(&mut self, jac: &[f64], n: usize, c_real: f64, c_complex: Complex<f64>) -> Option<bool> {
-        self.active = self.s.holds(jac, n);
-        if !self.active {
-            return None;
-        }
-        self.rows.load(&self.s, jac, n);
-        (self.c_real, self.c_complex) = (c_real, c_complex);
-        self.active = self.real.factor(&self.s, jac, n, c_real) && self.complex.factor(&self.s, jac, n, c_complex);
-        // (a reduced factorisation that fails leaves the decision to the whole matrix's)
-        self.active.then_some(true)
+    /// the structure and the factors are regular and finite: then true, and
+    /// [`Reduction::active`]. False otherwise: the caller factors the whole matrices (and
+    /// decides there whether they are singular).
+    pub fn factor(&mut self, jac: &[f64], n: usize, c_real: f64, c_complex: Complex<f64>) -> bool {
+        self.active = self.s.holds(jac, n) && {
+            self.rows.load(&self.s, jac, n);
+            self.real.factor(&self.s, jac, n, c_real) && self.complex.factor(&self.s, jac, n, c_complex)
+        };
+        self.active
     }
 
     /// Solves `(I − c_r J) x = x` in place.
     pub fn solve_real(&mut self, x: &mut [f64]) {
-        self.real.solve(&self.s, &self.rows, self.c_real, x);
+        self.real.solve(&self.s, &self.rows, x);
     }
 
     /// Solves `(I − c_c J) (re + i im) = re + i im` in place.
@@ -345,100 +401,11 @@ impl Reduction {
         for ((w, r), i) in self.work.iter_mut().zip(re.iter()).zip(im.iter()) {
             *w = Complex::new(*r, *i);
         }
-        self.complex.solve(&self.s, &self.rows, self.c_complex, &mut self.work);
+        self.complex.solve(&self.s, &self.rows, &mut self.work);
         for ((w, r), i) in self.work.iter().zip(re.iter_mut()).zip(im.iter_mut()) {
             *r = w.re;
             *i = w.im;
         }
-    }
-}
-
-/// Gauss-Jordan elimination with partial pivoting of the `n × w` row-major `m = [A | B]`:
-/// leaves `[I | A⁻¹ B]`. False when `A` is singular.
-fn gauss_jordan<T: ComplexField<RealField = f64> + Copy>(m: &mut [T], n: usize, w: usize) -> bool {
-    for k in 0..n {
-        let p = (k..n)
-            .max_by(|&a, &b| m[a * w + k].norm1().total_cmp(&m[b * w + k].norm1()))
-            .unwrap_or(k);
-        if m[p * w + k].norm1() == 0.0 {
-            return false;
-        }
-        if p != k {
-            for j in 0..w {
-                m.swap(p * w + j, k * w + j);
-            }
-        }
-        let inv = T::one() / m[k * w + k];
-        for j in 0..w {
-            m[k * w + j] *= inv;
-        }
-        for i in 0..n {
-            if i != k {
-                let f = m[i * w + k];
-                if f != T::zero() {
-                    for j in 0..w {
-                        let x = m[k * w + j];
-                        m[i * w + j] -= f * x;
-                    }
-                }
-            }
-        }
-    }
-    true
-}
-
-/// LU with partial pivoting (by |re| + |im|) of the row-major `n × n` matrix `a`, in place.
-fn lu_in_place<T: ComplexField<RealField = f64> + Copy>(a: &mut [T], n: usize, perm: &mut [usize]) -> bool {
-    for k in 0..n {
-        let p = (k..n)
-            .max_by(|&x, &y| a[x * n + k].norm1().total_cmp(&a[y * n + k].norm1()))
-            .unwrap_or(k);
-        perm[k] = p;
-        if a[p * n + k].norm1() == 0.0 || !a[p * n + k].is_finite() {
-            return false;
-        }
-        if p != k {
-            for j in 0..n {
-                a.swap(p * n + j, k * n + j);
-            }
-        }
-        let inv = T::one() / a[k * n + k];
-        let (top, bottom) = a.split_at_mut((k + 1) * n);
-        let pivot_row = &top[k * n..];
-        for row in bottom.chunks_exact_mut(n) {
-            let f = row[k] * inv;
-            row[k] = f;
-            if f != T::zero() {
-                for j in k + 1..n {
-                    row[j] -= f * pivot_row[j];
-                }
-            }
-        }
-    }
-    true
-}
-
-/// Solves with the factors of [`lu_in_place`], in place.
-fn lu_solve<T: ComplexField<RealField = f64> + Copy>(lu: &[T], n: usize, perm: &[usize], x: &mut [T]) {
-    for (k, &p) in perm.iter().enumerate().take(n) {
-        x.swap(k, p);
-    }
-    for i in 1..n {
-        let (done, rest) = x.split_at_mut(i);
-        let dot = lu[i * n..i * n + i]
-            .iter()
-            .zip(done.iter())
-            .fold(T::zero(), |acc, (l, y)| acc + *l * *y);
-        rest[0] -= dot;
-    }
-    for i in (0..n).rev() {
-        let (head, done) = x.split_at_mut(i + 1);
-        let row = &lu[i * n..(i + 1) * n];
-        let dot = row[i + 1..]
-            .iter()
-            .zip(done.iter())
-            .fold(T::zero(), |acc, (u, y)| acc + *u * *y);
-        head[i] = (head[i] - dot) / row[i];
     }
 }
 
@@ -495,18 +462,20 @@ mod tests {
         (s, j, n)
     }
 
-    /// Dense reference: Gaussian elimination of `I − cJ` on the whole system.
-    fn reference<T: ComplexField<RealField = f64> + Copy>(j: &[f64], n: usize, c: T, b: &[T]) -> Vec<T> {
-        let w = n + 1;
-        let mut m = vec![T::zero(); n * w];
+    /// Reference: `I − cJ` of the whole system factored and solved as radau5 does without
+    /// the reduction (`linalg`'s LU).
+    fn reference<T: Field>(j: &[f64], n: usize, c: T, b: &[T]) -> Vec<T> {
+        let mut m = vec![T::zero(); n * n];
         for i in 0..n {
             for k in 0..n {
-                m[i * w + k] = -c * T::from_real(j[i * n + k]) + if i == k { T::one() } else { T::zero() };
+                m[i * n + k] = -c * T::from_real(j[i * n + k]) + if i == k { T::one() } else { T::zero() };
             }
-            m[i * w + n] = b[i];
         }
-        assert!(gauss_jordan(&mut m, n, w));
-        (0..n).map(|i| m[i * w + n]).collect()
+        let (mut lu, mut perm, mut work) = (vec![0.0; T::PARTS * n * n], vec![0; n], vec![0.0; 2 * T::PARTS * n]);
+        assert!(T::factor(&m, n, &mut lu, &mut perm));
+        let mut x = b.to_vec();
+        T::solve(&lu, n, &perm, &mut x, &mut work);
+        x
     }
 
     #[test]
@@ -529,7 +498,7 @@ mod tests {
         let mut lu = ReducedLu::<f64>::new(&s);
         assert!(lu.factor(&s, &j, n, 0.021));
         let mut x = b.clone();
-        lu.solve(&s, &rows, 0.021, &mut x);
+        lu.solve(&s, &rows, &mut x);
         for (a, e) in x.iter().zip(reference(&j, n, 0.021, &b)) {
             assert!((a - e).abs() <= 1e-13 * e.abs().max(1.0), "{a} against {e}");
         }
@@ -542,7 +511,7 @@ mod tests {
         let mut lu = ReducedLu::<Complex<f64>>::new(&s);
         assert!(lu.factor(&s, &j, n, c));
         let mut x = bc.clone();
-        lu.solve(&s, &rows, c, &mut x);
+        lu.solve(&s, &rows, &mut x);
         for (a, e) in x.iter().zip(reference(&j, n, c, &bc)) {
             assert!((a - e).norm() <= 1e-13 * e.norm().max(1.0), "{a} against {e}");
         }
