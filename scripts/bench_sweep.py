@@ -67,23 +67,26 @@ def main():
     cases = sweep.grid(PARAMS)
     print(f"{len(cases)} cases of {args.fmu.name}, {os.cpu_count()} CPUs, {args.repeats} repeats")
     results = []
+    serial_load = os.getloadavg()[0]
     reference = sweep.run_serial(args.fmu, cases, OUTPUTS)
-    serial = ([], 0.0)
+    serial_times, serial_cpu_total = [], 0.0
     for workers, batch in ((1, None), (2, 1), (2, None)):
         t = time.perf_counter()
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
         print(f"LocalCluster of {workers} worker(s) started in {time.perf_counter() - t:.2f} s")
         t = time.perf_counter()
-        sweep.run_dask(client, args.fmu, cases, OUTPUTS, batch=batch)
+        rows = sweep.run_dask(client, args.fmu, cases, OUTPUTS, batch=batch)
         print(f"  first sweep (the FMU sent and unpacked on the workers): {time.perf_counter() - t:.3f} s")
+        if rows != reference:
+            raise SystemExit(f"{workers} worker(s), batch {batch}: results differ from the serial run")
         load = os.getloadavg()[0]
         times, cpu, paired = [], 0.0, []
         for _ in range(args.repeats):
             # a serial sweep, then the dask sweep: the pairs see the same machine
             s_times, s_cpu, _ = timed(lambda: sweep.run_serial(args.fmu, cases, OUTPUTS), 1, time.process_time)
-            serial[0].extend(s_times)
-            serial = (serial[0], serial[1] + s_cpu)
+            serial_times.extend(s_times)
+            serial_cpu_total += s_cpu
             paired.extend(s_times)
             d_times, d_cpu, rows = timed(
                 lambda: sweep.run_dask(client, args.fmu, cases, OUTPUTS, batch=batch), 1, lambda: workers_cpu(client)
@@ -98,7 +101,7 @@ def main():
         )
         client.close()
         cluster.close()
-    results.insert(0, ("serial", 0, serial[0], serial[1], os.getloadavg()[0], statistics.median(serial[0])))
+    results.insert(0, ("serial", 0, serial_times, serial_cpu_total, serial_load, statistics.median(serial_times)))
 
     serial_wall = statistics.median(results[0][2])
     serial_cpu = results[0][3] / len(results[0][2])
