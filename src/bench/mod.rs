@@ -261,6 +261,11 @@ pub enum BenchCommand {
     },
 }
 
+/// Writes a benchmark's scene to `path` as TOML (`--write-scene`).
+fn save_scene(path: &std::path::Path, scene: &crate::scene::Scene) -> Result<(), String> {
+    std::fs::write(path, scene.to_toml()).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Runs a `bench` subcommand.
 pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
     match cmd {
@@ -281,10 +286,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             csv,
             write_scene,
         } => match write_scene {
-            Some(p) => {
-                let text = scenes::sphere_box(n.first().copied().unwrap_or(100), time).to_toml();
-                std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
-            }
+            Some(p) => save_scene(&p, &scenes::sphere_box(n.first().copied().unwrap_or(100), time)),
             None => scaling::run(&n, time, repeats, &csv),
         },
         BenchCommand::Islands {
@@ -293,10 +295,10 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             time,
             margin,
             ..
-        } => {
-            let text = islands::grouped(n.first().copied().unwrap_or(100), time, margin, true).to_toml();
-            std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
-        }
+        } => save_scene(
+            &p,
+            &islands::grouped(n.first().copied().unwrap_or(100), time, margin, true),
+        ),
         BenchCommand::Islands {
             n,
             time,

@@ -450,13 +450,13 @@ mod groups;
 mod motion;
 mod table;
 
-/// The unit of a 1-DOF joint's coordinate and of its rate: rad and rad/s (revolute), m and
-/// m/s (prismatic).
-fn joint_units(kind: JointType) -> (&'static str, &'static str) {
+/// The units of a 1-DOF joint's coordinate, rate and acceleration: rad, rad/s and rad/s2
+/// (revolute), m, m/s and m/s2 (prismatic).
+fn joint_units(kind: JointType) -> [&'static str; 3] {
     if kind == JointType::Revolute {
-        ("rad", "rad/s")
+        ["rad", "rad/s", "rad/s2"]
     } else {
-        ("m", "m/s")
+        ["m", "m/s", "m/s2"]
     }
 }
 

@@ -22,8 +22,7 @@ pub(super) fn motion_inputs(
     start: &[f64],
 ) -> Vec<Variable> {
     let joint = inp.joint.clone().unwrap_or_default();
-    let (q_unit, qd_unit) = joint_units(driven_kind(scene, &joint));
-    let units = [q_unit, qd_unit, if q_unit == "rad" { "rad/s2" } else { "m/s2" }];
+    let units = joint_units(driven_kind(scene, &joint));
     let what = [
         format!(
             "coordinate of joint '{joint}' set at the start of the communication step (0: the scene's \

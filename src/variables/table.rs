@@ -346,7 +346,7 @@ pub(super) fn outputs(scene: &Scene, v: &mut Vec<Variable>) {
     }
     for (i, j) in scene.joint.iter().enumerate() {
         if matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
-            let (unit, rate_unit) = joint_units(j.kind);
+            let [unit, rate_unit, _] = joint_units(j.kind);
             let (what, display) = if j.kind == JointType::Revolute {
                 ("angle about", "deg")
             } else {
