@@ -22,6 +22,15 @@
 //!   state (one evaluation): a Jacobian is kept for as long as Newton converges, so its own
 //!   ρ may describe a stiffness that has faded since. After [`CALM_STEPS_IMPLICIT`] non-stiff
 //!   steps in a row the next step switches back.
+//! - **Cost.** Every [`COST_WINDOW`] accepted implicit steps, the evaluations the implicit
+//!   method spent per unit of time over them (rejected steps, Newton failures and Jacobians
+//!   included) are compared with what Dormand-Prince would spend at its stability limit,
+//!   [`DOPRI5_EVALUATIONS`]` · ρ / `[`STABILITY_BOUNDARY`]. Beyond [`COST_RATIO`] times that,
+//!   the implicit method is losing (its Newton iteration keeps failing: the rail vehicle at
+//!   rtol 1e-3, whose wheel slip crosses the regularised friction law's band) and the next
+//!   step switches back; the cost is remembered, and for the next [`COST_MEMORY_STEPS`]
+//!   Dormand-Prince steps a switch to the implicit method waits until Dormand-Prince's own
+//!   cost per unit of time (`6/h`) exceeds it (no stiffness check runs meanwhile).
 //! - A switch happens at the start of a step, so the dense output of the last step stays that
 //!   of the method that took it. The counters carry over (one [`Stats`] for the run).
 //! - Resets (after events) and restarts keep the active method and the switching memory.
@@ -70,10 +79,22 @@ pub const CALM_STEPS_IMPLICIT: u32 = 10;
 /// Implicit steps with the same Jacobian between two measurements of the stiffness along its
 /// dominant direction at the current state.
 pub const RECHECK_STEPS: u32 = 5;
+/// Accepted implicit steps over which its cost per unit of time is measured.
+pub const COST_WINDOW: u32 = 10;
+/// Right-hand side evaluations of one Dormand-Prince step (first same as last).
+pub const DOPRI5_EVALUATIONS: f64 = 6.0;
+/// `h·ρ` at Dormand-Prince's stability limit (3.31 on the negative real axis).
+pub const STABILITY_BOUNDARY: f64 = 3.3;
+/// How many times Dormand-Prince's cost at its stability limit the implicit method may spend
+/// per unit of time before it switches back.
+pub const COST_RATIO: f64 = 2.0;
+/// Dormand-Prince steps after a switch back for cost during which the implicit method's
+/// measured cost holds the next switch.
+pub const COST_MEMORY_STEPS: u32 = 500;
 /// Power iterations for ρ(J).
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
-pub const MEMORY_LEN: usize = 9;
+pub const MEMORY_LEN: usize = 14;
 
 /// Builds the implicit method for a system size with the tolerances and largest step
 /// (`Radau5::new`).
@@ -117,6 +138,15 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     switches: u64,
     /// The system's second-order structure, handed to the implicit method when it is built.
     second_order: Option<SecondOrder>,
+    /// Start of the implicit method's cost window: time, evaluations so far, accepted steps
+    /// in it.
+    window_t: f64,
+    window_rhs: u64,
+    window_steps: u32,
+    /// The implicit method's evaluations per unit of time when it last switched back for
+    /// cost, and the Dormand-Prince steps for which that still holds a switch (0: none).
+    implicit_cost: f64,
+    cost_hold: u32,
 }
 
 impl<I: ImplicitMethod + Integrator> Auto<I> {
@@ -160,6 +190,11 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             jv: vec![0.0; n],
             switches: 0,
             second_order: None,
+            window_t: 0.0,
+            window_rhs: 0,
+            window_steps: 0,
+            implicit_cost: 0.0,
+            cost_hold: 0,
         }
     }
 
@@ -233,6 +268,10 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             implicit.set_stats(stats);
             implicit.reset(sys, t, explicit.y(), h);
             implicit.jacobian(sys);
+            // (the window starts before the first Jacobian: it is part of the cost)
+            self.window_t = t;
+            self.window_rhs = stats.rhs_evals;
+            self.window_steps = 0;
         } else {
             explicit.set_stats(stats);
             explicit.reset(sys, t, implicit.y(), h);
@@ -243,6 +282,15 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// explicit method's stiffness check evaluates `sys`).
     fn observe(&mut self, sys: &mut dyn OdeSystem) {
         if !self.stiff {
+            if self.cost_hold > 0 {
+                self.cost_hold -= 1;
+                let h = self.explicit.t() - self.explicit.t_prev();
+                if DOPRI5_EVALUATIONS / h <= self.implicit_cost {
+                    // cheaper than the implicit method measured: no check, no switch
+                    return;
+                }
+                self.cost_hold = 0;
+            }
             // (explicit: `since` counts the steps in a row whose estimate is at the trigger)
             self.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
                 (self.since + 1).min(CHECK_AFTER)
@@ -278,7 +326,8 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             return;
         };
         let (_, newton) = implicit.parts();
-        let calm = if !newton.mem.jac_valid {
+        let jac_valid = newton.mem.jac_valid;
+        let calm = if !jac_valid {
             true
         } else {
             let jac_evals = implicit.stats().jac_evals;
@@ -310,6 +359,20 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         };
         if self.count >= CALM_STEPS_IMPLICIT {
             self.switch_pending = true;
+        }
+        self.window_steps += 1;
+        if self.window_steps >= COST_WINDOW {
+            let (t, rhs) = (implicit.t(), implicit.stats().rhs_evals);
+            let cost = (rhs - self.window_rhs) as f64 / (t - self.window_t);
+            let explicit_cost = DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY;
+            if jac_valid && cost > COST_RATIO * explicit_cost {
+                self.switch_pending = true;
+                self.implicit_cost = cost;
+                self.cost_hold = COST_MEMORY_STEPS;
+            }
+            self.window_t = t;
+            self.window_rhs = rhs;
+            self.window_steps = 0;
         }
     }
 }
@@ -407,7 +470,8 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
 
     /// Tag, the switching memory (implicit active, switch pending, the two step counts, ρ(J)
     /// and the Jacobian count it is for (−1: none), switches made, the stiffness measured
-    /// since and the implicit steps since that measurement), then the active method's state
+    /// since and the implicit steps since that measurement, the cost window's start time,
+    /// evaluations and steps, the remembered implicit cost and its hold), then the active method's state
     /// with its own tag.
     fn save_state(&self, out: &mut Vec<f64>) {
         out.push(super::core::state_tag(Method::Auto));
@@ -427,6 +491,11 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             self.switches as f64,
             self.rho_now,
             self.since as f64,
+            self.window_t,
+            self.window_rhs as f64,
+            self.window_steps as f64,
+            self.implicit_cost,
+            self.cost_hold as f64,
         ]);
         self.active().save_state(out);
     }
@@ -450,11 +519,25 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         let switches = r.count()?;
         let rho_now = r.value()?;
         let since = r.count()?;
+        let window_t = r.value()?;
+        let window_rhs = r.count()?;
+        let window_steps = r.count()?;
+        let implicit_cost = r.value()?;
+        let cost_hold = r.count()?;
         let own = r.take(v.len().saturating_sub(1 + MEMORY_LEN))?;
         r.finish()?;
         let too_big = |c: u64| c > u32::MAX as u64;
         let bad_rate = |x: f64| x.is_nan() || x < 0.0;
-        if too_big(count) || too_big(calm) || too_big(since) || bad_rate(rho) || bad_rate(rho_now) {
+        if too_big(count)
+            || too_big(calm)
+            || too_big(since)
+            || too_big(window_steps)
+            || too_big(cost_hold)
+            || bad_rate(rho)
+            || bad_rate(rho_now)
+            || bad_rate(implicit_cost)
+            || !window_t.is_finite()
+        {
             return Err("the auto integrator state holds an out-of-range switching memory".into());
         }
         if stiff {
@@ -471,6 +554,11 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         self.switches = switches;
         self.rho_now = rho_now;
         self.since = since as u32;
+        self.window_t = window_t;
+        self.window_rhs = window_rhs;
+        self.window_steps = window_steps as u32;
+        self.implicit_cost = implicit_cost;
+        self.cost_hold = cost_hold as u32;
         // the Jacobian's direction is computed again from the loaded Jacobian when needed
         self.x_for = u64::MAX;
         Ok(())
