@@ -50,8 +50,33 @@ const MAX_GROW: f64 = 8.0;
 const MAX_SHRINK: f64 = 5.0;
 
 /// Size of the controller memory of the implicit methods in their warm state: accepted step,
-/// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag.
-pub(crate) const WARM_HEADER: usize = 5;
+/// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag, the step-size
+/// bound after a Newton failure (−1: none).
+pub(crate) const WARM_HEADER: usize = 6;
+
+/// Growth per accepted step of the bound on the step size after a Newton failure with a
+/// fresh Jacobian (see [`WarmMemory::h_newton`]).
+pub const NEWTON_RELAX: f64 = 1.2;
+
+/// The step-size bound as saved: −1 for none (infinite).
+fn saved_bound(h: f64) -> f64 {
+    if h.is_finite() {
+        h
+    } else {
+        -1.0
+    }
+}
+
+/// The step-size bound from its saved number (None: neither −1 nor a positive step).
+fn read_bound(x: f64) -> Option<f64> {
+    if x == -1.0 {
+        Some(f64::INFINITY)
+    } else if x > 0.0 && x.is_finite() {
+        Some(x)
+    } else {
+        None
+    }
+}
 
 /// Memory an implicit method carries across a warm restart (see [`Integrator::restart`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,6 +90,12 @@ pub struct WarmMemory {
     pub jac_stale: bool,
     /// The Jacobian holds an evaluation (false: J = 0, functional iteration).
     pub jac_valid: bool,
+    /// Bound on the step size after a Newton failure with a fresh Jacobian: the halved step,
+    /// grown by [`NEWTON_RELAX`] at every accepted step (infinite: none). Where a step's
+    /// iterates cross a steep band of the right-hand side (the rail vehicle's friction law at
+    /// rtol 1e-3), the accuracy-based controller would grow the step straight back into the
+    /// failure.
+    pub h_newton: f64,
 }
 
 impl WarmMemory {
@@ -83,6 +114,7 @@ impl WarmMemory {
             self.eta,
             self.jac_stale as u8 as f64,
             with_jac as u8 as f64,
+            saved_bound(self.h_newton),
         ]);
         if with_jac {
             out.extend_from_slice(jac);
@@ -121,6 +153,7 @@ impl WarmMemory {
             eta: v[2],
             jac_stale: v[3] != 0.0,
             jac_valid: with_jac,
+            h_newton: read_bound(v[5]).ok_or_else(bad)?,
         })
     }
 
@@ -132,13 +165,15 @@ impl WarmMemory {
             eta: 1.0,
             jac_stale: false,
             jac_valid: false,
+            h_newton: f64::INFINITY,
         }
     }
 }
 
 /// Numbers [`NewtonCore::save_state`] writes before the Jacobian: `h_acc`, `err_acc`, `eta`,
-/// `jac_stale`, `jac_valid`, `jac_fresh`, the step size of the factorisation.
-pub const SAVED_NEWTON_HEADER: usize = 7;
+/// `jac_stale`, `jac_valid`, `jac_fresh`, the step size of the factorisation, the step-size
+/// bound after a Newton failure (−1: none).
+pub const SAVED_NEWTON_HEADER: usize = 8;
 
 /// A [`NewtonCore`] as read back from a saved state (checked, not yet applied).
 #[derive(Debug, Clone, Copy)]
@@ -244,6 +279,7 @@ impl NewtonCore {
             flag(m.jac_valid),
             flag(self.jac_fresh),
             self.lu_h,
+            saved_bound(m.h_newton),
         ]);
         if m.jac_valid {
             match &self.sparse {
@@ -260,6 +296,7 @@ impl NewtonCore {
         let [h_acc, err_acc, eta] = [r.value()?, r.value()?, r.value()?];
         let [jac_stale, jac_valid, jac_fresh] = [r.flag()?, r.flag()?, r.flag()?];
         let lu_h = r.step_size()?;
+        let h_newton = read_bound(r.value()?).ok_or("the Newton step bound in the state is not a step size or -1")?;
         let jac = match (jac_valid, &self.sparse) {
             (false, _) => None,
             (true, None) => Some(r.take(n * n)?),
@@ -280,6 +317,7 @@ impl NewtonCore {
                 eta,
                 jac_stale,
                 jac_valid,
+                h_newton,
             },
             jac_fresh,
             lu_h,
@@ -604,6 +642,7 @@ impl<M: ImplicitMethod> Integrator for M {
                         coloured_failures += 1;
                     }
                     core.h = h * 0.5;
+                    newton.mem.h_newton = core.h;
                 }
                 continue;
             };
@@ -630,7 +669,8 @@ impl<M: ImplicitMethod> Integrator for M {
                 if theta > SLOW_CONTRACTION {
                     newton.mem.jac_stale = true;
                 }
-                let mut h_new = h / quot;
+                let mut h_new = (h / quot).min(newton.mem.h_newton);
+                newton.mem.h_newton *= NEWTON_RELAX;
                 if rejected_before {
                     h_new = h_new.min(h);
                 }

@@ -114,11 +114,21 @@ fn warm_state_sizes_and_checks() {
         assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
         assert!(m.set_warm_state(&[]).is_ok());
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 1.0]).is_err(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, -1.0, 1.0]).is_err(),
             "{method:?}: short Jacobian"
         );
         assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
-        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0]).is_ok(), "{method:?}");
+        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, -1.0]).is_ok(), "{method:?}");
+        assert!(
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5]).is_ok(),
+            "{method:?}: a bound"
+        );
+        for bad in [0.0, -2.0, f64::NAN, f64::INFINITY] {
+            assert!(
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad]).is_err(),
+                "{method:?}: step-size bound {bad}"
+            );
+        }
     }
     // n = 201: n² > WARM_JACOBIAN_MAX
     struct Decay;
@@ -364,7 +374,7 @@ fn saved_len(method: Method, n: usize, with_jac: bool) -> usize {
     match method {
         Method::Dopri5 => 9 + 7 * n,
         Method::Rk4 => 8 + 4 * n,
-        Method::Sdirk | Method::Radau5 => 15 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
+        Method::Sdirk | Method::Radau5 => 16 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
         Method::Auto => unreachable!("auto: the length of its active method's state"),
     }
 }
