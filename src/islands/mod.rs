@@ -44,11 +44,12 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 mod cut;
+mod cut_model;
 mod pool;
 mod saved;
 
 use cut::candidate_body;
-use cut::SceneIndex;
+use cut_model::ModelCutter;
 pub use cut::{partition, wanted};
 use pool::{Compiled, Pool};
 
@@ -138,7 +139,8 @@ pub struct Islands {
     island_of: Vec<usize>,
     /// The scene's declared contacts (before the candidate pairs' contacts).
     n_explicit: usize,
-    index: SceneIndex,
+    /// Cuts the islands' models from the scene's.
+    cutter: ModelCutter,
     params: Arc<Parameters>,
     /// The compiled parts of islands that ended.
     pool: Pool,
@@ -263,7 +265,7 @@ impl Islands {
             joint_coords,
             island_of: vec![0; m.bodies.len()],
             n_explicit: m.groups.n_explicit,
-            index: SceneIndex::of(src.scene),
+            cutter: ModelCutter::new(src.scene, m),
             params: Arc::new(params),
             pool: Pool::default(),
         }
@@ -360,7 +362,7 @@ impl Islands {
                 self.retire(island);
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
-            let mut island = self.compile_island(src, d, bodies, cands, memory)?;
+            let mut island = self.compile_island(src, m, d, bodies, cands, memory)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -424,11 +426,12 @@ impl Islands {
     }
 
     /// The island of `bodies` with the candidate pairs `candidates` (scene numbering), its
-    /// model from the pool or compiled, its data set from the scene's data `d` (coordinates,
+    /// model from the pool or cut from the scene's model `m`, its data set from the scene's data `d` (coordinates,
     /// inputs, flags, the broad phase's reference poses) and the contacts' memory.
     fn compile_island(
         &mut self,
         src: &Source,
+        m: &Model,
         d: &Data,
         bodies: Vec<usize>,
         candidates: Vec<Candidate>,
@@ -441,7 +444,7 @@ impl Islands {
                 pooled
             }
             None => {
-                let part = pool::compile(src, &self.params, &self.index, &self.joint_coords, &key)
+                let part = pool::compile(src, &self.params, &mut self.cutter, m, &self.joint_coords, &key)
                     .map_err(|e| fail(d.time, e))?;
                 (key, part)
             }
