@@ -18,13 +18,13 @@ mod groups;
 pub mod parameters;
 mod velocities;
 
-pub use parameters::Parameters;
 pub(crate) use contact::reserve_constraint_rows;
 pub(crate) use groups::group_contact;
+pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
-use crate::model::groups::Candidate;
 use crate::model::contact::ContactElement;
+use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
@@ -457,7 +457,11 @@ pub fn compile_model(
 /// Per velocity index its tree joint and its parent dof local to its tree's block, and the
 /// offset of each tree's block in the packed mass-matrix storage (the joints in depth-first
 /// order, `trees`: each tree's first velocity index and size).
-pub(crate) fn dof_maps(joints: &[TreeJoint], bodies: &[Body], trees: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+pub(crate) fn dof_maps(
+    joints: &[TreeJoint],
+    bodies: &[Body],
+    trees: &[(usize, usize)],
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
     let nv = trees.iter().map(|t| t.1).sum();
     let mut dof_joint = vec![0; nv];
     for (ji, j) in joints.iter().enumerate() {

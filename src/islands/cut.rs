@@ -1,6 +1,6 @@
-//! What the islands are cut from: which bodies are coupled (the partition), and the part of the
-//! scene (bodies, joints, springs, contacts, inputs, shapes) and of the parameter values that
-//! an island is compiled from.
+//! What the islands are cut from: which bodies are coupled (the partition), the scene's items
+//! per body, and (the tests' oracle) the part of the scene and of the parameter values that an
+//! island's model compiles from.
 
 #[cfg(test)]
 use crate::compile::Parameters;

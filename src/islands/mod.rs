@@ -1,6 +1,6 @@
 //! Independent islands: the bodies coupled through joints, spring-dampers, joint-force inputs
 //! and contacts that can act (the declared contacts, and the contact groups' candidate pairs)
-//! form islands. Each island is a model of its own, compiled from its part of the scene, with
+//! form islands. Each island is a model of its own, cut from the scene's model (`cut_model.rs`), with
 //! its own integrator, step-size control and located events, so that an impact in one corner
 //! of a scene does not restart the integration of the rest.
 //!
@@ -20,7 +20,7 @@
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
 //!    the others are formed anew with their contacts' memory carried over, their model
-//!    compiled or taken from the pool of the islands that ended (`pool.rs`).
+//!    cut from the scene's or taken from the pool of the islands that ended (`pool.rs`).
 //!
 //! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
 //! farther apart than the margin, and neither body moves half of it before the list is made
@@ -49,8 +49,8 @@ mod pool;
 mod saved;
 
 use cut::candidate_body;
-use cut_model::ModelCutter;
 pub use cut::{partition, wanted};
+use cut_model::ModelCutter;
 use pool::{Compiled, Pool};
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
@@ -78,7 +78,7 @@ fn fail(time: f64, message: impl Into<String>) -> EngineError {
     }
 }
 
-/// One island: a model compiled from its part of the scene, and its data.
+/// One island: a model cut from the scene's, and its data.
 pub struct Island {
     /// The island's model.
     pub model: Model,

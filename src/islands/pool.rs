@@ -1,9 +1,9 @@
 //! The compiled part of an island (its model and how it maps onto the scene), and the pool
 //! that keeps it when the island ends: an island formed again from the same bodies and
 //! candidate pairs — a sphere alone again after a collision, a pair that meets again — takes
-//! its model from there instead of compiling its part of the scene anew. A model depends on
+//! its model from there instead of cutting it from the scene's model anew. A model depends on
 //! nothing else (the scene and the parameter values are the islands' own), so a pooled model
-//! is the one compilation would give, and the results do not depend on the pool.
+//! is the one cutting would give, and the results do not depend on the pool.
 
 use super::cut_model::ModelCutter;
 use super::Source;
@@ -135,8 +135,9 @@ impl Pool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::{Islands, Source};
+    use super::{Compiled, Key};
     use crate::bench::islands::grouped;
     use crate::compile::{compile, Parameters};
 
@@ -161,16 +162,18 @@ mod tests {
         assert!(!is.pool.parts.is_empty());
         for (key, part) in &is.pool.parts {
             let fresh = super::compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, key).unwrap();
-            assert_eq!(
-                format!("{:?}", part.model),
-                format!("{:?}", fresh.model),
-                "bodies {:?}",
-                key.0
-            );
-            assert_eq!(part.coords, fresh.coords);
-            assert_eq!(part.explicit, fresh.explicit);
-            assert_eq!(part.inputs, fresh.inputs);
-            assert_eq!(part.driven, fresh.driven);
+            assert_same_part(part, &fresh, key);
         }
+    }
+
+    /// Asserts that two parts of the island `key` are the same: their models field by field
+    /// through their debug form (which prints every number so that it reads back exactly, the
+    /// sign of a zero too) and their numbering against the scene.
+    pub(in super::super) fn assert_same_part(a: &Compiled, b: &Compiled, key: &Key) {
+        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {:?}", key.0);
+        assert_eq!(a.coords, b.coords);
+        assert_eq!(a.explicit, b.explicit);
+        assert_eq!(a.inputs, b.inputs);
+        assert_eq!(a.driven, b.driven);
     }
 }
