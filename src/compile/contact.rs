@@ -139,7 +139,7 @@ pub(super) fn compile_contact(
 
 /// Reserves one constraint row per impulse-law contact after the `nc` loop rows (for its
 /// resting mode) and returns the new total.
-pub(super) fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
+pub(crate) fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
     let mut n = nc;
     for c in contacts.iter_mut() {
         c.constraint_row = if c.law == Law::Impulse {

@@ -3,7 +3,7 @@
 //! element per candidate, compiled as the `[[contact]]` the group pair stands for.
 
 use super::contact::compile_contact;
-use super::parameters::{ContactValues, MaterialValues, Parameters};
+use super::parameters::{ContactValues, Parameters};
 use crate::model::contact::ContactElement;
 use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
 use crate::scene::{Scene, SceneError, ShapeType};
@@ -21,7 +21,6 @@ pub(super) fn compile_groups(
     n_explicit: usize,
     candidates: Option<&[Candidate]>,
     pose0: &dyn Fn(Option<usize>) -> (Vector3<f64>, UnitQuaternion<f64>),
-    materials: &[MaterialValues],
     material_of: &dyn Fn(&str) -> Option<usize>,
     body_of: &dyn Fn(&str) -> Option<usize>,
     local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
@@ -134,37 +133,65 @@ pub(super) fn compile_groups(
     };
     let mut elements = Vec::with_capacity(groups.candidates.len());
     for c in &groups.candidates {
-        let g = &scene.contact_group[c.pair];
-        let (a, b) = (&scene.shape[c.sphere], &scene.shape[c.other]);
-        let name = format!("{}[{}:{}]", g.name, c.sphere + 1, c.other + 1);
-        let spec = scene.group_pair_contact(g, &name, a, b);
-        let gv = &params.groups[c.pair];
-        let radius = a.radius.unwrap_or(1.0);
-        let values = ContactValues {
-            law: gv.law,
-            restitution: gv.restitution,
-            exponent: gv.exponent,
-            damping: gv.damping,
-            max_penetration: gv.max_penetration.unwrap_or(radius),
-            min_impact_velocity: gv.min_impact_velocity,
-            stiffness: gv.stiffness,
-            friction: gv.friction,
-            radius,
-            other_radius: b.radius.unwrap_or(1.0),
-            size: b.size.unwrap_or([1.0, 1.0]),
-            cylinder_radius: b.cylinder_radius.unwrap_or(1.0),
-            length: b.length.unwrap_or(1.0),
-        };
-        elements.push(compile_contact(
-            &spec,
-            &values,
-            materials,
-            material_of,
+        let name = format!("{}[{}:{}]", scene.contact_group[c.pair].name, c.sphere + 1, c.other + 1);
+        elements.push(group_contact(
+            scene,
+            params,
             origin,
+            c,
+            &name,
+            material_of,
             body_of,
             local_point,
             local_dir,
         )?);
     }
     Ok((groups, elements))
+}
+
+/// The contact element of candidate pair `c` (named `name`): the `[[contact]]` its group pair
+/// stands for between its two shapes, with the group pair's parameter values (the closures are
+/// those of [`compile_contact`]).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn group_contact(
+    scene: &Scene,
+    params: &Parameters,
+    origin: &str,
+    c: &Candidate,
+    name: &str,
+    material_of: &dyn Fn(&str) -> Option<usize>,
+    body_of: &dyn Fn(&str) -> Option<usize>,
+    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+) -> Result<ContactElement, SceneError> {
+    let g = &scene.contact_group[c.pair];
+    let (a, b) = (&scene.shape[c.sphere], &scene.shape[c.other]);
+    let spec = scene.group_pair_contact(g, name, a, b);
+    let gv = &params.groups[c.pair];
+    let radius = a.radius.unwrap_or(1.0);
+    let values = ContactValues {
+        law: gv.law,
+        restitution: gv.restitution,
+        exponent: gv.exponent,
+        damping: gv.damping,
+        max_penetration: gv.max_penetration.unwrap_or(radius),
+        min_impact_velocity: gv.min_impact_velocity,
+        stiffness: gv.stiffness,
+        friction: gv.friction,
+        radius,
+        other_radius: b.radius.unwrap_or(1.0),
+        size: b.size.unwrap_or([1.0, 1.0]),
+        cylinder_radius: b.cylinder_radius.unwrap_or(1.0),
+        length: b.length.unwrap_or(1.0),
+    };
+    compile_contact(
+        &spec,
+        &values,
+        &params.materials,
+        material_of,
+        origin,
+        body_of,
+        local_point,
+        local_dir,
+    )
 }

@@ -18,9 +18,12 @@ mod groups;
 pub mod parameters;
 mod velocities;
 
+pub(crate) use contact::reserve_constraint_rows;
+pub(crate) use groups::group_contact;
 pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
+use crate::model::contact::ContactElement;
 use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
@@ -93,8 +96,8 @@ pub fn compile_model(
         .map(|(i, b)| (b.name.as_str(), i))
         .collect();
     let body_idx = |name: &str| -> Option<usize> { body_index.get(name).copied() };
-    let pos0: Vec<Vector3<f64>> = scene.body.iter().map(|b| to_v(b.position)).collect();
-    let rot0: Vec<UnitQuaternion<f64>> = scene.body.iter().map(|b| quat_of(b.orientation)).collect();
+    let (pos0, rot0): (Vec<Vector3<f64>>, Vec<UnitQuaternion<f64>>) =
+        (0..nb).map(|b| initial_pose(scene, Some(b))).unzip();
 
     // Spanning tree: first joint naming a child wins; later ones close loops.
     let mut parent_joint: Vec<Option<usize>> = vec![None; nb];
@@ -239,32 +242,7 @@ pub fn compile_model(
         nv += nv_of(kind);
         trees[t].1 = nv - trees[t].0;
     }
-    let mut dof_joint = vec![0; nv];
-    for (ji, j) in joints.iter().enumerate() {
-        for k in 0..j.nv() {
-            dof_joint[j.qvel + k] = ji;
-        }
-    }
-    let mut dof_parent = vec![crate::linalg::NO_PARENT; nv];
-    // Per joint: the last dof of the joint itself or, when it has none, of its nearest
-    // ancestor that has any (joints are in depth-first order: a parent's entry comes first).
-    let mut last_dof: Vec<Option<usize>> = Vec::with_capacity(joints.len());
-    for j in &joints {
-        let t0 = trees[j.tree].0;
-        // the last dof of the nearest ancestor joint that has any
-        let above = j.parent.and_then(|p| last_dof[bodies[p].joint]);
-        let up = above.map_or(crate::linalg::NO_PARENT, |k| k - t0);
-        for k in 0..j.nv() {
-            dof_parent[j.qvel + k] = if k == 0 { up } else { j.qvel + k - 1 - t0 };
-        }
-        last_dof.push(if j.nv() > 0 { Some(j.qvel + j.nv() - 1) } else { above });
-    }
-    let mut tree_block = Vec::with_capacity(ntrees);
-    let mut off = 0;
-    for &(_, n) in &trees {
-        tree_block.push(off);
-        off += n * n;
-    }
+    let (dof_joint, dof_parent, tree_block) = dof_maps(&joints, &bodies, &trees);
 
     // Loop constraints.
     let mut loops = Vec::new();
@@ -392,7 +370,6 @@ pub fn compile_model(
         contacts.len(),
         candidates,
         &|b| pose(b),
-        &params.materials,
         &|n| material_index.get(n).copied(),
         &|n| to_body(n),
         &|b, p| local_point(b, p),
@@ -404,16 +381,7 @@ pub fn compile_model(
     contacts.extend(group_contacts);
     // One constraint row per impulse-law contact after the loop rows (its resting mode).
     nc = contact::reserve_constraint_rows(&mut contacts, nc);
-    let mut warnings = Vec::new();
-    for c in &contacts {
-        if c.law == Law::KelvinVoigt && c.damping > 0.0 {
-            warnings.push(format!(
-                "contact {:?}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; \
-                 the force is cut at zero there (docs/contact.md)",
-                c.name
-            ));
-        }
-    }
+    let warnings = contact_warnings(&contacts);
 
     let inputs = scene
         .input
@@ -484,6 +452,67 @@ pub fn compile_model(
         }
     }
     Ok(model)
+}
+
+/// Per velocity index its tree joint and its parent dof local to its tree's block, and the
+/// offset of each tree's block in the packed mass-matrix storage (the joints in depth-first
+/// order, `trees`: each tree's first velocity index and size).
+pub(crate) fn dof_maps(
+    joints: &[TreeJoint],
+    bodies: &[Body],
+    trees: &[(usize, usize)],
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let nv = trees.iter().map(|t| t.1).sum();
+    let mut dof_joint = vec![0; nv];
+    for (ji, j) in joints.iter().enumerate() {
+        for k in 0..j.nv() {
+            dof_joint[j.qvel + k] = ji;
+        }
+    }
+    let mut dof_parent = vec![crate::linalg::NO_PARENT; nv];
+    // Per joint: the last dof of the joint itself or, when it has none, of its nearest
+    // ancestor that has any (joints are in depth-first order: a parent's entry comes first).
+    let mut last_dof: Vec<Option<usize>> = Vec::with_capacity(joints.len());
+    for j in joints {
+        let t0 = trees[j.tree].0;
+        // the last dof of the nearest ancestor joint that has any
+        let above = j.parent.and_then(|p| last_dof[bodies[p].joint]);
+        let up = above.map_or(crate::linalg::NO_PARENT, |k| k - t0);
+        for k in 0..j.nv() {
+            dof_parent[j.qvel + k] = if k == 0 { up } else { j.qvel + k - 1 - t0 };
+        }
+        last_dof.push(if j.nv() > 0 { Some(j.qvel + j.nv() - 1) } else { above });
+    }
+    let mut tree_block = Vec::with_capacity(trees.len());
+    let mut off = 0;
+    for &(_, n) in trees {
+        tree_block.push(off);
+        off += n * n;
+    }
+    (dof_joint, dof_parent, tree_block)
+}
+
+/// A body's pose in the scene's initial configuration (None: the ground's, the world frame).
+pub(crate) fn initial_pose(scene: &Scene, b: Option<usize>) -> (Vector3<f64>, UnitQuaternion<f64>) {
+    match b {
+        Some(i) => (to_v(scene.body[i].position), quat_of(scene.body[i].orientation)),
+        None => (Vector3::zeros(), UnitQuaternion::identity()),
+    }
+}
+
+/// The warnings a model's contacts give (a Kelvin-Voigt law with damping).
+pub(crate) fn contact_warnings(contacts: &[ContactElement]) -> Vec<String> {
+    contacts
+        .iter()
+        .filter(|c| c.law == Law::KelvinVoigt && c.damping > 0.0)
+        .map(|c| {
+            format!(
+                "contact {:?}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; \
+                 the force is cut at zero there (docs/contact.md)",
+                c.name
+            )
+        })
+        .collect()
 }
 
 /// Checks that every body reaches the ground through its tree joints (`parent_joint`,

@@ -1,7 +1,8 @@
-//! What the islands are cut from: which bodies are coupled (the partition), and the part of the
-//! scene (bodies, joints, springs, contacts, inputs, shapes) and of the parameter values that
-//! an island is compiled from.
+//! What the islands are cut from: which bodies are coupled (the partition), the scene's items
+//! per body, and (the tests' oracle) the part of the scene and of the parameter values that an
+//! island's model compiles from.
 
+#[cfg(test)]
 use crate::compile::Parameters;
 use crate::model::groups::Candidate;
 use crate::model::{Input, Model};
@@ -143,6 +144,7 @@ pub(super) fn candidate_body(m: &Model, k: &Candidate) -> Option<usize> {
 /// What an island is cut from the scene: its part of the scene and of the parameter values,
 /// its candidates in its own shape numbering, the scene indices of its declared contacts and
 /// inputs.
+#[cfg(test)]
 pub(super) struct Cut {
     pub(super) scene: Scene,
     pub(super) params: Parameters,
@@ -152,13 +154,14 @@ pub(super) struct Cut {
 }
 
 /// The sorted, deduplicated items of `lists` over `bodies`.
-fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
+pub(super) fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
     let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
     v.sort_unstable();
     v.dedup();
     v
 }
 
+#[cfg(test)]
 pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
     let joints = items(&ix.joints, bodies);
     let springs = items(&ix.springs, bodies);

@@ -1,6 +1,6 @@
 //! Independent islands: the bodies coupled through joints, spring-dampers, joint-force inputs
 //! and contacts that can act (the declared contacts, and the contact groups' candidate pairs)
-//! form islands. Each island is a model of its own, compiled from its part of the scene, with
+//! form islands. Each island is a model of its own, cut from the scene's model (`cut_model.rs`), with
 //! its own integrator, step-size control and located events, so that an impact in one corner
 //! of a scene does not restart the integration of the rest.
 //!
@@ -20,7 +20,7 @@
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
 //!    the others are formed anew with their contacts' memory carried over, their model
-//!    compiled or taken from the pool of the islands that ended (`pool.rs`).
+//!    cut from the scene's or taken from the pool of the islands that ended (`pool.rs`).
 //!
 //! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
 //! farther apart than the margin, and neither body moves half of it before the list is made
@@ -44,12 +44,13 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 mod cut;
+mod cut_model;
 mod pool;
 mod saved;
 
 use cut::candidate_body;
-use cut::SceneIndex;
 pub use cut::{partition, wanted};
+use cut_model::ModelCutter;
 use pool::{Compiled, Pool};
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
@@ -77,7 +78,7 @@ fn fail(time: f64, message: impl Into<String>) -> EngineError {
     }
 }
 
-/// One island: a model compiled from its part of the scene, and its data.
+/// One island: a model cut from the scene's, and its data.
 pub struct Island {
     /// The island's model.
     pub model: Model,
@@ -138,7 +139,8 @@ pub struct Islands {
     island_of: Vec<usize>,
     /// The scene's declared contacts (before the candidate pairs' contacts).
     n_explicit: usize,
-    index: SceneIndex,
+    /// Cuts the islands' models from the scene's.
+    cutter: ModelCutter,
     params: Arc<Parameters>,
     /// The compiled parts of islands that ended.
     pool: Pool,
@@ -263,7 +265,7 @@ impl Islands {
             joint_coords,
             island_of: vec![0; m.bodies.len()],
             n_explicit: m.groups.n_explicit,
-            index: SceneIndex::of(src.scene),
+            cutter: ModelCutter::new(src.scene, m),
             params: Arc::new(params),
             pool: Pool::default(),
         }
@@ -360,7 +362,7 @@ impl Islands {
                 self.retire(island);
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
-            let mut island = self.compile_island(src, d, bodies, cands, memory)?;
+            let mut island = self.compile_island(src, m, d, bodies, cands, memory)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -424,11 +426,12 @@ impl Islands {
     }
 
     /// The island of `bodies` with the candidate pairs `candidates` (scene numbering), its
-    /// model from the pool or compiled, its data set from the scene's data `d` (coordinates,
+    /// model from the pool or cut from the scene's model `m`, its data set from the scene's data `d` (coordinates,
     /// inputs, flags, the broad phase's reference poses) and the contacts' memory.
     fn compile_island(
         &mut self,
         src: &Source,
+        m: &Model,
         d: &Data,
         bodies: Vec<usize>,
         candidates: Vec<Candidate>,
@@ -441,7 +444,7 @@ impl Islands {
                 pooled
             }
             None => {
-                let part = pool::compile(src, &self.params, &self.index, &self.joint_coords, &key)
+                let part = pool::compile(src, &self.params, &mut self.cutter, m, &self.joint_coords, &key)
                     .map_err(|e| fail(d.time, e))?;
                 (key, part)
             }

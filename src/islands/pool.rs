@@ -1,13 +1,13 @@
 //! The compiled part of an island (its model and how it maps onto the scene), and the pool
 //! that keeps it when the island ends: an island formed again from the same bodies and
 //! candidate pairs — a sphere alone again after a collision, a pair that meets again — takes
-//! its model from there instead of compiling its part of the scene anew. A model depends on
+//! its model from there instead of cutting it from the scene's model anew. A model depends on
 //! nothing else (the scene and the parameter values are the islands' own), so a pooled model
-//! is the one compilation would give, and the results do not depend on the pool.
+//! is the one cutting would give, and the results do not depend on the pool.
 
-use super::cut::{cut, SceneIndex};
-use super::{Source, ISLAND_STALE_FRACTION};
-use crate::compile::{compile_model, Parameters};
+use super::cut_model::ModelCutter;
+use super::Source;
+use crate::compile::Parameters;
 use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Model};
 use std::collections::HashMap;
@@ -29,32 +29,43 @@ pub(super) struct Compiled {
 /// An island's bodies and candidate pairs (scene numbering): what its model is compiled from.
 pub(super) type Key = (Vec<usize>, Vec<Candidate>);
 
-/// Compiles the island of the bodies and candidate pairs `key` from `src` with the parameter
-/// values `params` (`index`: the scene's items per body, `joint_coords`: per scene body the
-/// first position and velocity index of its joint in the scene's state).
+/// The part of the island of the bodies and candidate pairs `key`: its model cut from the
+/// scene's model `m` (compiled from `src` with the parameter values `params`) by `cutter`,
+/// `joint_coords`: per scene body the first position and velocity index of its joint in the
+/// scene's state.
 pub(super) fn compile(
     src: &Source,
     params: &Parameters,
-    index: &SceneIndex,
+    cutter: &mut ModelCutter,
+    m: &Model,
     joint_coords: &[(usize, usize)],
     key: &Key,
 ) -> Result<Compiled, String> {
     let (bodies, candidates) = key;
-    let cut = cut(src.scene, params, index, bodies, candidates);
-    let mut model = compile_model(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
-        .map_err(|e| format!("an island could not be compiled: {e}"))?;
-    model.groups.stale_fraction = ISLAND_STALE_FRACTION;
+    let cut = cutter.cut(src.scene, params, src.origin, m, bodies, candidates)?;
+    Ok(numbered(m, cut.model, joint_coords, bodies, cut.explicit, &cut.inputs))
+}
+
+/// The part of an island of `bodies` whose model is `model` (with the scene's declared
+/// contacts `explicit` and inputs `inputs`), numbered against the scene's model `m`.
+fn numbered(
+    m: &Model,
+    model: Model,
+    joint_coords: &[(usize, usize)],
+    bodies: &[usize],
+    explicit: Vec<usize>,
+    scene_inputs: &[usize],
+) -> Compiled {
     let mut coords = Vec::new();
     for j in &model.joints {
         let (qpos, qvel) = joint_coords[bodies[j.child]];
         coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
         coords.extend((0..nv_of(j.kind)).map(|k| (model.nq + j.qvel + k, qvel + k)));
     }
-    let (scene_first, _) = src.scene.input_values();
     let mut inputs = Vec::new();
-    for &g in &cut.inputs {
-        for k in 0..src.scene.input[g].values() {
-            inputs.push((inputs.len(), scene_first[g] + k));
+    for &g in scene_inputs {
+        for v in m.input_range(g) {
+            inputs.push((inputs.len(), v));
         }
     }
     // a drive's coordinates: the scene's state index of the island's
@@ -65,13 +76,32 @@ pub(super) fn compile(
         .flat_map(|dr| [dr.qpos, model.nq + dr.qvel])
         .filter_map(|l| Some((l, scene_index(l)?)))
         .collect();
-    Ok(Compiled {
+    Compiled {
         model,
         coords,
-        explicit: cut.explicit,
+        explicit,
         inputs,
         driven,
-    })
+    }
+}
+
+/// The part [`compile`] gives, made the former way: the island's part of the scene cut
+/// (`cut.rs`) and compiled (the oracle of the tests).
+#[cfg(test)]
+pub(super) fn compile_cut_scene(
+    src: &Source,
+    params: &Parameters,
+    index: &super::cut::SceneIndex,
+    m: &Model,
+    joint_coords: &[(usize, usize)],
+    key: &Key,
+) -> Result<Compiled, String> {
+    let (bodies, candidates) = key;
+    let cut = super::cut::cut(src.scene, params, index, bodies, candidates);
+    let mut model = crate::compile::compile_model(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
+        .map_err(|e| format!("an island could not be compiled: {e}"))?;
+    model.groups.stale_fraction = super::ISLAND_STALE_FRACTION;
+    Ok(numbered(m, model, joint_coords, bodies, cut.explicit, &cut.inputs))
 }
 
 /// The compiled parts of islands that ended, by their bodies and candidate pairs.
@@ -84,6 +114,12 @@ impl Pool {
     /// The part compiled for `key`, taken out of the pool (with the key), if there is one.
     pub(super) fn take(&mut self, key: &Key) -> Option<(Key, Compiled)> {
         self.parts.remove_entry(key)
+    }
+
+    /// The keys of the parts the pool holds.
+    #[cfg(test)]
+    pub(super) fn keys(&self) -> impl Iterator<Item = &Key> {
+        self.parts.keys()
     }
 
     /// Keeps the part of an island that ended, its model's largest step count set back to
@@ -99,8 +135,9 @@ impl Pool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::{Islands, Source};
+    use super::{Compiled, Key};
     use crate::bench::islands::grouped;
     use crate::compile::{compile, Parameters};
 
@@ -124,17 +161,19 @@ mod tests {
         );
         assert!(!is.pool.parts.is_empty());
         for (key, part) in &is.pool.parts {
-            let fresh = super::compile(&src, &is.params, &is.index, &is.joint_coords, key).unwrap();
-            assert_eq!(
-                format!("{:?}", part.model),
-                format!("{:?}", fresh.model),
-                "bodies {:?}",
-                key.0
-            );
-            assert_eq!(part.coords, fresh.coords);
-            assert_eq!(part.explicit, fresh.explicit);
-            assert_eq!(part.inputs, fresh.inputs);
-            assert_eq!(part.driven, fresh.driven);
+            let fresh = super::compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, key).unwrap();
+            assert_same_part(part, &fresh, key);
         }
+    }
+
+    /// Asserts that two parts of the island `key` are the same: their models field by field
+    /// through their debug form (which prints every number so that it reads back exactly, the
+    /// sign of a zero too) and their numbering against the scene.
+    pub(in super::super) fn assert_same_part(a: &Compiled, b: &Compiled, key: &Key) {
+        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {:?}", key.0);
+        assert_eq!(a.coords, b.coords);
+        assert_eq!(a.explicit, b.explicit);
+        assert_eq!(a.inputs, b.inputs);
+        assert_eq!(a.driven, b.driven);
     }
 }

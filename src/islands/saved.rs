@@ -101,7 +101,7 @@ impl Islands {
                 .copied()
                 .collect();
             let mut island = is
-                .compile_island(src, d, bodies, cands, &memory)
+                .compile_island(src, m, d, bodies, cands, &memory)
                 .map_err(|e| e.message)?;
             if state::group_candidates(&island.model, st).as_ref() != Some(&island.model.groups.candidates)
                 && island.model.groups.is_active()

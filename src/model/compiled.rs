@@ -479,6 +479,11 @@ impl Model {
             state[i] += work;
         }
     }
+    /// The indices of input `i`'s values in `Data::inputs`.
+    pub fn input_range(&self, i: usize) -> std::ops::Range<usize> {
+        let end = self.input_value.get(i + 1).copied().unwrap_or(self.input_values());
+        self.input_value[i]..end
+    }
     /// Number of input values (`Data::inputs`).
     pub fn input_values(&self) -> usize {
         self.input_start.len()

@@ -1,0 +1,491 @@
+//! An island's model cut from the scene's compiled model: its bodies, joints, loops, springs,
+//! declared contacts, inputs and group shapes taken from the scene's model and numbered
+//! anew, its candidate pairs' contact elements compiled once per pair and kept. No scene is
+//! cut and nothing is compiled from names: the model is the one compiling the island's part
+//! of the scene gives (the test below compares them), at a fraction of the cost.
+//!
+//! Why the numbering carries over: compilation orders the tree joints depth first from the
+//! ground, the trees by their root bodies and the children by body order. An island holds
+//! every body of each of its trees, so its order is the scene's restricted to its bodies; its
+//! loops, springs, contacts, inputs and shapes keep the scene's order too.
+
+use super::cut::{items, SceneIndex};
+use crate::compile::{contact_warnings, dof_maps, group_contact, initial_pose, reserve_constraint_rows, Parameters};
+use crate::model::contact::ContactElement;
+use crate::model::groups::{Candidate, GroupShape, Groups};
+use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
+use crate::scene::Scene;
+use std::collections::HashMap;
+
+/// What cutting an island's model needs of the scene, made once per scene (none of it
+/// depends on the candidate pairs, so the scene's model may be compiled again for others).
+pub(super) struct ModelCutter {
+    /// Per scene body, the scene items that name it.
+    pub(super) index: SceneIndex,
+    /// Per group pair, the scene's group indices of its two groups.
+    pair_groups: Vec<(usize, usize)>,
+    /// Per scene input, the tree joint it drives (a `joint_motion`).
+    drive_joint: Vec<Option<usize>>,
+    /// The scene's bodies and materials by name (to compile a candidate pair's contact).
+    body_index: HashMap<String, usize>,
+    material_index: HashMap<String, usize>,
+    /// The contact elements of the candidate pairs met so far (scene numbering, no name).
+    elements: HashMap<Candidate, ContactElement>,
+    /// Scratch: per scene body its island index, per scene group its island index.
+    local_body: Vec<usize>,
+    local_group: Vec<usize>,
+}
+
+/// An island's model and the scene indices of its declared contacts and inputs.
+pub(super) struct CutModel {
+    pub(super) model: Model,
+    pub(super) explicit: Vec<usize>,
+    pub(super) inputs: Vec<usize>,
+}
+
+impl ModelCutter {
+    /// The cutter of the scene `scene` whose model `m` was compiled from it.
+    pub(super) fn new(scene: &Scene, m: &Model) -> ModelCutter {
+        // the scene's group numbering: the shapes' groups, then those the pairs name
+        let mut group_index: HashMap<&str, usize> = HashMap::new();
+        let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
+        for group in scene.shape.iter().map(|s| &s.group).chain(named) {
+            let n = group_index.len();
+            group_index.entry(group.as_str()).or_insert(n);
+        }
+        let pair_groups = scene
+            .contact_group
+            .iter()
+            .map(|g| (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]))
+            .collect();
+        let joint_index: HashMap<&str, usize> = scene
+            .joint
+            .iter()
+            .enumerate()
+            .map(|(i, j)| (j.name.as_str(), i))
+            .collect();
+        let drive_joint = scene
+            .input
+            .iter()
+            .map(|inp| {
+                if inp.kind != crate::scene::InputType::JointMotion {
+                    return None;
+                }
+                let ji = inp
+                    .joint
+                    .as_deref()
+                    .and_then(|n| joint_index.get(n))
+                    .copied()
+                    .unwrap_or(0);
+                m.scene_joint.get(ji).and_then(|r| r.ok())
+            })
+            .collect();
+        ModelCutter {
+            index: SceneIndex::of(scene),
+            pair_groups,
+            drive_joint,
+            body_index: scene
+                .body
+                .iter()
+                .enumerate()
+                .map(|(i, b)| (b.name.clone(), i))
+                .collect(),
+            material_index: scene
+                .material
+                .iter()
+                .enumerate()
+                .map(|(i, x)| (x.name.clone(), i))
+                .collect(),
+            elements: HashMap::new(),
+            local_body: vec![usize::MAX; scene.body.len()],
+            local_group: vec![usize::MAX; group_index.len()],
+        }
+    }
+
+    /// The contact element of candidate pair `c` (scene numbering, no name), compiled at its
+    /// first use.
+    fn element(
+        &mut self,
+        scene: &Scene,
+        params: &Parameters,
+        origin: &str,
+        c: &Candidate,
+    ) -> Result<ContactElement, String> {
+        if let Some(e) = self.elements.get(c) {
+            return Ok(e.clone());
+        }
+        let (bodies, materials) = (&self.body_index, &self.material_index);
+        let local_point = |b: Option<usize>, p| {
+            let (r, q) = initial_pose(scene, b);
+            q.inverse() * (p - r)
+        };
+        let local_dir = |b: Option<usize>, v| initial_pose(scene, b).1.inverse() * v;
+        let e = group_contact(
+            scene,
+            params,
+            origin,
+            c,
+            "",
+            &|n| materials.get(n).copied(),
+            &|n| bodies.get(n).copied(),
+            &local_point,
+            &local_dir,
+        )
+        .map_err(|e| format!("an island could not be compiled: {e}"))?;
+        // (bounded like the pool: beyond 16 pairs per body it starts empty again)
+        if self.elements.len() >= 16 * self.local_body.len() {
+            self.elements.clear();
+        }
+        self.elements.insert(*c, e.clone());
+        Ok(e)
+    }
+
+    /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
+    /// `candidates` (scene numbering), cut from the scene's model `m` (compiled from `scene`
+    /// with `params`; its own candidate pairs play no part).
+    pub(super) fn cut(
+        &mut self,
+        scene: &Scene,
+        params: &Parameters,
+        origin: &str,
+        m: &Model,
+        bodies: &[usize],
+        candidates: &[Candidate],
+    ) -> Result<CutModel, String> {
+        // the candidate pairs' elements first (the only part that can fail)
+        let mut group_elements = Vec::with_capacity(candidates.len());
+        for c in candidates {
+            group_elements.push(self.element(scene, params, origin, c)?);
+        }
+        for (l, &b) in bodies.iter().enumerate() {
+            self.local_body[b] = l;
+        }
+        let local = &self.local_body;
+        let lb = |b: Option<usize>| b.map(|b| local[b]);
+
+        // tree joints, in the scene's order restricted to the island
+        let mut tree_joints: Vec<usize> = bodies.iter().map(|&b| m.bodies[b].joint).collect();
+        tree_joints.sort_unstable();
+        let scene_joints = items(&self.index.joints, bodies);
+        let mut out_bodies: Vec<Body> = bodies
+            .iter()
+            .map(|&b| Body {
+                joint: 0,
+                ..m.bodies[b].clone()
+            })
+            .collect();
+        let mut joints = Vec::with_capacity(tree_joints.len());
+        let mut trees: Vec<(usize, usize)> = Vec::new();
+        let (mut nq, mut nv) = (0, 0);
+        let mut scene_tree = usize::MAX;
+        for &t in &tree_joints {
+            let j = &m.joints[t];
+            if j.tree != scene_tree {
+                scene_tree = j.tree;
+                trees.push((nv, 0));
+            }
+            let child = local[j.child];
+            out_bodies[child].joint = joints.len();
+            joints.push(TreeJoint {
+                scene_index: j
+                    .scene_index
+                    .map(|si| scene_joints.binary_search(&si).unwrap_or(usize::MAX)),
+                parent: lb(j.parent),
+                child,
+                qpos: nq,
+                qvel: nv,
+                tree: trees.len() - 1,
+                ..j.clone()
+            });
+            nq += j.nq();
+            nv += j.nv();
+            let last = trees.len() - 1;
+            trees[last].1 = nv - trees[last].0;
+        }
+        let (dof_joint, dof_parent, tree_block) = dof_maps(&joints, &out_bodies, &trees);
+        // the island's tree joint of the scene's tree joint t
+        let joint_of = |t: usize| out_bodies[local[m.joints[t].child]].joint;
+
+        // loops, in the scene's joint order
+        let mut scene_joint = Vec::with_capacity(scene_joints.len());
+        let mut loops: Vec<LoopConstraint> = Vec::new();
+        let mut nc = 0;
+        for &si in &scene_joints {
+            match m.scene_joint[si] {
+                Ok(t) => scene_joint.push(Ok(joint_of(t))),
+                Err(l) => {
+                    let lc = &m.loops[l];
+                    scene_joint.push(Err(loops.len()));
+                    loops.push(LoopConstraint {
+                        body_a: lb(lc.body_a),
+                        body_b: local[lc.body_b],
+                        row: nc,
+                        ..lc.clone()
+                    });
+                    nc += lc.rows();
+                }
+            }
+        }
+
+        // inputs and drives
+        let inputs = items(&self.index.inputs, bodies);
+        let mut drives = Vec::new();
+        let mut input_value = Vec::with_capacity(inputs.len());
+        let mut input_start = Vec::new();
+        let mut out_inputs = Vec::with_capacity(inputs.len());
+        for &g in &inputs {
+            input_value.push(input_start.len());
+            if let Some(t) = self.drive_joint[g] {
+                let j = &joints[joint_of(t)];
+                drives.push(Drive {
+                    qpos: j.qpos,
+                    qvel: j.qvel,
+                    row: nc,
+                    value: input_start.len(),
+                });
+                nc += 1;
+            }
+            input_start.extend_from_slice(&m.input_start[m.input_range(g)]);
+            out_inputs.push(match &m.inputs[g] {
+                Input::Force { body, direction } => Input::Force {
+                    body: local[*body],
+                    direction: *direction,
+                },
+                Input::Torque { body, direction } => Input::Torque {
+                    body: local[*body],
+                    direction: *direction,
+                },
+                Input::JointMotion => Input::JointMotion,
+                Input::JointForce { qvels } => Input::JointForce {
+                    qvels: qvels
+                        .iter()
+                        .map(|&v| {
+                            let t = m.dof_joint[v];
+                            joints[joint_of(t)].qvel + (v - m.joints[t].qvel)
+                        })
+                        .collect(),
+                },
+            });
+        }
+
+        let springs: Vec<SpringDamper> = items(&self.index.springs, bodies)
+            .into_iter()
+            .map(|i| {
+                let s = &m.springs[i];
+                SpringDamper {
+                    body_a: lb(s.body_a),
+                    body_b: lb(s.body_b),
+                    ..s.clone()
+                }
+            })
+            .collect();
+
+        // contacts: the declared ones, then one per candidate pair
+        let explicit = items(&self.index.contacts, bodies);
+        let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len() + candidates.len());
+        for &i in &explicit {
+            let mut c = m.contacts[i].clone();
+            c.sphere_body = lb(c.sphere_body);
+            c.body = lb(c.body);
+            contacts.push(c);
+        }
+        let mut shapes = items(&self.index.shapes, bodies);
+        shapes.extend(&self.index.ground_shapes);
+        shapes.sort_unstable();
+        let local_shape = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
+        let local_candidates: Vec<Candidate> = candidates
+            .iter()
+            .map(|k| Candidate {
+                pair: k.pair,
+                sphere: local_shape(k.sphere),
+                other: local_shape(k.other),
+            })
+            .collect();
+        for (k, mut e) in local_candidates.iter().zip(group_elements) {
+            e.name = format!("{}[{}:{}]", m.groups.pair_names[k.pair], k.sphere + 1, k.other + 1);
+            e.sphere_body = lb(e.sphere_body);
+            e.body = lb(e.body);
+            contacts.push(e);
+        }
+        let nc = reserve_constraint_rows(&mut contacts, nc);
+
+        let groups = if scene.contact_group.is_empty() {
+            Groups {
+                n_explicit: explicit.len(),
+                stale_fraction: super::ISLAND_STALE_FRACTION,
+                ..Groups::default()
+            }
+        } else {
+            // the island's group numbering: its shapes' groups, then those the pairs name
+            let mut ngroups = 0;
+            let mut number = |g: usize, local_group: &mut Vec<usize>| {
+                if local_group[g] == usize::MAX {
+                    local_group[g] = ngroups;
+                    ngroups += 1;
+                }
+            };
+            for &s in &shapes {
+                number(m.groups.shapes[s].group, &mut self.local_group);
+            }
+            for &(a, b) in &self.pair_groups {
+                number(a, &mut self.local_group);
+                number(b, &mut self.local_group);
+            }
+            let mut touch = vec![None; ngroups * ngroups];
+            for (p, &(a, b)) in self.pair_groups.iter().enumerate() {
+                touch[self.local_group[a] * ngroups + self.local_group[b]] = Some(p);
+            }
+            let out_shapes = shapes
+                .iter()
+                .map(|&s| {
+                    let gs = &m.groups.shapes[s];
+                    GroupShape {
+                        body: lb(gs.body),
+                        group: self.local_group[gs.group],
+                        ..gs.clone()
+                    }
+                })
+                .collect();
+            self.local_group.fill(usize::MAX);
+            Groups {
+                shapes: out_shapes,
+                ngroups,
+                touch,
+                pair_names: m.groups.pair_names.clone(),
+                n_explicit: explicit.len(),
+                candidates: local_candidates,
+                margin: m.groups.margin,
+                method: m.groups.method,
+                reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
+                has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
+                stale_fraction: super::ISLAND_STALE_FRACTION,
+            }
+        };
+        let warnings = contact_warnings(&contacts);
+        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, trees.len());
+        let model = Model {
+            name: m.name.clone(),
+            gravity: m.gravity,
+            bodies: out_bodies,
+            joints,
+            scene_joint,
+            loops,
+            nc,
+            drives,
+            springs,
+            contacts,
+            groups,
+            inputs: out_inputs,
+            input_value,
+            input_start,
+            nq,
+            nv,
+            trees,
+            tree_block,
+            dof_joint,
+            dof_parent,
+            plan,
+            solver: params.solver.clone(),
+            baumgarte: m.baumgarte,
+            warnings,
+        };
+        Ok(CutModel {
+            model,
+            explicit,
+            inputs,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::pool::tests::assert_same_part;
+    use super::super::pool::{compile, compile_cut_scene, Key};
+    use super::super::{partition, Islands, Source};
+    use crate::bench::islands::grouped;
+    use crate::compile::{compile as compile_scene, Parameters};
+    use crate::model::Model;
+    use crate::scene::{Law, Scene};
+    use std::path::Path;
+
+    /// Asserts that the part of `key` cut from the scene's model `m` is the one compiling the
+    /// island's part of the scene gives.
+    fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Key) {
+        let cut = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, key).unwrap();
+        let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, key).unwrap();
+        assert_same_part(&cut, &oracle, key);
+    }
+
+    /// Compares, for `scene`: the whole scene and each of its islands at the start, then
+    /// every island and every pooled part after each of `advances` (communication points):
+    /// returns how many parts were compared.
+    fn compare_islands(scene: &Scene, advances: &[f64]) -> usize {
+        let origin = "cut test";
+        let (m, mut d) = compile_scene(scene, origin).unwrap();
+        let src = Source { scene, origin };
+        let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
+        let all: Key = ((0..m.bodies.len()).collect(), m.groups.candidates.clone());
+        assert_same(&src, &mut is, &m, &all);
+        let mut compared = 1;
+        for bodies in partition(&m, &m.groups.candidates) {
+            let cands = m
+                .groups
+                .candidates
+                .iter()
+                .filter(|c| super::super::cut::candidate_body(&m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
+                .copied()
+                .collect();
+            assert_same(&src, &mut is, &m, &(bodies, cands));
+            compared += 1;
+        }
+        for &t in advances {
+            is.advance(&src, &m, &mut d, t, false).unwrap();
+            let mut keys: Vec<Key> = is
+                .parts
+                .iter()
+                .map(|i| (i.bodies.clone(), i.candidates.clone()))
+                .collect();
+            keys.extend(is.pool.keys().cloned());
+            for key in &keys {
+                assert_same(&src, &mut is, &m, key);
+            }
+            compared += keys.len();
+        }
+        compared
+    }
+
+    fn bundled(name: &str) -> Scene {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fmu")
+            .join(name)
+            .join("scene.toml");
+        Scene::from_file(&path).unwrap()
+    }
+
+    /// The models cut from the scene's model are those compiled from the cut scenes: groups
+    /// of spheres in a box whose islands merge and split, the bundled pile, and scenes of
+    /// joints, loops, springs, declared contacts, joint forces and driven joints.
+    #[test]
+    fn cut_models_are_those_compilation_gives() {
+        let n = compare_islands(&grouped(64, 0.02, 0.0015, true), &[0.005, 0.01, 0.015, 0.02]);
+        assert!(n > 200, "{n} parts compared");
+        let mut pile = bundled("pile_of_balls");
+        compare_islands(&pile, &[0.05, 0.1]);
+        // a damped Kelvin-Voigt law (its models carry a warning per contact)
+        for g in &mut pile.contact_group {
+            g.law = Law::KelvinVoigt;
+            g.damping = Some(20.0);
+            g.stiffness = Some(1e7);
+        }
+        compare_islands(&pile, &[0.02]);
+        for name in [
+            "rail_vehicle",
+            "rail_vehicle_track",
+            "slider_crank",
+            "two_spheres",
+            "bouncing_ball",
+        ] {
+            compare_islands(&bundled(name), &[0.01]);
+        }
+    }
+}
