@@ -23,8 +23,18 @@ pub const NO_PARENT: usize = usize::MAX;
 /// Returns false if a pivot is not positive.
 #[inline(always)]
 pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
+    ltdl_rows(h, n, parent, |_| false)
+}
+
+/// [`ltdl_in_place`] over the rows that `skip` does not name (their rows of `h` are left as
+/// they are; no other row may descend from them).
+#[inline(always)]
+fn ltdl_rows(h: &mut [f64], n: usize, parent: &[usize], skip: impl Fn(usize) -> bool) -> bool {
     let parent = &parent[..n];
     for k in (0..n).rev() {
+        if skip(k) {
+            continue;
+        }
         // row k, and the rows before it (its ancestors' rows: parent[k] < k)
         let (head, tail) = h[..n * n].split_at_mut(k * n);
         let hk = &mut tail[..n];
@@ -51,8 +61,18 @@ pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
 /// Solves `Lᵀ D L x = b` in place with a factor from [`ltdl_in_place`].
 #[inline(always)]
 pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
+    ltdl_solve_rows(l, n, parent, x, |_| false);
+}
+
+/// [`ltdl_solve`] with the off-diagonal entries of the rows that `skip` names left out (the
+/// caller applies them: [`ltdl_solve_leaves`]).
+#[inline(always)]
+fn ltdl_solve_rows(l: &[f64], n: usize, parent: &[usize], x: &mut [f64], skip: impl Fn(usize) -> bool) {
     let (parent, x) = (&parent[..n], &mut x[..n]);
     for i in (0..n).rev() {
+        if skip(i) {
+            continue;
+        }
         let (li, xi) = (&l[i * n..i * n + n], x[i]);
         let mut j = parent[i];
         while j != NO_PARENT {
@@ -64,6 +84,9 @@ pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
         x[i] /= l[i * n + i];
     }
     for i in 0..n {
+        if skip(i) {
+            continue;
+        }
         let li = &l[i * n..i * n + n];
         let mut j = parent[i];
         let mut s = x[i];
@@ -153,34 +176,11 @@ pub fn ltdl_in_place_leaves(h: &mut [f64], n: usize, parent: &[usize], leaves: &
     if leaves.is_empty() {
         return ltdl_in_place(h, n, parent);
     }
-    let (parent, is_leaf) = (&parent[..n], &leaves.is_leaf[..n]);
     for &(i, j, u) in &leaves.update {
         h[i * n + j] -= u;
     }
-    for k in (0..n).rev() {
-        if is_leaf[k] {
-            continue;
-        }
-        let (head, tail) = h[..n * n].split_at_mut(k * n);
-        let hk = &mut tail[..n];
-        let hkk = hk[k];
-        if hkk.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return false;
-        }
-        let mut i = parent[k];
-        while i != NO_PARENT {
-            let a = hk[i] / hkk;
-            let hi = &mut head[i * n..i * n + n];
-            let mut j = i;
-            while j != NO_PARENT {
-                hi[j] -= a * hk[j];
-                j = parent[j];
-            }
-            hk[i] = a;
-            i = parent[i];
-        }
-    }
-    true
+    let is_leaf = &leaves.is_leaf[..n];
+    ltdl_rows(h, n, parent, |k| is_leaf[k])
 }
 
 /// [`ltdl_solve`] with a factor from [`ltdl_in_place_leaves`]: the leaves' rows through their
@@ -191,37 +191,11 @@ pub fn ltdl_solve_leaves(l: &[f64], n: usize, parent: &[usize], leaves: &Constan
     if leaves.is_empty() {
         return ltdl_solve(l, n, parent, x);
     }
-    let (parent, is_leaf, x) = (&parent[..n], &leaves.is_leaf[..n], &mut x[..n]);
     for &(k, i, lki) in &leaves.factor {
         x[i] -= lki * x[k];
     }
-    for i in (0..n).rev() {
-        if is_leaf[i] {
-            continue;
-        }
-        let (li, xi) = (&l[i * n..i * n + n], x[i]);
-        let mut j = parent[i];
-        while j != NO_PARENT {
-            x[j] -= li[j] * xi;
-            j = parent[j];
-        }
-    }
-    for i in 0..n {
-        x[i] /= l[i * n + i];
-    }
-    for i in 0..n {
-        if is_leaf[i] {
-            continue;
-        }
-        let li = &l[i * n..i * n + n];
-        let mut j = parent[i];
-        let mut s = x[i];
-        while j != NO_PARENT {
-            s -= li[j] * x[j];
-            j = parent[j];
-        }
-        x[i] = s;
-    }
+    let is_leaf = &leaves.is_leaf[..n];
+    ltdl_solve_rows(l, n, parent, x, |i| is_leaf[i]);
     for &(k, i, lki) in &leaves.factor {
         x[k] -= lki * x[i];
     }
