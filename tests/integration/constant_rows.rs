@@ -205,39 +205,25 @@ fn rotor_zoo() -> Scene {
         wheel("wheel_e", [3.2, 0.4, 0.6], a),
     ];
     use JointType::{Prismatic, Revolute, Spherical};
+    let (slide, arm, rod, x, z) = (
+        [0.6, 0.0, 0.8],
+        [0.0, 0.3, 1.0],
+        [0.0, 0.6, -0.8],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+    );
     // name, type, parent, child, anchor, axis (a spherical joint's is not used)
     let joints = [
-        (
-            "slide_guide",
-            Prismatic,
-            "base",
-            "slide",
-            [1.4, 2.1, 3.2],
-            [0.6, 0.0, 0.8],
-        ),
+        ("slide_guide", Prismatic, "base", "slide", [1.4, 2.1, 3.2], slide),
         ("axle_a", Revolute, "slide", "wheel_a", [1.5, 2.3, 3.1], a),
-        ("arm_pivot", Revolute, "base", "arm", [0.8, 1.9, 3.2], [0.0, 0.3, 1.0]),
+        ("arm_pivot", Revolute, "base", "arm", [0.8, 1.9, 3.2], arm),
         ("axle_b", Revolute, "arm", "wheel_b", [0.4, 1.7, 3.5], b),
         ("rocker_pivot", Revolute, "base", "rocker", [1.1, 2.4, 2.9], c),
         ("axle_c", Revolute, "rocker", "wheel_c", [1.3, 2.9, 2.7], c),
-        (
-            "pendulum_pivot",
-            Revolute,
-            "ground",
-            "pendulum",
-            [-1.0, 0.0, 2.0],
-            [1.0, 0.0, 0.0],
-        ),
+        ("pivot", Revolute, "ground", "pendulum", [-1.0, 0.0, 2.0], x),
         ("axle_d", Revolute, "pendulum", "wheel_d", [-1.0, 0.3, 0.5], b),
-        (
-            "ball_joint",
-            Spherical,
-            "ground",
-            "ball",
-            [3.0, 0.0, 1.5],
-            [0.0, 0.0, 1.0],
-        ),
-        ("rod_guide", Prismatic, "ball", "rod", [3.1, 0.2, 0.8], [0.0, 0.6, -0.8]),
+        ("ball_joint", Spherical, "ground", "ball", [3.0, 0.0, 1.5], z),
+        ("rod_guide", Prismatic, "ball", "rod", [3.1, 0.2, 0.8], rod),
         ("axle_e", Revolute, "rod", "wheel_e", [3.2, 0.4, 0.6], a),
     ];
     SceneBuilder::new("rotor_zoo")
