@@ -140,8 +140,12 @@ where
     // Mass matrix, block by tree. Only the lower entries on ancestor paths are written, the
     // only ones the tree-sparse factorisation reads (M̄[max][min]; of a pair of the same joint
     // the value of the later row stays, as when both entries were written); the rest of the
-    // block is never read.
+    // block is never read. The rows of constant leaves are not written.
     for j in joints {
+        // a rotor's constant row is the factor's already (`Plan::leaves`)
+        if m.plan.constant_row[m.bodies[j.child].joint] {
+            continue;
+        }
         let tree = j.tree;
         let (t0, n) = m.trees[tree];
         let block = &mut d.mass_blocks[m.tree_block[tree]..m.tree_block[tree] + n * n];
@@ -184,11 +188,12 @@ pub fn free_body_accelerations(m: &Model, d: &mut Data, fb: &FreeBody) {
 /// Factorises every mass-matrix block in place (Cholesky). Returns false when a block is not
 /// positive definite.
 /// The factorisation is the tree-sparse `LᵀDL` ([`linalg::ltdl_in_place`]): no fill-in, cost
-/// O(n d²) for a tree of depth d.
+/// O(n d²) for a tree of depth d; the rows of constant leaves (rotors, `Plan::leaves`) are the
+/// factor's already and are skipped.
 pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
     for (t, &(t0, n)) in m.trees.iter().enumerate() {
         let off = m.tree_block[t];
-        if !linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n]) {
+        if !factor_block(m, &mut d.mass_blocks[off..off + n * n], t, t0, n) {
             return false;
         }
     }
@@ -199,20 +204,34 @@ pub fn factor_mass(m: &Model, d: &mut Data) -> bool {
 pub fn factor_mass_trees(m: &Model, d: &mut Data, trees: &[usize]) -> bool {
     trees.iter().all(|&t| {
         let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
-        linalg::ltdl_in_place(&mut d.mass_blocks[off..off + n * n], n, &m.dof_parent[t0..t0 + n])
+        factor_block(m, &mut d.mass_blocks[off..off + n * n], t, t0, n)
     })
+}
+
+/// The tree-sparse `LᵀDL` of tree `t`'s block (first dof `t0`, size `n`), its constant leaves
+/// skipped ([`linalg::ltdl_in_place_leaves`]).
+#[inline(always)]
+fn factor_block(m: &Model, block: &mut [f64], t: usize, t0: usize, n: usize) -> bool {
+    linalg::ltdl_in_place_leaves(block, n, &m.dof_parent[t0..t0 + n], &m.plan.leaves[t])
+}
+
+/// Solves with tree `t`'s factorised block ([`linalg::ltdl_solve_leaves`]).
+#[inline(always)]
+fn solve_block(m: &Model, mass_blocks: &[f64], t: usize, x: &mut [f64]) {
+    let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
+    linalg::ltdl_solve_leaves(
+        &mass_blocks[off..off + n * n],
+        n,
+        &m.dof_parent[t0..t0 + n],
+        &m.plan.leaves[t],
+        &mut x[t0..t0 + n],
+    );
 }
 
 /// Solves M̄ x = x in place with the factorised blocks.
 pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
-    for (t, &(t0, n)) in m.trees.iter().enumerate() {
-        let off = m.tree_block[t];
-        linalg::ltdl_solve(
-            &mass_blocks[off..off + n * n],
-            n,
-            &m.dof_parent[t0..t0 + n],
-            &mut x[t0..t0 + n],
-        );
+    for t in 0..m.trees.len() {
+        solve_block(m, mass_blocks, t, x);
     }
 }
 
@@ -220,13 +239,7 @@ pub fn solve_mass(m: &Model, mass_blocks: &[f64], x: &mut [f64]) {
 /// are).
 pub fn solve_mass_trees(m: &Model, trees: &[usize], mass_blocks: &[f64], x: &mut [f64]) {
     for &t in trees {
-        let ((t0, n), off) = (m.trees[t], m.tree_block[t]);
-        linalg::ltdl_solve(
-            &mass_blocks[off..off + n * n],
-            n,
-            &m.dof_parent[t0..t0 + n],
-            &mut x[t0..t0 + n],
-        );
+        solve_block(m, mass_blocks, t, x);
     }
 }
 

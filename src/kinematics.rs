@@ -13,6 +13,7 @@ use crate::spatial::{Frame, Inertia, Spatial};
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
 
 /// The frame of body `b` (None = ground).
+#[inline]
 pub fn frame(d: &Data, b: Option<usize>) -> Frame {
     match b {
         Some(i) => Frame {

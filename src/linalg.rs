@@ -23,8 +23,18 @@ pub const NO_PARENT: usize = usize::MAX;
 /// Returns false if a pivot is not positive.
 #[inline(always)]
 pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
+    ltdl_rows(h, n, parent, |_| false)
+}
+
+/// [`ltdl_in_place`] over the rows that `skip` does not name (their rows of `h` are left as
+/// they are; no other row may descend from them).
+#[inline(always)]
+fn ltdl_rows(h: &mut [f64], n: usize, parent: &[usize], skip: impl Fn(usize) -> bool) -> bool {
     let parent = &parent[..n];
     for k in (0..n).rev() {
+        if skip(k) {
+            continue;
+        }
         // row k, and the rows before it (its ancestors' rows: parent[k] < k)
         let (head, tail) = h[..n * n].split_at_mut(k * n);
         let hk = &mut tail[..n];
@@ -51,8 +61,18 @@ pub fn ltdl_in_place(h: &mut [f64], n: usize, parent: &[usize]) -> bool {
 /// Solves `Lᵀ D L x = b` in place with a factor from [`ltdl_in_place`].
 #[inline(always)]
 pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
+    ltdl_solve_rows(l, n, parent, x, |_| false);
+}
+
+/// [`ltdl_solve`] with the off-diagonal entries of the rows that `skip` names left out (the
+/// caller applies them: [`ltdl_solve_leaves`]).
+#[inline(always)]
+fn ltdl_solve_rows(l: &[f64], n: usize, parent: &[usize], x: &mut [f64], skip: impl Fn(usize) -> bool) {
     let (parent, x) = (&parent[..n], &mut x[..n]);
     for i in (0..n).rev() {
+        if skip(i) {
+            continue;
+        }
         let (li, xi) = (&l[i * n..i * n + n], x[i]);
         let mut j = parent[i];
         while j != NO_PARENT {
@@ -64,6 +84,9 @@ pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
         x[i] /= l[i * n + i];
     }
     for i in 0..n {
+        if skip(i) {
+            continue;
+        }
         let li = &l[i * n..i * n + n];
         let mut j = parent[i];
         let mut s = x[i];
@@ -72,6 +95,109 @@ pub fn ltdl_solve(l: &[f64], n: usize, parent: &[usize], x: &mut [f64]) {
             j = parent[j];
         }
         x[i] = s;
+    }
+}
+
+/// Leaves of a tree-sparse matrix (rows no other row descends from, see [`ltdl_in_place`])
+/// whose rows are constant: their rows of the `LᵀDL` factor are then constant too, and so is
+/// what their elimination subtracts from their ancestors' rows (`D L[k][i] L[k][j]`, summed over
+/// the leaves). [`ltdl_in_place_leaves`] skips them and subtracts that sum instead;
+/// [`ltdl_solve_leaves`] runs through their nonzero entries only. Their factor rows are written
+/// into the matrix once ([`ConstantLeaves::write`]) and left alone afterwards.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ConstantLeaves {
+    /// Per row: whether it is such a leaf (empty when there is none).
+    pub is_leaf: Vec<bool>,
+    /// The leaves and their pivots: (row, D).
+    pub pivots: Vec<(usize, f64)>,
+    /// The leaves' nonzero entries of L below the diagonal: (row, column, L[row][column]).
+    pub factor: Vec<(usize, usize, f64)>,
+    /// What their elimination subtracts from the lower entries of the other rows: (row,
+    /// column, Σ D L[k][row] L[k][column]).
+    pub update: Vec<(usize, usize, f64)>,
+}
+
+/// A constant leaf for [`ConstantLeaves::new`]: its row, its pivot `D` and the nonzero entries
+/// `(column, L)` of its factor row.
+pub type LeafRow = (usize, f64, Vec<(usize, f64)>);
+
+impl ConstantLeaves {
+    /// The leaves of an `n × n` tree-sparse matrix, each as its row, pivot `D` and the nonzero
+    /// entries `(column, L)` of its factor row (columns: its ancestors). The caller guarantees
+    /// that each is a leaf whose matrix row is `D` on the diagonal and `D L` at the columns
+    /// given, zero elsewhere.
+    pub fn new(n: usize, leaves: &[LeafRow]) -> ConstantLeaves {
+        let mut c = ConstantLeaves::default();
+        if leaves.is_empty() {
+            return c;
+        }
+        c.is_leaf = vec![false; n];
+        let mut update = vec![0.0; n * n];
+        for (k, dk, row) in leaves {
+            c.is_leaf[*k] = true;
+            c.pivots.push((*k, *dk));
+            for &(i, li) in row {
+                c.factor.push((*k, i, li));
+                for &(j, lj) in row {
+                    if j <= i {
+                        update[i * n + j] += dk * li * lj;
+                    }
+                }
+            }
+        }
+        c.update = (0..n * n)
+            .filter(|&e| update[e] != 0.0)
+            .map(|e| (e / n, e % n, update[e]))
+            .collect();
+        c
+    }
+    /// True when there are no constant leaves.
+    pub fn is_empty(&self) -> bool {
+        self.pivots.is_empty()
+    }
+    /// Writes the leaves' factor rows (D on the diagonal, L below it, zero elsewhere) into the
+    /// row-major `n × n` block `h`.
+    pub fn write(&self, h: &mut [f64], n: usize) {
+        for &(k, dk) in &self.pivots {
+            h[k * n..(k + 1) * n].iter_mut().for_each(|x| *x = 0.0);
+            h[k * n + k] = dk;
+        }
+        for &(k, i, l) in &self.factor {
+            h[k * n + i] = l;
+        }
+    }
+}
+
+/// [`ltdl_in_place`] with constant leaves: their rows of `h` must already hold their factor
+/// rows ([`ConstantLeaves::write`]), which are left as they are; the other rows are those of
+/// the matrix. The factor equals [`ltdl_in_place`]'s to rounding.
+#[inline(always)]
+pub fn ltdl_in_place_leaves(h: &mut [f64], n: usize, parent: &[usize], leaves: &ConstantLeaves) -> bool {
+    if leaves.is_empty() {
+        return ltdl_in_place(h, n, parent);
+    }
+    for &(i, j, u) in &leaves.update {
+        h[i * n + j] -= u;
+    }
+    let is_leaf = &leaves.is_leaf[..n];
+    ltdl_rows(h, n, parent, |k| is_leaf[k])
+}
+
+/// [`ltdl_solve`] with a factor from [`ltdl_in_place_leaves`]: the leaves' rows through their
+/// nonzero entries (a leaf's value is final before its ancestors' in the first pass, and
+/// depends on them in the last).
+#[inline(always)]
+pub fn ltdl_solve_leaves(l: &[f64], n: usize, parent: &[usize], leaves: &ConstantLeaves, x: &mut [f64]) {
+    if leaves.is_empty() {
+        return ltdl_solve(l, n, parent, x);
+    }
+    for &(k, i, lki) in &leaves.factor {
+        x[i] -= lki * x[k];
+    }
+    let is_leaf = &leaves.is_leaf[..n];
+    ltdl_solve_rows(l, n, parent, x, |i| is_leaf[i]);
+    for &(k, i, lki) in &leaves.factor {
+        x[k] -= lki * x[i];
     }
 }
 
@@ -375,6 +501,71 @@ mod tests {
         for i in 0..n {
             assert!((x1[i] - x2[i]).abs() < 1e-14, "{i}: {} vs {}", x1[i], x2[i]);
         }
+    }
+
+    #[test]
+    fn constant_leaves_give_the_factor_and_solve_of_the_whole_matrix() {
+        // dofs: 0 root, 1 and 2 a chain on it, 3 and 5 leaves on 2 and 0, 4 a leaf on 1;
+        // leaves 3 and 5 constant (4 is not: it takes the general way)
+        let parent = [NO_PARENT, 0, 1, 2, 1, 0];
+        let n = 6;
+        let mut a = [0.0; 36];
+        let (l3, l5) = ([(0, 0.25), (2, -1.5)], [(0, 0.75)]);
+        let (d3, d5) = (2.0, 3.0);
+        for k in 0..3 {
+            a[k * n + k] = 9.0 + k as f64;
+        }
+        a[n] = 0.5;
+        a[2 * n] = -0.3;
+        a[2 * n + 1] = 0.2;
+        a[4 * n + 4] = 1.5;
+        a[4 * n + 1] = 0.4;
+        a[4 * n] = -0.1;
+        a[3 * n + 3] = d3;
+        a[5 * n + 5] = d5;
+        for &(i, l) in &l3 {
+            a[3 * n + i] = d3 * l;
+        }
+        for &(i, l) in &l5 {
+            a[5 * n + i] = d5 * l;
+        }
+        let leaves = ConstantLeaves::new(n, &[(3, d3, l3.to_vec()), (5, d5, l5.to_vec())]);
+        assert_eq!(leaves.is_leaf, [false, false, false, true, false, true]);
+        let mut whole = a;
+        assert!(ltdl_in_place(&mut whole, n, &parent));
+        let mut with_leaves = a;
+        // the leaves' rows hold their factor rows, whatever the rest of the matrix is
+        with_leaves[3 * n..4 * n].fill(f64::NAN);
+        leaves.write(&mut with_leaves, n);
+        assert!(ltdl_in_place_leaves(&mut with_leaves, n, &parent, &leaves));
+        for k in 0..n {
+            let mut i = Some(k);
+            while let Some(j) = i {
+                let (x, y) = (whole[k * n + j], with_leaves[k * n + j]);
+                assert!((x - y).abs() <= 1e-15 * x.abs().max(1.0), "L[{k}][{j}]: {x} vs {y}");
+                i = (parent[j] != NO_PARENT).then_some(parent[j]);
+            }
+        }
+        let b = [1.0, -2.0, 0.5, 3.0, -1.0, 0.25];
+        let (mut x1, mut x2) = (b, b);
+        ltdl_solve(&whole, n, &parent, &mut x1);
+        ltdl_solve_leaves(&with_leaves, n, &parent, &leaves, &mut x2);
+        let ax = mat_vec_symmetric(&a, n, &x2);
+        for i in 0..n {
+            assert!((x1[i] - x2[i]).abs() < 1e-14, "{i}: {} vs {}", x1[i], x2[i]);
+            assert!((ax[i] - b[i]).abs() < 1e-13, "residual {i}: {}", ax[i] - b[i]);
+        }
+        // a matrix that is not positive definite is refused as before
+        let mut bad = a;
+        bad[0] = -1.0;
+        leaves.write(&mut bad, n);
+        assert!(!ltdl_in_place_leaves(&mut bad, n, &parent, &leaves));
+    }
+
+    /// `A x` for a symmetric matrix of which the lower triangle is stored.
+    fn mat_vec_symmetric(a: &[f64], n: usize, x: &[f64]) -> Vec<f64> {
+        let at = |i: usize, j: usize| if j <= i { a[i * n + j] } else { a[j * n + i] };
+        (0..n).map(|i| (0..n).map(|k| at(i, k) * x[k]).sum()).collect()
     }
 
     /// `A x` for the row-major square matrix `a`.

@@ -411,7 +411,7 @@ pub fn compile_model(
         })
         .collect();
 
-    let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, trees.len());
+    let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, &trees);
     let model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),

@@ -8,6 +8,7 @@
 //! matrix is block diagonal with one dense block per independent tree.
 
 use crate::integrator::second_order::{Block, SecondOrder};
+use crate::linalg::{ConstantLeaves, LeafRow};
 use crate::model::contact::ContactElement;
 use crate::scene::JointType;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -232,6 +233,12 @@ pub struct Plan {
     pub free_of: Vec<usize>,
     /// Per tree joint, the rotor it turns, if it is one ([`Rotor`]).
     pub rotors: Vec<Option<Rotor>>,
+    /// Per tree, the rotors whose rows of M̄ are constant ([`constant_rotor_row`]), as leaves of
+    /// its block: the assembly of M̄ and its factorisation skip them, and their rows of the
+    /// factor are written once ([`crate::model::Data::new`]).
+    pub leaves: Vec<ConstantLeaves>,
+    /// Per tree joint, whether its row of M̄ is one of those constant leaves.
+    pub constant_row: Vec<bool>,
 }
 
 /// A revolute joint whose child body spins about the joint axis without anything in the
@@ -286,6 +293,67 @@ impl Rotor {
     }
 }
 
+/// Largest `|a × b|` of unit axes `a`, `b` taken as parallel by [`constant_rotor_row`]: the
+/// rounding of the frames' rotations (a varying entry would vary by this fraction at most).
+pub const PARALLEL_AXES: f64 = 64.0 * f64::EPSILON;
+
+/// The row of M̄ of rotor joint `ji` ([`Rotor`]), when it is constant: per unit spin the
+/// rotor's momentum is `(I_a h, 0)` (no linear momentum: its centre of mass is on the axis `h`;
+/// its angular momentum about it is `I_a h`: `h` is a principal axis), so its row is `I_a` on the
+/// diagonal and `I_a (ω_k · h)` at each ancestor dof k whose motion subspace has the angular
+/// part `ω_k` (none for prismatic joints and a free joint's translations). `ω_k` is fixed in
+/// the frame of joint k's child, `h` in the rotor's parent's; the product is constant when no
+/// joint between the two turns `h` (prismatic and fixed ones, and revolute ones about an axis
+/// parallel to it). Returns the pivot `I_a` and
+/// the nonzero `ω_k · h` (the row over the pivot: the rotor's row of the `LᵀDL` factor) by
+/// velocity index; None when an entry varies or `I_a` is not positive.
+pub fn constant_rotor_row(
+    joints: &[TreeJoint],
+    bodies: &[Body],
+    ji: usize,
+    rotor: &Rotor,
+) -> Option<(f64, Vec<(usize, f64)>)> {
+    if rotor.axial.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let mut row = Vec::new();
+    // the axis in the frame of the current body, from the rotor's parent up
+    let mut h = joints[ji].axis;
+    let mut rotated = false;
+    let mut cur = joints[ji].parent;
+    while let Some(c) = cur {
+        let j = &joints[bodies[c].joint];
+        // the angular parts of the joint's dofs in the child's frame
+        let (axes, axis) = ([Vector3::x(), Vector3::y(), Vector3::z()], [j.rot0.inverse() * j.axis]);
+        let (first, angular) = match j.kind {
+            JointType::Prismatic | JointType::Fixed => (j.qvel, &axes[..0]),
+            JointType::Revolute => (j.qvel, &axis[..]),
+            JointType::Spherical => (j.qvel, &axes[..]),
+            JointType::Free => (j.qvel + 3, &axes[..]),
+        };
+        if rotated && !angular.is_empty() {
+            return None;
+        }
+        for (k, w) in angular.iter().enumerate() {
+            let c = w.dot(&h);
+            if c != 0.0 {
+                row.push((first + k, c));
+            }
+        }
+        // the axis in the parent's frame: the child's frame is the parent's turned by the
+        // constant rot0, and a revolute joint's also by its angle, which leaves an axis
+        // parallel to its own as it is
+        let turned = j.rot0 * h;
+        match j.kind {
+            JointType::Prismatic | JointType::Fixed => h = turned,
+            JointType::Revolute if turned.cross(&j.axis).norm() <= PARALLEL_AXES => h = turned,
+            _ => rotated = true,
+        }
+        cur = j.parent;
+    }
+    Some((rotor.axial, row))
+}
+
 /// [`Plan::free_of`] of a body on the general path.
 pub const NOT_FREE: usize = usize::MAX;
 
@@ -306,8 +374,9 @@ impl Plan {
         loops: &[LoopConstraint],
         springs: &[SpringDamper],
         contacts: &[ContactElement],
-        ntrees: usize,
+        trees: &[(usize, usize)],
     ) -> Plan {
+        let ntrees = trees.len();
         let mut tree_joints = vec![0usize; ntrees];
         for j in joints {
             tree_joints[j.tree] += 1;
@@ -370,6 +439,23 @@ impl Plan {
         plan.rotors = joints
             .iter()
             .map(|j| Rotor::of(j, &bodies[j.child], attached[j.child], contacts, j.child))
+            .collect();
+        // the rotors' constant rows of M̄, by tree (velocity indices local to its block)
+        let mut leaves: Vec<Vec<LeafRow>> = vec![Vec::new(); ntrees];
+        plan.constant_row = vec![false; joints.len()];
+        for (ji, j) in joints.iter().enumerate() {
+            let Some(rotor) = &plan.rotors[ji] else { continue };
+            if let Some((pivot, row)) = constant_rotor_row(joints, bodies, ji, rotor) {
+                let t0 = trees[j.tree].0;
+                let row = row.into_iter().map(|(k, c)| (k - t0, c)).collect();
+                leaves[j.tree].push((j.qvel - t0, pivot, row));
+                plan.constant_row[ji] = true;
+            }
+        }
+        plan.leaves = leaves
+            .iter()
+            .zip(trees)
+            .map(|(l, &(_, n))| ConstantLeaves::new(n, l))
             .collect();
         plan
     }

@@ -311,6 +311,11 @@ impl Data {
                 mass_blocks[off + 7 * k] = x;
             }
         }
+        // the rotors' constant rows of the factor, never assembled (`Plan::leaves`)
+        for (t, leaves) in model.plan.leaves.iter().enumerate() {
+            let (off, n) = (model.tree_block[t], model.trees[t].1);
+            leaves.write(&mut mass_blocks[off..off + n * n], n);
+        }
         Data {
             time: 0.0,
             eval_state: state.clone(),

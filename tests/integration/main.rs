@@ -11,6 +11,7 @@ mod common;
 mod fmu_session;
 
 mod batch_read;
+mod constant_rows;
 mod contact;
 mod contact_groups;
 mod continuation;

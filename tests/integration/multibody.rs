@@ -1466,4 +1466,12 @@ fn rotor_right_hand_side_matches_the_full_evaluation() {
             .any(|(j, r)| j.name == name && r.is_some())
     };
     assert!(!is_rotor("axle_fl1") && is_rotor("axle_fl2"));
+    // and its row of the mass matrix is assembled, not taken as constant (constant_rows.rs)
+    let constant = |name: &str| {
+        m.joints
+            .iter()
+            .zip(&m.plan.constant_row)
+            .any(|(j, &c)| j.name == name && c)
+    };
+    assert!(!constant("axle_fl1") && constant("axle_fl2"));
 }
