@@ -87,7 +87,7 @@ pub const DOPRI5_EVALUATIONS: f64 = 6.0;
 pub const STABILITY_BOUNDARY: f64 = 3.3;
 /// How many times Dormand-Prince's cost at its stability limit the implicit method may spend
 /// per unit of time before it switches back.
-pub const COST_RATIO: f64 = 2.0;
+pub const COST_RATIO: f64 = 4.0;
 /// Dormand-Prince steps after a switch back for cost during which the implicit method's
 /// measured cost holds the next switch.
 pub const COST_MEMORY_STEPS: u32 = 500;

@@ -362,7 +362,7 @@ impl ModelCutter {
             }
         };
         let warnings = contact_warnings(&contacts);
-        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, trees.len());
+        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &trees);
         let model = Model {
             name: m.name.clone(),
             gravity: m.gravity,

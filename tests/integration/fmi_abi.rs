@@ -609,13 +609,19 @@ fn overlong_communication_steps_are_discarded_after_max_steps() {
             // largest step, so any finite time is reached in a few hundred steps (1e300 s in
             // 384), and the step toward f64::MAX fails once a step would end beyond the largest
             // number; and the bouncing ball, once at rest, is integrated by the implicit method
-            // of `auto` with steps that grow geometrically (1e9 s in about 3,200 steps).
+            // of `auto` with steps that grow geometrically (1e9 s in about 3,200 steps); the rail
+            // vehicle, cruising on its own, reaches 1e3 s in 4,721 of its 5,000 steps (since the
+            // round that bounded radau5's step after Newton failures and made the wheels' rows
+            // of the mass matrix constant; before, 5,000 steps ended short of it).
             match status {
                 fmi2Status::fmi2Discard => assert_eq!(a.state(), LifeState::StepFailed),
                 fmi2Status::fmi2Error if name == "two_spheres" && h == f64::MAX => {
                     assert_eq!(a.state(), LifeState::Error)
                 }
-                fmi2Status::fmi2OK if (name == "two_spheres" || name == "bouncing_ball") && h < f64::MAX => {
+                fmi2Status::fmi2OK
+                    if (name == "two_spheres" || name == "bouncing_ball" || (name == "rail_vehicle" && h == 1e3))
+                        && h < f64::MAX =>
+                {
                     assert_eq!(a.state(), LifeState::StepComplete);
                     assert_eq!(last, h, "{name}: reached");
                 }
