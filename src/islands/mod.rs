@@ -162,16 +162,6 @@ struct Memory {
     candidates: HashMap<Candidate, ContactMemory>,
 }
 
-fn add(a: Counters, b: Counters) -> Counters {
-    Counters {
-        steps: a.steps + b.steps,
-        rejected: a.rejected + b.rejected,
-        rhs_evals: a.rhs_evals + b.rhs_evals,
-        jac_evals: a.jac_evals + b.jac_evals,
-        events: a.events + b.events,
-    }
-}
-
 impl Island {
     /// Sets the island's coordinates from the scene's state and evaluates its event values
     /// there (its integrator restarts at the next advance).
@@ -401,7 +391,7 @@ impl Islands {
     /// Keeps the counters and the dissipated energy of an island that ends, and its
     /// compiled part in the pool.
     fn retire(&mut self, island: Island) {
-        self.retired = add(self.retired, island.data.counters);
+        self.retired = self.retired + island.data.counters;
         self.dissipated_base += island.dissipated();
         self.input_work_base += island.input_work();
         for e in &island.data.event_log {
@@ -686,7 +676,7 @@ impl Islands {
         for island in &mut self.parts {
             dissipated += island.dissipated();
             input_work += island.input_work();
-            counters = add(counters, island.data.counters);
+            counters = counters + island.data.counters;
             for e in &island.data.event_log {
                 if let Some(g) = island.scene_contact(e.contact, n_explicit, &self.candidate_index) {
                     d.event_log.push(ContactEvent { contact: g, ..*e });

@@ -26,6 +26,21 @@ pub struct Counters {
     pub events: u64,
 }
 
+impl std::ops::Add for Counters {
+    type Output = Counters;
+
+    /// The counters of two runs together (islands).
+    fn add(self, b: Counters) -> Counters {
+        Counters {
+            steps: self.steps + b.steps,
+            rejected: self.rejected + b.rejected,
+            rhs_evals: self.rhs_evals + b.rhs_evals,
+            jac_evals: self.jac_evals + b.jac_evals,
+            events: self.events + b.events,
+        }
+    }
+}
+
 /// What happened at a contact event (see [`ContactEvent`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ContactEventKind {
