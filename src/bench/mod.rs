@@ -49,7 +49,7 @@ pub struct SweepArgs {
     /// Folder of bundled scenes (`<dir>/<name>/scene.toml`).
     #[arg(long, default_value = "fmu")]
     pub scenes: PathBuf,
-    /// Only scenes whose name contains this.
+    /// Only the scene of this name, or (when none has it) the scenes whose name contains it.
     #[arg(long)]
     pub only: Option<String>,
     /// Timed runs per point (the median is reported).
@@ -63,12 +63,18 @@ pub struct SweepArgs {
 impl SweepArgs {
     /// The bundled scenes to sweep (`--only` applied): name and scene file.
     pub fn selected_scenes(&self) -> Result<Vec<(String, PathBuf)>, String> {
-        let only = self.only.as_deref();
-        Ok(bundled_scenes(&self.scenes)?
-            .into_iter()
-            .filter(|(name, _)| only.is_none_or(|o| name.contains(o)))
-            .collect())
+        Ok(select_scenes(bundled_scenes(&self.scenes)?, self.only.as_deref()))
     }
+}
+
+/// The scenes `--only` selects: the one named exactly so when there is one (`rail_vehicle`
+/// is not also `rail_vehicle_track`), else every scene whose name contains it; all without it.
+pub fn select_scenes(scenes: Vec<(String, PathBuf)>, only: Option<&str>) -> Vec<(String, PathBuf)> {
+    let Some(o) = only else { return scenes };
+    if scenes.iter().any(|(name, _)| name == o) {
+        return scenes.into_iter().filter(|(name, _)| name == o).collect();
+    }
+    scenes.into_iter().filter(|(name, _)| name.contains(o)).collect()
 }
 
 /// The run of `method` at tolerance `tol` (rk4: step `tol`) of a sweep from `base`, with
@@ -195,7 +201,7 @@ pub enum BenchCommand {
         /// Folder of bundled scenes.
         #[arg(long, default_value = "fmu")]
         scenes: PathBuf,
-        /// Only scenes whose name contains this.
+        /// Only the scene of this name, or (when none has it) the scenes whose name contains it.
         #[arg(long)]
         only: Option<String>,
         /// Timed batches (the median is reported).
@@ -747,4 +753,29 @@ fn run_command(
 /// Formats a float for a CSV cell.
 pub fn f(x: f64) -> String {
     format!("{x:.6e}")
+}
+
+#[cfg(test)]
+mod selection_tests {
+    use super::select_scenes;
+    use std::path::PathBuf;
+
+    #[test]
+    fn only_takes_the_exact_name_first_then_the_names_containing_it() {
+        let scenes: Vec<(String, PathBuf)> = ["rail_vehicle", "rail_vehicle_track", "two_spheres"]
+            .iter()
+            .map(|n| (n.to_string(), PathBuf::from(n)))
+            .collect();
+        let names = |only| -> Vec<String> {
+            select_scenes(scenes.clone(), only)
+                .into_iter()
+                .map(|(n, _)| n)
+                .collect()
+        };
+        assert_eq!(names(Some("rail_vehicle")), ["rail_vehicle"]);
+        assert_eq!(names(Some("rail")), ["rail_vehicle", "rail_vehicle_track"]);
+        assert_eq!(names(Some("sphere")), ["two_spheres"]);
+        assert!(names(Some("pile")).is_empty());
+        assert_eq!(names(None).len(), 3);
+    }
 }

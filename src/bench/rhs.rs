@@ -41,10 +41,7 @@ pub fn run(
         "{:<16} {:>5} {:>6} {:>9} {:>16} {:>16} {:>16} {:>16}",
         "scene", "nv", "ncont", "calls", "free cpu [ns]", "contact cpu [ns]", "free wall [ns]", "contact wall [ns]"
     );
-    for (name, path) in bundled_scenes(dir)? {
-        if only.is_some_and(|o| !name.contains(o)) {
-            continue;
-        }
+    for (name, path) in super::select_scenes(bundled_scenes(dir)?, only) {
         let scene = Scene::from_file(&path).map_err(|e| e.to_string())?;
         let (m, mut d) = compile(&scene, &path.display().to_string()).map_err(|e| e.to_string())?;
         let state = d.state.clone();
