@@ -444,6 +444,12 @@ pub fn compile_model(
         .collect();
 
     let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, trees.len());
+    let quaternions = joints.iter().filter_map(|j| j.quaternion()).collect();
+    let rtol = params.solver.rtol;
+    let step_rtol_powers = contacts
+        .iter()
+        .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
+        .collect();
     let model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),
@@ -454,6 +460,7 @@ pub fn compile_model(
         nc,
         springs,
         contacts,
+        step_rtol_powers,
         groups,
         inputs,
         input_value,
@@ -461,6 +468,7 @@ pub fn compile_model(
         input_start: params.input_start.clone(),
         nq,
         nv,
+        quaternions,
         trees,
         tree_block,
         dof_joint,

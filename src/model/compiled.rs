@@ -65,6 +65,14 @@ impl TreeJoint {
     pub fn nv(&self) -> usize {
         nv_of(self.kind)
     }
+    /// First position coordinate of its unit quaternion (spherical and free joints).
+    pub fn quaternion(&self) -> Option<usize> {
+        match self.kind {
+            JointType::Spherical => Some(self.qpos),
+            JointType::Free => Some(self.qpos + 3),
+            _ => None,
+        }
+    }
 }
 
 /// Position coordinates of a joint type.
@@ -399,6 +407,10 @@ pub struct Model {
     pub springs: Vec<SpringDamper>,
     /// Contact elements.
     pub contacts: Vec<ContactElement>,
+    /// Per contact, `solver.rtol` to its [`ContactElement::touch_power`] and
+    /// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
+    /// toward a separation, taken at every step in contact: computed once here).
+    pub step_rtol_powers: Vec<[f64; 2]>,
     /// Contact groups: the group shapes and the candidate pairs behind the group contacts
     /// (`contacts[groups.n_explicit..]`).
     pub groups: crate::model::groups::Groups,
@@ -413,6 +425,9 @@ pub struct Model {
     pub nq: usize,
     /// Number of degrees of freedom.
     pub nv: usize,
+    /// First position coordinate of each joint quaternion ([`TreeJoint::quaternion`]), in
+    /// joint order.
+    pub quaternions: Vec<usize>,
     /// For each tree: first velocity index and size (a dense block of the mass matrix).
     pub trees: Vec<(usize, usize)>,
     /// Offset of each tree's block in the packed mass-matrix storage.

@@ -263,7 +263,23 @@ impl Simulation {
                 values.len()
             )));
         }
+        if let Some(c) = self.direct_batch(|last| last == vrs) {
+            for (x, &slot) in values.iter_mut().zip(&c.direct_reads.1) {
+                *x = c.data.state[slot];
+            }
+            return Ok(());
+        }
         self.get_each(vrs.iter().copied(), |k, x| values[k] = x)
+    }
+
+    /// The compiled model when `same(batch)` holds for the last batch of reads that were all
+    /// free bodies' positions and velocities ([`Compiled::plan_direct_reads`]): its values
+    /// are then the state at the slots found at its first read.
+    fn direct_batch(&self, same: impl FnOnce(&[usize]) -> bool) -> Option<&Compiled> {
+        match (self.compiled.as_ref(), self.compiled_fresh) {
+            (Some(c), true) if !c.direct_reads.0.is_empty() && same(&c.direct_reads.0) => Some(c),
+            _ => None,
+        }
     }
 
     /// [`Simulation::get_many`] for value references of any integer type: calls `put(k, x)`
@@ -275,14 +291,13 @@ impl Simulation {
         // A host reads the same outputs at every communication point: a batch of free bodies'
         // positions and velocities is copied from the state by the slots found at its first
         // read (the same numbers as below).
-        if let (Some(c), true) = (self.compiled.as_mut(), self.compiled_fresh) {
-            let (last, slots) = &c.direct_reads;
-            if !last.is_empty() && vrs.clone().eq(last.iter().copied()) {
-                for (k, &slot) in slots.iter().enumerate() {
-                    put(k, c.data.state[slot]);
-                }
-                return Ok(());
+        if let Some(c) = self.direct_batch(|last| same_batch(vrs.clone(), last)) {
+            for (k, &slot) in c.direct_reads.1.iter().enumerate() {
+                put(k, c.data.state[slot]);
             }
+            return Ok(());
+        }
+        if let (Some(c), true) = (self.compiled.as_mut(), self.compiled_fresh) {
             if vrs.clone().nth(1).is_some() {
                 c.plan_direct_reads(&self.table, vrs.clone());
             }
@@ -643,6 +658,11 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
 }
 
 /// The variable with value reference `vr`.
+/// True when `vrs` lists exactly the value references of `last`, in order.
+fn same_batch(mut vrs: impl Iterator<Item = usize>, last: &[usize]) -> bool {
+    last.iter().all(|&vr| vrs.next() == Some(vr)) && vrs.next().is_none()
+}
+
 fn variable(table: &VariableTable, vr: usize) -> Result<&Variable, SimError> {
     table
         .vars
