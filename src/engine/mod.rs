@@ -154,6 +154,14 @@ pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -
     d.outputs_valid = false;
     d.kinematics_valid = false;
     let continuation = m.solver.continuation;
+    // A communication point inside the method's last step, before its pending event (most
+    // points of a fine grid): the state from the dense output, as the loop below gives it.
+    let inside = d.solver.method().is_some_and(|i| i.t() > t_end);
+    if inside && continuation && d.solver.started && d.solver.pending_event > t_end {
+        interpolate_to(m, d, t_end);
+        sync_counters(d);
+        return Ok(false);
+    }
     if !d.solver.started || !continuation {
         // An input changed at this communication point may have made a resting contact pull.
         let settled = any_resting(m, d) && modes::resting_violated(m, d);

@@ -657,12 +657,12 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
 }
 
-/// The variable with value reference `vr`.
 /// True when `vrs` lists exactly the value references of `last`, in order.
 fn same_batch(mut vrs: impl Iterator<Item = usize>, last: &[usize]) -> bool {
     last.iter().all(|&vr| vrs.next() == Some(vr)) && vrs.next().is_none()
 }
 
+/// The variable with value reference `vr`.
 fn variable(table: &VariableTable, vr: usize) -> Result<&Variable, SimError> {
     table
         .vars
