@@ -306,6 +306,25 @@ impl Integrator for Dopri5 {
         Ok(())
     }
 
+    fn interpolate_slots(&self, t: f64, slots: &[usize], out: &mut [f64]) -> bool {
+        let Some((s, _)) = self.core.dense_fraction(t) else {
+            for (x, &i) in out.iter_mut().zip(slots) {
+                *x = self.core.y[i];
+            }
+            return true;
+        };
+        let cont = self.dense();
+        let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev[..], &*cont);
+        // (slices of one length: one bounds check per slot)
+        let n = y0.len();
+        let (c0, c1, c2, c3) = (&c0[..n], &c1[..n], &c2[..n], &c3[..n]);
+        let s1 = 1.0 - s;
+        for (x, &i) in out.iter_mut().zip(slots) {
+            *x = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+        }
+        true
+    }
+
     fn interpolate(&self, t: f64, out: &mut [f64]) {
         let cont = self.dense();
         let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &*cont);

@@ -92,7 +92,7 @@ impl Simulation {
     /// energy balance with its reference and warns, once, when it drifted by more than
     /// [`ENERGY_DRIFT_WARNING`] of its scale.
     pub(super) fn watch_energy(&mut self) -> Result<(), SimError> {
-        let evals = self.data().map_or(0, |d| d.counters.rhs_evals);
+        let evals = self.counters().rhs_evals;
         // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
         if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
             return Ok(());
