@@ -226,11 +226,13 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
 /// sphere's body at the closing speed `v` (`K δ_maxⁿ⁺¹/(n + 1) = m v²/2`); the least of them
 /// (infinite when nothing touched). The step of the free flight before is far too long for
 /// the contact, and the integrator would otherwise cut it down by several rejected steps.
-/// The power `p` is [`ContactElement::touch_power`](crate::model::contact::ContactElement::touch_power):
-/// `1/(n + 1)` for the Hertz exponent, whose force grows as `t^{3/2}` from the touch; the first step's velocity error grows as its length to the
-/// power `n + 1` and the error estimate does not see it (ball on a plane at the first touch,
-/// with `p = 1/5`: energy lost in the first step 0.31 rtol at rtol 1e-7, 9.9 at 1e-10, 31 at
-/// 1e-11, ∝ rtol^{1/2}; with `p = 1/(n + 1)` below 0.001 rtol).
+/// The power `p` is
+/// [`ContactElement::touch_power`](crate::model::contact::ContactElement::touch_power):
+/// `1/(n + 1)` for the Hertz exponent, whose force grows as `t^{3/2}` from the touch; the
+/// first step's velocity error grows as its length to the power `n + 1` and the error
+/// estimate does not see it (ball on a plane at the first touch, with `p = 1/5`: energy lost
+/// in the first step 0.31 rtol at rtol 1e-7, 9.9 at 1e-10, 31 at 1e-11, ∝ rtol^{1/2}; with
+/// `p = 1/(n + 1)` below 0.001 rtol).
 pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
     let mut bound = f64::INFINITY;
     for (i, c) in m.contacts.iter().enumerate() {

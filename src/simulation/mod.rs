@@ -317,8 +317,8 @@ impl Simulation {
         I: Iterator<Item = usize> + Clone,
     {
         // A host reads the same outputs at every communication point: a batch of free bodies'
-        // positions and velocities is copied from the state by the slots found at its first
-        // read (the same numbers as below).
+        // positions and velocities is read by the state slots found at its first read, from
+        // the state or the dense output ([`Compiled::read_direct`]; the same numbers as below).
         if let Some(c) = self.direct_batch(|last| same_batch(vrs.clone(), last)) {
             let mut values = std::mem::take(&mut c.direct_values);
             values.resize(c.direct_reads.1.len(), 0.0);
