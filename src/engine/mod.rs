@@ -154,6 +154,7 @@ pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -
 /// [`advance_with`]; `defer`: a communication point inside the method's step leaves the state
 /// to its dense output ([`Data::dense_pending`], taken by [`settle`]) in a model without loops
 /// (whose projection at the point changes only joint quaternions).
+#[inline]
 pub fn advance_deferring(
     m: &Model,
     d: &mut Data,
@@ -161,16 +162,13 @@ pub fn advance_deferring(
     stop_at_events: bool,
     defer: bool,
 ) -> Result<bool, EngineError> {
-    if t_end.is_nan() || t_end < d.time {
-        return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
-    }
-    d.outputs_valid = false;
-    d.kinematics_valid = false;
-    let continuation = m.solver.continuation;
     // A communication point inside the method's last step, before its pending event (most
-    // points of a fine grid): the state from the dense output, as the loop below gives it.
-    let inside = d.solver.method().is_some_and(|i| i.t() > t_end);
-    if inside && continuation && d.solver.started && d.solver.pending_event > t_end {
+    // points of a fine grid): the state from the dense output, as the loop of
+    // `advance_steps` gives it.
+    let inside = t_end >= d.time && d.solver.method().is_some_and(|i| i.t() > t_end);
+    if inside && m.solver.continuation && d.solver.started && d.solver.pending_event > t_end {
+        d.outputs_valid = false;
+        d.kinematics_valid = false;
         if defer && m.loop_rows() == 0 {
             d.time = t_end;
             d.dense_pending = true;
@@ -180,6 +178,18 @@ pub fn advance_deferring(
         sync_counters(d);
         return Ok(false);
     }
+    advance_steps(m, d, t_end, stop_at_events)
+}
+
+/// [`advance_with`] past the communication points inside the method's step: restarts, steps,
+/// events.
+fn advance_steps(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
+    if t_end.is_nan() || t_end < d.time {
+        return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
+    }
+    d.outputs_valid = false;
+    d.kinematics_valid = false;
+    let continuation = m.solver.continuation;
     settle(m, d);
     if !d.solver.started || !continuation {
         // An input changed at this communication point may have made a resting contact pull.

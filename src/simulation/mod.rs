@@ -441,16 +441,16 @@ impl Simulation {
             self.start_watch()?;
         }
         let c = self.running_deferred()?;
-        if c.islands.is_none() && c.split {
-            let params = self.parameters();
-            let (scene, origin) = (&self.scene, &self.origin);
-            let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
-                return Err(SimError::NotInitialized);
-            };
-            let src = Source { scene, origin };
-            c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
-        }
-        if self.running_deferred()?.islands.is_some() {
+        if c.split || c.islands.is_some() {
+            if c.islands.is_none() {
+                let params = self.parameters();
+                let (scene, origin) = (&self.scene, &self.origin);
+                let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
+                    return Err(SimError::NotInitialized);
+                };
+                let src = Source { scene, origin };
+                c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
+            }
             let at_event = self.step_islands(t_end, stop_at_events)?;
             return self.watch_energy().map(|()| at_event);
         }
