@@ -442,14 +442,10 @@ pub fn compile_model(
             }
         })
         .collect();
+    let quaternions = crate::model::quaternion_coordinates(&joints);
+    let step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
 
     let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, trees.len());
-    let quaternions = joints.iter().filter_map(|j| j.quaternion()).collect();
-    let rtol = params.solver.rtol;
-    let step_rtol_powers = contacts
-        .iter()
-        .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
-        .collect();
     let model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),

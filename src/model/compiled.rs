@@ -85,6 +85,20 @@ pub fn nq_of(k: JointType) -> usize {
     }
 }
 
+/// [`Model::quaternions`] of `joints`: the first position coordinate of each joint
+/// quaternion, in joint order.
+pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
+    joints.iter().filter_map(|j| j.quaternion()).collect()
+}
+
+/// [`Model::step_rtol_powers`] of `contacts` at the solver's `rtol`.
+pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
+    contacts
+        .iter()
+        .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
+        .collect()
+}
+
 /// Degrees of freedom of a joint type.
 pub fn nv_of(k: JointType) -> usize {
     match k {
