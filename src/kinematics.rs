@@ -9,7 +9,7 @@
 
 use crate::model::{Data, FreeBody, Model, Rotor};
 use crate::scene::JointType;
-use crate::spatial::{Frame, Inertia, Spatial};
+use crate::spatial::{Frame, Inertia, Placement, Spatial};
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
 
 /// The frame of body `b` (None = ground).
@@ -25,6 +25,16 @@ pub fn frame(d: &Data, b: Option<usize>) -> Frame {
         },
         None => Frame::ground(),
     }
+}
+
+/// The placement of body `b` (None = ground: None) at the evaluated kinematics.
+#[inline]
+pub fn placement(d: &Data, b: Option<usize>) -> Option<Placement<'_>> {
+    b.map(|i| Placement {
+        pos: &d.body_pos[i],
+        rot: &d.body_rot[i],
+        vel: &d.body_vel[i],
+    })
 }
 
 /// The unit quaternion of four coordinates (w, x, y, z), normalised.

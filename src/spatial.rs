@@ -170,6 +170,59 @@ impl Frame {
     }
 }
 
+/// A body's pose and velocity by reference, as contact detection reads them: a [`Frame`]
+/// without its copy. `None` in its place stands for the ground, at rest in the world frame,
+/// whose identity rotation and zero velocity are then not multiplied out.
+#[derive(Debug, Clone, Copy)]
+pub struct Placement<'a> {
+    /// Centre of mass.
+    pub pos: &'a Vector3<f64>,
+    /// Rotation body → world.
+    pub rot: &'a Matrix3<f64>,
+    /// Spatial velocity.
+    pub vel: &'a Spatial,
+}
+
+impl<'a> Placement<'a> {
+    /// The placement of a frame.
+    pub fn of(f: &'a Frame) -> Placement<'a> {
+        Placement {
+            pos: &f.pos,
+            rot: &f.rot,
+            vel: &f.vel,
+        }
+    }
+
+    /// World position of the point `x` fixed in the body (`None`: the ground, `x` is world).
+    /// A point at the centre of mass is the centre itself (no rotation).
+    #[inline]
+    pub fn point(p: Option<Placement>, x: &Vector3<f64>) -> Vector3<f64> {
+        match p {
+            None => *x,
+            Some(p) if *x == Vector3::zeros() => *p.pos,
+            Some(p) => p.pos + p.rot * x,
+        }
+    }
+
+    /// World direction of the direction `x` fixed in the body.
+    #[inline]
+    pub fn direction(p: Option<Placement>, x: &Vector3<f64>) -> Vector3<f64> {
+        match p {
+            None => *x,
+            Some(p) => p.rot * x,
+        }
+    }
+
+    /// Velocity of the body's material point at the world position `x`.
+    #[inline]
+    pub fn point_velocity(p: Option<Placement>, x: &Vector3<f64>) -> Vector3<f64> {
+        match p {
+            None => Vector3::zeros(),
+            Some(p) => p.vel.point_velocity(x),
+        }
+    }
+}
+
 /// An orthonormal triad whose first column is `axis`.
 pub fn triad(axis: &Vector3<f64>) -> Matrix3<f64> {
     let a = axis.normalize();

@@ -410,6 +410,8 @@ pub fn compile_model(
             }
         })
         .collect();
+    let quaternions = crate::model::quaternion_coordinates(&joints);
+    let step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
 
     let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, &trees);
     let model = Model {
@@ -422,6 +424,7 @@ pub fn compile_model(
         nc,
         springs,
         contacts,
+        step_rtol_powers,
         groups,
         inputs,
         input_value,
@@ -429,6 +432,7 @@ pub fn compile_model(
         input_start: params.input_start.clone(),
         nq,
         nv,
+        quaternions,
         trees,
         tree_block,
         dof_joint,

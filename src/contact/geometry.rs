@@ -2,7 +2,7 @@
 //! sphere-finite plane (4)-(12) and sphere-cylindrical surface (13).
 
 use crate::model::contact::{ContactElement, Shape};
-use crate::spatial::Frame;
+use crate::spatial::{Frame, Placement};
 use nalgebra::Vector3;
 
 /// Result of detection.
@@ -23,11 +23,18 @@ pub struct Gap {
 
 /// Detects contact between the sphere of `c` (on frame `fs`) and its other shape (on `fo`).
 pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
-    let center = fs.pos + fs.rot * c.center;
+    detect_placed(c, Some(Placement::of(fs)), Some(Placement::of(fo)))
+}
+
+/// [`detect`] on the bodies' placements (`None`: the ground): the same numbers, up to the
+/// sign of a zero, without the products with the ground's identity rotation and zero
+/// velocity, nor the rotation of a sphere centred on its body's centre of mass.
+pub fn detect_placed(c: &ContactElement, fs: Option<Placement>, fo: Option<Placement>) -> Gap {
+    let center = Placement::point(fs, &c.center);
     let r = c.radius;
     let (delta, normal, point, margin) = match &c.shape {
         Shape::Sphere { center: oc, radius } => {
-            let other = fo.pos + fo.rot * oc;
+            let other = Placement::point(fo, oc);
             let d = center - other;
             let dist = d.norm();
             let n = if dist > 0.0 { d / dist } else { Vector3::z() };
@@ -41,12 +48,12 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
             v,
             half,
         } => {
-            let o = fo.pos + fo.rot * origin;
-            let n = fo.rot * normal;
+            let o = Placement::point(fo, origin);
+            let n = Placement::direction(fo, normal);
             let d = center - o;
             let h = d.dot(&n);
-            let su = d.dot(&(fo.rot * u));
-            let sv = d.dot(&(fo.rot * v));
+            let su = d.dot(&Placement::direction(fo, u));
+            let sv = d.dot(&Placement::direction(fo, v));
             let margin = (half[0] - su.abs()).min(half[1] - sv.abs());
             (r - h, n, center - n * h, margin)
         }
@@ -59,16 +66,20 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
             theta_range,
             inside,
         } => {
-            let a0 = fo.pos + fo.rot * point;
-            let k = fo.rot * axis;
+            let a0 = Placement::point(fo, point);
+            let k = Placement::direction(fo, axis);
             let d = center - a0;
             let s = d.dot(&k);
             let radial = d - k * s;
             let dist = radial.norm();
-            let er = if dist > 0.0 { radial / dist } else { fo.rot * reference };
+            let er = if dist > 0.0 {
+                radial / dist
+            } else {
+                Placement::direction(fo, reference)
+            };
             let mut margin = half_length - s.abs();
             if let Some(range) = theta_range {
-                let refw = fo.rot * reference;
+                let refw = Placement::direction(fo, reference);
                 let theta = crate::math::atan2(er.dot(&k.cross(&refw)), er.dot(&refw));
                 margin = margin.min(radius * angular_margin(theta, *range));
             }
@@ -80,8 +91,8 @@ pub fn detect(c: &ContactElement, fs: &Frame, fo: &Frame) -> Gap {
             }
         }
     };
-    let vs = fs.vel.point_velocity(&point);
-    let vo = fo.vel.point_velocity(&point);
+    let vs = Placement::point_velocity(fs, &point);
+    let vo = Placement::point_velocity(fo, &point);
     Gap {
         delta,
         delta_dot: -(vs - vo).dot(&normal),

@@ -23,10 +23,10 @@ pub mod groups;
 pub mod impulse;
 pub mod laws;
 
-use crate::kinematics::{add_jacobian_row, frame};
+use crate::kinematics::{add_jacobian_row, frame, placement};
 use crate::model::{Data, Model};
 use crate::scene::Law;
-use crate::spatial::Spatial;
+use crate::spatial::{Placement, Spatial};
 
 pub use crate::model::contact::{ContactElement, ContactMemory, ContactOutput, Friction, Shape};
 pub use geometry::Gap;
@@ -34,9 +34,7 @@ pub use geometry::Gap;
 /// Evaluates the geometry of contact `i` at the current kinematics.
 pub fn gap(m: &Model, d: &Data, i: usize) -> Gap {
     let c = &m.contacts[i];
-    let fs = frame(d, c.sphere_body);
-    let fo = frame(d, c.body);
-    geometry::detect(c, &fs, &fo)
+    geometry::detect_placed(c, placement(d, c.sphere_body), placement(d, c.body))
 }
 
 /// Event function of contact `i`: positive exactly when the sphere is inside the shape's
@@ -55,15 +53,14 @@ pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<(f64, f64)> {
     if !c.bound_radius.is_finite() {
         return None;
     }
-    let fs = frame(d, c.sphere_body);
-    let fo = frame(d, c.body);
-    let center = fs.pos + fs.rot * c.center;
-    let other = fo.pos + fo.rot * geometry::bound_center(&c.shape);
+    let (fs, fo) = (placement(d, c.sphere_body), placement(d, c.body));
+    let center = Placement::point(fs, &c.center);
+    let other = Placement::point(fo, &geometry::bound_center(&c.shape));
     let apart = center - other;
     let distance = apart.norm();
     let clearance = distance - (c.bound_radius + c.radius + c.max_penetration);
     if clearance > 0.0 {
-        let relative = fs.vel.point_velocity(&center) - fo.vel.point_velocity(&other);
+        let relative = Placement::point_velocity(fs, &center) - Placement::point_velocity(fo, &other);
         Some((-clearance, -apart.dot(&relative) / distance))
     } else {
         None
@@ -216,9 +213,7 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        let fs = frame(d, c.sphere_body);
-        let fo = frame(d, c.body);
-        let g = geometry::detect(c, &fs, &fo);
+        let g = gap(m, d, i);
         let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let mut force = g.normal * f.total;
@@ -230,7 +225,7 @@ pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
             ..ContactOutput::default()
         };
         if c.friction.is_on() {
-            let slip = friction::slip_velocity(&fs, &fo, &g);
+            let slip = friction::slip_velocity(&frame(d, c.sphere_body), &frame(d, c.body), &g);
             let ft = friction::force(&c.friction, f.total, &slip);
             power -= ft.dot(&slip);
             force += ft;

@@ -10,7 +10,7 @@
 use super::modes;
 use crate::contact;
 use crate::forward::{any_resting, evaluate, planned_kinematics};
-use crate::kinematics::{kinematics, kinematics_path};
+use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 
@@ -87,13 +87,19 @@ pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
 }
 
 /// Kinematics of the two bodies of contact `i` (and their ancestors) only: enough for its
-/// gap, broad phase and event functions. Every other body's entries in `d` are left stale,
-/// so whatever follows a probe and looks at other bodies recomputes the full kinematics
+/// gap, broad phase and event functions; a free body's by the plan's lean kinematics (its
+/// pose and velocity, as the right-hand side and the event functions at a step's end compute
+/// them). Every other body's entries in `d` are left stale, so whatever follows a probe and
+/// looks at other bodies, or at motion subspaces and inertias, recomputes the full kinematics
 /// (`event_values`, `evaluate`, `project_state` all do).
 fn contact_kinematics(m: &Model, d: &mut Data, i: usize) {
     let c = &m.contacts[i];
-    kinematics_path(m, d, c.sphere_body);
-    kinematics_path(m, d, c.body);
+    for body in [c.sphere_body, c.body] {
+        match body.and_then(|b| m.plan.free_body(b)) {
+            Some(fb) => free_body_kinematics(m, d, fb),
+            None => kinematics_path(m, d, body),
+        }
+    }
 }
 
 /// Puts the dense output at `t` into `d.eval_state`.
@@ -197,7 +203,7 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
             // (two spheres, error of the final velocities: rtol 1e-6 3.3e-5 → 7.3e-7, 1e-8
             // 5.1e-7 → 8.7e-9, 1e-10 3.2e-9 → 9.4e-11, for 2-8 % more evaluations).
             if c.law != Law::Impulse && closing < 0.0 && delta > 0.0 {
-                if let Some(floor) = touch_step(m, i, -closing, 1.0 / (c.exponent + 1.0)) {
+                if let Some(floor) = touch_step(m, i, -closing, m.step_rtol_powers[i][1]) {
                     bound = bound.min((0.5 * delta / -closing).max(floor));
                 }
             }
@@ -220,11 +226,13 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
 /// sphere's body at the closing speed `v` (`K δ_maxⁿ⁺¹/(n + 1) = m v²/2`); the least of them
 /// (infinite when nothing touched). The step of the free flight before is far too long for
 /// the contact, and the integrator would otherwise cut it down by several rejected steps.
-/// The power `p` is [`touch_power`]: `1/(n + 1)` for the Hertz exponent, whose force grows as
-/// `t^{3/2}` from the touch; the first step's velocity error grows as its length to the
-/// power `n + 1` and the error estimate does not see it (ball on a plane at the first touch,
-/// with `p = 1/5`: energy lost in the first step 0.31 rtol at rtol 1e-7, 9.9 at 1e-10, 31 at
-/// 1e-11, ∝ rtol^{1/2}; with `p = 1/(n + 1)` below 0.001 rtol).
+/// The power `p` is
+/// [`ContactElement::touch_power`](crate::model::contact::ContactElement::touch_power):
+/// `1/(n + 1)` for the Hertz exponent, whose force grows as `t^{3/2}` from the touch; the
+/// first step's velocity error grows as its length to the power `n + 1` and the error
+/// estimate does not see it (ball on a plane at the first touch, with `p = 1/5`: energy lost
+/// in the first step 0.31 rtol at rtol 1e-7, 9.9 at 1e-10, 31 at 1e-11, ∝ rtol^{1/2}; with
+/// `p = 1/(n + 1)` below 0.001 rtol).
 pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
     let mut bound = f64::INFINITY;
     for (i, c) in m.contacts.iter().enumerate() {
@@ -233,33 +241,18 @@ pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
         if !touched || closing.is_nan() || closing <= 0.0 {
             continue;
         }
-        if let Some(h) = touch_step(m, i, closing, touch_power(c)) {
+        if let Some(h) = touch_step(m, i, closing, m.step_rtol_powers[i][0]) {
             bound = bound.min(h);
         }
     }
     bound
 }
 
-/// The power of `rtol` in the first step after a touch ([`first_contact_step`]): `1/5` where
-/// the force is smooth from the touch on (Kelvin-Voigt's `K δ + c δ̇`, an integer exponent:
-/// a polynomial in the state) and the steps of the order-5 method scale as `rtol^{1/5}`;
-/// else (`K δⁿ` with a fractional `n`, whose derivatives are unbounded at `δ = 0`) the larger
-/// of `1/5` and `1/(n + 1)`, so that the first step's error, which grows as its length to the
-/// power `n + 1`, stays in proportion to rtol.
-fn touch_power(c: &crate::model::contact::ContactElement) -> f64 {
-    let n = c.exponent;
-    if c.law == Law::KelvinVoigt || n.fract() == 0.0 {
-        0.2
-    } else {
-        (1.0 / (n + 1.0)).max(0.2)
-    }
-}
-
-/// `0.5 rtol^power δ_max / v` for contact `i` at the normal speed `v`, with `δ_max` the
+/// `0.5 rtol_power δ_max / v` for contact `i` at the normal speed `v`, with `δ_max` the
 /// penetration that stores the sphere's kinetic energy at that speed (see
-/// [`first_contact_step`]); None for a contact without a sphere body or with a law that
-/// stores no energy.
-fn touch_step(m: &Model, i: usize, speed: f64, power: f64) -> Option<f64> {
+/// [`first_contact_step`]) and `rtol_power` a power of `rtol` ([`Model::step_rtol_powers`]);
+/// None for a contact without a sphere body or with a law that stores no energy.
+fn touch_step(m: &Model, i: usize, speed: f64, rtol_power: f64) -> Option<f64> {
     let c = &m.contacts[i];
     let b = c.sphere_body?;
     let (k, n) = (c.stiffness, c.exponent);
@@ -268,7 +261,7 @@ fn touch_step(m: &Model, i: usize, speed: f64, power: f64) -> Option<f64> {
         return None;
     }
     let delta_max = crate::math::powf((n + 1.0) * mass * speed * speed / (2.0 * k), 1.0 / (n + 1.0));
-    Some(0.5 * crate::math::powf(m.solver.rtol, power) * delta_max / speed)
+    Some(0.5 * rtol_power * delta_max / speed)
 }
 
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
@@ -283,10 +276,19 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         return None;
     }
     let (t0, t1) = (method.t_prev(), method.t());
-    d.eval_state.copy_from_slice(method.y());
-    // (the event functions need the poses and velocities only; what follows the step, an
-    // event's handling or a projection, evaluates the full kinematics again)
-    event_values_after(m, d, true, planned_kinematics);
+    // The event functions need the poses and velocities only (what follows the step, an
+    // event's handling or a projection, evaluates the full kinematics again): the plan's. The
+    // data hold those of the method's last evaluation of the right-hand side, at
+    // `d.eval_state`, by the plan when it has free bodies and nothing rests: when that
+    // evaluation was at the step's end (Dormand-Prince's last stage), they are not computed
+    // again.
+    let evaluated = !m.plan.free.is_empty() && !any_resting(m, d) && d.eval_state[..] == method.y()[..];
+    if evaluated {
+        event_values_after(m, d, true, |_, _| {});
+    } else {
+        d.eval_state.copy_from_slice(method.y());
+        event_values_after(m, d, true, planned_kinematics);
+    }
     // Earliest relevant crossing.
     let mut t_first = t1;
     let mut any = false;

@@ -148,12 +148,49 @@ pub fn advance(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
 /// The next advance goes on from there as this one would have, so the steps, and the states at
 /// later times, do not depend on where an advance stopped.
 pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
+    advance_deferring(m, d, t_end, stop_at_events, false)
+}
+
+/// [`advance_with`]; `defer`: a communication point inside the method's step leaves the state
+/// to its dense output ([`Data::dense_pending`], taken by [`settle`]) in a model without loops
+/// (whose projection at the point changes only joint quaternions).
+#[inline]
+pub fn advance_deferring(
+    m: &Model,
+    d: &mut Data,
+    t_end: f64,
+    stop_at_events: bool,
+    defer: bool,
+) -> Result<bool, EngineError> {
+    // A communication point inside the method's last step, before its pending event (most
+    // points of a fine grid): the state from the dense output, as the loop of
+    // `advance_steps` gives it.
+    let inside = t_end >= d.time && d.solver.method().is_some_and(|i| i.t() > t_end);
+    if inside && m.solver.continuation && d.solver.started && d.solver.pending_event > t_end {
+        d.outputs_valid = false;
+        d.kinematics_valid = false;
+        if defer && m.loop_rows() == 0 {
+            d.time = t_end;
+            d.dense_pending = true;
+        } else {
+            interpolate_to(m, d, t_end);
+        }
+        sync_counters(d);
+        return Ok(false);
+    }
+    advance_steps(m, d, t_end, stop_at_events)
+}
+
+/// [`advance_with`] past the communication points inside the method's step: restarts, steps,
+/// events.
+fn advance_steps(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
     if t_end.is_nan() || t_end < d.time {
         return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
     }
     d.outputs_valid = false;
     d.kinematics_valid = false;
     let continuation = m.solver.continuation;
+    settle(m, d);
     if !d.solver.started || !continuation {
         // An input changed at this communication point may have made a resting contact pull.
         let settled = any_resting(m, d) && modes::resting_violated(m, d);
@@ -251,7 +288,17 @@ fn interpolate_to(m: &Model, d: &mut Data, t: f64) {
         method.interpolate(t, &mut d.state);
     }
     d.time = t;
+    d.dense_pending = false;
     dynamics::project_state(m, d, dynamics::PROJECTION_TOL, contact::resting_rows);
+}
+
+/// Takes the state a deferred communication point left to the dense output
+/// ([`Data::dense_pending`]): the same numbers as an advance that did not defer. Whatever
+/// reads or changes the state, or restarts the method, settles first.
+pub fn settle(m: &Model, d: &mut Data) {
+    if d.dense_pending {
+        interpolate_to(m, d, d.time);
+    }
 }
 
 /// Runs `f` with the integrator taken out of the data (so that the right-hand side can

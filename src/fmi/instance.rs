@@ -686,7 +686,7 @@ impl Instance {
     }
 
     /// `fmi2GetFMUstate`: everything needed to come back here.
-    pub fn save(&self) -> SavedState {
+    pub fn save(&mut self) -> SavedState {
         SavedState::new(
             self.model_hash,
             self.version,

@@ -448,6 +448,10 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         self.active().interpolate(t, out);
     }
 
+    fn interpolate_slots(&self, t: f64, slots: &[usize], out: &mut [f64]) -> bool {
+        self.active().interpolate_slots(t, slots, out)
+    }
+
     fn use_second_order(&mut self, s: &SecondOrder) {
         if let Some(i) = &mut self.implicit {
             Integrator::use_second_order(i, s);

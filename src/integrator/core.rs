@@ -218,12 +218,18 @@ impl StepCore {
     /// Dense output at `t` in `[t_prev, t]`: `y` after a zero-length step, otherwise
     /// `dense(s, h, out)` with `h = t − t_prev` and `s = (t − t_prev)/h`.
     pub fn interpolate(&self, t: f64, out: &mut [f64], dense: impl FnOnce(f64, f64, &mut [f64])) {
-        let h = self.t - self.t_prev;
-        if h <= 0.0 {
-            out.copy_from_slice(&self.y);
-            return;
+        match self.dense_fraction(t) {
+            Some((s, h)) => dense(s, h, out),
+            None => out.copy_from_slice(&self.y),
         }
-        dense((t - self.t_prev) / h, h, out);
+    }
+
+    /// `(s, h)` of the dense output at `t` ([`StepCore::interpolate`]); None after a
+    /// zero-length step (the state is `y`).
+    #[inline]
+    pub fn dense_fraction(&self, t: f64) -> Option<(f64, f64)> {
+        let h = self.t - self.t_prev;
+        (h > 0.0).then(|| ((t - self.t_prev) / h, h))
     }
 }
 

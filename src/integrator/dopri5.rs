@@ -3,6 +3,7 @@
 use super::core::{restore_blocks, save_blocks, state_tag, StateReader, StepCore};
 use super::{error_norm, Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
+use std::cell::{Cell, Ref, RefCell};
 
 const C2: f64 = 1.0 / 5.0;
 const C3: f64 = 3.0 / 10.0;
@@ -47,12 +48,21 @@ pub struct Dopri5 {
     core: StepCore,
     err_old: f64,
     y_new: Vec<f64>,
-    /// Stages `k₂ … k₇`.
-    k: [Vec<f64>; 6],
+    /// Two sets of the stages `k₂ … k₇`: a step writes `k[work]`; the other set holds those of
+    /// the last accepted step (with its `k₁` in place of `k₇`, which is `core.f`), from which
+    /// its dense output is computed when it is first read.
+    k: [[Vec<f64>; 6]; 2],
+    /// The set of stages a step writes.
+    work: usize,
+    /// Size of the last accepted step (its dense output's scale).
+    h_last: f64,
     tmp: Vec<f64>,
     err: Vec<f64>,
-    /// Dense output coefficients after `core.y_prev`.
-    cont: [Vec<f64>; 4],
+    /// Dense output coefficients after `core.y_prev`, valid when `cont_ready` (else computed
+    /// from the last accepted step's stages at the first read: most steps are never
+    /// interpolated).
+    cont: RefCell<[Vec<f64>; 4]>,
+    cont_ready: Cell<bool>,
     /// `h·ρ` of the last accepted step: its size times the local Lipschitz estimate
     /// `‖k₇ − k₆‖ / ‖y₁ − Y₆‖` of the two stages at its end (Hairer's stiffness test, in the
     /// error weights; the method is stable for `h·ρ` up to 3.31 on the negative real axis).
@@ -73,10 +83,13 @@ impl Dopri5 {
             core: StepCore::new(n, rtol, atol, hmax),
             err_old: 1e-4,
             y_new: v(),
-            k: [v(), v(), v(), v(), v(), v()],
+            k: [0, 1].map(|_| [v(), v(), v(), v(), v(), v()]),
+            work: 0,
+            h_last: 0.0,
             tmp: v(),
             err: v(),
-            cont: [v(), v(), v(), v()],
+            cont: RefCell::new([v(), v(), v(), v()]),
+            cont_ready: Cell::new(true),
             stiffness: 0.0,
         }
     }
@@ -102,8 +115,9 @@ impl Dopri5 {
     /// the stage buffers, which each step writes before it reads them.
     pub fn stiffness_check(&mut self, sys: &mut dyn OdeSystem) -> f64 {
         let h = self.core.t - self.core.t_prev;
-        // v (in k[1]): the error estimate, then J v; scratch in tmp and k[0]
-        let [jv, v, ..] = &mut self.k;
+        // v (in k[1]): the error estimate, then J v; scratch in tmp and k[0] (of the stages a
+        // step writes: the other set is the last step's)
+        let [jv, v, ..] = &mut self.k[self.work];
         v.copy_from_slice(&self.err);
         let mut rho = 0.0;
         for _ in 0..CHECK_ITERATIONS {
@@ -120,9 +134,35 @@ impl Dopri5 {
 
     /// Dense output of a zero-length step (with `core.y_prev = y`).
     fn clear_dense(&mut self) {
-        for c in self.cont.iter_mut() {
+        for c in self.cont.get_mut().iter_mut() {
             c.iter_mut().for_each(|x| *x = 0.0);
         }
+        self.cont_ready.set(true);
+    }
+
+    /// The dense output coefficients of the last step (Hairer's), computed from its stages
+    /// at the first read after it.
+    fn dense(&self) -> Ref<'_, [Vec<f64>; 4]> {
+        if !self.cont_ready.get() {
+            let mut cont = self.cont.borrow_mut();
+            let n = self.core.y.len();
+            let h = self.h_last;
+            let [_, k3, k4, k5, k6, k1] = &self.k[1 - self.work];
+            let (k1, k3, k4, k5, k6) = (&k1[..n], &k3[..n], &k4[..n], &k5[..n], &k6[..n]);
+            let (y, y_new, k7) = (&self.core.y_prev[..n], &self.core.y[..n], &self.core.f[..n]);
+            let [c0, c1, c2, c3] = &mut *cont;
+            let (c0, c1, c2, c3) = (&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n]);
+            for i in 0..n {
+                let dy = y_new[i] - y[i];
+                let bspl = h * k1[i] - dy;
+                c0[i] = dy;
+                c1[i] = bspl;
+                c2[i] = dy - h * k7[i] - bspl;
+                c3[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+            }
+            self.cont_ready.set(true);
+        }
+        self.cont.borrow()
     }
 }
 
@@ -139,7 +179,8 @@ impl Integrator for Dopri5 {
         self.core.start(sys, t, y);
         self.err_old = 1e-4;
         self.stiffness = 0.0;
-        self.core.first_step(sys, h, 5, &mut self.tmp, &mut self.k[0]);
+        self.core
+            .first_step(sys, h, 5, &mut self.tmp, &mut self.k[self.work][0]);
         self.clear_dense();
     }
 
@@ -156,7 +197,7 @@ impl Integrator for Dopri5 {
             let t_new = self.core.step_end(h, last, t_max);
             let core = &mut self.core;
             let t = core.t;
-            let [k2, k3, k4, k5, k6, k7] = &mut self.k;
+            let [k2, k3, k4, k5, k6, k7] = &mut self.k[self.work];
             // (the vectors as slices of length n, so that the loops need no bounds checks)
             let (y, k1) = (&core.y[..n], &core.f[..n]);
             let (tmp, y_new, e) = (&mut self.tmp[..n], &mut self.y_new[..n], &mut self.err[..n]);
@@ -222,17 +263,12 @@ impl Integrator for Dopri5 {
                     den += (w * (y_new[i] - tmp[i])).powi(2);
                 }
                 self.stiffness = if den > 0.0 { h * (num / den).sqrt() } else { 0.0 };
-                let [c0, c1, c2, c3] = &mut self.cont;
-                let (c0, c1, c2, c3) = (&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n]);
-                for i in 0..n {
-                    let dy = y_new[i] - y[i];
-                    let bspl = h * k1[i] - dy;
-                    c0[i] = dy;
-                    c1[i] = bspl;
-                    c2[i] = dy - h * k7s[i] - bspl;
-                    c3[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7s[i]);
-                }
+                // the stages stay for the dense output: k₇ becomes the next step's k₁ and
+                // this step's k₁ takes its place; the next step writes the other set
                 std::mem::swap(&mut core.f, k7);
+                self.h_last = h;
+                self.cont_ready.set(false);
+                self.work = 1 - self.work;
                 std::mem::swap(&mut core.y_prev, &mut core.y);
                 std::mem::swap(&mut core.y, &mut self.y_new);
                 core.advance(t_new);
@@ -253,7 +289,7 @@ impl Integrator for Dopri5 {
         out.push(state_tag(Method::Dopri5));
         self.core.save_state(out);
         out.push(self.err_old);
-        save_blocks(&self.cont, out);
+        save_blocks(&*self.dense(), out);
     }
 
     fn load_state(&mut self, v: &[f64]) -> Result<(), String> {
@@ -265,12 +301,33 @@ impl Integrator for Dopri5 {
         r.finish()?;
         self.core.restore(&core);
         self.err_old = err_old;
-        restore_blocks(&mut self.cont, cont);
+        restore_blocks(self.cont.get_mut(), cont);
+        self.cont_ready.set(true);
         Ok(())
     }
 
+    fn interpolate_slots(&self, t: f64, slots: &[usize], out: &mut [f64]) -> bool {
+        let Some((s, _)) = self.core.dense_fraction(t) else {
+            for (x, &i) in out.iter_mut().zip(slots) {
+                *x = self.core.y[i];
+            }
+            return true;
+        };
+        let cont = self.dense();
+        let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev[..], &*cont);
+        // (slices of one length: one bounds check per slot)
+        let n = y0.len();
+        let (c0, c1, c2, c3) = (&c0[..n], &c1[..n], &c2[..n], &c3[..n]);
+        let s1 = 1.0 - s;
+        for (x, &i) in out.iter_mut().zip(slots) {
+            *x = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+        }
+        true
+    }
+
     fn interpolate(&self, t: f64, out: &mut [f64]) {
-        let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &self.cont);
+        let cont = self.dense();
+        let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &*cont);
         self.core.interpolate(t, out, |s, _, out| {
             let s1 = 1.0 - s;
             let n = out.len();

@@ -73,6 +73,12 @@ pub trait Integrator {
     fn step(&mut self, sys: &mut dyn OdeSystem, t_max: f64) -> Result<(), IntegratorError>;
     /// State at `t` in `[t_prev, t]` from the dense output of the last step.
     fn interpolate(&self, t: f64, out: &mut [f64]);
+    /// The components `slots` of [`Integrator::interpolate`]`(t)` into `out` (the same
+    /// numbers); false when the method does not interpolate single components (nothing
+    /// written).
+    fn interpolate_slots(&self, _t: f64, _slots: &[usize], _out: &mut [f64]) -> bool {
+        false
+    }
     /// The step state (time, state, step size, counters) that the accessors below read.
     fn core(&self) -> &StepCore;
     /// The step state, to change (for [`Integrator::set_stats`]).

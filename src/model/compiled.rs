@@ -66,6 +66,14 @@ impl TreeJoint {
     pub fn nv(&self) -> usize {
         nv_of(self.kind)
     }
+    /// First position coordinate of its unit quaternion (spherical and free joints).
+    pub fn quaternion(&self) -> Option<usize> {
+        match self.kind {
+            JointType::Spherical => Some(self.qpos),
+            JointType::Free => Some(self.qpos + 3),
+            _ => None,
+        }
+    }
 }
 
 /// Position coordinates of a joint type.
@@ -76,6 +84,20 @@ pub fn nq_of(k: JointType) -> usize {
         JointType::Fixed => 0,
         JointType::Free => 7,
     }
+}
+
+/// [`Model::quaternions`] of `joints`: the first position coordinate of each joint
+/// quaternion, in joint order.
+pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
+    joints.iter().filter_map(|j| j.quaternion()).collect()
+}
+
+/// [`Model::step_rtol_powers`] of `contacts` at the solver's `rtol`.
+pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
+    contacts
+        .iter()
+        .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
+        .collect()
 }
 
 /// Degrees of freedom of a joint type.
@@ -485,6 +507,10 @@ pub struct Model {
     pub springs: Vec<SpringDamper>,
     /// Contact elements.
     pub contacts: Vec<ContactElement>,
+    /// Per contact, `solver.rtol` to its [`ContactElement::touch_power`] and
+    /// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
+    /// toward a separation, taken at every step in contact: computed once here).
+    pub step_rtol_powers: Vec<[f64; 2]>,
     /// Contact groups: the group shapes and the candidate pairs behind the group contacts
     /// (`contacts[groups.n_explicit..]`).
     pub groups: crate::model::groups::Groups,
@@ -499,6 +525,9 @@ pub struct Model {
     pub nq: usize,
     /// Number of degrees of freedom.
     pub nv: usize,
+    /// First position coordinate of each joint quaternion ([`TreeJoint::quaternion`]), in
+    /// joint order.
+    pub quaternions: Vec<usize>,
     /// For each tree: first velocity index and size (a dense block of the mass matrix).
     pub trees: Vec<(usize, usize)>,
     /// Offset of each tree's block in the packed mass-matrix storage.

@@ -96,6 +96,29 @@ pub struct ContactElement {
     pub friction: Friction,
 }
 
+impl ContactElement {
+    /// The power of `rtol` in the first step after a touch (`engine::events::first_contact_step`):
+    /// `1/5` where the force is smooth from the touch on (Kelvin-Voigt's `K δ + c δ̇`, an
+    /// integer exponent: a polynomial in the state) and the steps of the order-5 method scale
+    /// as `rtol^{1/5}`; else (`K δⁿ` with a fractional `n`, whose derivatives are unbounded at
+    /// `δ = 0`) the larger of `1/5` and `1/(n + 1)`, so that the first step's error, which
+    /// grows as its length to the power `n + 1`, stays in proportion to rtol.
+    pub fn touch_power(&self) -> f64 {
+        let n = self.exponent;
+        if self.law == Law::KelvinVoigt || n.fract() == 0.0 {
+            0.2
+        } else {
+            (1.0 / (n + 1.0)).max(0.2)
+        }
+    }
+
+    /// The power `1/(n + 1)` of `rtol` in the floor of the steps toward a separation
+    /// (`engine::events::time_to_contact`).
+    pub fn separation_power(&self) -> f64 {
+        1.0 / (self.exponent + 1.0)
+    }
+}
+
 /// The friction constants of a contact (docs/friction.md).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Friction {

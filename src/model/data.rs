@@ -208,6 +208,11 @@ pub struct Data {
     // --- workspace ---
     /// The state at which the kinematics and dynamics below were evaluated.
     pub eval_state: Vec<f64>,
+    /// True when `state` awaits the method's dense output at `time` (a communication point
+    /// inside the method's step whose state nothing has read yet: `engine::settle` takes it;
+    /// the facade reads a batch of free bodies' positions and velocities from the dense output
+    /// directly).
+    pub dense_pending: bool,
     /// True when the workspace (outputs) was evaluated at `state`.
     pub outputs_valid: bool,
     /// True when the bodies' kinematics (positions, orientations, velocities) were evaluated
@@ -355,6 +360,7 @@ impl Data {
             clamp_events: true,
             log_peaks: false,
             event_log: Vec::with_capacity(if ncontacts > 0 { log_capacity } else { 0 }),
+            dense_pending: false,
             outputs_valid: false,
             kinematics_valid: false,
             events: EventWork {

@@ -11,6 +11,7 @@ pub mod state;
 pub mod work;
 
 pub use compiled::{
-    nq_of, nv_of, Body, Drive, FreeBody, Input, LoopConstraint, Model, Part, Plan, Rotor, SpringDamper, TreeJoint,
+    nq_of, nv_of, quaternion_coordinates, step_rtol_powers, Body, Drive, FreeBody, Input, LoopConstraint, Model, Part,
+    Plan, Rotor, SpringDamper, TreeJoint,
 };
 pub use data::{ContactEvent, ContactEventKind, Counters, Data};

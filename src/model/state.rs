@@ -277,7 +277,10 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         let s = &v[a..b];
         match part {
             StatePart::Time => d.time = s[0],
-            StatePart::Coordinates => d.state.copy_from_slice(s),
+            StatePart::Coordinates => {
+                d.state.copy_from_slice(s);
+                d.dense_pending = false;
+            }
             StatePart::Inputs => d.inputs.copy_from_slice(s),
             StatePart::ContactMemory => {
                 let groups = group_section_len(m);

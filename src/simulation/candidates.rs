@@ -19,7 +19,7 @@ impl Simulation {
             islands: Some(is),
             direct_reads,
             ..
-        }) = self.compiled.as_mut()
+        }) = self.compiled.as_mut().map(Compiled::settled)
         else {
             return Ok(());
         };
@@ -51,7 +51,7 @@ impl Simulation {
     pub(super) fn refresh_candidates(&mut self) -> Result<(), SimError> {
         let params = self.parameters();
         let (scene, origin) = (&self.scene, &self.origin);
-        let Some(c) = self.compiled.as_mut() else {
+        let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
             return Err(SimError::NotInitialized);
         };
         let (m, d) = (&c.model, &mut c.data);

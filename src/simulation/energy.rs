@@ -91,12 +91,18 @@ impl Simulation {
     /// At a communication point: when enough work was done since the last check, compares the
     /// energy balance with its reference and warns, once, when it drifted by more than
     /// [`ENERGY_DRIFT_WARNING`] of its scale.
+    #[inline]
     pub(super) fn watch_energy(&mut self) -> Result<(), SimError> {
         let evals = self.counters().rhs_evals;
         // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
         if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
             return Ok(());
         }
+        self.check_energy(evals)
+    }
+
+    /// [`Simulation::watch_energy`]'s check, after `evals` RHS evaluations.
+    fn check_energy(&mut self, evals: u64) -> Result<(), SimError> {
         self.watch.checked_at = evals;
         let e = self.energies()?;
         let time = self.time();

@@ -91,9 +91,19 @@ struct Compiled {
     /// references and the state slots they read ([`Simulation::get_each`]; empty: none);
     /// cleared with the model.
     direct_reads: (Vec<usize>, Vec<usize>),
+    /// The values of the direct batch for [`Simulation::get_each`] (re-used).
+    direct_values: Vec<f64>,
 }
 
 impl Compiled {
+    /// The compiled model and its data with the state at its time (a deferred communication
+    /// point's dense output taken now, [`engine::settle`]): how everything but the step and
+    /// the direct reads reaches the data.
+    fn settled(&mut self) -> &mut Compiled {
+        engine::settle(&self.model, &mut self.data);
+        self
+    }
+
     fn new(model: Model, data: Data) -> Compiled {
         let split = crate::islands::wanted(&model);
         Compiled {
@@ -102,6 +112,26 @@ impl Compiled {
             islands: None,
             split,
             direct_reads: (Vec::new(), Vec::new()),
+            direct_values: Vec::new(),
+        }
+    }
+
+    /// The values of the direct batch ([`Compiled::plan_direct_reads`]) into `values`: the
+    /// state at its slots, or, while the state awaits the dense output
+    /// ([`Data::dense_pending`]), the dense output at them (the same numbers: the projection
+    /// at a communication point of a model without loops changes only joint quaternions).
+    fn read_direct(&mut self, values: &mut [f64]) {
+        let (d, slots) = (&self.data, &self.direct_reads.1);
+        let interpolated = d.dense_pending
+            && d.solver
+                .method()
+                .is_some_and(|i| i.interpolate_slots(d.time, slots, values));
+        if !interpolated {
+            self.settled();
+            let state = &self.data.state;
+            for (x, &slot) in values.iter_mut().zip(&self.direct_reads.1) {
+                *x = state[slot];
+            }
         }
     }
 
@@ -263,7 +293,21 @@ impl Simulation {
                 values.len()
             )));
         }
+        if let Some(c) = self.direct_batch(|last| last == vrs) {
+            c.read_direct(values);
+            return Ok(());
+        }
         self.get_each(vrs.iter().copied(), |k, x| values[k] = x)
+    }
+
+    /// The compiled model when `same(batch)` holds for the last batch of reads that were all
+    /// free bodies' positions and velocities ([`Compiled::plan_direct_reads`]): its values
+    /// are then the state at the slots found at its first read ([`Compiled::read_direct`]).
+    fn direct_batch(&mut self, same: impl FnOnce(&[usize]) -> bool) -> Option<&mut Compiled> {
+        match (self.compiled.as_mut(), self.compiled_fresh) {
+            (Some(c), true) if !c.direct_reads.0.is_empty() && same(&c.direct_reads.0) => Some(c),
+            _ => None,
+        }
     }
 
     /// [`Simulation::get_many`] for value references of any integer type: calls `put(k, x)`
@@ -273,16 +317,17 @@ impl Simulation {
         I: Iterator<Item = usize> + Clone,
     {
         // A host reads the same outputs at every communication point: a batch of free bodies'
-        // positions and velocities is copied from the state by the slots found at its first
-        // read (the same numbers as below).
+        // positions and velocities is read by the state slots found at its first read, from
+        // the state or the dense output ([`Compiled::read_direct`]; the same numbers as below).
+        if let Some(c) = self.direct_batch(|last| same_batch(vrs.clone(), last)) {
+            let mut values = std::mem::take(&mut c.direct_values);
+            values.resize(c.direct_reads.1.len(), 0.0);
+            c.read_direct(&mut values);
+            values.iter().enumerate().for_each(|(k, &x)| put(k, x));
+            c.direct_values = values;
+            return Ok(());
+        }
         if let (Some(c), true) = (self.compiled.as_mut(), self.compiled_fresh) {
-            let (last, slots) = &c.direct_reads;
-            if !last.is_empty() && vrs.clone().eq(last.iter().copied()) {
-                for (k, &slot) in slots.iter().enumerate() {
-                    put(k, c.data.state[slot]);
-                }
-                return Ok(());
-            }
             if vrs.clone().nth(1).is_some() {
                 c.plan_direct_reads(&self.table, vrs.clone());
             }
@@ -335,13 +380,19 @@ impl Simulation {
         }
         // (a match, not `ok_or`: that builds and drops an error on every successful call)
         match self.compiled.as_mut() {
-            Some(c) => Ok(c),
+            Some(c) => Ok(c.settled()),
             None => Err(SimError::NotInitialized),
         }
     }
 
-    /// The initialised model and data.
+    /// The initialised model and data (settled: [`Compiled::settled`]).
     fn running(&mut self) -> Result<&mut Compiled, SimError> {
+        self.running_deferred().map(Compiled::settled)
+    }
+
+    /// [`Simulation::running`] whose state may still await the dense output of a deferred
+    /// communication point: for the step, which goes on from there.
+    fn running_deferred(&mut self) -> Result<&mut Compiled, SimError> {
         if !self.initialized {
             return Err(SimError::NotInitialized);
         }
@@ -389,23 +440,24 @@ impl Simulation {
         if !self.watch.started {
             self.start_watch()?;
         }
-        let c = self.running()?;
-        if c.islands.is_none() && c.split {
-            let params = self.parameters();
-            let (scene, origin) = (&self.scene, &self.origin);
-            let Some(c) = self.compiled.as_mut() else {
-                return Err(SimError::NotInitialized);
-            };
-            let src = Source { scene, origin };
-            c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
-        }
-        if self.running()?.islands.is_some() {
+        let c = self.running_deferred()?;
+        if c.split || c.islands.is_some() {
+            if c.islands.is_none() {
+                let params = self.parameters();
+                let (scene, origin) = (&self.scene, &self.origin);
+                let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
+                    return Err(SimError::NotInitialized);
+                };
+                let src = Source { scene, origin };
+                c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
+            }
             let at_event = self.step_islands(t_end, stop_at_events)?;
             return self.watch_energy().map(|()| at_event);
         }
         let at_event = loop {
-            let c = self.running()?;
-            let at_event = engine::advance_with(&c.model, &mut c.data, t_end, stop_at_events).map_err(step_error)?;
+            let c = self.running_deferred()?;
+            let at_event =
+                engine::advance_deferring(&c.model, &mut c.data, t_end, stop_at_events, true).map_err(step_error)?;
             if at_event || !groups::stale(&c.model, &c.data) {
                 break at_event;
             }
@@ -420,7 +472,7 @@ impl Simulation {
         let (scene, origin) = (&self.scene, &self.origin);
         let Some(Compiled {
             model, data, islands, ..
-        }) = self.compiled.as_mut()
+        }) = self.compiled.as_mut().map(Compiled::settled)
         else {
             return Err(SimError::NotInitialized);
         };
@@ -463,9 +515,9 @@ impl Simulation {
 
     /// Saves everything needed to continue from here (`host`: numbers of the host layer,
     /// returned unchanged by [`Simulation::restore`]).
-    pub fn snapshot(&self, host: Vec<f64>) -> Snapshot {
+    pub fn snapshot(&mut self, host: Vec<f64>) -> Snapshot {
         let mut st = Vec::new();
-        if let (true, Some(c)) = (self.initialized, &self.compiled) {
+        if let (true, Some(c)) = (self.initialized, self.compiled.as_mut().map(Compiled::settled)) {
             state::get(&c.model, &c.data, state::FULL, &mut st);
         }
         let mut islands = Vec::new();
@@ -561,8 +613,8 @@ impl Simulation {
     }
 
     /// The data (state, buffers, counters), after compilation.
-    pub fn data(&self) -> Option<&Data> {
-        self.compiled.as_ref().map(|c| &c.data)
+    pub fn data(&mut self) -> Option<&Data> {
+        self.compiled.as_mut().map(Compiled::settled).map(|c| &c.data)
     }
 
     /// Warnings of the model compilation (inconsistent initial velocities, ...).
@@ -572,7 +624,7 @@ impl Simulation {
 
     /// Work counters since initialisation (zero before).
     pub fn counters(&self) -> Counters {
-        self.data().map(|d| d.counters).unwrap_or_default()
+        self.compiled.as_ref().map(|c| c.data.counters).unwrap_or_default()
     }
 
     /// The energies at the current state.
@@ -594,7 +646,7 @@ impl Simulation {
     /// The located contact events since initialisation (or the last
     /// [`Simulation::clear_contact_events`]), oldest first; at most the last 4096.
     pub fn contact_events(&self) -> &[ContactEvent] {
-        self.data().map(|d| d.event_log.as_slice()).unwrap_or(&[])
+        self.compiled.as_ref().map_or(&[], |c| c.data.event_log.as_slice())
     }
 
     /// Empties the contact event log.
@@ -640,6 +692,11 @@ pub fn communication_points(t0: f64, stop_time: f64, interval: f64) -> impl Iter
     let n = (stop_time / interval - 1e-9).ceil().max(1.0) as u64;
     let first = first.min(n);
     (first..=n).map(move |k| if k == n { stop_time } else { k as f64 * interval })
+}
+
+/// True when `vrs` lists exactly the value references of `last`, in order.
+fn same_batch(mut vrs: impl Iterator<Item = usize>, last: &[usize]) -> bool {
+    last.iter().all(|&vr| vrs.next() == Some(vr)) && vrs.next().is_none()
 }
 
 /// The variable with value reference `vr`.

@@ -3,7 +3,7 @@
 //! any time (a driven joint moved at once), and the parameters that follow another while they
 //! keep their start value.
 
-use super::{variable, SimError, Simulation};
+use super::{variable, Compiled, SimError, Simulation};
 use crate::compile::{self, Parameters};
 use crate::engine;
 use crate::model::{Data, Model};
@@ -54,7 +54,7 @@ impl Simulation {
                 if moves_a_drive && self.initialized {
                     return self.move_drive(i, value);
                 }
-                if let Some(c) = self.compiled.as_mut() {
+                if let Some(c) = self.compiled.as_mut().map(Compiled::settled) {
                     set_input(&c.model, &mut c.data, i, value);
                 }
                 Ok(())
@@ -72,7 +72,7 @@ impl Simulation {
     /// across the jump.
     pub(super) fn move_drive(&mut self, i: usize, value: f64) -> Result<(), SimError> {
         self.sync_islands()?;
-        let Some(c) = self.compiled.as_mut() else {
+        let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
             return Err(SimError::NotInitialized);
         };
         let before = outputs::energies(&c.model, &mut c.data).total();

@@ -212,6 +212,8 @@ fn impulse_run(
             sim.step_to(t).expect("advances");
         }
     });
+    let impacts = sim.data().expect("data").contact_memory[ci].impacts - impacts0;
+    let resting = sim.data().expect("data").contact_memory[ci].active;
     let window = |k: ContactEventKind| {
         sim.contact_events()
             .iter()
@@ -222,11 +224,11 @@ fn impulse_run(
         allocations,
         advances,
         steps: sim.counters().steps - s0,
-        impacts: sim.data().expect("data").contact_memory[ci].impacts - impacts0,
+        impacts,
         logged_impacts: window(ContactEventKind::Impact),
         logged_rests: window(ContactEventKind::Rest),
         log_len: sim.contact_events().len(),
-        resting: sim.data().expect("data").contact_memory[ci].active,
+        resting,
         energies: sim.energies().expect("energies"),
         total_before,
     }
