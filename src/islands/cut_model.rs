@@ -362,6 +362,8 @@ impl ModelCutter {
             }
         };
         let warnings = contact_warnings(&contacts);
+        let quaternions = crate::model::quaternion_coordinates(&joints);
+        let step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
         let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &trees);
         let model = Model {
             name: m.name.clone(),
@@ -374,12 +376,14 @@ impl ModelCutter {
             drives,
             springs,
             contacts,
+            step_rtol_powers,
             groups,
             inputs: out_inputs,
             input_value,
             input_start,
             nq,
             nv,
+            quaternions,
             trees,
             tree_block,
             dof_joint,
