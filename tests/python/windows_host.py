@@ -46,7 +46,8 @@ def windows_path(path):
 
 
 # The exit status of a win64 run that failed in wine itself (seen once in CI: the win64 host
-# exited with 1 and wrote nothing to stderr; the same script passed in 25 runs here).
+# exited with 1 and wrote nothing to stderr; the same tests passed in 23 loops of 25 here,
+# the other two stopped at setup).
 WINE_FAILURE = 1
 
 
