@@ -51,30 +51,28 @@ const MAX_SHRINK: f64 = 5.0;
 
 /// Size of the controller memory of the implicit methods in their warm state: accepted step,
 /// its error, Newton rate memory η, Jacobian-stale flag, Jacobian-present flag, the step-size
-/// bound after a Newton failure (−1: none).
+/// bound after a Newton failure (0: none).
 pub(crate) const WARM_HEADER: usize = 6;
 
 /// Growth per accepted step of the bound on the step size after a Newton failure with a
 /// fresh Jacobian (see [`WarmMemory::h_newton`]).
 pub const NEWTON_RELAX: f64 = 1.2;
 
-/// The step-size bound as saved: −1 for none (infinite).
+/// The step-size bound as saved: 0 for none (infinite), as the factorisation's step size.
 fn saved_bound(h: f64) -> f64 {
     if h.is_finite() {
         h
     } else {
-        -1.0
+        0.0
     }
 }
 
-/// The step-size bound from its saved number (None: neither −1 nor a positive step).
-fn read_bound(x: f64) -> Option<f64> {
-    if x == -1.0 {
-        Some(f64::INFINITY)
-    } else if x > 0.0 && x.is_finite() {
-        Some(x)
+/// The step-size bound from its saved step size (0: none).
+fn read_bound(x: f64) -> f64 {
+    if x == 0.0 {
+        f64::INFINITY
     } else {
-        None
+        x
     }
 }
 
@@ -153,7 +151,10 @@ impl WarmMemory {
             eta: v[2],
             jac_stale: v[3] != 0.0,
             jac_valid: with_jac,
-            h_newton: read_bound(v[5]).ok_or_else(bad)?,
+            h_newton: match v[5] {
+                x if x.is_finite() && x >= 0.0 => read_bound(x),
+                _ => return Err(bad()),
+            },
         })
     }
 
@@ -172,7 +173,7 @@ impl WarmMemory {
 
 /// Numbers [`NewtonCore::save_state`] writes before the Jacobian: `h_acc`, `err_acc`, `eta`,
 /// `jac_stale`, `jac_valid`, `jac_fresh`, the step size of the factorisation, the step-size
-/// bound after a Newton failure (−1: none).
+/// bound after a Newton failure (0: none).
 pub const SAVED_NEWTON_HEADER: usize = 8;
 
 /// A [`NewtonCore`] as read back from a saved state (checked, not yet applied).
@@ -296,7 +297,7 @@ impl NewtonCore {
         let [h_acc, err_acc, eta] = [r.value()?, r.value()?, r.value()?];
         let [jac_stale, jac_valid, jac_fresh] = [r.flag()?, r.flag()?, r.flag()?];
         let lu_h = r.step_size()?;
-        let h_newton = read_bound(r.value()?).ok_or("the Newton step bound in the state is not a step size or -1")?;
+        let h_newton = read_bound(r.step_size()?);
         let jac = match (jac_valid, &self.sparse) {
             (false, _) => None,
             (true, None) => Some(r.take(n * n)?),

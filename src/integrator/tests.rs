@@ -114,16 +114,16 @@ fn warm_state_sizes_and_checks() {
         assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
         assert!(m.set_warm_state(&[]).is_ok());
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, -1.0, 1.0]).is_err(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]).is_err(),
             "{method:?}: short Jacobian"
         );
         assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
-        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, -1.0]).is_ok(), "{method:?}");
+        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]).is_ok(), "{method:?}");
         assert!(
             m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5]).is_ok(),
             "{method:?}: a bound"
         );
-        for bad in [0.0, -2.0, f64::NAN, f64::INFINITY] {
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
             assert!(
                 m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad]).is_err(),
                 "{method:?}: step-size bound {bad}"
