@@ -318,9 +318,8 @@ impl Integrator for Dopri5 {
         // (slices of one length: one bounds check per slot)
         let n = y0.len();
         let (c0, c1, c2, c3) = (&c0[..n], &c1[..n], &c2[..n], &c3[..n]);
-        let s1 = 1.0 - s;
         for (x, &i) in out.iter_mut().zip(slots) {
-            *x = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+            *x = dense_value(s, y0[i], c0[i], c1[i], c2[i], c3[i]);
         }
         true
     }
@@ -329,14 +328,21 @@ impl Integrator for Dopri5 {
         let cont = self.dense();
         let (y0, [c0, c1, c2, c3]) = (&self.core.y_prev, &*cont);
         self.core.interpolate(t, out, |s, _, out| {
-            let s1 = 1.0 - s;
             let n = out.len();
             let (y0, c0, c1, c2, c3) = (&y0[..n], &c0[..n], &c1[..n], &c2[..n], &c3[..n]);
             for i in 0..n {
-                out[i] = y0[i] + s * (c0[i] + s1 * (c1[i] + s * (c2[i] + s1 * c3[i])));
+                out[i] = dense_value(s, y0[i], c0[i], c1[i], c2[i], c3[i]);
             }
         });
     }
+}
+
+/// One component of the dense output at the step fraction `s` (Hairer's DOPRI5 form), for
+/// both the whole state and the slots of a batch: the same operations, so the same bits.
+#[inline(always)]
+fn dense_value(s: f64, y0: f64, c0: f64, c1: f64, c2: f64, c3: f64) -> f64 {
+    let s1 = 1.0 - s;
+    y0 + s * (c0 + s1 * (c1 + s * (c2 + s1 * c3)))
 }
 
 #[cfg(test)]
