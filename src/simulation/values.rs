@@ -54,7 +54,9 @@ impl Simulation {
                 if moves_a_drive && self.initialized {
                     return self.move_drive(i, value);
                 }
-                if let Some(c) = self.compiled.as_mut().map(Compiled::settled) {
+                // (no settling: an input that moves no drive changes no state, and a changed
+                // value restarts the method, which settles first)
+                if let Some(c) = self.compiled.as_mut() {
                     set_input(&c.model, &mut c.data, i, value);
                 }
                 Ok(())

@@ -203,3 +203,29 @@ fn deferred_points_equal_the_engine_advanced_to_every_point() {
         }
     }
 }
+
+/// A host that sets its inputs at every communication point (the same value mostly, a new one
+/// now and then) leaves the points deferred: the run equals, bit for bit, one that reads the
+/// whole state (settling it) before every setting. The rail vehicle with its axle torque.
+#[test]
+fn inputs_set_at_deferred_points_equal_inputs_set_at_settled_points() {
+    let run = |settle_first: bool| {
+        let mut s = Simulation::from_file(&common::bundled("rail_vehicle")).unwrap();
+        s.initialize(0.0).unwrap();
+        for k in 1..=100 {
+            if settle_first {
+                let _ = s.data();
+            }
+            s.set_by_name("axle_torque", if k < 40 { 500.0 } else { -800.0 })
+                .unwrap();
+            s.step_to(k as f64 * 0.005).unwrap();
+        }
+        (s.data().unwrap().state.clone(), s.counters())
+    };
+    let (deferred, c1) = run(false);
+    let (settled, c2) = run(true);
+    assert_eq!(c1, c2);
+    for (k, (a, b)) in deferred.iter().zip(&settled).enumerate() {
+        assert!(same(*a, *b), "state[{k}] = {a} deferred, {b} settled");
+    }
+}
