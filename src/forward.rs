@@ -96,6 +96,7 @@ fn constrained_accelerations(m: &Model, d: &mut Data) {
 /// constraint row needs the motion subspaces).
 pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let plan = &m.plan;
+    d.planned_kinematics = false;
     if any_resting(m, d) {
         return evaluate(m, d);
     }
@@ -104,6 +105,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     }
     let general = &plan.general;
     planned_kinematics_and_forces(m, d);
+    d.planned_kinematics = true;
     let mut ok = true;
     if !general.joints.is_empty() {
         dynamics::mass_and_bias_part(m, d, general);

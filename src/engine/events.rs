@@ -93,6 +93,7 @@ pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
 /// looks at other bodies, or at motion subspaces and inertias, recomputes the full kinematics
 /// (`event_values`, `evaluate`, `project_state` all do).
 fn contact_kinematics(m: &Model, d: &mut Data, i: usize) {
+    d.planned_kinematics = false;
     let c = &m.contacts[i];
     for body in [c.sphere_body, c.body] {
         match body.and_then(|b| m.plan.free_body(b)) {
@@ -277,12 +278,10 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     }
     let (t0, t1) = (method.t_prev(), method.t());
     // The event functions need the poses and velocities only (what follows the step, an
-    // event's handling or a projection, evaluates the full kinematics again): the plan's. The
-    // data hold those of the method's last evaluation of the right-hand side, at
-    // `d.eval_state`, by the plan when it has free bodies and nothing rests: when that
-    // evaluation was at the step's end (Dormand-Prince's last stage), they are not computed
-    // again.
-    let evaluated = !m.plan.free.is_empty() && !any_resting(m, d) && d.eval_state[..] == method.y()[..];
+    // event's handling or a projection, evaluates the full kinematics again): the plan's. When
+    // the right-hand side's lean path left them at the step's end (Dormand-Prince's last
+    // stage; `d.planned_kinematics`), they are not computed again.
+    let evaluated = d.planned_kinematics && d.eval_state[..] == method.y()[..];
     if evaluated {
         event_values_after(m, d, true, |_, _| {});
     } else {

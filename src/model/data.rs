@@ -208,6 +208,10 @@ pub struct Data {
     // --- workspace ---
     /// The state at which the kinematics and dynamics below were evaluated.
     pub eval_state: Vec<f64>,
+    /// True when the kinematics below are the plan's at `eval_state` (set by the right-hand
+    /// side's lean path, cleared by a probe's kinematics of two bodies): the event check at a
+    /// step's end then takes them as they are.
+    pub planned_kinematics: bool,
     /// True when `state` awaits the method's dense output at `time` (a communication point
     /// inside the method's step whose state nothing has read yet: `engine::settle` takes it;
     /// the facade reads a batch of free bodies' positions and velocities from the dense output
@@ -339,6 +343,7 @@ impl Data {
         Data {
             time: 0.0,
             eval_state: state.clone(),
+            planned_kinematics: false,
             state,
             inputs: model.input_start.clone(),
             contact_memory: vec![ContactMemory::default(); ncontacts],
