@@ -94,6 +94,10 @@ pub enum BenchCommand {
     WorkPrecision {
         #[command(flatten)]
         sweep: SweepArgs,
+        /// Tolerances (rk4: step sizes) run per point, spread evenly on a log scale over
+        /// ±25 % around it; the point reports their medians (1: its own tolerance alone).
+        #[arg(long, default_value_t = work_precision::SAMPLES)]
+        samples: usize,
         /// Output CSV.
         #[arg(long, default_value = "docs/work_precision.csv")]
         csv: PathBuf,
@@ -275,7 +279,7 @@ fn save_scene(path: &std::path::Path, scene: &crate::scene::Scene) -> Result<(),
 /// Runs a `bench` subcommand.
 pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
     match cmd {
-        BenchCommand::WorkPrecision { sweep, csv } => work_precision::run(&sweep, &csv),
+        BenchCommand::WorkPrecision { sweep, samples, csv } => work_precision::run(&sweep, samples, &csv),
         BenchCommand::Defaults { sweep, csv } => defaults::run(&sweep, &csv),
         BenchCommand::Stress {
             resting_time,

@@ -16,6 +16,28 @@ pub const AUTO_MARGIN: f64 = 1.3;
 const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
 /// Tolerance of the reference run (100× tighter than the tightest of the sweep).
 const RTOL_REF: f64 = 1e-13;
+/// Tolerances run per point by default (see [`sample_factors`]).
+pub const SAMPLES: usize = 5;
+/// The samples of a point span its tolerance divided and multiplied by this.
+const SAMPLE_SPAN: f64 = 1.25;
+
+/// The factors on a point's tolerance of its `k` samples: evenly spaced on a log scale from
+/// 1/[`SAMPLE_SPAN`] to [`SAMPLE_SPAN`], 1 among them when `k` is odd (`[1]` for k ≤ 1).
+///
+/// Why more than one: where a scene's motion is not resolved at a loose tolerance (the rail
+/// vehicle at rtol 1e-3, whose error weight on the car's 22 m/s, 2.2 cm/s, exceeds the
+/// friction law's stiction band of 2 cm/s), the work and the error of every adaptive method
+/// change by 10-30× between neighbouring tolerances (radau5: 560 to 6,737 evaluations over 16
+/// tolerances from 0.7e-3 to 1.5e-3), so one tolerance is one draw of that spread; the median
+/// of a few is a measurement.
+pub fn sample_factors(k: usize) -> Vec<f64> {
+    if k <= 1 {
+        return vec![1.0];
+    }
+    (0..k)
+        .map(|j| SAMPLE_SPAN.powf(2.0 * j as f64 / (k - 1) as f64 - 1.0))
+        .collect()
+}
 
 /// How the error of a run is measured.
 pub(crate) enum Truth {
@@ -158,20 +180,66 @@ pub(crate) fn error_of(truth: &Truth, traj: &Trajectory) -> f64 {
     }
 }
 
-/// One point of a sweep.
+/// One point of a sweep: the medians over its samples (see [`sample_factors`]).
 struct Point {
     method: Method,
     tolerance: f64,
+    /// Median error of the samples.
     error: f64,
+    /// Median wall-clock and CPU time of the samples (each the median of its timed runs).
     seconds: f64,
     cpu: f64,
+    /// Timed runs per sample.
     repeats: usize,
+    /// The counters of the sample with the median evaluations.
     counters: crate::model::Counters,
+    /// Samples run, the least and the most evaluations and error among them.
+    samples: usize,
+    rhs_range: (u64, u64),
+    error_range: (f64, f64),
     status: String,
 }
 
+/// One sample of a point: its error, timing and counters.
+struct Sample {
+    error: f64,
+    seconds: f64,
+    cpu: f64,
+    counters: crate::model::Counters,
+}
+
+impl Point {
+    /// The point of `method` at `tolerance` from its samples (at least one).
+    fn of(method: Method, tolerance: f64, repeats: usize, samples: &[Sample], status: String) -> Point {
+        let med = |f: &dyn Fn(&Sample) -> f64| super::median(&samples.iter().map(f).collect::<Vec<_>>());
+        let mut by_rhs: Vec<&Sample> = samples.iter().collect();
+        by_rhs.sort_by_key(|s| s.counters.rhs_evals);
+        let errors = samples.iter().map(|s| s.error);
+        Point {
+            method,
+            tolerance,
+            error: med(&|s| s.error),
+            seconds: med(&|s| s.seconds),
+            cpu: med(&|s| s.cpu),
+            repeats,
+            counters: by_rhs[by_rhs.len() / 2].counters,
+            samples: samples.len(),
+            rhs_range: (
+                by_rhs[0].counters.rhs_evals,
+                by_rhs[by_rhs.len() - 1].counters.rhs_evals,
+            ),
+            error_range: (
+                errors.clone().fold(f64::INFINITY, f64::min),
+                errors.fold(f64::NEG_INFINITY, f64::max),
+            ),
+            status,
+        }
+    }
+}
+
 /// Runs the benchmark and writes the CSV.
-pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
+pub fn run(args: &SweepArgs, samples: usize, csv_path: &Path) -> Result<(), String> {
+    let factors = sample_factors(samples);
     let (repeats, budget) = (args.repeats, args.budget);
     let mut csv = Csv::new(&[
         "scene",
@@ -187,6 +255,11 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         "rhs_evals",
         "jac_evals",
         "events",
+        "samples",
+        "rhs_min",
+        "rhs_max",
+        "error_min",
+        "error_max",
         "status",
     ]);
     let mut summary: Vec<String> = Vec::new();
@@ -214,8 +287,17 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
         };
         let outputs = truth_outputs(&truth, &pos_refs);
         println!(
-            "\n{name} ({kind}): {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>6} {:>7}",
-            "method", "tol/step", "error", "seconds", "steps", "rhs_evals", "jac", "events"
+            "\n{name} ({kind}; medians of {} samples): {:<7} {:>9} {:>10} {:>10} {:>9} {:>10} {:>6} {:>7} {:>17}",
+            factors.len(),
+            "method",
+            "tol/step",
+            "error",
+            "seconds",
+            "steps",
+            "rhs_evals",
+            "jac",
+            "events",
+            "rhs_evals min-max"
         );
         let mut points: Vec<Point> = Vec::new();
         for method in Method::ALL {
@@ -229,19 +311,36 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
             };
             let mut consecutive_failures = 0;
             for tol in tols {
-                let spec = with(method, tol);
-                let rec = record(&spec, &outputs)?;
-                let error = error_of(&truth, &rec.traj);
-                let (seconds, cpu, reps) = if rec.seconds > budget || rec.failure.is_some() {
-                    (rec.seconds, f64::NAN, 1)
-                } else {
-                    let (w, c, _, _) = time_runs(&spec, repeats)?;
-                    (w, c, repeats)
-                };
-                let status = rec.failure.clone().unwrap_or_else(|| "ok".into());
-                let c = rec.counters;
+                // the samples of the point; the first failure or overlong run ends them
+                let (mut runs, mut failure, mut slowest, mut reps) = (Vec::new(), None, 0.0_f64, repeats);
+                for factor in &factors {
+                    let spec = with(method, tol * factor);
+                    let rec = record(&spec, &outputs)?;
+                    slowest = slowest.max(rec.seconds);
+                    let error = error_of(&truth, &rec.traj);
+                    let (seconds, cpu) = if rec.seconds > budget || rec.failure.is_some() {
+                        reps = 1;
+                        (rec.seconds, f64::NAN)
+                    } else {
+                        let (w, c, _, _) = time_runs(&spec, repeats)?;
+                        (w, c)
+                    };
+                    runs.push(Sample {
+                        error,
+                        seconds,
+                        cpu,
+                        counters: rec.counters,
+                    });
+                    if rec.failure.is_some() || rec.seconds > budget {
+                        failure = rec.failure;
+                        break;
+                    }
+                }
+                let status = failure.unwrap_or_else(|| "ok".into());
+                let point = Point::of(method, tol, reps, &runs, status.clone());
+                let (error, seconds, c) = (point.error, point.seconds, point.counters);
                 println!(
-                    "{name:>12}  {:<7} {:>9.1e} {:>10.3e} {:>10.3e} {:>9} {:>10} {:>6} {:>7} {}",
+                    "{name:>12}  {:<7} {:>9.1e} {:>10.3e} {:>10.3e} {:>9} {:>10} {:>6} {:>7} {:>17} {}",
                     method.name(),
                     tol,
                     error,
@@ -250,18 +349,10 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                     c.rhs_evals,
                     c.jac_evals,
                     c.events,
+                    format!("{}-{}", point.rhs_range.0, point.rhs_range.1),
                     if status == "ok" { "" } else { &status }
                 );
-                points.push(Point {
-                    method,
-                    tolerance: tol,
-                    error,
-                    seconds,
-                    cpu,
-                    repeats: reps,
-                    counters: c,
-                    status: status.clone(),
-                });
+                points.push(point);
                 if status != "ok" {
                     consecutive_failures += 1;
                     if consecutive_failures >= 2 {
@@ -270,11 +361,10 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                 } else {
                     consecutive_failures = 0;
                 }
-                if rec.seconds > budget {
+                if slowest > budget {
                     println!(
-                        "{name:>12}  {} stops refining: one run took {:.1} s",
-                        method.name(),
-                        rec.seconds
+                        "{name:>12}  {} stops refining: one run took {slowest:.1} s",
+                        method.name()
                     );
                     break;
                 }
@@ -296,6 +386,11 @@ pub fn run(args: &SweepArgs, csv_path: &Path) -> Result<(), String> {
                 p.counters.rhs_evals.to_string(),
                 p.counters.jac_evals.to_string(),
                 p.counters.events.to_string(),
+                p.samples.to_string(),
+                p.rhs_range.0.to_string(),
+                p.rhs_range.1.to_string(),
+                f(p.error_range.0),
+                f(p.error_range.1),
                 p.status.clone(),
             ]);
         }
