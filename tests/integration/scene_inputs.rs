@@ -29,6 +29,16 @@ fn error_of(text: &str) -> SceneError {
     }
 }
 
+/// The scene error with which the scene `text` refuses to initialise once the parameter `name`
+/// is set to `value`.
+fn error_with_parameter(text: &str, name: &str, value: f64) -> SceneError {
+    let mut s = Simulation::from_scene_str(text, ORIGIN).unwrap();
+    s.set_by_name(name, value).unwrap();
+    let e = error_at_initialization(&mut s);
+    eprintln!("{e}");
+    e
+}
+
 /// The scene error with which `s` refuses to initialise. Fails the test when it initialises
 /// or fails otherwise.
 fn error_at_initialization(s: &mut Simulation) -> SceneError {
@@ -377,37 +387,34 @@ fn absurdly_large_coordinates_lengths_and_directions_are_refused() {
     assert_eq!(seen.len(), BOUNDED_KEYS.len());
 }
 
-#[test]
-fn nan_and_infinite_plane_origin_and_size() {
-    for by in ["nan", "inf", "-inf"] {
-        let msg = expect(
-            &with("origin = [0.5, 0.0, -1.0]", &format!("origin = [0.5, {by}, -1.0]")),
-            "contact \"tip_wall\"",
-            "origin",
-            &["must be finite"],
-        );
-        eprintln!("{msg}");
-        let msg = expect(
-            &with("size = [1.0, 1.0]", &format!("size = [1.0, {by}]")),
-            "contact \"tip_wall\"",
-            "size",
-            &["finite"],
-        );
-        eprintln!("{msg}");
+/// Asserts that each value of `values` written at `{}` in `to` (which replaces `from`) is refused
+/// naming `item` and `field`, with `says` in the message.
+fn expect_each_refused(cases: &[(&str, &str, &str, &str, &str)], values: &[&str]) {
+    for (from, to, item, field, says) in cases {
+        for by in values {
+            let msg = expect(&with(from, &to.replace("{}", by)), item, field, &[says]);
+            eprintln!("{msg}");
+        }
     }
 }
 
 #[test]
+fn nan_and_infinite_plane_origin_and_size() {
+    #[rustfmt::skip]
+    let cases = [
+        ("origin = [0.5, 0.0, -1.0]", "origin = [0.5, {}, -1.0]", "contact \"tip_wall\"", "origin", "must be finite"),
+        ("size = [1.0, 1.0]", "size = [1.0, {}]", "contact \"tip_wall\"", "size", "finite"),
+    ];
+    expect_each_refused(&cases, &["nan", "inf", "-inf"]);
+}
+
+#[test]
 fn non_finite_spring_point_is_refused_before_the_run() {
-    for by in ["nan", "inf"] {
-        let msg = expect(
-            &with("point_b = [0.0, 0.0, -1.0]", &format!("point_b = [0.0, {by}, -1.0]")),
-            "spring_damper \"spring\"",
-            "point_b",
-            &["must be finite"],
-        );
-        eprintln!("{msg}");
-    }
+    #[rustfmt::skip]
+    let cases = [
+        ("point_b = [0.0, 0.0, -1.0]", "point_b = [0.0, {}, -1.0]", "spring_damper \"spring\"", "point_b", "must be finite"),
+    ];
+    expect_each_refused(&cases, &["nan", "inf"]);
 }
 
 #[test]
@@ -507,16 +514,14 @@ fn tolerances_where_results_mean_nothing_are_refused_as_fmu_parameters() {
 #[test]
 fn kelvin_voigt_chosen_by_parameter_without_a_stiffness_names_the_parameter_and_the_way_out() {
     // tip_wall has no stiffness key: its stiffness is a calculated parameter (Hertz)
-    let mut s = Simulation::from_scene_str(GOOD, ORIGIN).unwrap();
+    let s = Simulation::from_scene_str(GOOD, ORIGIN).unwrap();
     let stiffness = s.table().index_of("tip_wall.stiffness").unwrap();
     assert_eq!(
         s.variables()[stiffness].causality,
         contact_fmu::variables::Causality::CalculatedParameter
     );
-    s.set_by_name("tip_wall.law", 1.0).unwrap();
-    let e = error_at_initialization(&mut s);
+    let e = error_with_parameter(GOOD, "tip_wall.law", 1.0);
     let msg = e.to_string();
-    eprintln!("{msg}");
     assert_eq!(
         (e.origin.as_str(), e.item.as_str(), e.field.as_str()),
         (ORIGIN, "contact \"tip_wall\"", "law")
@@ -551,19 +556,15 @@ fn kelvin_voigt_chosen_by_parameter_without_a_stiffness_names_the_parameter_and_
 
 #[test]
 fn flores_chosen_by_parameter_with_zero_restitution_names_the_parameter() {
-    let text = with("restitution = 0.8", "restitution = 0.0");
-    let mut s = Simulation::from_scene_str(&text, ORIGIN).unwrap();
-    s.set_by_name("tip_wall.law", 5.0).unwrap();
-    let e = error_at_initialization(&mut s);
-    eprintln!("{e}");
+    let e = error_with_parameter(&with("restitution = 0.8", "restitution = 0.0"), "tip_wall.law", 5.0);
     assert_eq!(e.field, "law");
     assert!(e.message.contains("\"tip_wall.law\" = 5 (flores)") && e.message.contains("restitution"));
     // and the other way round: the scene's law is flores, the host sets e = 0
-    let text = with("law = \"hertz_ln\"", "law = \"flores\"");
-    let mut s = Simulation::from_scene_str(&text, ORIGIN).unwrap();
-    s.set_by_name("tip_wall.restitution", 0.0).unwrap();
-    let e = error_at_initialization(&mut s);
-    eprintln!("{e}");
+    let e = error_with_parameter(
+        &with("law = \"hertz_ln\"", "law = \"flores\""),
+        "tip_wall.restitution",
+        0.0,
+    );
     assert_eq!(e.field, "restitution");
     assert!(e.message.contains("\"tip_wall.restitution\" = 0"));
 }
