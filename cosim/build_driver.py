@@ -13,6 +13,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 SOURCE = ROOT / "cosim" / "driver" / "speed_controller.py"
 DEFAULT_OUTPUT = ROOT / "target" / "fmu" / "speed_controller.fmu"
+COMMON = ROOT / "cosim" / "sampled_slave.py"
 
 
 def build(output=DEFAULT_OUTPUT, source=SOURCE):
@@ -24,7 +25,8 @@ def build(output=DEFAULT_OUTPUT, source=SOURCE):
     output.parent.mkdir(parents=True, exist_ok=True)
     if output.exists():
         output.unlink()  # pythonfmu takes an existing .fmu path for a file name only if it is a file
-    built = FmuBuilder.build_FMU(source, dest=output)
+    # the base class the scripts share, beside the script in the FMU
+    built = FmuBuilder.build_FMU(source, dest=output, project_files=[COMMON])
     # The builder imports the script as a module; forget it so that a later build (another
     # output path in the same process) imports the current source again.
     sys.modules.pop(Path(source).stem, None)

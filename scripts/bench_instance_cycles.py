@@ -52,14 +52,19 @@ class Unzipped:
         self.step = float(self.md.defaultExperiment.stepSize)
 
     def slave(self):
-        from fmpy.fmi2 import FMU2Slave
+        return slave_of(self.md, self.dir)
 
-        return FMU2Slave(
-            guid=self.md.guid,
-            unzipDirectory=str(self.dir),
-            modelIdentifier=self.md.coSimulation.modelIdentifier,
-            instanceName="cycle",
-        )
+
+def slave_of(md, unzip_dir):
+    """fmpy's FMU2Slave of the FMU unzipped in `unzip_dir` (model description `md`)."""
+    from fmpy.fmi2 import FMU2Slave
+
+    return FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=str(unzip_dir),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="cycle",
+    )
 
 
 def cycle(slave, step, free_state=True, free_instance=True):

@@ -348,10 +348,8 @@ pub struct JointSpec {
     /// Child body name.
     pub child: String,
     /// Joint point, world frame [m]. Default: the child's centre of mass.
-    #[serde(default)]
     pub anchor: Option<[f64; 3]>,
     /// Joint axis, world frame (revolute and prismatic).
-    #[serde(default)]
     pub axis: Option<[f64; 3]>,
 }
 
@@ -375,7 +373,6 @@ pub struct SpringDamperSpec {
     #[serde(default)]
     pub damping: f64,
     /// Free length [m]; default the initial distance.
-    #[serde(default)]
     pub free_length: Option<f64>,
 }
 
@@ -483,18 +480,14 @@ scene_item! {
         /// Sphere radius [m].
         pub radius: f64,
         /// Sphere material.
-        #[serde(default)]
         pub sphere_material: Option<String>,
         /// Body that carries the other shape.
         pub body: String,
         /// Material of the other shape.
-        #[serde(default)]
         pub material: Option<String>,
         /// sphere_sphere: centre of the other sphere, world frame [m].
-        #[serde(default)]
         pub other_center: Option<[f64; 3]>,
         /// sphere_sphere: radius of the other sphere [m].
-        #[serde(default)]
         pub other_radius: Option<f64>,
     }
 }

@@ -24,29 +24,33 @@ of a regional train) and 50 kN of braking (1.15 m/s^2, a service brake).
 Values are SI; the model description declares the units (the speeds display in km/h).
 """
 
-import math
-from xml.etree.ElementTree import Element, SubElement
+from xml.etree.ElementTree import SubElement
 
-from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
-from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Status
+from pythonfmu import Fmi2Causality, Fmi2Variability, Real
+
+try:  # in the FMU: beside this script
+    from sampled_slave import SampledSlave, insert_unit_definitions, outputs_depend_on_no_input
+except ImportError:  # in the source tree
+    from cosim.sampled_slave import SampledSlave, insert_unit_definitions, outputs_depend_on_no_input
 
 KMH = 1.0 / 3.6  # m/s per km/h
 
-# name -> (causality, variability, unit, display unit, description); the attribute of the same
-# name holds the value.
+# name -> (causality, variability, start value, unit, display unit, description); the attribute
+# of the same name holds the value.
 VARIABLES = {
     "speed_set_point": (
         Fmi2Causality.input,
         Fmi2Variability.continuous,
+        80.0 * KMH,
         "m/s",
         "km/h",
         "speed set point (the master may change it at any communication point)",
     ),
-    "speed": (Fmi2Causality.input, Fmi2Variability.continuous, "m/s", "km/h", "measured speed of the vehicle"),
+    "speed": (Fmi2Causality.input, Fmi2Variability.continuous, 80.0 * KMH, "m/s", "km/h", "measured speed of the vehicle"),
     "traction": (
         Fmi2Causality.output,
         Fmi2Variability.discrete,
+        0.0,
         "N",
         None,
         "force demanded from the vehicle: > 0 traction, < 0 braking; set at each communication "
@@ -55,14 +59,16 @@ VARIABLES = {
     "kp": (
         Fmi2Causality.parameter,
         Fmi2Variability.fixed,
+        80.0e3,
         "N.s/m",
         None,
         "proportional gain (force per m/s of speed error); must be >= 0",
     ),
-    "ti": (Fmi2Causality.parameter, Fmi2Variability.fixed, "s", None, "integral time; must be > 0"),
+    "ti": (Fmi2Causality.parameter, Fmi2Variability.fixed, 4.0, "s", None, "integral time; must be > 0"),
     "max_traction": (
         Fmi2Causality.parameter,
         Fmi2Variability.fixed,
+        40.0e3,
         "N",
         None,
         "largest traction force; must be >= 0",
@@ -70,6 +76,7 @@ VARIABLES = {
     "max_braking": (
         Fmi2Causality.parameter,
         Fmi2Variability.fixed,
+        50.0e3,
         "N",
         None,
         "largest braking force (a magnitude); must be >= 0",
@@ -77,6 +84,7 @@ VARIABLES = {
     "speed_error_integral": (
         Fmi2Causality.local,
         Fmi2Variability.continuous,
+        0.0,
         "m",
         None,
         "integral of the speed error, the controller's state I",
@@ -104,51 +112,30 @@ def pi_step(kp, ti, max_traction, max_braking, integral, error, h):
     return candidate, min(max(output, -max_braking), max_traction)
 
 
-class SpeedController(Fmi2Slave):
-    author = "contact-fmu contributors"
+class SpeedController(SampledSlave):
     description = "PI speed controller with force limits and anti-windup (the driver of the rail vehicle)"
-    license = "MIT"
-    version = "1.0"
-    copyright = "Copyright (c) contact-fmu contributors"
 
     def __init__(self, **kwargs):
-        super().__init__(**kwargs)
-        self.modelName = "speed_controller"
-        self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=40.0, step_size=0.01)
-        self.speed_set_point = 80.0 * KMH
-        self.speed = 80.0 * KMH
-        self.traction = 0.0
-        self.kp = 80.0e3
-        self.ti = 4.0
-        self.max_traction = 40.0e3
-        self.max_braking = 50.0e3
-        self.speed_error_integral = 0.0
-        for name, (causality, variability, _, _, description) in VARIABLES.items():
+        super().__init__("speed_controller", 40.0, 0.01, **kwargs)
+        for name, (causality, variability, start, _, _, description) in VARIABLES.items():
+            setattr(self, name, start)
             self.register_variable(
                 Real(name, causality=causality, variability=variability, description=description)
             )
 
     def exit_initialization_mode(self):
-        # A parameter out of range is logged as an error, and every step is then refused
-        # (fmi2Discard). Not raised: pythonfmu turns a Python exception into fmi2Fatal, after
-        # which FMI allows no further call, not even fmi2FreeInstance.
-        checks = {
-            "kp": self.kp >= 0.0,
-            "ti": self.ti > 0.0,
-            "max_traction": self.max_traction >= 0.0,
-            "max_braking": self.max_braking >= 0.0,
-        }
-        self.invalid = [
-            f"{name} = {getattr(self, name)}: {VARIABLES[name][4]}"
-            for name, ok in checks.items()
-            if not ok or not math.isfinite(getattr(self, name))
-        ]
-        for message in self.invalid:
-            self.log(message, Fmi2Status.error)
+        self.check_parameters(
+            {
+                "kp": self.kp >= 0.0,
+                "ti": self.ti > 0.0,
+                "max_traction": self.max_traction >= 0.0,
+                "max_braking": self.max_braking >= 0.0,
+            },
+            {name: VARIABLES[name][5] for name in VARIABLES},
+        )
 
     def do_step(self, current_time, step_size):
-        if getattr(self, "invalid", None):
-            self.log("no step with a parameter out of range: " + "; ".join(self.invalid), Fmi2Status.error)
+        if self.step_refused():
             return False
         self.speed_error_integral, self.traction = pi_step(
             self.kp,
@@ -165,25 +152,14 @@ class SpeedController(Fmi2Slave):
         """pythonfmu's model description, completed with the units, the display units and the
         dependencies of the output (none: see the module's docstring)."""
         root = super().to_xml(model_options or {})
-        units = Element("UnitDefinitions")
-        for name, (exponents, displays) in UNITS.items():
-            unit = SubElement(units, "Unit", name=name)
-            SubElement(unit, "BaseUnit", {k: str(v) for k, v in exponents.items()})
-            for display, factor in displays:
-                SubElement(unit, "DisplayUnit", name=display, factor=repr(factor))
-        # UnitDefinitions follows CoSimulation in the FMI 2.0 schema.
-        position = list(root).index(root.find("CoSimulation")) + 1
-        root.insert(position, units)
+        insert_unit_definitions(root, UNITS)
         for variable in root.find("ModelVariables"):
-            _, _, unit, display, _ = VARIABLES[variable.get("name")]
+            _, _, _, unit, display, _ = VARIABLES[variable.get("name")]
             real = variable.find("Real")
             real.set("unit", unit)
             if display:
                 real.set("displayUnit", display)
-        structure = root.find("ModelStructure")
-        outputs = structure.find("Outputs")
-        for unknown in outputs:
-            unknown.set("dependencies", "")
+        structure, outputs = outputs_depend_on_no_input(root)
         # The output's initial value (0 until the first step) depends on no input either.
         initial = SubElement(structure, "InitialUnknowns")
         for unknown in outputs:

@@ -37,12 +37,15 @@ step, the profile's Taylor expansion under the moving wheel.
 
 import math
 import random
-from xml.etree.ElementTree import Element, SubElement
+from xml.etree.ElementTree import SubElement
 
 import numpy as np
-from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
-from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Status
+from pythonfmu import Fmi2Causality, Fmi2Variability, Integer, Real
+
+try:  # in the FMU: beside this script
+    from sampled_slave import SampledSlave, insert_unit_definitions, outputs_depend_on_no_input
+except ImportError:  # in the source tree
+    from cosim.sampled_slave import SampledSlave, insert_unit_definitions, outputs_depend_on_no_input
 
 WHEELS = ("fl1", "fl2", "fr1", "fr2", "rl1", "rl2", "rr1", "rr2")
 
@@ -91,17 +94,17 @@ def profile(x, omega, amplitude, phase, fade_start, fade_length):
     return w * r, dw * r + w * dr, ddw * r + 2.0 * dw * dr + w * ddr
 
 
-# name -> (causality, variability, type, unit, description); the attribute of the same name holds
-# the value.
+# name -> (type, start value, unit, description) of the parameters; the attribute of the same name
+# holds the value.
 PARAMETERS = {
-    "track_class": (Integer, "", "FRA track class, 1 (worst) ... 6 (best): A_v of the vertical-profile spectrum"),
-    "seed": (Integer, "", "seed of the harmonics' random phases (the same seed, the same track)"),
-    "harmonics": (Integer, "", "number of harmonics, >= 1"),
-    "amplitude_scale": (Real, "", "factor on every amplitude (1: the class's spectrum; 0: a flat track); >= 0"),
-    "wavelength_min": (Real, "m", "shortest wavelength of the profile; > 0"),
-    "wavelength_max": (Real, "m", "longest wavelength of the profile; > wavelength_min"),
-    "fade_start": (Real, "m", "the rails are flat up to this position along the track"),
-    "fade_length": (Real, "m", "length over which the irregularity fades in; > 0"),
+    "track_class": (Integer, 4, "", "FRA track class, 1 (worst) ... 6 (best): A_v of the vertical-profile spectrum"),
+    "seed": (Integer, 1, "", "seed of the harmonics' random phases (the same seed, the same track)"),
+    "harmonics": (Integer, 1000, "", "number of harmonics, >= 1"),
+    "amplitude_scale": (Real, 1.0, "", "factor on every amplitude (1: the class's spectrum; 0: a flat track); >= 0"),
+    "wavelength_min": (Real, 1.5, "m", "shortest wavelength of the profile; > 0"),
+    "wavelength_max": (Real, 120.0, "m", "longest wavelength of the profile; > wavelength_min"),
+    "fade_start": (Real, 10.0, "m", "the rails are flat up to this position along the track"),
+    "fade_length": (Real, 20.0, "m", "length over which the irregularity fades in; > 0"),
 }
 SIGNALS = {
     "x": (Fmi2Causality.input, "m", "longitudinal position of wheel {w} (the vehicle's wheel_{w}.r[1])"),
@@ -110,35 +113,23 @@ SIGNALS = {
     "zd": (Fmi2Causality.output, "m/s", "rate of the rail height under wheel {w} (for rail_{w}.qd)"),
     "zdd": (Fmi2Causality.output, "m/s2", "acceleration of the rail height under wheel {w} (for rail_{w}.qdd)"),
 }
+# unit -> exponents of the SI base units, and its display units (none)
 UNITS = {
-    "m": {"m": 1},
-    "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2},
+    "m": ({"m": 1}, []),
+    "m/s": ({"m": 1, "s": -1}, []),
+    "m/s2": ({"m": 1, "s": -2}, []),
 }
 
 
-class TrackIrregularity(Fmi2Slave):
-    author = "contact-fmu contributors"
+class TrackIrregularity(SampledSlave):
     description = "Vertical track irregularity (FRA class spectrum, random-phase harmonics) under the 8 wheels of the rail vehicle"
-    license = "MIT"
-    version = "1.0"
-    copyright = "Copyright (c) contact-fmu contributors"
 
     def __init__(self, **kwargs):
-        super().__init__(**kwargs)
-        self.modelName = "track_irregularity"
-        self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=14.0, step_size=0.001)
-        self.track_class = 4
-        self.seed = 1
-        self.harmonics = 1000
-        self.amplitude_scale = 1.0
-        self.wavelength_min = 1.5
-        self.wavelength_max = 120.0
-        self.fade_start = 10.0
-        self.fade_length = 20.0
+        super().__init__("track_irregularity", 14.0, 0.001, **kwargs)
         self.profile_rms = 0.0
         self.units = {}
-        for name, (kind, unit, description) in PARAMETERS.items():
+        for name, (kind, start, unit, description) in PARAMETERS.items():
+            setattr(self, name, start)
             self.register_variable(
                 kind(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed, description=description)
             )
@@ -164,8 +155,6 @@ class TrackIrregularity(Fmi2Slave):
         self.previous_speeds = None  # the speeds at the last communication point, and its step
 
     def exit_initialization_mode(self):
-        # A parameter out of range is logged as an error, and every step is then refused
-        # (fmi2Discard), as in the speed controller: a Python exception would become fmi2Fatal.
         checks = {
             "track_class": self.track_class in FRA_CLASSES,
             "harmonics": self.harmonics >= 1,
@@ -176,14 +165,7 @@ class TrackIrregularity(Fmi2Slave):
             "fade_start": True,
             "seed": True,
         }
-        self.invalid = [
-            f"{name} = {getattr(self, name)}: {PARAMETERS[name][2]}"
-            for name, ok in checks.items()
-            if not ok or not math.isfinite(getattr(self, name))
-        ]
-        for message in self.invalid:
-            self.log(message, Fmi2Status.error)
-        if self.invalid:
+        if not self.check_parameters(checks, {name: PARAMETERS[name][3] for name in PARAMETERS}):
             return
         self.omega, self.amplitude, self.phase = harmonics(
             self.track_class, self.seed, self.harmonics, self.wavelength_min, self.wavelength_max, self.amplitude_scale
@@ -191,8 +173,7 @@ class TrackIrregularity(Fmi2Slave):
         self.profile_rms = float(np.sqrt(np.sum(self.amplitude**2) / 2.0))
 
     def do_step(self, current_time, step_size):
-        if getattr(self, "invalid", None):
-            self.log("no step with a parameter out of range: " + "; ".join(self.invalid), Fmi2Status.error)
+        if self.step_refused():
             return False
         x = np.array([getattr(self, f"x_{w}") for w in WHEELS])
         v = np.array([getattr(self, f"v_{w}") for w in WHEELS])
@@ -218,20 +199,13 @@ class TrackIrregularity(Fmi2Slave):
         """pythonfmu's model description, completed with the units and the outputs' dependencies
         (none: see the module's docstring)."""
         root = super().to_xml(model_options or {})
-        units = Element("UnitDefinitions")
-        for name, exponents in UNITS.items():
-            SubElement(SubElement(units, "Unit", name=name), "BaseUnit", {k: str(v) for k, v in exponents.items()})
-        # UnitDefinitions follows CoSimulation in the FMI 2.0 schema.
-        root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+        insert_unit_definitions(root, UNITS)
         for variable in root.find("ModelVariables"):
             unit = self.units[variable.get("name")]
             real = variable.find("Real")
             if unit and real is not None:
                 real.set("unit", unit)
-        structure = root.find("ModelStructure")
-        outputs = structure.find("Outputs")
-        for unknown in outputs:
-            unknown.set("dependencies", "")
+        structure, outputs = outputs_depend_on_no_input(root)
         # InitialUnknowns, by index: profile_rms (a calculated parameter: it depends on the
         # parameters, so no `dependencies` attribute), then the outputs (0 until the first step,
         # dependent on nothing).

@@ -555,15 +555,10 @@ pub(super) fn variable_attributes(vr: usize, v: &Variable) -> [Vec<(&'static str
 /// One `ScalarVariable` and its type's element.
 fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
     let [own, mut typed] = variable_attributes(vr, v);
-    let tag = match v.vtype {
-        VarType::Real => "Real",
-        VarType::Integer => "Integer",
-        VarType::Boolean => "Boolean",
-        VarType::Enumeration(e) => {
-            typed.insert(0, ("declaredType", e.type_name().to_string()));
-            "Enumeration"
-        }
-    };
+    if let VarType::Enumeration(e) = v.vtype {
+        typed.insert(0, ("declaredType", e.type_name().to_string()));
+    }
+    let tag = Version::Fmi2.type_element(v.vtype);
     w.create_element("ScalarVariable")
         .with_attributes(attrs(own))
         .write_inner_content(|w| empty(w, tag, typed))?;

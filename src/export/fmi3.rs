@@ -109,15 +109,9 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
 /// FMI 2.0 `ScalarVariable`).
 fn write_variable(w: &mut Writer<Vec<u8>>, vr: usize, v: &Variable) -> io::Result<()> {
     let [mut a, typed] = variable_attributes(vr, v);
-    let tag = match v.vtype {
-        VarType::Real => "Float64",
-        VarType::Integer => "Int32",
-        VarType::Boolean => "Boolean",
-        VarType::Enumeration(e) => {
-            a.insert(2, ("declaredType", e.type_name().to_string()));
-            "Enumeration"
-        }
-    };
+    if let VarType::Enumeration(e) = v.vtype {
+        a.insert(2, ("declaredType", e.type_name().to_string()));
+    }
     a.extend(typed);
-    empty(w, tag, a)
+    empty(w, Version::Fmi3.type_element(v.vtype), a)
 }

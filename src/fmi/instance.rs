@@ -130,13 +130,11 @@ pub enum Access {
 
 impl Access {
     fn name(self, v: Version) -> &'static str {
-        match (self, v) {
-            (Access::Real, Version::Fmi2) => "Real",
-            (Access::Real, Version::Fmi3) => "Float64",
-            (Access::Integer, Version::Fmi2) => "Integer",
-            (Access::Integer, Version::Fmi3) => "Int32",
-            (Access::Int64, _) => "Int64",
-            (Access::Boolean, _) => "Boolean",
+        match self {
+            Access::Real => v.type_element(VarType::Real),
+            Access::Integer => v.type_element(VarType::Integer),
+            Access::Int64 => "Int64",
+            Access::Boolean => v.type_element(VarType::Boolean),
         }
     }
     fn accepts(self, t: VarType, v: Version) -> bool {
@@ -153,13 +151,9 @@ impl Access {
 
 fn type_name(t: VarType, v: Version) -> &'static str {
     match (t, v) {
-        (VarType::Real, Version::Fmi2) => "Real",
-        (VarType::Real, Version::Fmi3) => "Float64",
-        (VarType::Integer, Version::Fmi2) => "Integer",
-        (VarType::Integer, Version::Fmi3) => "Int32",
-        (VarType::Boolean, _) => "Boolean",
         (VarType::Enumeration(_), Version::Fmi2) => "Enumeration (accessed as Integer)",
         (VarType::Enumeration(_), Version::Fmi3) => "Enumeration (accessed as Int64)",
+        _ => v.type_element(t),
     }
 }
 

@@ -8,6 +8,8 @@
 //! (which takes the experiment's times) is allowed where `fmi2SetupExperiment` is. So both
 //! versions share these masks; [`LifeState::name_in`] names a state as each version does.
 
+use crate::variables::VarType;
+
 /// The FMI version of an instance (of the function that made it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Version {
@@ -39,6 +41,19 @@ impl Version {
         match self {
             Version::Fmi2 => "GUID",
             Version::Fmi3 => "instantiationToken",
+        }
+    }
+
+    /// The model description's element of a variable of type `t`: `Real` or `Float64`,
+    /// `Integer` or `Int32`, `Boolean`, `Enumeration`.
+    pub fn type_element(self, t: VarType) -> &'static str {
+        match (t, self) {
+            (VarType::Real, Version::Fmi2) => "Real",
+            (VarType::Real, Version::Fmi3) => "Float64",
+            (VarType::Integer, Version::Fmi2) => "Integer",
+            (VarType::Integer, Version::Fmi3) => "Int32",
+            (VarType::Boolean, _) => "Boolean",
+            (VarType::Enumeration(_), _) => "Enumeration",
         }
     }
 }

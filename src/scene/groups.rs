@@ -38,13 +38,10 @@ scene_item! {
         /// Body carrying the shape (`"ground"` for the world).
         pub body: String,
         /// Material (for the Hertz stiffness).
-        #[serde(default)]
         pub material: Option<String>,
         /// sphere: centre, world frame [m] (default: the body's centre of mass).
-        #[serde(default)]
         pub center: Option<[f64; 3]>,
         /// sphere: radius [m].
-        #[serde(default)]
         pub radius: Option<f64>,
     }
 }
@@ -186,7 +183,6 @@ pub enum BroadPhaseMethod {
 pub struct BroadPhaseSection {
     /// Distance [m] within which two shapes become a candidate pair (default: the largest
     /// sphere radius of the groups).
-    #[serde(default)]
     pub margin: Option<f64>,
     /// Algorithm.
     #[serde(default)]

@@ -102,17 +102,13 @@ pub struct InputSpec {
     #[serde(rename = "type")]
     pub kind: InputType,
     /// Body (force, torque).
-    #[serde(default)]
     pub body: Option<String>,
     /// Joint (joint_force).
-    #[serde(default)]
     pub joint: Option<String>,
     /// Several joints (joint_force): the same generalised force on each (e.g. a brake torque
     /// on every wheel).
-    #[serde(default)]
     pub joints: Option<Vec<String>>,
     /// World direction (force, torque).
-    #[serde(default)]
     pub direction: Option<[f64; 3]>,
     /// Start value.
     #[serde(default)]

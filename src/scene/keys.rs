@@ -21,34 +21,24 @@ macro_rules! surface_keys {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
             $($fields)*
             /// Plane: centre of the rectangle [m].
-            #[serde(default)]
             pub origin: Option<[f64; 3]>,
             /// Plane: outward normal.
-            #[serde(default)]
             pub normal: Option<[f64; 3]>,
             /// Plane: first in-plane axis.
-            #[serde(default)]
             pub u_axis: Option<[f64; 3]>,
             /// Plane: side lengths [lu, lv] [m].
-            #[serde(default)]
             pub size: Option<[f64; 2]>,
             /// Cylinder: a point on the axis (the middle of the patch's length) [m].
-            #[serde(default)]
             pub axis_point: Option<[f64; 3]>,
             /// Cylinder: axis direction.
-            #[serde(default)]
             pub axis: Option<[f64; 3]>,
             /// Cylinder: radius ρ [m].
-            #[serde(default)]
             pub cylinder_radius: Option<f64>,
             /// Cylinder: length of the patch along the axis [m].
-            #[serde(default)]
             pub length: Option<f64>,
             /// Cylinder: angular range [min, max] from `ref_axis` [rad].
-            #[serde(default)]
             pub theta_range: Option<[f64; 2]>,
             /// Cylinder: direction (perpendicular to the axis) where θ = 0.
-            #[serde(default)]
             pub ref_axis: Option<[f64; 3]>,
             /// Cylinder: the side the spheres touch, outside (convex) or inside (concave).
             #[serde(default)]
@@ -65,27 +55,18 @@ macro_rules! surface_checks {
             /// Checks every surface key given, whether or not the item's type uses it: points
             /// finite, directions nonzero, lengths positive, the extent ordered.
             pub(crate) fn check_surface_keys(&self, origin: &str, item: &str) -> Result<(), $crate::scene::SceneError> {
-                use $crate::scene::validate::{direction, length, surface_extent, vector};
-                for (f, v) in [("origin", self.origin), ("axis_point", self.axis_point)] {
-                    if let Some(v) = v {
-                        vector(origin, item, f, &v)?;
-                    }
-                }
-                for (f, v) in [
+                use $crate::scene::validate::{direction, each_given, length, surface_extent, vector};
+                let points = [("origin", self.origin), ("axis_point", self.axis_point)];
+                each_given(points, |f, v| vector(origin, item, f, &v))?;
+                let directions = [
                     ("normal", self.normal),
                     ("u_axis", self.u_axis),
                     ("axis", self.axis),
                     ("ref_axis", self.ref_axis),
-                ] {
-                    if let Some(v) = v {
-                        direction(origin, item, f, v)?;
-                    }
-                }
-                for (f, v) in [("cylinder_radius", self.cylinder_radius), ("length", self.length)] {
-                    if let Some(v) = v {
-                        length(origin, item, f, v)?;
-                    }
-                }
+                ];
+                each_given(directions, |f, v| direction(origin, item, f, v))?;
+                let lengths = [("cylinder_radius", self.cylinder_radius), ("length", self.length)];
+                each_given(lengths, |f, v| length(origin, item, f, v))?;
                 surface_extent(origin, item, self.size, self.theta_range)
             }
 
@@ -145,38 +126,28 @@ macro_rules! law_keys {
             $($fields)*
             /// Contact stiffness K [N/m^n]; when absent, the Hertz family derives it from the
             /// two materials (for a group pair, per pair of shapes).
-            #[serde(default)]
             pub stiffness: Option<f64>,
             /// Kelvin-Voigt damping c [N s/m].
-            #[serde(default)]
             pub damping: Option<f64>,
             /// Exponent n (default 1.5).
-            #[serde(default)]
             pub exponent: Option<f64>,
             /// Largest admissible penetration [m] (default: the sphere radius).
-            #[serde(default)]
             pub max_penetration: Option<f64>,
             /// Floor on the remembered impact velocity δ̇⁻ [m/s]; for the impulse law, approach
             /// speeds below it end in a resting contact.
-            #[serde(default)]
             pub min_impact_velocity: Option<f64>,
             /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
             #[serde(default)]
             pub impulse_method: $crate::scene::ImpulseMethod,
             /// Coulomb (sliding) friction coefficient μ (default 0: no friction).
-            #[serde(default)]
             pub friction: Option<f64>,
             /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
-            #[serde(default)]
             pub static_friction: Option<f64>,
             /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
-            #[serde(default)]
             pub stribeck_velocity: Option<f64>,
             /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
-            #[serde(default)]
             pub viscous_friction: Option<f64>,
             /// Regularisation velocity v_s [m/s] of the continuous friction law.
-            #[serde(default)]
             pub stiction_velocity: Option<f64>,
         }}
     };

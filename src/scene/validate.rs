@@ -459,26 +459,22 @@ pub(super) fn validate_law_keys(origin: &str, item: &str, c: &ContactSpec, mater
             }
             magnitude(origin, item, "max_penetration", v)?;
         }
-        for (f, v) in [
+        let nonnegative_keys = [
             ("damping", c.damping),
             ("min_impact_velocity", c.min_impact_velocity),
             ("friction", c.friction),
             ("static_friction", c.static_friction),
             ("viscous_friction", c.viscous_friction),
-        ] {
-            if let Some(v) = v {
-                nonnegative(origin, item, f, v)?;
-            }
-        }
-        for (f, v) in [
+        ];
+        each_given(nonnegative_keys, |f, v| nonnegative(origin, item, f, v))?;
+        let velocities = [
             ("stribeck_velocity", c.stribeck_velocity),
             ("stiction_velocity", c.stiction_velocity),
-        ] {
-            if let Some(v) = v {
-                positive(origin, item, f, v)?;
-                magnitude(origin, item, f, v)?;
-            }
-        }
+        ];
+        each_given(velocities, |f, v| {
+            positive(origin, item, f, v)?;
+            magnitude(origin, item, f, v)
+        })?;
         if let Some(n) = c.exponent {
             if !(n >= 1.0 && n.is_finite()) {
                 return Err(err("exponent", format!("must be >= 1 (got {n})")));
@@ -676,6 +672,16 @@ pub(super) fn kind_name(k: ContactType) -> &'static str {
 pub(super) fn unit(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     [v[0] / n, v[1] / n, v[2] / n]
+}
+
+/// Applies `check` to each optional key that is given: `(field, value)`.
+pub(super) fn each_given<T, const N: usize>(
+    keys: [(&str, Option<T>); N],
+    mut check: impl FnMut(&str, T) -> Result<(), SceneError>,
+) -> Result<(), SceneError> {
+    keys.into_iter()
+        .filter_map(|(field, value)| value.map(|v| (field, v)))
+        .try_for_each(|(field, v)| check(field, v))
 }
 
 /// `|x| <= MAX_MAGNITUDE` (for a finite `x`).

@@ -358,92 +358,39 @@ pub struct Unit {
     pub display: &'static [(&'static str, f64)],
 }
 
+impl Unit {
+    /// The unit `name` with the base-unit exponents `base` and the display units `display`.
+    const fn new(name: &'static str, base: [i32; 4], display: &'static [(&'static str, f64)]) -> Unit {
+        Unit { name, base, display }
+    }
+}
+
 /// The units the variables use, for UnitDefinitions, with the display units engineers read
 /// (mm, km/h, deg, rpm).
 pub const UNITS: &[Unit] = &[
-    Unit {
-        name: "m",
-        base: [0, 1, 0, 0],
-        display: &[("mm", 1e3)],
-    },
-    Unit {
-        name: "m/s",
-        base: [0, 1, -1, 0],
-        display: &[("km/h", 3.6), ("mm/s", 1e3)],
-    },
-    Unit {
-        name: "rad",
-        base: [0, 0, 0, 1],
-        display: &[("deg", 180.0 / std::f64::consts::PI)],
-    },
-    Unit {
-        name: "rad/s",
-        base: [0, 0, -1, 1],
-        display: &[
+    Unit::new("m", [0, 1, 0, 0], &[("mm", 1e3)]),
+    Unit::new("m/s", [0, 1, -1, 0], &[("km/h", 3.6), ("mm/s", 1e3)]),
+    Unit::new("rad", [0, 0, 0, 1], &[("deg", 180.0 / std::f64::consts::PI)]),
+    Unit::new(
+        "rad/s",
+        [0, 0, -1, 1],
+        &[
             ("deg/s", 180.0 / std::f64::consts::PI),
             ("rpm", 30.0 / std::f64::consts::PI),
         ],
-    },
-    Unit {
-        name: "m/s2",
-        base: [0, 1, -2, 0],
-        display: &[],
-    },
-    Unit {
-        name: "rad/s2",
-        base: [0, 0, -2, 1],
-        display: &[("deg/s2", 180.0 / std::f64::consts::PI)],
-    },
-    Unit {
-        name: "kg",
-        base: [1, 0, 0, 0],
-        display: &[],
-    },
-    Unit {
-        name: "N",
-        base: [1, 1, -2, 0],
-        display: &[("kN", 1e-3)],
-    },
-    Unit {
-        name: "N.m",
-        base: [1, 2, -2, 0],
-        display: &[],
-    },
-    Unit {
-        name: "J",
-        base: [1, 2, -2, 0],
-        display: &[],
-    },
-    Unit {
-        name: "Pa",
-        base: [1, -1, -2, 0],
-        display: &[("GPa", 1e-9)],
-    },
-    Unit {
-        name: "s",
-        base: [0, 0, 1, 0],
-        display: &[("ms", 1e3)],
-    },
-    Unit {
-        name: "N.s/m",
-        base: [1, 0, -1, 0],
-        display: &[],
-    },
-    Unit {
-        name: "N/m",
-        base: [1, 0, -2, 0],
-        display: &[],
-    },
-    Unit {
-        name: "s/m",
-        base: [0, -1, 1, 0],
-        display: &[],
-    },
-    Unit {
-        name: "kg.m2",
-        base: [1, 2, 0, 0],
-        display: &[],
-    },
+    ),
+    Unit::new("m/s2", [0, 1, -2, 0], &[]),
+    Unit::new("rad/s2", [0, 0, -2, 1], &[("deg/s2", 180.0 / std::f64::consts::PI)]),
+    Unit::new("kg", [1, 0, 0, 0], &[]),
+    Unit::new("N", [1, 1, -2, 0], &[("kN", 1e-3)]),
+    Unit::new("N.m", [1, 2, -2, 0], &[]),
+    Unit::new("J", [1, 2, -2, 0], &[]),
+    Unit::new("Pa", [1, -1, -2, 0], &[("GPa", 1e-9)]),
+    Unit::new("s", [0, 0, 1, 0], &[("ms", 1e3)]),
+    Unit::new("N.s/m", [1, 0, -1, 0], &[]),
+    Unit::new("N/m", [1, 0, -2, 0], &[]),
+    Unit::new("s/m", [0, -1, 1, 0], &[]),
+    Unit::new("kg.m2", [1, 2, 0, 0], &[]),
 ];
 
 mod groups;

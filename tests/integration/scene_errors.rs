@@ -56,111 +56,104 @@ fn the_reference_scene_is_valid() {
     s.step_to(0.01).unwrap();
 }
 
+/// Asserts the message of each mistake of `kind` (see `expect`).
+fn expect_kind(kind: &str) {
+    let cases: Vec<_> = MISTAKES.iter().filter(|case| case.0 == kind).collect();
+    assert!(!cases.is_empty(), "no mistakes of kind {kind}");
+    for (_, from, to, fragments) in cases {
+        let text = good();
+        assert!(text.contains(from), "{from:?} is not in the scene");
+        let msg = expect(&text.replace(from, to), fragments);
+        eprintln!("{msg}");
+    }
+}
+
+/// The mistakes, by kind: (kind, from, to, fragments): the good scene with every `from` replaced
+/// by `to`, and the fragments its message must hold. One a line.
+#[rustfmt::skip]
+const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
+    ("unparsable", "mass = 0.2", "mass = 0.2.1", &["line", "toml"]),
+    ("unparsable", "[[joint]]\nname = \"weld\"", "[[joint]\nname = \"weld\"", &["line", "toml"]),
+    // a value of the wrong type and an unknown key are reported the same way
+    ("unparsable", "mass = 1.0", "mass = \"heavy\"", &["line", "toml"]),
+    ("unparsable", "mass = 1.0", "mass = 1.0\ncolour = \"red\"", &["line", "colour"]),
+    ("unknown_body", "parent = \"ground\"", "parent = \"grund\"", &["joint \"pivot\"", "parent", "unknown body \"grund\""]),
+    ("unknown_body", "child = \"tip\"", "child = \"tap\"", &["joint \"weld\"", "child", "unknown body"]),
+    ("unknown_body", "sphere_body = \"tip\"", "sphere_body = \"top\"", &["contact \"tip_wall\"", "sphere_body", "unknown body"]),
+    ("duplicate", "name = \"tip\"", "name = \"arm\"", &["body \"arm\"", "name", "duplicate"]),
+    // names are shared between kinds (they become FMU variable prefixes)
+    ("duplicate", "name = \"weld\"", "name = \"arm\"", &["joint \"arm\"", "name", "duplicate"]),
+    ("mass", "mass = 1.0", "mass = -1.0", &["body \"arm\"", "mass", "> 0"]),
+    ("mass", "mass = 1.0", "mass = nan", &["body \"arm\"", "mass"]),
+    ("mass", "mass = 1.0", "mass = 0.0", &["body \"arm\"", "mass"]),
+    ("inertia", "[0.01, 0.02, 0.02]", "[0.01, -0.02, 0.02]", &["body \"arm\"", "inertia", "positive definite"]),
+    ("inertia", "[0.01, 0.02, 0.02]", "[0.0, 0.02, 0.02]", &["body \"arm\"", "inertia"]),
+    ("inertia", "[0.01, 0.02, 0.02]", "[0.01, 0.02, 0.05]", &["body \"arm\"", "inertia", "triangle"]),
+    ("zero_axis", "axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]", &["joint \"pivot\"", "axis", "zero"]),
+    ("zero_axis", "normal = [-1.0, 0.0, 0.0]", "normal = [0.0, 0.0, 0.0]", &["contact \"tip_wall\"", "normal"]),
+    ("poisson", "poisson_ratio = 0.3", "poisson_ratio = 0.5", &["material \"steel\"", "poisson_ratio", "[0, 0.5)"]),
+    ("poisson", "poisson_ratio = 0.3", "poisson_ratio = 0.7", &["material \"steel\"", "poisson_ratio"]),
+    ("ground_contact", "sphere_body = \"tip\"", "sphere_body = \"ground\"", &["contact \"tip_wall\"", "body", "ground"]),
+    ("material", "material = \"steel\"\norigin", "material = \"stell\"\norigin", &["contact \"tip_wall\"", "material", "unknown material \"stell\""]),
+    ("material", "sphere_material = \"steel\"", "sphere_material = \"rubber\"", &["contact \"tip_wall\"", "sphere_material", "unknown material"]),
+    ("other", "type = \"fixed\"", "type = \"hinge\"", &["line", "toml"]),
+    ("other", "parent = \"arm\"", "parent = \"tip\"", &["joint \"weld\"", "child", "itself"]),
+    ("other", "name = \"bad\"", "name = \"2bad\"", &["[model]", "name"]),
+    ("other", "[0.0, 0.0, -0.5]", "[0.0, 0.0, inf]", &["body \"arm\"", "position", "finite"]),
+    ("other", "radius = 0.02", "radius = -0.02", &["contact \"tip_wall\"", "radius"]),
+    ("other", "u_axis = [0.0, 1.0, 0.0]", "u_axis = [-1.0, 0.0, 0.0]", &["contact \"tip_wall\"", "u_axis", "perpendicular"]),
+    ("other", "law = \"hertz\"", "law = \"kelvin_voigt\"", &["contact \"tip_wall\"", "stiffness"]),
+    ("other", "name = \"arm\"", "name = \"ground\"", &["name", "reserved"]),
+    ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\nstop_time = -1.0\n", &["[model]", "stop_time"]),
+];
+
+/// Arm and tip joined to each other and to nothing else.
+const CYCLE_JOINTS: &str =
+    "[[joint]]\nname = \"j1\"\ntype = \"revolute\"\nparent = \"tip\"\nchild = \"arm\"\naxis = [0.0, 1.0, 0.0]\n\n\
+     [[joint]]\nname = \"j2\"\ntype = \"fixed\"\nparent = \"arm\"\nchild = \"tip\"\n";
+
 #[test]
 fn unparsable_toml_names_the_line() {
     let text = good().replace("mass = 0.2", "mass = 0.2.1");
     let line = text.lines().position(|l| l.contains("0.2.1")).unwrap() + 1;
-    let msg = expect(&text, &[&format!("line {line}"), "toml"]);
-    eprintln!("{msg}");
-    let msg = expect(
-        &good().replace("[[joint]]\nname = \"weld\"", "[[joint]\nname = \"weld\""),
-        &["line", "toml"],
-    );
-    eprintln!("{msg}");
-    // a value of the wrong type and an unknown key are reported the same way
-    expect(&good().replace("mass = 1.0", "mass = \"heavy\""), &["line", "toml"]);
-    expect(
-        &good().replace("mass = 1.0", "mass = 1.0\ncolour = \"red\""),
-        &["line", "colour"],
-    );
+    expect(&text, &[&format!("line {line}"), "toml"]);
+    expect_kind("unparsable");
     expect("", &["model"]);
 }
 
 #[test]
 fn unknown_body_names_joint_and_field() {
-    let msg = expect(
-        &good().replace("parent = \"ground\"", "parent = \"grund\""),
-        &["joint \"pivot\"", "parent", "unknown body \"grund\""],
-    );
-    eprintln!("{msg}");
-    expect(
-        &good().replace("child = \"tip\"", "child = \"tap\""),
-        &["joint \"weld\"", "child", "unknown body"],
-    );
-    expect(
-        &good().replace("sphere_body = \"tip\"", "sphere_body = \"top\""),
-        &["contact \"tip_wall\"", "sphere_body", "unknown body"],
-    );
+    expect_kind("unknown_body");
 }
 
 #[test]
 fn duplicate_name_is_reported() {
-    let msg = expect(
-        &good().replace("name = \"tip\"", "name = \"arm\""),
-        &["body \"arm\"", "name", "duplicate"],
-    );
-    eprintln!("{msg}");
-    // names are shared between kinds (they become FMU variable prefixes)
-    expect(
-        &good().replace("name = \"weld\"", "name = \"arm\""),
-        &["joint \"arm\"", "name", "duplicate"],
-    );
+    expect_kind("duplicate");
 }
 
 #[test]
 fn negative_mass_is_reported() {
-    let msg = expect(
-        &good().replace("mass = 1.0", "mass = -1.0"),
-        &["body \"arm\"", "mass", "> 0"],
-    );
-    eprintln!("{msg}");
-    expect(&good().replace("mass = 1.0", "mass = nan"), &["body \"arm\"", "mass"]);
-    expect(&good().replace("mass = 1.0", "mass = 0.0"), &["body \"arm\"", "mass"]);
+    expect_kind("mass");
 }
 
 #[test]
 fn inertia_that_is_not_positive_definite_is_reported() {
-    let msg = expect(
-        &good().replace("[0.01, 0.02, 0.02]", "[0.01, -0.02, 0.02]"),
-        &["body \"arm\"", "inertia", "positive definite"],
-    );
-    eprintln!("{msg}");
-    expect(
-        &good().replace("[0.01, 0.02, 0.02]", "[0.0, 0.02, 0.02]"),
-        &["body \"arm\"", "inertia"],
-    );
-    let msg = expect(
-        &good().replace("[0.01, 0.02, 0.02]", "[0.01, 0.02, 0.05]"),
-        &["body \"arm\"", "inertia", "triangle"],
-    );
-    eprintln!("{msg}");
+    expect_kind("inertia");
 }
 
 #[test]
 fn zero_axis_is_reported() {
-    let msg = expect(
-        &good().replace("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]"),
-        &["joint \"pivot\"", "axis", "zero"],
-    );
-    eprintln!("{msg}");
+    expect_kind("zero_axis");
     expect(
         &good().replacen("axis = [0.0, 1.0, 0.0]\n", "", 1),
         &["joint \"pivot\"", "axis", "required"],
-    );
-    expect(
-        &good().replace("normal = [-1.0, 0.0, 0.0]", "normal = [0.0, 0.0, 0.0]"),
-        &["contact \"tip_wall\"", "normal"],
     );
 }
 
 #[test]
 fn joint_cycle_without_path_to_ground_is_reported() {
-    // arm and tip joined to each other and to nothing else
-    let joints =
-        "[[joint]]\nname = \"j1\"\ntype = \"revolute\"\nparent = \"tip\"\nchild = \"arm\"\naxis = [0.0, 1.0, 0.0]\n\n\
-                  [[joint]]\nname = \"j2\"\ntype = \"fixed\"\nparent = \"arm\"\nchild = \"tip\"\n";
     let msg = expect(
-        &scene(MODEL, MATERIALS, BODIES, joints, CONTACTS),
+        &scene(MODEL, MATERIALS, BODIES, CYCLE_JOINTS, CONTACTS),
         &["body \"", "joint", "cycle", "no path to ground"],
     );
     eprintln!("{msg}");
@@ -179,87 +172,38 @@ fn joint_cycle_without_path_to_ground_is_reported() {
 
 #[test]
 fn poisson_ratio_of_one_half_or_more_is_reported() {
-    let msg = expect(
-        &good().replace("poisson_ratio = 0.3", "poisson_ratio = 0.5"),
-        &["material \"steel\"", "poisson_ratio", "[0, 0.5)"],
-    );
-    eprintln!("{msg}");
-    expect(
-        &good().replace("poisson_ratio = 0.3", "poisson_ratio = 0.7"),
-        &["material \"steel\"", "poisson_ratio"],
-    );
+    expect_kind("poisson");
 }
 
 #[test]
 fn contact_between_two_ground_shapes_is_reported() {
-    let msg = expect(
-        &good().replace("sphere_body = \"tip\"", "sphere_body = \"ground\""),
-        &["contact \"tip_wall\"", "body", "ground"],
-    );
-    eprintln!("{msg}");
+    expect_kind("ground_contact");
 }
 
 #[test]
 fn unknown_material_is_reported() {
-    let msg = expect(
-        &good().replace("material = \"steel\"\norigin", "material = \"stell\"\norigin"),
-        &["contact \"tip_wall\"", "material", "unknown material \"stell\""],
-    );
-    eprintln!("{msg}");
-    expect(
-        &good().replace("sphere_material = \"steel\"", "sphere_material = \"rubber\""),
-        &["contact \"tip_wall\"", "sphere_material", "unknown material"],
-    );
+    expect_kind("material");
 }
+
+/// Items added to the good scene, and the fragments the message must hold.
+#[rustfmt::skip]
+const ADDED_ITEMS: &[(&str, &[&str])] = &[
+    ("[[body]]\nname = \"x\"\nmass = 1.0\ninertia = [0.01, 0.01, 0.01]\nposition = [0.0, 0.0, 0.0]\norientation = [0.0, 0.0, 0.0, 0.0]\n", &["body \"x\"", "orientation", "unit quaternion"]),
+    ("[[joint]]\nname = \"loop\"\ntype = \"free\"\nparent = \"ground\"\nchild = \"tip\"\n", &["joint \"loop\"", "type", "free joint cannot close a loop"]),
+    ("[[joint]]\nname = \"loop\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"tip\"\naxis = [0.0, 1.0, 0.0]\n\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"loop\"\n", &["input \"u\"", "joint", "loop"]),
+    ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"weld\"\n", &["input \"u\"", "joint", "1-DOF"]),
+    ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = [\"pivot\", \"nothing\"]\n", &["input \"u\"", "joints", "unknown joint \"nothing\""]),
+    ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"pivot\"\njoints = [\"pivot\"]\n", &["input \"u\"", "joints", "not both"]),
+    ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = []\n", &["input \"u\"", "joint", "required"]),
+    ("[[spring_damper]]\nname = \"s\"\nbody_a = \"arm\"\npoint_a = [0.0, 0.0, 0.0]\nbody_b = \"nobody\"\npoint_b = [0.0, 0.0, 1.0]\nstiffness = 1.0\n", &["spring_damper \"s\"", "body_b", "unknown body"]),
+    ("[solver]\nrtol = 0.0\n", &["[solver]", "rtol"]),
+];
 
 #[test]
 fn other_mistakes_are_reported_without_panicking() {
-    let cases: Vec<(String, &[&str])> = vec![
-        (good().replace("type = \"fixed\"", "type = \"hinge\""), &["line", "toml"]),
-        (good().replace("parent = \"arm\"", "parent = \"tip\""), &["joint \"weld\"", "child", "itself"]),
-        (good().replace("name = \"bad\"", "name = \"2bad\""), &["[model]", "name"]),
-        (good().replace("[0.0, 0.0, -0.5]", "[0.0, 0.0, inf]"), &["body \"arm\"", "position", "finite"]),
-        (good().replace("radius = 0.02", "radius = -0.02"), &["contact \"tip_wall\"", "radius"]),
-        (good().replace("u_axis = [0.0, 1.0, 0.0]", "u_axis = [-1.0, 0.0, 0.0]"), &["contact \"tip_wall\"", "u_axis", "perpendicular"]),
-        (good().replace("law = \"hertz\"", "law = \"kelvin_voigt\""), &["contact \"tip_wall\"", "stiffness"]),
-        (good().replace("name = \"arm\"", "name = \"ground\""), &["name", "reserved"]),
-        (
-            format!("{}\n[[body]]\nname = \"x\"\nmass = 1.0\ninertia = [0.01, 0.01, 0.01]\nposition = [0.0, 0.0, 0.0]\norientation = [0.0, 0.0, 0.0, 0.0]\n", good()),
-            &["body \"x\"", "orientation", "unit quaternion"],
-        ),
-        (
-            format!("{}\n[[joint]]\nname = \"loop\"\ntype = \"free\"\nparent = \"ground\"\nchild = \"tip\"\n", good()),
-            &["joint \"loop\"", "type", "free joint cannot close a loop"],
-        ),
-        (
-            format!("{}\n[[joint]]\nname = \"loop\"\ntype = \"revolute\"\nparent = \"ground\"\nchild = \"tip\"\naxis = [0.0, 1.0, 0.0]\n\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"loop\"\n", good()),
-            &["input \"u\"", "joint", "loop"],
-        ),
-        (
-            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"weld\"\n", good()),
-            &["input \"u\"", "joint", "1-DOF"],
-        ),
-        (
-            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = [\"pivot\", \"nothing\"]\n", good()),
-            &["input \"u\"", "joints", "unknown joint \"nothing\""],
-        ),
-        (
-            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"pivot\"\njoints = [\"pivot\"]\n", good()),
-            &["input \"u\"", "joints", "not both"],
-        ),
-        (
-            format!("{}\n[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = []\n", good()),
-            &["input \"u\"", "joint", "required"],
-        ),
-        (
-            format!("{}\n[[spring_damper]]\nname = \"s\"\nbody_a = \"arm\"\npoint_a = [0.0, 0.0, 0.0]\nbody_b = \"nobody\"\npoint_b = [0.0, 0.0, 1.0]\nstiffness = 1.0\n", good()),
-            &["spring_damper \"s\"", "body_b", "unknown body"],
-        ),
-        (good().replace("[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\nstop_time = -1.0\n"), &["[model]", "stop_time"]),
-        (format!("{}\n[solver]\nrtol = 0.0\n", good()), &["[solver]", "rtol"]),
-    ];
-    for (text, fragments) in cases {
-        let msg = expect(&text, fragments);
+    expect_kind("other");
+    for (item, fragments) in ADDED_ITEMS {
+        let msg = expect(&format!("{}\n{item}", good()), fragments);
         eprintln!("{msg}");
     }
 }
@@ -278,82 +222,18 @@ fn simulate(path: &std::path::Path) -> (bool, String) {
 
 #[test]
 fn command_line_reports_bad_scenes_in_one_line() {
-    let cycle = scene(
-        MODEL,
-        MATERIALS,
-        BODIES,
-        "[[joint]]\nname = \"j1\"\ntype = \"revolute\"\nparent = \"tip\"\nchild = \"arm\"\naxis = [0.0, 1.0, 0.0]\n\n\
-         [[joint]]\nname = \"j2\"\ntype = \"fixed\"\nparent = \"arm\"\nchild = \"tip\"\n",
-        CONTACTS,
-    );
-    let cases: Vec<(&str, String, &[&str])> = vec![
-        (
-            "unparsable.toml",
-            good().replace("mass = 0.2", "mass = 0.2.1"),
-            &["line", "toml"],
-        ),
-        (
-            "header.toml",
-            good().replace("[[joint]]\nname = \"weld\"", "[[joint]\nname = \"weld\""),
-            &["line", "toml"],
-        ),
-        (
-            "unknown_body.toml",
-            good().replace("parent = \"ground\"", "parent = \"grund\""),
-            &["joint \"pivot\"", "parent"],
-        ),
-        (
-            "duplicate.toml",
-            good().replace("name = \"tip\"", "name = \"arm\""),
-            &["duplicate"],
-        ),
-        (
-            "negative_mass.toml",
-            good().replace("mass = 1.0", "mass = -1.0"),
-            &["body \"arm\"", "mass"],
-        ),
-        (
-            "inertia.toml",
-            good().replace("[0.01, 0.02, 0.02]", "[0.01, -0.02, 0.02]"),
-            &["inertia"],
-        ),
-        (
-            "zero_axis.toml",
-            good().replace("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]"),
-            &["axis"],
-        ),
-        ("cycle.toml", cycle, &["cycle"]),
-        (
-            "poisson.toml",
-            good().replace("poisson_ratio = 0.3", "poisson_ratio = 0.5"),
-            &["poisson_ratio"],
-        ),
-        (
-            "ground_contact.toml",
-            good().replace("sphere_body = \"tip\"", "sphere_body = \"ground\""),
-            &["contact \"tip_wall\""],
-        ),
-        (
-            "material.toml",
-            good().replace("sphere_material = \"steel\"", "sphere_material = \"rubber\""),
-            &["sphere_material"],
-        ),
-    ];
+    // the mistakes above, each through the command line
+    let mut cases: Vec<(String, String, &[&str])> = vec![(
+        "cycle.toml".into(),
+        scene(MODEL, MATERIALS, BODIES, CYCLE_JOINTS, CONTACTS),
+        &["cycle"],
+    )];
+    for (k, (kind, from, to, fragments)) in MISTAKES.iter().enumerate() {
+        cases.push((format!("{kind}_{k}.toml"), good().replace(from, to), fragments));
+    }
     for (file, text, fragments) in cases {
-        let p = temp_scene(file, &text);
-        let (ok, err) = simulate(&p);
-        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-        eprintln!("{file}: {}", err.trim());
-        assert!(!ok, "{file}: exit status 0");
-        assert_eq!(lines.len(), 1, "{file}: expected one line, got {err:?}");
-        assert!(!err.contains("panicked") && !err.contains("backtrace"), "{file}: {err}");
-        assert!(
-            err.contains(p.to_str().unwrap()),
-            "{file}: the message does not name the file: {err}"
-        );
-        for f in fragments {
-            assert!(err.contains(f), "{file}: {err:?} lacks {f:?}");
-        }
+        let p = temp_scene(&file, &text);
+        common::assert_refused_in_one_line(&file, &p, simulate(&p), fragments);
     }
     // a file that does not exist
     let missing = std::env::temp_dir().join("contact_fmu_no_such_scene.toml");

@@ -18,134 +18,34 @@ const ORIGIN: &str = "inputs.toml";
 
 /// A valid scene that holds every key with a number (each contact type, a spring, an input),
 /// so that the sweeps below can spoil each number in turn.
-const GOOD: &str = r#"[model]
-name = "inputs"
-description = "a pendulum that can hit a wall, a rail and a ball"
-gravity = [0.0, 0.0, -9.81]
-stop_time = 0.5
-interval = 0.01
-
-[solver]
-method = "dopri5"
-rtol = 1e-8
-atol = 1e-10
-max_step = 1e-3
-
-[[material]]
-name = "steel"
-youngs_modulus = 2.1e11
-poisson_ratio = 0.3
-
-[[body]]
-name = "arm"
-mass = 1.0
-inertia = [0.01, 0.02, 0.02]
-position = [0.0, 0.0, -0.5]
-orientation = [1.0, 0.0, 0.0, 0.0]
-velocity = [0.05, 0.0, 0.0]
-angular_velocity = [0.0, -0.1, 0.0]
-
-[[body]]
-name = "tip"
-mass = 0.2
-inertia = [0.001, 0.001, 0.001]
-position = [0.0, 0.0, -1.0]
-
-[[body]]
-name = "ball"
-mass = 0.1
-inertia = [0.0001, 0.0001, 0.0001]
-position = [0.0, 2.0, -1.0]
-
-[[joint]]
-name = "pivot"
-type = "revolute"
-parent = "ground"
-child = "arm"
-anchor = [0.0, 0.0, 0.0]
-axis = [0.0, 1.0, 0.0]
-
-[[joint]]
-name = "weld"
-type = "fixed"
-parent = "arm"
-child = "tip"
-
-[[spring_damper]]
-name = "spring"
-body_a = "ground"
-point_a = [0.0, 0.0, -2.0]
-body_b = "tip"
-point_b = [0.0, 0.0, -1.0]
-stiffness = 10.0
-damping = 0.1
-free_length = 1.0
-
-[[contact]]
-name = "tip_wall"
-type = "sphere_plane"
-law = "hertz_ln"
-restitution = 0.8
-sphere_body = "tip"
-center = [0.0, 0.0, -1.0]
-radius = 0.02
-sphere_material = "steel"
-body = "ground"
-material = "steel"
-origin = [0.5, 0.0, -1.0]
-normal = [-1.0, 0.0, 0.0]
-u_axis = [0.0, 1.0, 0.0]
-size = [1.0, 1.0]
-exponent = 1.5
-max_penetration = 0.01
-min_impact_velocity = 0.001
-
-[[contact]]
-name = "tip_rail"
-type = "sphere_cylinder"
-law = "kelvin_voigt"
-sphere_body = "tip"
-center = [0.0, 0.0, -1.0]
-radius = 0.02
-body = "ground"
-axis_point = [0.0, 0.0, -1.5]
-axis = [1.0, 0.0, 0.0]
-cylinder_radius = 0.1
-length = 1.0
-theta_range = [-1.0, 1.0]
-ref_axis = [0.0, 0.0, 1.0]
-stiffness = 1e6
-damping = 10.0
-
-[[contact]]
-name = "tip_ball"
-type = "sphere_sphere"
-law = "impulse"
-sphere_body = "tip"
-center = [0.0, 0.0, -1.0]
-radius = 0.02
-body = "ball"
-other_center = [0.0, 2.0, -1.0]
-other_radius = 0.03
-
-[[input]]
-name = "push"
-type = "force"
-body = "tip"
-direction = [1.0, 0.0, 0.0]
-start = 0.0
-"#;
+const GOOD: &str = include_str!("scenes/inputs.toml");
 
 /// The error of a scene: from parsing and validation, or else from compilation at
 /// initialisation. Fails the test when the scene is accepted.
 fn error_of(text: &str) -> SceneError {
     match Simulation::from_scene_str(text, ORIGIN) {
         Err(e) => e,
-        Ok(mut s) => match s.initialize(0.0) {
-            Err(SimError::Scene(e)) => e,
-            Err(e) => panic!("not a scene error: {e}"),
-            Ok(()) => panic!("scene accepted:\n{text}"),
-        },
+        Ok(mut s) => error_at_initialization(&mut s),
+    }
+}
+
+/// The scene error with which the scene `text` refuses to initialise once the parameter `name`
+/// is set to `value`.
+fn error_with_parameter(text: &str, name: &str, value: f64) -> SceneError {
+    let mut s = Simulation::from_scene_str(text, ORIGIN).unwrap();
+    s.set_by_name(name, value).unwrap();
+    let e = error_at_initialization(&mut s);
+    eprintln!("{e}");
+    e
+}
+
+/// The scene error with which `s` refuses to initialise. Fails the test when it initialises
+/// or fails otherwise.
+fn error_at_initialization(s: &mut Simulation) -> SceneError {
+    match s.initialize(0.0) {
+        Err(SimError::Scene(e)) => e,
+        Err(e) => panic!("not a scene error: {e}"),
+        Ok(()) => panic!("scene accepted"),
     }
 }
 
@@ -388,55 +288,62 @@ fn spoil(line: usize, range: &std::ops::Range<usize>, by: &str) -> String {
     lines.join("\n")
 }
 
+/// The keys of coordinates, lengths and directions (bounded by 1e12 in magnitude).
+const BOUNDED_KEYS: &[&str] = &[
+    "gravity",
+    "position",
+    "velocity",
+    "angular_velocity",
+    "anchor",
+    "axis",
+    "point_a",
+    "point_b",
+    "free_length",
+    "center",
+    "radius",
+    "origin",
+    "normal",
+    "u_axis",
+    "size",
+    "max_penetration",
+    "axis_point",
+    "cylinder_radius",
+    "length",
+    "theta_range",
+    "ref_axis",
+    "other_center",
+    "other_radius",
+    "direction",
+];
+
+/// The other keys with numbers.
+const OTHER_NUMBER_KEYS: &[&str] = &[
+    "stop_time",
+    "interval",
+    "rtol",
+    "atol",
+    "max_step",
+    "youngs_modulus",
+    "poisson_ratio",
+    "mass",
+    "inertia",
+    "orientation",
+    "stiffness",
+    "damping",
+    "restitution",
+    "exponent",
+    "min_impact_velocity",
+    "start",
+];
+
 #[test]
 fn nan_or_infinity_in_any_number_is_refused_naming_its_field() {
     let numbers = numbers();
     assert!(numbers.len() > 90, "only {} numbers found", numbers.len());
     let mut keys: Vec<&str> = numbers.iter().map(|(_, k, _)| k.as_str()).collect();
     keys.dedup();
-    for key in [
-        "gravity",
-        "stop_time",
-        "interval",
-        "rtol",
-        "atol",
-        "max_step",
-        "youngs_modulus",
-        "poisson_ratio",
-        "mass",
-        "inertia",
-        "position",
-        "orientation",
-        "velocity",
-        "angular_velocity",
-        "anchor",
-        "axis",
-        "point_a",
-        "point_b",
-        "stiffness",
-        "damping",
-        "free_length",
-        "restitution",
-        "center",
-        "radius",
-        "origin",
-        "normal",
-        "u_axis",
-        "size",
-        "exponent",
-        "max_penetration",
-        "min_impact_velocity",
-        "axis_point",
-        "cylinder_radius",
-        "length",
-        "theta_range",
-        "ref_axis",
-        "other_center",
-        "other_radius",
-        "direction",
-        "start",
-    ] {
-        assert!(keys.contains(&key), "the sweep misses {key}");
+    for key in BOUNDED_KEYS.iter().chain(OTHER_NUMBER_KEYS) {
+        assert!(keys.contains(key), "the sweep misses {key}");
     }
     for (line, key, range) in &numbers {
         for by in ["nan", "inf", "-inf"] {
@@ -452,35 +359,9 @@ fn nan_or_infinity_in_any_number_is_refused_naming_its_field() {
 
 #[test]
 fn absurdly_large_coordinates_lengths_and_directions_are_refused() {
-    let bounded = [
-        "gravity",
-        "position",
-        "velocity",
-        "angular_velocity",
-        "anchor",
-        "axis",
-        "point_a",
-        "point_b",
-        "free_length",
-        "center",
-        "radius",
-        "origin",
-        "normal",
-        "u_axis",
-        "size",
-        "max_penetration",
-        "axis_point",
-        "cylinder_radius",
-        "length",
-        "theta_range",
-        "ref_axis",
-        "other_center",
-        "other_radius",
-        "direction",
-    ];
     let mut seen = std::collections::HashSet::new();
     for (line, key, range) in numbers() {
-        if !bounded.contains(&key.as_str()) {
+        if !BOUNDED_KEYS.contains(&key.as_str()) {
             continue;
         }
         seen.insert(key.clone());
@@ -503,40 +384,37 @@ fn absurdly_large_coordinates_lengths_and_directions_are_refused() {
             })
             .unwrap_or_else(|e| panic!("{key} = 1e12 refused: {e}"));
     }
-    assert_eq!(seen.len(), bounded.len());
+    assert_eq!(seen.len(), BOUNDED_KEYS.len());
+}
+
+/// Asserts that each value of `values` written at `{}` in `to` (which replaces `from`) is refused
+/// naming `item` and `field`, with `says` in the message.
+fn expect_each_refused(cases: &[(&str, &str, &str, &str, &str)], values: &[&str]) {
+    for (from, to, item, field, says) in cases {
+        for by in values {
+            let msg = expect(&with(from, &to.replace("{}", by)), item, field, &[says]);
+            eprintln!("{msg}");
+        }
+    }
 }
 
 #[test]
 fn nan_and_infinite_plane_origin_and_size() {
-    for by in ["nan", "inf", "-inf"] {
-        let msg = expect(
-            &with("origin = [0.5, 0.0, -1.0]", &format!("origin = [0.5, {by}, -1.0]")),
-            "contact \"tip_wall\"",
-            "origin",
-            &["must be finite"],
-        );
-        eprintln!("{msg}");
-        let msg = expect(
-            &with("size = [1.0, 1.0]", &format!("size = [1.0, {by}]")),
-            "contact \"tip_wall\"",
-            "size",
-            &["finite"],
-        );
-        eprintln!("{msg}");
-    }
+    #[rustfmt::skip]
+    let cases = [
+        ("origin = [0.5, 0.0, -1.0]", "origin = [0.5, {}, -1.0]", "contact \"tip_wall\"", "origin", "must be finite"),
+        ("size = [1.0, 1.0]", "size = [1.0, {}]", "contact \"tip_wall\"", "size", "finite"),
+    ];
+    expect_each_refused(&cases, &["nan", "inf", "-inf"]);
 }
 
 #[test]
 fn non_finite_spring_point_is_refused_before_the_run() {
-    for by in ["nan", "inf"] {
-        let msg = expect(
-            &with("point_b = [0.0, 0.0, -1.0]", &format!("point_b = [0.0, {by}, -1.0]")),
-            "spring_damper \"spring\"",
-            "point_b",
-            &["must be finite"],
-        );
-        eprintln!("{msg}");
-    }
+    #[rustfmt::skip]
+    let cases = [
+        ("point_b = [0.0, 0.0, -1.0]", "point_b = [0.0, {}, -1.0]", "spring_damper \"spring\"", "point_b", "must be finite"),
+    ];
+    expect_each_refused(&cases, &["nan", "inf"]);
 }
 
 #[test]
@@ -636,19 +514,14 @@ fn tolerances_where_results_mean_nothing_are_refused_as_fmu_parameters() {
 #[test]
 fn kelvin_voigt_chosen_by_parameter_without_a_stiffness_names_the_parameter_and_the_way_out() {
     // tip_wall has no stiffness key: its stiffness is a calculated parameter (Hertz)
-    let mut s = Simulation::from_scene_str(GOOD, ORIGIN).unwrap();
+    let s = Simulation::from_scene_str(GOOD, ORIGIN).unwrap();
     let stiffness = s.table().index_of("tip_wall.stiffness").unwrap();
     assert_eq!(
         s.variables()[stiffness].causality,
         contact_fmu::variables::Causality::CalculatedParameter
     );
-    s.set_by_name("tip_wall.law", 1.0).unwrap();
-    let e = match s.initialize(0.0) {
-        Err(SimError::Scene(e)) => e,
-        other => panic!("{other:?}"),
-    };
+    let e = error_with_parameter(GOOD, "tip_wall.law", 1.0);
     let msg = e.to_string();
-    eprintln!("{msg}");
     assert_eq!(
         (e.origin.as_str(), e.item.as_str(), e.field.as_str()),
         (ORIGIN, "contact \"tip_wall\"", "law")
@@ -683,25 +556,15 @@ fn kelvin_voigt_chosen_by_parameter_without_a_stiffness_names_the_parameter_and_
 
 #[test]
 fn flores_chosen_by_parameter_with_zero_restitution_names_the_parameter() {
-    let text = with("restitution = 0.8", "restitution = 0.0");
-    let mut s = Simulation::from_scene_str(&text, ORIGIN).unwrap();
-    s.set_by_name("tip_wall.law", 5.0).unwrap();
-    let e = match s.initialize(0.0) {
-        Err(SimError::Scene(e)) => e,
-        other => panic!("{other:?}"),
-    };
-    eprintln!("{e}");
+    let e = error_with_parameter(&with("restitution = 0.8", "restitution = 0.0"), "tip_wall.law", 5.0);
     assert_eq!(e.field, "law");
     assert!(e.message.contains("\"tip_wall.law\" = 5 (flores)") && e.message.contains("restitution"));
     // and the other way round: the scene's law is flores, the host sets e = 0
-    let text = with("law = \"hertz_ln\"", "law = \"flores\"");
-    let mut s = Simulation::from_scene_str(&text, ORIGIN).unwrap();
-    s.set_by_name("tip_wall.restitution", 0.0).unwrap();
-    let e = match s.initialize(0.0) {
-        Err(SimError::Scene(e)) => e,
-        other => panic!("{other:?}"),
-    };
-    eprintln!("{e}");
+    let e = error_with_parameter(
+        &with("law = \"hertz_ln\"", "law = \"flores\""),
+        "tip_wall.restitution",
+        0.0,
+    );
     assert_eq!(e.field, "restitution");
     assert!(e.message.contains("\"tip_wall.restitution\" = 0"));
 }
@@ -715,80 +578,30 @@ fn temp_scene(name: &str, text: &str) -> PathBuf {
 
 #[test]
 fn command_line_gives_one_line_and_a_failure_status_for_each_case() {
-    let long = "m".repeat(255);
-    let cases: Vec<(&str, String, &[&str])> = vec![
-        (
-            "tab.toml",
-            with("name = \"tip\"", "name = \"ti\\tp\""),
-            &["body \"ti\\tp\": name:", "tab"],
-        ),
-        (
-            "bell.toml",
-            with("name = \"tip_wall\"", "name = \"tip\\u0007wall\""),
-            &["contact \"tip\\u{7}wall\": name:"],
-        ),
-        (
-            "percent.toml",
-            with("name = \"tip_wall\"", "name = \"tip%wall\""),
-            &["contact \"tip%wall\": name:", "'%'"],
-        ),
-        (
-            "description.toml",
-            with("description = \"a", "description = \"\\u0001a"),
-            &["[model]: description:", "character 1 is the control character U+0001"],
-        ),
-        (
-            "long.toml",
-            with("name = \"inputs\"", &format!("name = \"{long}\"")),
-            &["[model]: name:", "255 characters"],
-        ),
-        (
-            "origin.toml",
-            with("origin = [0.5, 0.0, -1.0]", "origin = [nan, 0.0, -1.0]"),
-            &["contact \"tip_wall\": origin:"],
-        ),
-        (
-            "size.toml",
-            with("size = [1.0, 1.0]", "size = [inf, 1.0]"),
-            &["contact \"tip_wall\": size:"],
-        ),
-        (
-            "spring.toml",
-            with("point_a = [0.0, 0.0, -2.0]", "point_a = [0.0, nan, -2.0]"),
-            &["spring_damper \"spring\": point_a:"],
-        ),
-        (
-            "axis.toml",
-            with("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 1e300, 0.0]"),
-            &["joint \"pivot\": axis:", "at most 1e12"],
-        ),
-        (
-            "rtol.toml",
-            with("rtol = 1e-8", "rtol = 0.5"),
-            &["[solver]: rtol:", "(got 0.5)"],
-        ),
+    let long = format!("name = \"{}\"", "m".repeat(255));
+    // (file, line in GOOD, what replaces it, fragments of the message)
+    #[rustfmt::skip]
+    let cases: [(&str, &str, &str, &[&str]); 10] = [
+        ("tab.toml", "name = \"tip\"", "name = \"ti\\tp\"", &["body \"ti\\tp\": name:", "tab"]),
+        ("bell.toml", "name = \"tip_wall\"", "name = \"tip\\u0007wall\"", &["contact \"tip\\u{7}wall\": name:"]),
+        ("percent.toml", "name = \"tip_wall\"", "name = \"tip%wall\"", &["contact \"tip%wall\": name:", "'%'"]),
+        ("description.toml", "description = \"a", "description = \"\\u0001a", &["[model]: description:", "character 1 is the control character U+0001"]),
+        ("long.toml", "name = \"inputs\"", &long, &["[model]: name:", "255 characters"]),
+        ("origin.toml", "origin = [0.5, 0.0, -1.0]", "origin = [nan, 0.0, -1.0]", &["contact \"tip_wall\": origin:"]),
+        ("size.toml", "size = [1.0, 1.0]", "size = [inf, 1.0]", &["contact \"tip_wall\": size:"]),
+        ("spring.toml", "point_a = [0.0, 0.0, -2.0]", "point_a = [0.0, nan, -2.0]", &["spring_damper \"spring\": point_a:"]),
+        ("axis.toml", "axis = [0.0, 1.0, 0.0]", "axis = [0.0, 1e300, 0.0]", &["joint \"pivot\": axis:", "at most 1e12"]),
+        ("rtol.toml", "rtol = 1e-8", "rtol = 0.5", &["[solver]: rtol:", "(got 0.5)"]),
     ];
-    for (file, text, fragments) in cases {
-        let p = temp_scene(file, &text);
+    for (file, from, to, fragments) in cases {
+        let p = temp_scene(file, &with(from, to));
         for command in ["simulate", "export"] {
             let out = p.with_extension("fmu");
             let args: Vec<&str> = match command {
                 "simulate" => vec!["simulate", p.to_str().unwrap(), "--quiet"],
                 _ => vec!["export", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
             };
-            let (ok, err) = run_command(&args);
-            eprintln!("{command} {file}: {}", err.trim());
-            assert!(!ok, "{file}: exit status 0");
-            let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-            assert_eq!(lines.len(), 1, "{file}: expected one line, got {err:?}");
-            assert!(!err.contains("panicked") && !err.contains("backtrace"), "{file}: {err}");
-            assert!(
-                lines[0].starts_with(&format!("error: {}: ", p.display())),
-                "{file}: the message does not start with the file: {err}"
-            );
-            for f in fragments {
-                assert!(err.contains(f), "{file}: {err:?} lacks {f:?}");
-            }
+            common::assert_refused_in_one_line(&format!("{command} {file}"), &p, run_command(&args), fragments);
             assert!(!out.exists(), "{file}: a refused scene left an FMU behind");
         }
     }

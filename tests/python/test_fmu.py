@@ -8,6 +8,7 @@ import ctypes
 import gc
 import math
 import subprocess
+import sys
 import urllib.parse
 
 import fmpy
@@ -18,6 +19,10 @@ from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, 
 from fmpy.validation import validate_fmu
 
 from conftest import BINARY, ROOT, SCENES, copy_tree_with_space, refused_at_exit_initialization, scene_path
+
+sys.path.insert(0, str(ROOT / "scripts"))
+from bench_instance_cycles import cycle as instance_cycle  # noqa: E402
+from bench_instance_cycles import rss_kib, slave_of  # noqa: E402
 
 FMI2_WARNING = 1
 FMI2_ERROR = 3
@@ -192,14 +197,6 @@ def test_two_instances_in_one_process_are_independent(unzipped, make_instance):
     assert got_b != reference  # and b really has its own parameters
 
 
-def rss_kib():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    raise RuntimeError("no VmRSS")
-
-
 def test_thousand_instantiate_free_cycles_do_not_grow_memory(unzipped):
     name = SCENES[0]
     md = fmpy.read_model_description(str(unzipped[name]))
@@ -207,21 +204,9 @@ def test_thousand_instantiate_free_cycles_do_not_grow_memory(unzipped):
 
     def cycle():
         # fmpy's own pattern: load the library, instantiate, run a little, free, unload.
-        slave = FMU2Slave(
-            guid=md.guid,
-            unzipDirectory=str(unzipped[name]),
-            modelIdentifier=md.coSimulation.modelIdentifier,
-            instanceName="cycle",
-        )
-        slave.instantiate()
-        slave.setupExperiment(startTime=0.0)
-        slave.enterInitializationMode()
-        slave.exitInitializationMode()
-        slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=step)
-        state = slave.getFMUstate()
-        slave.freeFMUstate(state)
-        slave.terminate()
-        slave.freeInstance()
+        slave = slave_of(md, unzipped[name])
+        instance_cycle(slave, step)
+        slave.freeLibrary()
 
     for _ in range(100):
         cycle()

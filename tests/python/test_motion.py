@@ -20,6 +20,19 @@ from fmpy.fmi1 import FMICallException
 G = 9.81
 M_TABLE, M_MASS, K, C, L0 = 5.0, 1.0, 1000.0, 6.0, 0.5
 
+# the table and the mass each on a vertical prismatic joint to ground
+VERTICAL_SLIDES = "".join(
+    f"""
+[[joint]]
+name = "{body}_slide"
+type = "prismatic"
+parent = "ground"
+child = "{body}"
+axis = [0.0, 0.0, 1.0]
+"""
+    for body in ("table", "mass")
+)
+
 SHAKER = f"""
 [model]
 name = "shaker"
@@ -43,20 +56,7 @@ mass = {M_MASS}
 inertia = [0.01, 0.01, 0.01]
 position = [0.0, 0.0, {L0}]
 
-[[joint]]
-name = "table_slide"
-type = "prismatic"
-parent = "ground"
-child = "table"
-axis = [0.0, 0.0, 1.0]
-
-[[joint]]
-name = "mass_slide"
-type = "prismatic"
-parent = "ground"
-child = "mass"
-axis = [0.0, 0.0, 1.0]
-
+{VERTICAL_SLIDES}
 [[spring_damper]]
 name = "mount"
 body_a = "table"

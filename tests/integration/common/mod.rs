@@ -123,6 +123,27 @@ pub fn run_command(args: &[&str]) -> (bool, String) {
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// Asserts that a command's `(success, stderr)` (of `run_command` on the scene file `scene`) is
+/// a refusal in one line naming the file and holding every fragment, without a panic; `label`
+/// names the case.
+pub fn assert_refused_in_one_line(label: &str, scene: &Path, (ok, err): (bool, String), fragments: &[&str]) {
+    eprintln!("{label}: {}", err.trim());
+    assert!(!ok, "{label}: exit status 0");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{label}: expected one line, got {err:?}");
+    assert!(
+        !err.contains("panicked") && !err.contains("backtrace"),
+        "{label}: {err}"
+    );
+    assert!(
+        lines[0].starts_with(&format!("error: {}: ", scene.display())),
+        "{label}: the message does not start with the file: {err}"
+    );
+    for f in fragments {
+        assert!(err.contains(f), "{label}: {err:?} lacks {f:?}");
+    }
+}
+
 /// Relative difference `|a − b| / |b|`.
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
