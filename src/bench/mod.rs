@@ -95,7 +95,8 @@ pub enum BenchCommand {
         #[command(flatten)]
         sweep: SweepArgs,
         /// Tolerances (rk4: step sizes) run per point, spread evenly on a log scale over
-        /// ±25 % around it; the point reports their medians (1: its own tolerance alone).
+        /// ±25 % around it, four times as many where their evaluations spread by more than
+        /// 2×; the point reports their medians (1: its own tolerance alone).
         #[arg(long, default_value_t = work_precision::SAMPLES)]
         samples: usize,
         /// Output CSV.

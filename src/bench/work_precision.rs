@@ -20,6 +20,9 @@ const RTOL_REF: f64 = 1e-13;
 pub const SAMPLES: usize = 5;
 /// The samples of a point span its tolerance divided and multiplied by this.
 const SAMPLE_SPAN: f64 = 1.25;
+/// A point whose samples' evaluations spread by more than this factor is run at four times
+/// as many tolerances (the first ones among them: 17 for 5).
+const SPREAD_LIMIT: f64 = 2.0;
 
 /// The factors on a point's tolerance of its `k` samples: evenly spaced on a log scale from
 /// 1/[`SAMPLE_SPAN`] to [`SAMPLE_SPAN`], 1 among them when `k` is odd (`[1]` for k ≤ 1).
@@ -311,31 +314,49 @@ pub fn run(args: &SweepArgs, samples: usize, csv_path: &Path) -> Result<(), Stri
             };
             let mut consecutive_failures = 0;
             for tol in tols {
-                // the samples of the point; the first failure or overlong run ends them
+                // the samples of the point; the first failure or overlong run ends them; a
+                // spread beyond SPREAD_LIMIT adds the samples between them
                 let (mut runs, mut failure, mut slowest, mut reps) = (Vec::new(), None, 0.0_f64, repeats);
-                for factor in &factors {
-                    let spec = with(method, tol * factor);
-                    let rec = record(&spec, &outputs)?;
-                    slowest = slowest.max(rec.seconds);
-                    let error = error_of(&truth, &rec.traj);
-                    let (seconds, cpu) = if rec.seconds > budget || rec.failure.is_some() {
-                        reps = 1;
-                        (rec.seconds, f64::NAN)
-                    } else {
-                        let (w, c, _, _) = time_runs(&spec, repeats)?;
-                        (w, c)
-                    };
-                    runs.push(Sample {
-                        error,
-                        seconds,
-                        cpu,
-                        counters: rec.counters,
-                    });
-                    if rec.failure.is_some() || rec.seconds > budget {
-                        failure = rec.failure;
-                        break;
+                let mut run_factors = |list: &[f64], runs: &mut Vec<(f64, Sample)>| -> Result<bool, String> {
+                    for factor in list {
+                        if runs.iter().any(|(f, _)| (f / factor - 1.0).abs() < 1e-9) {
+                            continue;
+                        }
+                        let spec = with(method, tol * factor);
+                        let rec = record(&spec, &outputs)?;
+                        slowest = slowest.max(rec.seconds);
+                        let error = error_of(&truth, &rec.traj);
+                        let (seconds, cpu) = if rec.seconds > budget || rec.failure.is_some() {
+                            reps = 1;
+                            (rec.seconds, f64::NAN)
+                        } else {
+                            let (w, c, _, _) = time_runs(&spec, repeats)?;
+                            (w, c)
+                        };
+                        runs.push((
+                            *factor,
+                            Sample {
+                                error,
+                                seconds,
+                                cpu,
+                                counters: rec.counters,
+                            },
+                        ));
+                        if rec.failure.is_some() || rec.seconds > budget {
+                            failure = rec.failure;
+                            return Ok(false);
+                        }
+                    }
+                    Ok(true)
+                };
+                if run_factors(&factors, &mut runs)? && factors.len() > 1 {
+                    let rhs = runs.iter().map(|(_, r)| r.counters.rhs_evals as f64);
+                    let (lo, hi) = rhs.fold((f64::INFINITY, 0.0_f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+                    if hi > SPREAD_LIMIT * lo {
+                        run_factors(&sample_factors(4 * (factors.len() - 1) + 1), &mut runs)?;
                     }
                 }
+                let runs: Vec<Sample> = runs.into_iter().map(|(_, r)| r).collect();
                 let status = failure.unwrap_or_else(|| "ok".into());
                 let point = Point::of(method, tol, reps, &runs, status.clone());
                 let (error, seconds, c) = (point.error, point.seconds, point.counters);
