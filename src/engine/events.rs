@@ -66,6 +66,28 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     store_margin_values(m, d, at_step_end);
 }
 
+/// The event values at the current state after an event's handling changed the modes of
+/// `d.events.changed` and nothing else (no impulse-law contacts, the state as it was): those
+/// at the step's end (`g_new`, `aux_new`, evaluated at this state before the handling) with
+/// the changed contacts' evaluated again, on the kinematics the handling left (the same
+/// state's), into `g` and `aux` — what [`event_values`] would give there.
+pub fn values_after_mode_changes(m: &Model, d: &mut Data) {
+    let n_contacts = m.contacts.len();
+    let ev = &mut d.events;
+    ev.g.copy_from_slice(&ev.g_new);
+    ev.aux.copy_from_slice(&ev.aux_new);
+    for k in 0..d.events.changed.len() {
+        let i = d.events.changed[k];
+        let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
+        let slip = modes::slip_event_value(m, d, i);
+        let ev = &mut d.events;
+        ev.g[i] = mode;
+        ev.g[n_contacts + i] = clamp_value;
+        ev.g[2 * n_contacts + i] = slip;
+        ev.aux[i] = a;
+    }
+}
+
 /// The contact groups' entry of the event values at `d.eval_state` (kinematics evaluated
 /// there): (time to move half the margin, largest displacement) into `aux` (`at_step_end`:
 /// `aux_new`).

@@ -114,6 +114,7 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
     }
     let n_contacts = m.contacts.len();
     let mut impulse_work = false;
+    d.events.changed.clear();
     for i in 0..n_contacts {
         let c = &m.contacts[i];
         let gap = gap(m, d, i);
@@ -144,9 +145,11 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 let memory = &mut d.contact_memory[i];
                 memory.active = true;
                 memory.impact_velocity = v;
+                d.events.changed.push(i);
                 d.log_event(i, ContactEventKind::Touch, gap.delta, gap.delta_dot, 0.0);
             } else if now <= 0.0 && mem.active {
                 d.contact_memory[i].active = false;
+                d.events.changed.push(i);
                 d.log_event(i, ContactEventKind::Separation, gap.delta, gap.delta_dot, 0.0);
             }
         }
