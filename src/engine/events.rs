@@ -207,6 +207,24 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
 /// (docs/benchmarks.md §16).
 const SEPARATION_APPROACH: f64 = 0.75;
 
+/// The predicted time to the separation of an opening contact at penetration `delta` > 0 and
+/// rate `rate` < 0: `δ/|δ̇|`, or, where the rate fell over the last step (`rate_before` at its
+/// start, `last_step` ago: the contact force still pushes the bodies apart), the root of
+/// `δ + δ̇ t + δ̈ t²/2` with that mean `δ̈`, which comes earlier. (The mean over the last step
+/// is larger than the present `|δ̈|` while the force fades toward the separation: the
+/// prediction errs early.)
+fn time_to_separation(delta: f64, rate: f64, rate_before: f64, last_step: f64) -> f64 {
+    let linear = delta / -rate;
+    let acceleration = (rate - rate_before) / last_step;
+    if last_step > 0.0 && acceleration < 0.0 {
+        // the root in a form without cancellation
+        let quadratic = 2.0 * delta / (-rate + (rate * rate - 2.0 * acceleration * delta).sqrt());
+        quadratic.min(linear)
+    } else {
+        linear
+    }
+}
+
 /// Largest step [s] from the current state before an inactive contact could close its gap and
 /// one sphere radius more (and, for active contacts that close, the time to penetrate half of
 /// `max_penetration` further): per contact the time `t` in which `v t + a t²/2 = gap + R`, with
@@ -220,6 +238,9 @@ const SEPARATION_APPROACH: f64 = 0.75;
 pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
     let a = m.gravity.norm();
     let mut bound = f64::INFINITY;
+    // the last step's length, over which `aux_new` holds the rates at its start (after an
+    // accepted step; 0 after a restart)
+    let last_step = d.solver.method().map_or(0.0, |s| s.t() - s.t_prev());
     for (i, c) in m.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux[i];
         if d.contact_memory[i].active {
@@ -242,7 +263,8 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
             // 9.4e-11, for 2-8 % more evaluations). (The floor is computed only where it
             // could be the least bound: the same bound, without its power at every step.)
             if c.law != Law::Impulse && closing < 0.0 && delta > 0.0 {
-                let approach = SEPARATION_APPROACH * delta / -closing;
+                let approach =
+                    SEPARATION_APPROACH * time_to_separation(delta, closing, d.events.aux_new[i].1, last_step);
                 if approach < bound {
                     if let Some(floor) = touch_step(m, i, -closing, m.step_rtol_powers[i][1]) {
                         bound = bound.min(approach.max(floor));
