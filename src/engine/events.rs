@@ -193,18 +193,17 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
     b
 }
 
-/// The fraction of the predicted time to separation (`δ / |δ̇|` at the present rate) that a
-/// step toward the separation of an active continuous contact may take. The steps that end
-/// before the separation are seen by the error estimate (Dormand-Prince on a force
-/// `(t_s − t)^{3/2}` that vanishes a quarter of a step or more beyond the step's end: the
-/// estimate is as large as the error; 0.5-0.3 of it when the end is closer), only the step
-/// that crosses it is not, and that one is bounded by the floor ([`touch_step`]). So the
-/// fraction only has to keep the steps short of the separation while the linear prediction
-/// holds: `δ/|δ̇|` overestimates the time to separation as long as the contact force still
-/// pushes (a half-sine pulse: by 9 % a phase of 0.5 rad before its end, 33 % at 0.95 rad),
-/// and 0.75 allows for 33 %. With 0.5 (the former value) every separation took about ten
-/// halving steps; with 0.75 the bundled pile's settled phase takes 22 % fewer steps
-/// (docs/benchmarks.md §16).
+/// The fraction of the predicted time to separation ([`time_to_separation`]) that a step
+/// toward the separation of an active continuous contact may take. The steps that end before
+/// the separation are seen by the error estimate (Dormand-Prince on a force `(t_s − t)^{3/2}`
+/// that vanishes a quarter of a step or more beyond the step's end: the estimate is as large
+/// as the error; 0.5-0.3 of it when the end is closer), only the step that crosses it is not,
+/// and that one is bounded by the floor ([`touch_step`]). So the fraction only has to keep the
+/// steps short of the separation while the prediction holds. With 0.5 and `δ/|δ̇|` (before)
+/// every separation in the bundled pile's settled phase took about ten halving steps; 0.75 on
+/// the linear prediction alone took 22 % fewer steps there but overran separations at loose
+/// tolerances (bouncing ball, rtol 1e-3: error 3.0e-3 → 8.9e-3), which the quadratic
+/// prediction prevents (2.9e-3; docs/contact.md, docs/benchmarks.md §16).
 const SEPARATION_APPROACH: f64 = 0.75;
 
 /// The predicted time to the separation of an opening contact at penetration `delta` > 0 and
