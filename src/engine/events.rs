@@ -214,14 +214,13 @@ const SEPARATION_APPROACH: f64 = 0.75;
 /// prediction errs early.)
 fn time_to_separation(delta: f64, rate: f64, rate_before: f64, last_step: f64) -> f64 {
     let linear = delta / -rate;
-    let acceleration = (rate - rate_before) / last_step;
-    if last_step > 0.0 && acceleration < 0.0 {
-        // the root in a form without cancellation
-        let quadratic = 2.0 * delta / (-rate + (rate * rate - 2.0 * acceleration * delta).sqrt());
-        quadratic.min(linear)
-    } else {
-        linear
+    if !(last_step > 0.0 && rate < rate_before) {
+        return linear;
     }
+    let acceleration = (rate - rate_before) / last_step;
+    // the root in a form without cancellation
+    let quadratic = 2.0 * delta / (-rate + (rate * rate - 2.0 * acceleration * delta).sqrt());
+    quadratic.min(linear)
 }
 
 /// Largest step [s] from the current state before an inactive contact could close its gap and
