@@ -66,6 +66,28 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     store_margin_values(m, d, at_step_end);
 }
 
+/// The event values at the current state after an event's handling changed the modes of
+/// `d.events.changed` and nothing else (no impulse-law contacts, the state as it was): those
+/// at the step's end (`g_new`, `aux_new`, evaluated at this state before the handling) with
+/// the changed contacts' evaluated again, on the kinematics the handling left (the same
+/// state's), into `g` and `aux` — what [`event_values`] would give there.
+pub fn values_after_mode_changes(m: &Model, d: &mut Data) {
+    let n_contacts = m.contacts.len();
+    let ev = &mut d.events;
+    ev.g.copy_from_slice(&ev.g_new);
+    ev.aux.copy_from_slice(&ev.aux_new);
+    for k in 0..d.events.changed.len() {
+        let i = d.events.changed[k];
+        let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
+        let slip = modes::slip_event_value(m, d, i);
+        let ev = &mut d.events;
+        ev.g[i] = mode;
+        ev.g[n_contacts + i] = clamp_value;
+        ev.g[2 * n_contacts + i] = slip;
+        ev.aux[i] = a;
+    }
+}
+
 /// The contact groups' entry of the event values at `d.eval_state` (kinematics evaluated
 /// there): (time to move half the margin, largest displacement) into `aux` (`at_step_end`:
 /// `aux_new`).
@@ -171,6 +193,36 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
     b
 }
 
+/// The fraction of the predicted time to separation ([`time_to_separation`]) that a step
+/// toward the separation of an active continuous contact may take. The steps that end before
+/// the separation are seen by the error estimate (Dormand-Prince on a force `(t_s − t)^{3/2}`
+/// that vanishes a quarter of a step or more beyond the step's end: the estimate is as large
+/// as the error; 0.5-0.3 of it when the end is closer), only the step that crosses it is not,
+/// and that one is bounded by the floor ([`touch_step`]). So the fraction only has to keep the
+/// steps short of the separation while the prediction holds. With 0.5 and `δ/|δ̇|` (before)
+/// every separation in the bundled pile's settled phase took about ten halving steps; 0.75 on
+/// the linear prediction alone took 22 % fewer steps there but overran separations at loose
+/// tolerances (bouncing ball, rtol 1e-3: error 3.0e-3 → 8.9e-3), which the quadratic
+/// prediction prevents (2.9e-3; docs/contact.md, docs/benchmarks.md §16).
+const SEPARATION_APPROACH: f64 = 0.75;
+
+/// The predicted time to the separation of an opening contact at penetration `delta` > 0 and
+/// rate `rate` < 0: `δ/|δ̇|`, or, where the rate fell over the last step (`rate_before` at its
+/// start, `last_step` ago: the contact force still pushes the bodies apart), the root of
+/// `δ + δ̇ t + δ̈ t²/2` with that mean `δ̈`, which comes earlier. (The mean over the last step
+/// is larger than the present `|δ̈|` while the force fades toward the separation: the
+/// prediction errs early.)
+fn time_to_separation(delta: f64, rate: f64, rate_before: f64, last_step: f64) -> f64 {
+    let linear = delta / -rate;
+    if !(last_step > 0.0 && rate < rate_before) {
+        return linear;
+    }
+    let acceleration = (rate - rate_before) / last_step;
+    // the root in a form without cancellation
+    let quadratic = 2.0 * delta / (-rate + (rate * rate - 2.0 * acceleration * delta).sqrt());
+    quadratic.min(linear)
+}
+
 /// Largest step [s] from the current state before an inactive contact could close its gap and
 /// one sphere radius more (and, for active contacts that close, the time to penetrate half of
 /// `max_penetration` further): per contact the time `t` in which `v t + a t²/2 = gap + R`, with
@@ -184,6 +236,9 @@ fn locate(m: &Model, d: &mut Data, probe: Probe, t0: f64, t1: f64, g0: f64, g1: 
 pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
     let a = m.gravity.norm();
     let mut bound = f64::INFINITY;
+    // the last step's length, over which `aux_new` holds the rates at its start (after an
+    // accepted step; 0 after a restart)
+    let last_step = d.solver.method().map_or(0.0, |s| s.t() - s.t_prev());
     for (i, c) in m.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux[i];
         if d.contact_memory[i].active {
@@ -195,17 +250,23 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
             if c.law != Law::Impulse && closing > 0.0 {
                 bound = bound.min(0.5 * c.max_penetration / closing);
             }
-            // One that opens: half the time to separation at the present speed, but not less
-            // than `0.5 rtol^{1/(n+1)} δ_max / v` ([`touch_step`]), so that the steps shrink
-            // toward the separation. The step that crosses it integrates through the end of
-            // the force `K δⁿ`, whose derivatives are unbounded there and which the error
-            // estimate does not see; the velocity it changes grows as its length to the power
-            // n + 1, so a length ∝ rtol^{1/(n+1)} keeps that error in proportion to rtol
-            // (two spheres, error of the final velocities: rtol 1e-6 3.3e-5 → 7.3e-7, 1e-8
-            // 5.1e-7 → 8.7e-9, 1e-10 3.2e-9 → 9.4e-11, for 2-8 % more evaluations).
+            // One that opens: [`SEPARATION_APPROACH`] of the time to separation at the
+            // present speed, but not less than `0.5 rtol^{1/(n+1)} δ_max / v`
+            // ([`touch_step`]), so that the steps shrink toward the separation. The step that
+            // crosses it integrates through the end of the force `K δⁿ`, whose derivatives
+            // are unbounded there and which the error estimate does not see; the velocity it
+            // changes grows as its length to the power n + 1, so a length ∝ rtol^{1/(n+1)}
+            // keeps that error in proportion to rtol (two spheres, error of the final
+            // velocities: rtol 1e-6 3.3e-5 → 7.3e-7, 1e-8 5.1e-7 → 8.7e-9, 1e-10 3.2e-9 →
+            // 9.4e-11, for 2-8 % more evaluations). (The floor is computed only where it
+            // could be the least bound: the same bound, without its power at every step.)
             if c.law != Law::Impulse && closing < 0.0 && delta > 0.0 {
-                if let Some(floor) = touch_step(m, i, -closing, m.step_rtol_powers[i][1]) {
-                    bound = bound.min((0.5 * delta / -closing).max(floor));
+                let approach =
+                    SEPARATION_APPROACH * time_to_separation(delta, closing, d.events.aux_new[i].1, last_step);
+                if approach < bound {
+                    if let Some(floor) = touch_step(m, i, -closing, m.step_rtol_powers[i][1]) {
+                        bound = bound.min(approach.max(floor));
+                    }
                 }
             }
             continue;

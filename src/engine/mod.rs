@@ -390,7 +390,16 @@ fn stop_at_event(m: &Model, d: &mut Data, t: f64) -> Result<(), EngineError> {
     events::event_values(m, d, true);
     let result = modes::handle_events(m, d);
     let h = d.solver.method().map_or(0.0, |i| i.next_step());
-    restart(m, d, h.min(events::first_contact_step(m, d)), false)?;
+    let h = h.min(events::first_contact_step(m, d));
+    if result.is_ok() && !m.contacts.iter().any(|c| c.law == Law::Impulse) {
+        // The handling changed no state, only the modes of `d.events.changed`: the event
+        // values at the restart are those just evaluated at this state, except those
+        // contacts' (their clamp and slip functions read the mode), evaluated again on the
+        // same kinematics — the numbers `restart` would evaluate, without every contact's.
+        events::values_after_mode_changes(m, d);
+        return restart_with_values(m, d, h);
+    }
+    restart(m, d, h, false)?;
     result.map_err(|e| fail(d, e))
 }
 
@@ -410,6 +419,21 @@ fn restart(m: &Model, d: &mut Data, h: f64, warm: bool) -> Result<(), EngineErro
     })?;
     d.eval_state.copy_from_slice(&d.state);
     events::event_values(m, d, false);
+    d.solver.started = true;
+    Ok(())
+}
+
+/// [`restart`] after an event (nothing kept) whose event values at the current state are in
+/// `d.events.g` and `aux` already: the kinematics there evaluated again (so that the data
+/// hold what `restart` leaves), not the event functions.
+fn restart_with_values(m: &Model, d: &mut Data, h: f64) -> Result<(), EngineError> {
+    let t = d.time;
+    with_stepper(m, d, |s, rhs| {
+        s.start.copy_from_slice(&rhs.data.state);
+        s.method.reset(rhs, t, &s.start, h);
+    })?;
+    d.eval_state.copy_from_slice(&d.state);
+    kinematics(m, d);
     d.solver.started = true;
     Ok(())
 }

@@ -12,7 +12,7 @@ use crate::contact::{
     broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap,
 };
 use crate::forward::{evaluate, evaluate_current};
-use crate::kinematics::frame;
+use crate::kinematics::{frame, kinematics};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 
@@ -98,10 +98,23 @@ pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
 /// Applies the mode changes at an event state (`d.events.g` before, `d.events.g_new` now):
 /// touch and separation of continuous contacts (logged), cuts of their force (logged), and
 /// the impulse-law contacts settled. An error when a contact reached `max_penetration`.
+///
+/// Without impulse-law contacts the modes change by the gaps alone, and the kinematics at
+/// the event state is all that is evaluated (the force a cut logs is the law's, as the
+/// right-hand side computes it); the integrator's restart evaluates the rest there. With
+/// them, the whole evaluation (their resting forces are multipliers of the constrained
+/// solve, and their impacts read the mass matrix).
 pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
-    evaluate_current(m, d);
+    let impulse_law = m.contacts.iter().any(|c| c.law == Law::Impulse);
+    if impulse_law {
+        evaluate_current(m, d);
+    } else {
+        d.eval_state.copy_from_slice(&d.state);
+        kinematics(m, d);
+    }
     let n_contacts = m.contacts.len();
     let mut impulse_work = false;
+    d.events.changed.clear();
     for i in 0..n_contacts {
         let c = &m.contacts[i];
         let gap = gap(m, d, i);
@@ -132,9 +145,11 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 let memory = &mut d.contact_memory[i];
                 memory.active = true;
                 memory.impact_velocity = v;
+                d.events.changed.push(i);
                 d.log_event(i, ContactEventKind::Touch, gap.delta, gap.delta_dot, 0.0);
             } else if now <= 0.0 && mem.active {
                 d.contact_memory[i].active = false;
+                d.events.changed.push(i);
                 d.log_event(i, ContactEventKind::Separation, gap.delta, gap.delta_dot, 0.0);
             }
         }
@@ -145,7 +160,15 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
             } else {
                 ContactEventKind::Unclamp
             };
-            let f = d.contact_out[i].force;
+            // (the force before this event's changes, as the evaluation at the event state
+            // gives it)
+            let f = if impulse_law {
+                d.contact_out[i].force
+            } else if mem.active {
+                laws::force(c, gap.delta, gap.delta_dot, mem.impact_velocity).total
+            } else {
+                0.0
+            };
             d.log_event(i, kind, gap.delta, gap.delta_dot, f);
         }
     }

@@ -159,6 +159,9 @@ pub struct EventWork {
     pub aux: Vec<(f64, f64)>,
     /// The same at the end of the step being checked.
     pub aux_new: Vec<(f64, f64)>,
+    /// The continuous contacts whose mode the last event's handling changed (touch,
+    /// separation), in the order it changed them (capacity: the number of contacts).
+    pub changed: Vec<usize>,
 }
 
 /// Preallocated buffers of the impulse law's mode changes, sized at compilation by the
@@ -373,6 +376,7 @@ impl Data {
                 g_new: vec![0.0; 3 * ncontacts],
                 aux: vec![(0.0, 0.0); ncontacts + 1],
                 aux_new: vec![(0.0, 0.0); ncontacts + 1],
+                changed: Vec::with_capacity(ncontacts),
             },
             impacts: ImpactWork {
                 solve: ImpulseWork::new(nv, model.fixed_rows(), impulse_contacts),
