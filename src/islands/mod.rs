@@ -36,7 +36,7 @@ use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::kinematics::kinematics;
 use crate::model::contact::ContactMemory;
-use crate::model::data::EVENT_LOG_CAPACITY;
+use crate::model::data::{FreshIntegrators, EVENT_LOG_CAPACITY};
 use crate::model::groups::Candidate;
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
@@ -69,6 +69,10 @@ pub const ROUND_FRACTION: f64 = 0.35;
 /// The pool of compiled parts holds up to this many per body of the scene (then it starts
 /// empty again).
 const POOL_PER_BODY: usize = 4;
+
+/// The data of up to this many islands that ended are kept for new islands (more end at one
+/// forming only where as many are formed).
+const SPARE_DATA: usize = 256;
 
 fn fail(time: f64, message: impl Into<String>) -> EngineError {
     EngineError {
@@ -144,6 +148,12 @@ pub struct Islands {
     params: Arc<Parameters>,
     /// The compiled parts of islands that ended.
     pool: Pool,
+    /// The data of islands that ended, by the size of their state, for new islands' data
+    /// (their buffers and integrators reused), and how many it holds.
+    spare: HashMap<usize, Vec<Data>>,
+    n_spare: usize,
+    /// Makes the spare data's integrators fresh.
+    fresh: FreshIntegrators,
 }
 
 /// The scene and its origin: what an island is compiled from (with the parameter values the
@@ -258,6 +268,9 @@ impl Islands {
             cutter: ModelCutter::new(src.scene, m),
             params: Arc::new(params),
             pool: Pool::default(),
+            spare: HashMap::new(),
+            n_spare: 0,
+            fresh: FreshIntegrators::default(),
         }
     }
 
@@ -413,6 +426,10 @@ impl Islands {
             self.params.solver.max_steps,
             limit,
         );
+        if self.n_spare < SPARE_DATA {
+            self.n_spare += 1;
+            self.spare.entry(island.data.state.len()).or_default().push(island.data);
+        }
     }
 
     /// The island of `bodies` with the candidate pairs `candidates` (scene numbering), its
@@ -443,7 +460,15 @@ impl Islands {
         // (the scene's data keeps the log; an island's holds the events of one advance and
         // starts small: a full log's buffer would cost more to clear than the island to
         // compile)
-        let mut data = Data::with_event_log(&model, 0);
+        let spare = self.spare.get_mut(&model.nstate()).and_then(Vec::pop);
+        let mut data = match spare {
+            Some(mut data) => {
+                self.n_spare -= 1;
+                data.refit(&model, 0, &mut self.fresh);
+                data
+            }
+            None => Data::with_event_log(&model, 0),
+        };
         let diss = model.dissipated_index();
         data.state[diss] = 0.0;
         if let Some(i) = model.input_work_index() {

@@ -15,14 +15,27 @@ pub(crate) struct Projection {
 
 impl Projection {
     pub(crate) fn with_rows(nl: usize) -> Projection {
-        Projection {
-            nl,
-            schur: vec![0.0; nl * nl],
-            perm: vec![0; nl],
-            rank: 0,
-            b: vec![0.0; nl],
-            work: vec![0.0; nl],
-        }
+        let mut p = Projection::default();
+        p.refit(nl);
+        p
+    }
+
+    /// Makes these buffers what [`Projection::with_rows`]`(nl)` gives, reusing them.
+    fn refit(&mut self, nl: usize) {
+        let Projection {
+            nl: rows,
+            schur,
+            perm,
+            rank,
+            b,
+            work,
+        } = self;
+        *rows = nl;
+        filled(schur, nl * nl, 0.0);
+        filled(perm, nl, 0);
+        *rank = 0;
+        filled(b, nl, 0.0);
+        filled(work, nl, 0.0);
     }
 }
 
@@ -43,17 +56,33 @@ pub struct LcpWork {
 impl LcpWork {
     /// Buffers for problems of up to `n` unknowns.
     pub fn new(n: usize) -> LcpWork {
-        LcpWork {
-            n,
-            active: vec![false; n],
-            idx: Vec::with_capacity(n),
-            p: vec![0.0; n],
-            a: vec![0.0; n * n],
-            rhs: vec![0.0; n],
-            perm: vec![0; n],
-            work: vec![0.0; n],
-            wv: vec![0.0; n],
-        }
+        let mut w = LcpWork::default();
+        w.refit(n);
+        w
+    }
+
+    /// Makes these buffers what [`LcpWork::new`]`(n)` gives, reusing them.
+    fn refit(&mut self, n: usize) {
+        let LcpWork {
+            n: size,
+            active,
+            idx,
+            p,
+            a,
+            rhs,
+            perm,
+            work,
+            wv,
+        } = self;
+        *size = n;
+        filled(active, n, false);
+        emptied(idx, n);
+        filled(p, n, 0.0);
+        filled(a, n * n, 0.0);
+        filled(rhs, n, 0.0);
+        filled(perm, n, 0);
+        filled(work, n, 0.0);
+        filled(wv, n, 0.0);
     }
 
     /// Grows the buffers (allocates) only if `n` exceeds the size they were made for.
@@ -81,15 +110,23 @@ pub(crate) struct FrictionWork {
 }
 
 impl FrictionWork {
-    fn new(nv: usize, k: usize) -> FrictionWork {
-        FrictionWork {
-            fric: Vec::with_capacity(k),
-            trows: vec![0.0; 2 * k * nv],
-            gt: vec![0.0; 2 * k * nv],
-            wtt: vec![0.0; 4 * k * k],
-            bt: vec![0.0; 2 * k],
-            pt: vec![0.0; 2 * k],
-        }
+    /// Makes these buffers those of rounds of up to `k` contacts in a model with `nv`
+    /// velocities, reusing them.
+    fn refit(&mut self, nv: usize, k: usize) {
+        let FrictionWork {
+            fric,
+            trows,
+            gt,
+            wtt,
+            bt,
+            pt,
+        } = self;
+        emptied(fric, k);
+        filled(trows, 2 * k * nv, 0.0);
+        filled(gt, 2 * k * nv, 0.0);
+        filled(wtt, 4 * k * k, 0.0);
+        filled(bt, 2 * k, 0.0);
+        filled(pt, 2 * k, 0.0);
     }
 }
 
@@ -128,26 +165,52 @@ impl ImpulseWork {
     /// Buffers for up to `k` simultaneous impacts in a model with `nv` velocities and `nl`
     /// loop-constraint rows.
     pub fn new(nv: usize, nl: usize, k: usize) -> ImpulseWork {
-        ImpulseWork {
-            k,
-            nv,
-            proj: Projection::with_rows(nl),
-            jrows: vec![0.0; k * nv],
-            gj: vec![0.0; k * nv],
-            qvel: vec![0.0; nv],
-            rate: vec![0.0; k],
-            impulses: vec![0.0; k],
-            exact: Vec::with_capacity(k),
-            w: vec![0.0; k * k],
-            q: vec![0.0; k],
-            p: vec![0.0; k],
-            lcp: LcpWork::new(k),
-            friction: FrictionWork::new(nv, k),
-            row: vec![0.0; nv],
-            free: vec![0.0; nv],
-            x: vec![0.0; nv],
-            last: 0,
-        }
+        let mut w = ImpulseWork::default();
+        w.refit(nv, nl, k);
+        w
+    }
+
+    /// Makes these buffers what [`ImpulseWork::new`]`(nv, nl, k)` gives, reusing them (they
+    /// allocate only where they are too small).
+    pub(crate) fn refit(&mut self, nv: usize, nl: usize, k: usize) {
+        let ImpulseWork {
+            k: rounds,
+            nv: velocities,
+            proj,
+            jrows,
+            gj,
+            qvel,
+            rate,
+            impulses,
+            exact,
+            w,
+            q,
+            p,
+            lcp,
+            friction,
+            row,
+            free,
+            x,
+            last,
+        } = self;
+        *rounds = k;
+        *velocities = nv;
+        proj.refit(nl);
+        filled(jrows, k * nv, 0.0);
+        filled(gj, k * nv, 0.0);
+        filled(qvel, nv, 0.0);
+        filled(rate, k, 0.0);
+        filled(impulses, k, 0.0);
+        emptied(exact, k);
+        filled(w, k * k, 0.0);
+        filled(q, k, 0.0);
+        filled(p, k, 0.0);
+        lcp.refit(k);
+        friction.refit(nv, k);
+        filled(row, nv, 0.0);
+        filled(free, nv, 0.0);
+        filled(x, nv, 0.0);
+        *last = 0;
     }
 
     /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
@@ -174,4 +237,16 @@ impl ImpulseWork {
             *self = ImpulseWork::new(nv, nl, k.max(self.k));
         }
     }
+}
+
+/// Sets `v` to `n` copies of `x`, keeping its buffer (it allocates only when too small).
+pub(crate) fn filled<T: Clone>(v: &mut Vec<T>, n: usize, x: T) {
+    v.clear();
+    v.resize(n, x);
+}
+
+/// Empties `v` and makes room for `n` entries, keeping its buffer.
+pub(crate) fn emptied<T>(v: &mut Vec<T>, n: usize) {
+    v.clear();
+    v.reserve(n);
 }
