@@ -109,7 +109,7 @@ pub struct Island {
 /// The islands of a scene, and what they do not hold.
 pub struct Islands {
     /// The islands, ordered by their first body.
-    pub parts: Vec<Island>,
+    pub parts: Vec<Box<Island>>,
     /// The counters of the scene before the islands, and of islands that no longer exist.
     retired: Counters,
     /// Dissipated energy not held by a present island [J].
@@ -320,7 +320,7 @@ impl Islands {
         d: &Data,
         candidates: &[Candidate],
         memory: &Memory,
-        old: Vec<Island>,
+        old: Vec<Box<Island>>,
     ) -> Result<(), EngineError> {
         let fresh = old.is_empty();
         // per body: the step its island would have taken next (a new island starts with the
@@ -349,7 +349,7 @@ impl Islands {
         for (k, island) in old.iter().enumerate() {
             by_first[island.bodies[0]] = k;
         }
-        let mut old: Vec<Option<Island>> = old.into_iter().map(Some).collect();
+        let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (bodies, cands) in parts.into_iter().zip(per_island) {
             let former = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
@@ -403,7 +403,7 @@ impl Islands {
 
     /// Keeps the counters and the dissipated energy of an island that ends, and its
     /// compiled part in the pool.
-    fn retire(&mut self, island: Island) {
+    fn retire(&mut self, island: Box<Island>) {
         self.retired = self.retired + island.data.counters;
         self.dissipated_base += island.dissipated();
         self.input_work_base += island.input_work();
@@ -443,7 +443,7 @@ impl Islands {
         bodies: Vec<usize>,
         candidates: Vec<Candidate>,
         memory: &Memory,
-    ) -> Result<Island, EngineError> {
+    ) -> Result<Box<Island>, EngineError> {
         let key = (bodies, candidates);
         let ((bodies, candidates), part) = match self.pool.take(&key) {
             Some(pooled) => {
@@ -489,7 +489,7 @@ impl Islands {
         for (lb, &gb) in bodies.iter().enumerate() {
             data.broad_reference[lb] = d.broad_reference[gb];
         }
-        let mut island = Island {
+        let mut island = Box::new(Island {
             model,
             data,
             bodies,
@@ -500,7 +500,7 @@ impl Islands {
             driven: part.driven,
             saved: Vec::new(),
             saved_log: 0,
-        };
+        });
         island.take_coordinates(d);
         Ok(island)
     }
