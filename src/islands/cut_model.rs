@@ -15,6 +15,7 @@ use crate::model::contact::ContactElement;
 use crate::model::groups::{Candidate, GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
@@ -31,9 +32,9 @@ pub(super) struct ModelCutter {
     material_index: HashMap<String, usize>,
     /// The contact elements of the candidate pairs met so far (scene numbering, no name), with
     /// their [`Model::step_rtol_powers`].
-    elements: HashMap<Candidate, (ContactElement, [f64; 2])>,
+    elements: FxHashMap<Candidate, (ContactElement, [f64; 2])>,
     /// The names of candidate pairs' contacts by the island's numbering of their shapes.
-    names: HashMap<Candidate, String>,
+    names: FxHashMap<Candidate, String>,
     /// Scratch: per scene body its island index, per scene group its island index.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
@@ -99,8 +100,8 @@ impl ModelCutter {
                 .enumerate()
                 .map(|(i, x)| (x.name.clone(), i))
                 .collect(),
-            elements: HashMap::new(),
-            names: HashMap::new(),
+            elements: FxHashMap::default(),
+            names: FxHashMap::default(),
             local_body: vec![usize::MAX; scene.body.len()],
             local_group: vec![usize::MAX; group_index.len()],
         }

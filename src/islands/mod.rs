@@ -40,7 +40,7 @@ use crate::model::data::{FreshIntegrators, EVENT_LOG_CAPACITY};
 use crate::model::groups::Candidate;
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
 
 mod cut;
@@ -268,7 +268,7 @@ impl Islands {
             cutter: ModelCutter::new(src.scene, m),
             params: Arc::new(params),
             pool: Pool::default(),
-            spare: HashMap::new(),
+            spare: HashMap::default(),
             n_spare: 0,
             fresh: FreshIntegrators::default(),
         }
@@ -293,7 +293,7 @@ impl Islands {
     fn memory_of_islands(&self, m: &Model) -> Memory {
         let mut memory = Memory {
             explicit: vec![ContactMemory::default(); m.groups.n_explicit],
-            candidates: HashMap::new(),
+            candidates: HashMap::default(),
         };
         for island in &self.parts {
             let mem = &island.data.contact_memory;

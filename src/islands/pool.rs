@@ -10,7 +10,7 @@ use super::Source;
 use crate::compile::Parameters;
 use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Model};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 /// An island's model and its numbering against the scene's.
 pub(super) struct Compiled {

@@ -8,7 +8,7 @@ use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactMemory, ContactOutput};
 use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
