@@ -446,7 +446,8 @@ mod tests {
         let all: Key = ((0..m.bodies.len()).collect(), m.groups.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
-        for bodies in partition(&m, &m.groups.candidates) {
+        for bodies in partition(&m, &m.groups.candidates).iter() {
+            let bodies = bodies.to_vec();
             let cands = m
                 .groups
                 .candidates

@@ -333,15 +333,24 @@ impl Islands {
             }
         }
         let parts = partition(m, candidates);
-        for (k, bodies) in parts.iter().enumerate() {
-            for &b in bodies {
-                self.island_of[b] = k;
-            }
-        }
-        let mut per_island: Vec<Vec<Candidate>> = vec![Vec::new(); parts.len()];
+        // the candidate pairs by island (in their order): island k's are
+        // `by_island[cand_start[k]..cand_start[k + 1]]`
+        let mut cand_start = vec![0; parts.len() + 1];
         for c in candidates {
             if let Some(b) = candidate_body(m, c) {
-                per_island[self.island_of[b]].push(*c);
+                cand_start[parts.island_of[b] + 1] += 1;
+            }
+        }
+        for k in 1..cand_start.len() {
+            cand_start[k] += cand_start[k - 1];
+        }
+        let mut next = cand_start.clone();
+        let mut by_island = candidates.to_vec();
+        for c in candidates {
+            if let Some(b) = candidate_body(m, c) {
+                let k = parts.island_of[b];
+                by_island[next[k]] = *c;
+                next[k] += 1;
             }
         }
         // the former islands by their first body
@@ -351,7 +360,8 @@ impl Islands {
         }
         let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
-        for (bodies, cands) in parts.into_iter().zip(per_island) {
+        for (k, bodies) in parts.iter().enumerate() {
+            let cands = &by_island[cand_start[k]..cand_start[k + 1]];
             let former = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
             if let Some(mut island) = former {
                 if island.bodies == bodies && island.candidates == cands {
@@ -365,7 +375,7 @@ impl Islands {
                 self.retire(island);
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
-            let mut island = self.compile_island(src, m, d, bodies, cands, memory)?;
+            let mut island = self.compile_island(src, m, d, bodies.to_vec(), cands.to_vec(), memory)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -396,6 +406,7 @@ impl Islands {
             self.retire(island);
         }
         self.parts = out;
+        self.island_of = parts.island_of;
         self.candidates = candidates.to_vec();
         self.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
         Ok(())
