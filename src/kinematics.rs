@@ -172,7 +172,12 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
 /// what [`joint_kinematics`] computes of them, the same operations in the same order (so the
 /// same numbers, bit for bit: `poses_and_velocities_are_those_of_kinematics`), without the
 /// rates, bias acceleration and inertia.
-fn free_joint_motion(p: &Frame, q: &[f64], w: &[f64], s: &mut [Spatial]) -> (Vector3<f64>, UnitQuaternion<f64>, Spatial) {
+fn free_joint_motion(
+    p: &Frame,
+    q: &[f64],
+    w: &[f64],
+    s: &mut [Spatial],
+) -> (Vector3<f64>, UnitQuaternion<f64>, Spatial) {
     let quat = p.quat * quat_at(&q[3..7]);
     let rot = *quat.to_rotation_matrix().matrix();
     let pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
@@ -201,7 +206,10 @@ pub fn poses_and_velocities(m: &Model, d: &mut Data) {
     }
     let ground = Frame::ground();
     for fb in &m.plan.free {
-        let (q, w) = (&d.eval_state[fb.qpos..fb.qpos + 7], &d.eval_state[m.nq + fb.qvel..m.nq + fb.qvel + 6]);
+        let (q, w) = (
+            &d.eval_state[fb.qpos..fb.qpos + 7],
+            &d.eval_state[m.nq + fb.qvel..m.nq + fb.qvel + 6],
+        );
         let (pos, quat, vel) = free_joint_motion(&ground, q, w, &mut d.dof_s[fb.qvel..fb.qvel + 6]);
         let b = fb.body;
         d.body_pos[b] = pos;

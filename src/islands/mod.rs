@@ -149,9 +149,12 @@ pub struct Islands {
     /// The compiled parts of islands that ended.
     pool: Pool,
     /// The data of islands that ended, by the size of their state, for new islands' data
-    /// (their buffers and integrators reused), and how many it holds.
+    /// (their buffers and integrators reused), how many it holds and may hold.
     spare: HashMap<usize, Vec<Data>>,
     n_spare: usize,
+    spare_limit: usize,
+    /// Of the islands formed anew, those whose data was an ended island's (a diagnostic).
+    pub reused: u64,
     /// Makes the spare data's integrators fresh.
     fresh: FreshIntegrators,
 }
@@ -270,6 +273,8 @@ impl Islands {
             pool: Pool::default(),
             spare: HashMap::default(),
             n_spare: 0,
+            spare_limit: SPARE_DATA,
+            reused: 0,
             fresh: FreshIntegrators::default(),
         }
     }
@@ -437,7 +442,7 @@ impl Islands {
             self.params.solver.max_steps,
             limit,
         );
-        if self.n_spare < SPARE_DATA {
+        if self.n_spare < self.spare_limit {
             self.n_spare += 1;
             self.spare.entry(island.data.state.len()).or_default().push(island.data);
         }
@@ -475,6 +480,7 @@ impl Islands {
         let mut data = match spare {
             Some(mut data) => {
                 self.n_spare -= 1;
+                self.reused += 1;
                 data.refit(&model, 0, &mut self.fresh);
                 data
             }

@@ -8,9 +8,9 @@ use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactMemory, ContactOutput};
 use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
-use rustc_hash::FxHashMap as HashMap;
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use rustc_hash::FxHashMap as HashMap;
 
 /// Work counters since initialisation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -626,5 +626,131 @@ impl Data {
             delta_dot,
             force,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compile::compile;
+    use crate::scene::Scene;
+
+    /// Every field of `d` in a form to compare: its debug form (every number so that it reads
+    /// back exactly), the integrator by its saved state. The destructuring names every field,
+    /// so a field added to [`Data`] must be added here.
+    fn fields(d: &Data) -> Vec<String> {
+        let Data {
+            time,
+            state,
+            inputs,
+            contact_memory,
+            counters,
+            solver,
+            clamp_events,
+            log_peaks,
+            event_log,
+            eval_state,
+            planned_kinematics,
+            dense_pending,
+            outputs_valid,
+            kinematics_valid,
+            events,
+            impacts,
+            body_pos,
+            body_rot,
+            body_quat,
+            body_vel,
+            body_acc_bias,
+            body_inertia,
+            body_force,
+            dof_s,
+            dof_sdot,
+            path_joints,
+            composite,
+            body_wrench,
+            mass_blocks,
+            qacc,
+            tau,
+            phi,
+            phi_dot,
+            phi_q,
+            gamma,
+            minv_phit,
+            schur,
+            schur_perm,
+            schur_rank,
+            lambda,
+            work,
+            work2,
+            friction_applied,
+            friction_step,
+            friction_dlambda,
+            dissipation,
+            input_power,
+            contact_out,
+            broad_reference,
+            body_contact,
+            group_out,
+        } = d;
+        let Solver {
+            stepper,
+            started,
+            pending_event,
+            next_h,
+            base,
+        } = solver;
+        let stepper = stepper.as_ref().map(|s| {
+            let mut saved = Vec::new();
+            s.method.save_state(&mut saved);
+            let mut warm = Vec::new();
+            s.method.warm_state(&mut warm);
+            format!("{saved:?} {warm:?} {:?} {:?}", s.method.stats(), s.start)
+        });
+        vec![
+            format!("{time:?} {state:?} {inputs:?} {contact_memory:?} {counters:?}"),
+            format!("{stepper:?} {started:?} {pending_event:?} {next_h:?} {base:?}"),
+            format!("{clamp_events:?} {log_peaks:?} {event_log:?} {eval_state:?} {planned_kinematics:?}"),
+            format!("{dense_pending:?} {outputs_valid:?} {kinematics_valid:?} {events:?} {impacts:?}"),
+            format!("{body_pos:?} {body_rot:?} {body_quat:?} {body_vel:?} {body_acc_bias:?} {body_inertia:?}"),
+            format!("{body_force:?} {dof_s:?} {dof_sdot:?} {path_joints:?} {composite:?} {body_wrench:?}"),
+            format!("{mass_blocks:?} {qacc:?} {tau:?} {phi:?} {phi_dot:?} {phi_q:?} {gamma:?} {minv_phit:?}"),
+            format!("{schur:?} {schur_perm:?} {schur_rank:?} {lambda:?} {work:?} {work2:?}"),
+            format!("{friction_applied:?} {friction_step:?} {friction_dlambda:?} {dissipation:?} {input_power:?}"),
+            format!("{contact_out:?} {broad_reference:?} {body_contact:?} {group_out:?}"),
+        ]
+    }
+
+    /// The compiled model of a bundled scene and its data run to `t` (events, impacts and
+    /// counters in it).
+    fn run(name: &str, t: f64) -> (Model, Data) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("fmu/{name}/scene.toml"));
+        let scene = Scene::from_file(&path).unwrap();
+        let (m, mut d) = compile(&scene, name).unwrap();
+        crate::engine::advance(&m, &mut d, t).unwrap();
+        (m, d)
+    }
+
+    /// A used data refitted to a model equals the data made for it, field by field: to the
+    /// same model (its integrator made fresh in place) and to others (a new integrator), from
+    /// scenes with contacts (a ball bouncing, a pile of balls) and joints and loops (the
+    /// slider-crank, the rail vehicle).
+    #[test]
+    fn refitted_data_equals_new_data() {
+        let names = ["bouncing_ball", "pile_of_balls", "slider_crank", "rail_vehicle"];
+        let runs: Vec<(Model, Data)> = names.iter().map(|n| run(n, 0.3)).collect();
+        let mut fresh = FreshIntegrators::default();
+        for (a, (_, used)) in names.iter().zip(&runs) {
+            assert!(used.counters.steps > 0, "{a} ran");
+            for (b, (m, _)) in names.iter().zip(&runs) {
+                let mut d = run(a, 0.3).1;
+                d.refit(m, 0, &mut fresh);
+                assert_eq!(fields(&d), fields(&Data::with_event_log(m, 0)), "{a} refitted to {b}");
+            }
+        }
+        // a used integrator of the same model was renewed, not created: its buffers stay
+        let (m, mut d) = run("bouncing_ball", 0.3);
+        let y = d.solver.method().unwrap().y().as_ptr();
+        d.refit(&m, 0, &mut fresh);
+        assert_eq!(d.solver.method().unwrap().y().as_ptr(), y);
     }
 }

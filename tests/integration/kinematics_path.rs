@@ -157,7 +157,12 @@ fn poses_and_velocities_are_those_of_kinematics() {
             assert!(m.plan.free.len() == m.bodies.len(), "the pile's balls are free bodies");
         }
         for b in 0..m.bodies.len() {
-            assert_eq!(motion_bits(&m, &lean, b), motion_bits(&m, &full, b), "{name}: body {}", m.bodies[b].name);
+            assert_eq!(
+                motion_bits(&m, &lean, b),
+                motion_bits(&m, &full, b),
+                "{name}: body {}",
+                m.bodies[b].name
+            );
         }
     }
 }
