@@ -318,6 +318,9 @@ impl Islands {
     /// pairs are unchanged (with their integrators) and compiling the others with the
     /// contact memory `memory`. A candidate pair new to the list that already touches is an
     /// error (the bounds on the step were broken).
+    // (the islands are boxed: forming moves them between lists, a pointer each instead of the
+    // whole island, which saved a tenth of forming's instructions on 300 spheres)
+    #[allow(clippy::vec_box)]
     fn form(
         &mut self,
         src: &Source,

@@ -113,10 +113,14 @@ pub struct Stepper {
 /// integrators fresh again without allocating ([`Data::refit`]).
 #[derive(Default)]
 pub struct FreshIntegrators {
-    /// (method, size, rtol, atol, largest step as bits) → (the fresh integrator's rtol, atol
-    /// and largest step, its saved state).
-    states: HashMap<(i64, usize, [u64; 3]), ([f64; 3], Vec<f64>)>,
+    states: HashMap<FreshKey, FreshState>,
 }
+
+/// The method, the system size and the solver's rtol, atol and largest step (as bits).
+type FreshKey = (i64, usize, [u64; 3]);
+
+/// A fresh integrator's rtol, atol and largest step, and its saved state.
+type FreshState = ([f64; 3], Vec<f64>);
 
 impl FreshIntegrators {
     /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place: a
