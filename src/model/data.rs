@@ -161,7 +161,24 @@ impl FreshIntegrators {
     }
 }
 
+impl std::fmt::Debug for Stepper {
+    /// The method by its saved state, warm memory and counters (what defines its future and
+    /// its reports), and the restart buffer.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (mut saved, mut warm) = (Vec::new(), Vec::new());
+        self.method.save_state(&mut saved);
+        self.method.warm_state(&mut warm);
+        f.debug_struct("Stepper")
+            .field("method", &saved)
+            .field("warm", &warm)
+            .field("stats", &self.method.stats())
+            .field("start", &self.start)
+            .finish()
+    }
+}
+
 /// The integrator and what the driver keeps about it.
+#[derive(Debug)]
 pub struct Solver {
     /// The integrator; `None` only while it steps, or if a panic interrupted a step (the next
     /// advance then reports an error).
@@ -234,7 +251,9 @@ pub struct ImpactWork {
 }
 
 /// Mutable simulation data: the state, the integrator, contact memory, work buffers and
-/// counters. Sized at compilation; nothing here is allocated during a step.
+/// counters. Sized at compilation; nothing here is allocated during a step. (Its debug form
+/// prints every number so that it reads back exactly, the integrator by its saved state.)
+#[derive(Debug)]
 pub struct Data {
     // --- the state (see `state::StatePart`) ---
     /// Time [s]: the one clock of the simulation.
@@ -639,91 +658,6 @@ mod tests {
     use crate::compile::compile;
     use crate::scene::Scene;
 
-    /// Every field of `d` in a form to compare: its debug form (every number so that it reads
-    /// back exactly), the integrator by its saved state. The destructuring names every field,
-    /// so a field added to [`Data`] must be added here.
-    fn fields(d: &Data) -> Vec<String> {
-        let Data {
-            time,
-            state,
-            inputs,
-            contact_memory,
-            counters,
-            solver,
-            clamp_events,
-            log_peaks,
-            event_log,
-            eval_state,
-            planned_kinematics,
-            dense_pending,
-            outputs_valid,
-            kinematics_valid,
-            events,
-            impacts,
-            body_pos,
-            body_rot,
-            body_quat,
-            body_vel,
-            body_acc_bias,
-            body_inertia,
-            body_force,
-            dof_s,
-            dof_sdot,
-            path_joints,
-            composite,
-            body_wrench,
-            mass_blocks,
-            qacc,
-            tau,
-            phi,
-            phi_dot,
-            phi_q,
-            gamma,
-            minv_phit,
-            schur,
-            schur_perm,
-            schur_rank,
-            lambda,
-            work,
-            work2,
-            friction_applied,
-            friction_step,
-            friction_dlambda,
-            dissipation,
-            input_power,
-            contact_out,
-            broad_reference,
-            body_contact,
-            group_out,
-        } = d;
-        let Solver {
-            stepper,
-            started,
-            pending_event,
-            next_h,
-            base,
-        } = solver;
-        let stepper = stepper.as_ref().map(|s| {
-            let mut saved = Vec::new();
-            s.method.save_state(&mut saved);
-            let mut warm = Vec::new();
-            s.method.warm_state(&mut warm);
-            format!("{saved:?} {warm:?} {:?} {:?}", s.method.stats(), s.start)
-        });
-        vec![
-            format!("{time:?} {state:?} {inputs:?} {contact_memory:?} {counters:?}"),
-            format!("{stepper:?} {started:?} {pending_event:?} {next_h:?} {base:?}"),
-            format!("{clamp_events:?} {log_peaks:?} {event_log:?} {eval_state:?} {planned_kinematics:?}"),
-            format!("{dense_pending:?} {outputs_valid:?} {kinematics_valid:?} {events:?} {impacts:?}"),
-            format!("{body_pos:?} {body_rot:?} {body_quat:?} {body_vel:?} {body_acc_bias:?} {body_inertia:?}"),
-            format!("{body_force:?} {dof_s:?} {dof_sdot:?} {path_joints:?} {composite:?} {body_wrench:?}"),
-            format!("{mass_blocks:?} {qacc:?} {tau:?} {phi:?} {phi_dot:?} {phi_q:?} {gamma:?} {minv_phit:?}"),
-            format!("{schur:?} {schur_perm:?} {schur_rank:?} {lambda:?} {work:?} {work2:?}"),
-            format!("{friction_applied:?} {friction_step:?} {friction_dlambda:?} {dissipation:?} {input_power:?}"),
-            format!("{contact_out:?} {broad_reference:?} {body_contact:?} {group_out:?}"),
-        ]
-    }
-
     /// The compiled model of a bundled scene and its data run to `t` (events, impacts and
     /// counters in it).
     fn run(name: &str, t: f64) -> (Model, Data) {
@@ -734,7 +668,8 @@ mod tests {
         (m, d)
     }
 
-    /// A used data refitted to a model equals the data made for it, field by field: to the
+    /// A used data refitted to a model equals the data made for it, field by field (their
+    /// debug forms, every number read back exactly, the integrator by its saved state): to the
     /// same model (its integrator made fresh in place) and to others (a new integrator), from
     /// scenes with contacts (a ball bouncing, a pile of balls) and joints and loops (the
     /// slider-crank, the rail vehicle).
@@ -748,7 +683,11 @@ mod tests {
             for (b, (m, _)) in names.iter().zip(&runs) {
                 let mut d = run(a, 0.3).1;
                 d.refit(m, 0, &mut fresh);
-                assert_eq!(fields(&d), fields(&Data::with_event_log(m, 0)), "{a} refitted to {b}");
+                assert_eq!(
+                    format!("{d:?}"),
+                    format!("{:?}", Data::with_event_log(m, 0)),
+                    "{a} refitted to {b}"
+                );
             }
         }
         // a used integrator of the same model was renewed, not created: its buffers stay

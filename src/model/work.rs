@@ -22,20 +22,11 @@ impl Projection {
 
     /// Makes these buffers what [`Projection::with_rows`]`(nl)` gives, reusing them.
     fn refit(&mut self, nl: usize) {
-        let Projection {
-            nl: rows,
-            schur,
-            perm,
-            rank,
-            b,
-            work,
-        } = self;
-        *rows = nl;
-        filled(schur, nl * nl, 0.0);
-        filled(perm, nl, 0);
-        *rank = 0;
-        filled(b, nl, 0.0);
-        filled(work, nl, 0.0);
+        (self.nl, self.rank) = (nl, 0);
+        filled(&mut self.schur, nl * nl, 0.0);
+        filled(&mut self.perm, nl, 0);
+        filled(&mut self.b, nl, 0.0);
+        filled(&mut self.work, nl, 0.0);
     }
 }
 
@@ -63,26 +54,14 @@ impl LcpWork {
 
     /// Makes these buffers what [`LcpWork::new`]`(n)` gives, reusing them.
     fn refit(&mut self, n: usize) {
-        let LcpWork {
-            n: size,
-            active,
-            idx,
-            p,
-            a,
-            rhs,
-            perm,
-            work,
-            wv,
-        } = self;
-        *size = n;
-        filled(active, n, false);
-        emptied(idx, n);
-        filled(p, n, 0.0);
-        filled(a, n * n, 0.0);
-        filled(rhs, n, 0.0);
-        filled(perm, n, 0);
-        filled(work, n, 0.0);
-        filled(wv, n, 0.0);
+        self.n = n;
+        filled(&mut self.active, n, false);
+        emptied(&mut self.idx, n);
+        filled(&mut self.perm, n, 0);
+        filled(&mut self.a, n * n, 0.0);
+        for v in [&mut self.p, &mut self.rhs, &mut self.work, &mut self.wv] {
+            filled(v, n, 0.0);
+        }
     }
 
     /// Grows the buffers (allocates) only if `n` exceeds the size they were made for.
@@ -171,46 +150,29 @@ impl ImpulseWork {
     }
 
     /// Makes these buffers what [`ImpulseWork::new`]`(nv, nl, k)` gives, reusing them (they
-    /// allocate only where they are too small).
+    /// allocate only where they are too small). (`Data`'s test `refitted_data_equals_new_data`
+    /// compares every field.)
     pub(crate) fn refit(&mut self, nv: usize, nl: usize, k: usize) {
-        let ImpulseWork {
-            k: rounds,
-            nv: velocities,
-            proj,
-            jrows,
-            gj,
-            qvel,
-            rate,
-            impulses,
-            exact,
-            w,
-            q,
-            p,
-            lcp,
-            friction,
-            row,
-            free,
-            x,
-            last,
-        } = self;
-        *rounds = k;
-        *velocities = nv;
-        proj.refit(nl);
-        filled(jrows, k * nv, 0.0);
-        filled(gj, k * nv, 0.0);
-        filled(qvel, nv, 0.0);
-        filled(rate, k, 0.0);
-        filled(impulses, k, 0.0);
-        emptied(exact, k);
-        filled(w, k * k, 0.0);
-        filled(q, k, 0.0);
-        filled(p, k, 0.0);
-        lcp.refit(k);
-        friction.refit(nv, k);
-        filled(row, nv, 0.0);
-        filled(free, nv, 0.0);
-        filled(x, nv, 0.0);
-        *last = 0;
+        (self.k, self.nv, self.last) = (k, nv, 0);
+        self.proj.refit(nl);
+        for (v, n) in [
+            (&mut self.jrows, k * nv),
+            (&mut self.gj, k * nv),
+            (&mut self.qvel, nv),
+            (&mut self.rate, k),
+            (&mut self.impulses, k),
+            (&mut self.w, k * k),
+            (&mut self.q, k),
+            (&mut self.p, k),
+            (&mut self.row, nv),
+            (&mut self.free, nv),
+            (&mut self.x, nv),
+        ] {
+            filled(v, n, 0.0);
+        }
+        emptied(&mut self.exact, k);
+        self.lcp.refit(k);
+        self.friction.refit(nv, k);
     }
 
     /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given

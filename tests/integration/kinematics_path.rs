@@ -49,26 +49,21 @@ fn poison(d: &mut Data) {
     }
 }
 
-/// All numbers describing body `b` (and its joint's motion subspace) as bit patterns.
+/// All numbers describing body `b` (and its joint's motion subspace) as bit patterns: its
+/// motion (`motion_bits`), bias acceleration, inertia and the motion subspace's rates.
 fn body_bits(m: &Model, d: &Data, b: usize) -> Vec<u64> {
     let j = &m.joints[m.bodies[b].joint];
-    let q = d.body_quat[b].quaternion();
     let mut v: Vec<f64> = Vec::new();
-    v.extend(d.body_pos[b].iter());
-    v.extend(d.body_rot[b].iter());
-    v.extend([q.w, q.i, q.j, q.k]);
-    for s in [&d.body_vel[b], &d.body_acc_bias[b]] {
-        v.extend(s.ang.iter().chain(s.lin.iter()));
-    }
+    v.extend(d.body_acc_bias[b].ang.iter().chain(d.body_acc_bias[b].lin.iter()));
     let i = &d.body_inertia[b];
     v.push(i.mass);
     v.extend(i.h.iter().chain(i.i_o.iter()));
-    for k in j.qvel..j.qvel + j.nv() {
-        for s in [&d.dof_s[k], &d.dof_sdot[k]] {
-            v.extend(s.ang.iter().chain(s.lin.iter()));
-        }
+    for s in &d.dof_sdot[j.qvel..j.qvel + j.nv()] {
+        v.extend(s.ang.iter().chain(s.lin.iter()));
     }
-    v.into_iter().map(f64::to_bits).collect()
+    let mut bits = motion_bits(m, d, b);
+    bits.extend(v.into_iter().map(f64::to_bits));
+    bits
 }
 
 #[test]
