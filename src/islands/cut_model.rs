@@ -181,7 +181,7 @@ impl ModelCutter {
             })
             .collect();
         let mut joints = Vec::with_capacity(tree_joints.len());
-        let mut trees: Vec<(usize, usize)> = Vec::new();
+        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(tree_joints.len());
         let (mut nq, mut nv) = (0, 0);
         let mut scene_tree = usize::MAX;
         for &t in &tree_joints {
@@ -295,8 +295,13 @@ impl ModelCutter {
             c.body = lb(c.body);
             contacts.push(c);
         }
-        let mut shapes = items(&self.index.shapes, bodies);
-        shapes.extend(&self.index.ground_shapes);
+        // (the island's shapes, then the ground's, in one buffer of their size)
+        let (ix, ground) = (&self.index.shapes, &self.index.ground_shapes);
+        let mut shapes = Vec::with_capacity(bodies.iter().map(|&b| ix[b].len()).sum::<usize>() + ground.len());
+        shapes.extend(bodies.iter().flat_map(|&b| ix[b].iter().copied()));
+        shapes.sort_unstable();
+        shapes.dedup();
+        shapes.extend(ground);
         shapes.sort_unstable();
         let local_shape = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
         let local_candidates: Vec<Candidate> = candidates

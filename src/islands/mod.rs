@@ -148,9 +148,10 @@ pub struct Islands {
     params: Arc<Parameters>,
     /// The compiled parts of islands that ended.
     pool: Pool,
-    /// The data of islands that ended, by the size of their state, for new islands' data
-    /// (their buffers and integrators reused), how many it holds and may hold.
-    spare: HashMap<usize, Vec<Data>>,
+    /// The data of islands that ended (with their buffers of the saved state), by the size of
+    /// their state, for new islands' data (their buffers and integrators reused), how many it
+    /// holds and may hold.
+    spare: HashMap<usize, Vec<(Data, Vec<f64>)>>,
     n_spare: usize,
     spare_limit: usize,
     /// Of the islands formed anew, those whose data was an ended island's (a diagnostic).
@@ -447,7 +448,11 @@ impl Islands {
         );
         if self.n_spare < self.spare_limit {
             self.n_spare += 1;
-            self.spare.entry(island.data.state.len()).or_default().push(island.data);
+            let saved = island.saved;
+            self.spare
+                .entry(island.data.state.len())
+                .or_default()
+                .push((island.data, saved));
         }
     }
 
@@ -480,15 +485,16 @@ impl Islands {
         // starts small: a full log's buffer would cost more to clear than the island to
         // compile)
         let spare = self.spare.get_mut(&model.nstate()).and_then(Vec::pop);
-        let mut data = match spare {
-            Some(mut data) => {
+        let (mut data, mut saved) = match spare {
+            Some((mut data, saved)) => {
                 self.n_spare -= 1;
                 self.reused += 1;
                 data.refit(&model, 0, &mut self.fresh);
-                data
+                (data, saved)
             }
-            None => Data::with_event_log(&model, 0),
+            None => (Data::with_event_log(&model, 0), Vec::new()),
         };
+        saved.clear();
         let diss = model.dissipated_index();
         data.state[diss] = 0.0;
         if let Some(i) = model.input_work_index() {
@@ -518,7 +524,7 @@ impl Islands {
             candidates,
             inputs: part.inputs,
             driven: part.driven,
-            saved: Vec::new(),
+            saved,
             saved_log: 0,
         });
         island.take_coordinates(d);

@@ -56,7 +56,7 @@ fn numbered(
     explicit: Vec<usize>,
     scene_inputs: &[usize],
 ) -> Compiled {
-    let mut coords = Vec::new();
+    let mut coords = Vec::with_capacity(model.nq + model.nv);
     for j in &model.joints {
         let (qpos, qvel) = joint_coords[bodies[j.child]];
         coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
