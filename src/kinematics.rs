@@ -167,6 +167,58 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
     d.body_inertia[c] = Inertia::from_body(b.mass, &pos, &i_c);
 }
 
+/// The pose, orientation and spatial velocity of a free joint's child from its parent's frame
+/// `p`, the joint's coordinates `q` and rates `w`, its motion subspace into `s` (six columns):
+/// what [`joint_kinematics`] computes of them, the same operations in the same order (so the
+/// same numbers, bit for bit: `poses_and_velocities_are_those_of_kinematics`), without the
+/// rates, bias acceleration and inertia.
+fn free_joint_motion(
+    p: &Frame,
+    q: &[f64],
+    w: &[f64],
+    s: &mut [Spatial],
+) -> (Vector3<f64>, UnitQuaternion<f64>, Spatial) {
+    let quat = p.quat * quat_at(&q[3..7]);
+    let rot = *quat.to_rotation_matrix().matrix();
+    let pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
+    let mut vel = p.vel;
+    for k in 0..3 {
+        s[k] = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
+        vel = vel.add(&s[k].scale(w[k]));
+    }
+    for k in 0..3 {
+        let h = rot.column(k).into_owned();
+        s[3 + k] = Spatial::new(h, pos.cross(&h));
+        vel = vel.add(&s[3 + k].scale(w[3 + k]));
+    }
+    (pos, quat, vel)
+}
+
+/// The poses, orientations and spatial velocities of every body, bit for bit as [`kinematics`]
+/// gives them (and the motion subspaces): the plan's general joints by [`joint_kinematics`],
+/// its free bodies without their motion subspaces' rates, bias accelerations and inertias
+/// (left as they were: code that reads those calls [`kinematics`]). For what reads poses and
+/// velocities only, where the velocities must be those of [`kinematics`] (the lean
+/// [`free_body_kinematics`] rounds them otherwise).
+pub fn poses_and_velocities(m: &Model, d: &mut Data) {
+    for &ji in &m.plan.general.joints {
+        joint_kinematics(m, d, ji);
+    }
+    let ground = Frame::ground();
+    for fb in &m.plan.free {
+        let (q, w) = (
+            &d.eval_state[fb.qpos..fb.qpos + 7],
+            &d.eval_state[m.nq + fb.qvel..m.nq + fb.qvel + 6],
+        );
+        let (pos, quat, vel) = free_joint_motion(&ground, q, w, &mut d.dof_s[fb.qvel..fb.qvel + 6]);
+        let b = fb.body;
+        d.body_pos[b] = pos;
+        d.body_rot[b] = *quat.to_rotation_matrix().matrix();
+        d.body_quat[b] = quat;
+        d.body_vel[b] = vel;
+    }
+}
+
 /// The lean kinematics of a rotor joint ([`Rotor`]): as [`joint_kinematics`] without the
 /// rotation by the joint angle, which moves nothing the right-hand side reads (the child's
 /// centre of mass and its spheres lie on the axis, its inertia is symmetric about it): the

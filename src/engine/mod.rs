@@ -91,7 +91,11 @@ pub fn resync_margins(m: &Model, d: &mut Data) {
     match d.solver.method() {
         Some(i) if d.solver.ahead_of(d.time) => {
             d.eval_state.copy_from_slice(i.y());
-            events::margin_event_values(m, d, true);
+            // (what `events::margin_event_values` computes, without the kinematics that the
+            // margin values do not read)
+            crate::kinematics::poses_and_velocities(m, d);
+            let (moved, time) = contact::groups::margin_values(m, d);
+            d.events.aux_new[m.contacts.len()] = (time, moved);
         }
         _ => resync(m, d),
     }

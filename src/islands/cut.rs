@@ -81,9 +81,40 @@ impl SceneIndex {
     }
 }
 
-/// The islands of model `m` with the candidate pairs `candidates`: the bodies of each, in
-/// scene order, the islands ordered by their first body.
-pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
+/// The islands of a model: the bodies of each, in scene order, the islands ordered by their
+/// first body, in one list (no allocation per island).
+pub struct Partition {
+    /// The bodies of island `k` are `bodies[starts[k]..starts[k + 1]]`.
+    bodies: Vec<usize>,
+    starts: Vec<usize>,
+    /// Per body, its island.
+    pub island_of: Vec<usize>,
+}
+
+impl Partition {
+    /// The number of islands.
+    pub fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+
+    /// True when there is no island (no body).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The bodies of island `k`.
+    pub fn island(&self, k: usize) -> &[usize] {
+        &self.bodies[self.starts[k]..self.starts[k + 1]]
+    }
+
+    /// The islands' bodies, in order.
+    pub fn iter(&self) -> impl Iterator<Item = &[usize]> {
+        (0..self.len()).map(|k| self.island(k))
+    }
+}
+
+/// The islands of model `m` with the candidate pairs `candidates`.
+pub fn partition(m: &Model, candidates: &[Candidate]) -> Partition {
     let nb = m.bodies.len();
     let mut sets = UnionFind::new(nb);
     for j in &m.joints {
@@ -115,17 +146,34 @@ pub fn partition(m: &Model, candidates: &[Candidate]) -> Vec<Vec<usize>> {
             }
         }
     }
-    let mut slot = vec![usize::MAX; nb];
-    let mut out: Vec<Vec<usize>> = Vec::new();
+    // (a set's root is its first body: the islands are numbered in the order of their first
+    // bodies, and each island's bodies are listed in scene order)
+    let mut island_of = vec![0; nb];
+    let mut starts = vec![0];
     for b in 0..nb {
         let r = sets.root(b);
-        if slot[r] == usize::MAX {
-            slot[r] = out.len();
-            out.push(Vec::new());
+        if r == b {
+            island_of[b] = starts.len() - 1;
+            starts.push(0);
+        } else {
+            island_of[b] = island_of[r];
         }
-        out[slot[r]].push(b);
+        starts[island_of[b] + 1] += 1;
     }
-    out
+    for k in 1..starts.len() {
+        starts[k] += starts[k - 1];
+    }
+    let mut next = starts.clone();
+    let mut bodies = vec![0; nb];
+    for (b, &k) in island_of.iter().enumerate() {
+        bodies[next[k]] = b;
+        next[k] += 1;
+    }
+    Partition {
+        bodies,
+        starts,
+        island_of,
+    }
 }
 
 /// True when model `m` runs as islands: the scene asks for them (`solver.islands`, the

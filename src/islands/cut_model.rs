@@ -15,6 +15,7 @@ use crate::model::contact::ContactElement;
 use crate::model::groups::{Candidate, GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
@@ -29,8 +30,11 @@ pub(super) struct ModelCutter {
     /// The scene's bodies and materials by name (to compile a candidate pair's contact).
     body_index: HashMap<String, usize>,
     material_index: HashMap<String, usize>,
-    /// The contact elements of the candidate pairs met so far (scene numbering, no name).
-    elements: HashMap<Candidate, ContactElement>,
+    /// The contact elements of the candidate pairs met so far (scene numbering, no name), with
+    /// their [`Model::step_rtol_powers`].
+    elements: FxHashMap<Candidate, (ContactElement, [f64; 2])>,
+    /// The names of candidate pairs' contacts by the island's numbering of their shapes.
+    names: FxHashMap<Candidate, String>,
     /// Scratch: per scene body its island index, per scene group its island index.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
@@ -96,21 +100,22 @@ impl ModelCutter {
                 .enumerate()
                 .map(|(i, x)| (x.name.clone(), i))
                 .collect(),
-            elements: HashMap::new(),
+            elements: FxHashMap::default(),
+            names: FxHashMap::default(),
             local_body: vec![usize::MAX; scene.body.len()],
             local_group: vec![usize::MAX; group_index.len()],
         }
     }
 
-    /// The contact element of candidate pair `c` (scene numbering, no name), compiled at its
-    /// first use.
+    /// The contact element of candidate pair `c` (scene numbering, no name) and its
+    /// [`Model::step_rtol_powers`] at `params`, compiled at its first use.
     fn element(
         &mut self,
         scene: &Scene,
         params: &Parameters,
         origin: &str,
         c: &Candidate,
-    ) -> Result<ContactElement, String> {
+    ) -> Result<(ContactElement, [f64; 2]), String> {
         if let Some(e) = self.elements.get(c) {
             return Ok(e.clone());
         }
@@ -136,8 +141,9 @@ impl ModelCutter {
         if self.elements.len() >= 16 * self.local_body.len() {
             self.elements.clear();
         }
-        self.elements.insert(*c, e.clone());
-        Ok(e)
+        let powers = crate::model::step_rtol_powers(std::slice::from_ref(&e), params.solver.rtol)[0];
+        self.elements.insert(*c, (e.clone(), powers));
+        Ok((e, powers))
     }
 
     /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
@@ -175,7 +181,7 @@ impl ModelCutter {
             })
             .collect();
         let mut joints = Vec::with_capacity(tree_joints.len());
-        let mut trees: Vec<(usize, usize)> = Vec::new();
+        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(tree_joints.len());
         let (mut nq, mut nv) = (0, 0);
         let mut scene_tree = usize::MAX;
         for &t in &tree_joints {
@@ -289,8 +295,13 @@ impl ModelCutter {
             c.body = lb(c.body);
             contacts.push(c);
         }
-        let mut shapes = items(&self.index.shapes, bodies);
-        shapes.extend(&self.index.ground_shapes);
+        // (the island's shapes, then the ground's, in one buffer of their size)
+        let (ix, ground) = (&self.index.shapes, &self.index.ground_shapes);
+        let mut shapes = Vec::with_capacity(bodies.iter().map(|&b| ix[b].len()).sum::<usize>() + ground.len());
+        shapes.extend(bodies.iter().flat_map(|&b| ix[b].iter().copied()));
+        shapes.sort_unstable();
+        shapes.dedup();
+        shapes.extend(ground);
         shapes.sort_unstable();
         let local_shape = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
         let local_candidates: Vec<Candidate> = candidates
@@ -301,8 +312,18 @@ impl ModelCutter {
                 other: local_shape(k.other),
             })
             .collect();
-        for (k, mut e) in local_candidates.iter().zip(group_elements) {
-            e.name = format!("{}[{}:{}]", m.groups.pair_names[k.pair], k.sphere + 1, k.other + 1);
+        let mut step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
+        // (the names by the island's numbering are few: the same shapes' pairs come again)
+        if self.names.len() >= 16 * self.local_body.len() {
+            self.names.clear();
+        }
+        for (k, (mut e, powers)) in local_candidates.iter().zip(group_elements) {
+            e.name = self
+                .names
+                .entry(*k)
+                .or_insert_with(|| format!("{}[{}:{}]", m.groups.pair_names[k.pair], k.sphere + 1, k.other + 1))
+                .clone();
+            step_rtol_powers.push(powers);
             e.sphere_body = lb(e.sphere_body);
             e.body = lb(e.body);
             contacts.push(e);
@@ -363,7 +384,6 @@ impl ModelCutter {
         };
         let warnings = contact_warnings(&contacts);
         let quaternions = crate::model::quaternion_coordinates(&joints);
-        let step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
         let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &trees);
         let model = Model {
             name: m.name.clone(),
@@ -431,7 +451,8 @@ mod tests {
         let all: Key = ((0..m.bodies.len()).collect(), m.groups.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
-        for bodies in partition(&m, &m.groups.candidates) {
+        for bodies in partition(&m, &m.groups.candidates).iter() {
+            let bodies = bodies.to_vec();
             let cands = m
                 .groups
                 .candidates

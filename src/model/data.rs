@@ -6,10 +6,11 @@
 use super::compiled::Model;
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactMemory, ContactOutput};
-use crate::model::work::ImpulseWork;
-use crate::scene::Law;
+use crate::model::work::{emptied, filled, ImpulseWork};
+use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use rustc_hash::FxHashMap as HashMap;
 
 /// Work counters since initialisation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -108,7 +109,76 @@ pub struct Stepper {
     pub start: Vec<f64>,
 }
 
+/// The saved states of fresh integrators, by method, settings and system size, to make used
+/// integrators fresh again without allocating ([`Data::refit`]).
+#[derive(Default)]
+pub struct FreshIntegrators {
+    states: HashMap<FreshKey, FreshState>,
+}
+
+/// The method, the system size and the solver's rtol, atol and largest step (as bits).
+type FreshKey = (i64, usize, [u64; 3]);
+
+/// A fresh integrator's rtol, atol and largest step, and its saved state.
+type FreshState = ([f64; 3], Vec<f64>);
+
+impl FreshIntegrators {
+    /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place: a
+    /// fresh one's saved state loaded into it (a loaded integrator goes on exactly as the one
+    /// saved, [`Integrator::load_state`]; everything else a method holds is scratch written
+    /// before it is read). None (and `method` dropped) when it cannot be: another method, size
+    /// or settings (the load refuses another method's state or size), or an implicit method
+    /// built (its memory is not in an explicit method's state; implicit methods report
+    /// linear-algebra statistics, explicit ones none). Its second-order structure is set by
+    /// the caller, as after creation.
+    pub fn renew(
+        &mut self,
+        mut method: Box<dyn Integrator + Send>,
+        solver: &SolverSection,
+        n: usize,
+    ) -> Option<Box<dyn Integrator + Send>> {
+        if method.linear_stats().is_some() || method.y().len() != n {
+            return None;
+        }
+        let key = (
+            solver.method as i64,
+            n,
+            [solver.rtol, solver.atol, solver.max_step].map(f64::to_bits),
+        );
+        let (settings, state) = self.states.entry(key).or_insert_with(|| {
+            let fresh = integrator::create(solver, n);
+            let mut state = Vec::new();
+            fresh.save_state(&mut state);
+            let c = fresh.core();
+            ([c.rtol, c.atol, c.hmax], state)
+        });
+        let c = method.core();
+        if [c.rtol, c.atol, c.hmax].map(f64::to_bits) != settings.map(f64::to_bits) {
+            return None;
+        }
+        method.load_state(state).ok()?;
+        Some(method)
+    }
+}
+
+impl std::fmt::Debug for Stepper {
+    /// The method by its saved state, warm memory and counters (what defines its future and
+    /// its reports), and the restart buffer.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (mut saved, mut warm) = (Vec::new(), Vec::new());
+        self.method.save_state(&mut saved);
+        self.method.warm_state(&mut warm);
+        f.debug_struct("Stepper")
+            .field("method", &saved)
+            .field("warm", &warm)
+            .field("stats", &self.method.stats())
+            .field("start", &self.start)
+            .finish()
+    }
+}
+
 /// The integrator and what the driver keeps about it.
+#[derive(Debug)]
 pub struct Solver {
     /// The integrator; `None` only while it steps, or if a panic interrupted a step (the next
     /// advance then reports an error).
@@ -184,7 +254,9 @@ pub struct ImpactWork {
 }
 
 /// Mutable simulation data: the state, the integrator, contact memory, work buffers and
-/// counters. Sized at compilation; nothing here is allocated during a step.
+/// counters. Sized at compilation; nothing here is allocated during a step. (Its debug form
+/// prints every number so that it reads back exactly, the integrator by its saved state.)
+#[derive(Debug)]
 pub struct Data {
     // --- the state (see `state::StatePart`) ---
     /// Time [s]: the one clock of the simulation.
@@ -316,19 +388,212 @@ impl Data {
     /// [`Data::new`] with room for `log_capacity` contact events reserved (an island's data
     /// holds the events of one advance: a full log's buffer would cost more than the island).
     pub fn with_event_log(model: &Model, log_capacity: usize) -> Data {
+        let mut data = Data::empty();
+        data.refit(model, log_capacity, &mut FreshIntegrators::default());
+        data
+    }
+
+    /// A data of no buffers and no integrator, for [`Data::refit`].
+    fn empty() -> Data {
+        Data {
+            time: 0.0,
+            state: Vec::new(),
+            inputs: Vec::new(),
+            contact_memory: Vec::new(),
+            counters: Counters::default(),
+            solver: Solver {
+                stepper: None,
+                started: false,
+                pending_event: f64::INFINITY,
+                next_h: 0.0,
+                base: Stats::default(),
+            },
+            clamp_events: true,
+            log_peaks: false,
+            event_log: Vec::new(),
+            eval_state: Vec::new(),
+            planned_kinematics: false,
+            dense_pending: false,
+            outputs_valid: false,
+            kinematics_valid: false,
+            events: EventWork::default(),
+            impacts: ImpactWork::default(),
+            body_pos: Vec::new(),
+            body_rot: Vec::new(),
+            body_quat: Vec::new(),
+            body_vel: Vec::new(),
+            body_acc_bias: Vec::new(),
+            body_inertia: Vec::new(),
+            body_force: Vec::new(),
+            dof_s: Vec::new(),
+            dof_sdot: Vec::new(),
+            path_joints: Vec::new(),
+            composite: Vec::new(),
+            body_wrench: Vec::new(),
+            mass_blocks: Vec::new(),
+            qacc: Vec::new(),
+            tau: Vec::new(),
+            phi: Vec::new(),
+            phi_dot: Vec::new(),
+            phi_q: Vec::new(),
+            gamma: Vec::new(),
+            minv_phit: Vec::new(),
+            schur: Vec::new(),
+            schur_perm: Vec::new(),
+            schur_rank: 0,
+            lambda: Vec::new(),
+            work: Vec::new(),
+            work2: Vec::new(),
+            friction_applied: Vec::new(),
+            friction_step: Vec::new(),
+            friction_dlambda: Vec::new(),
+            dissipation: 0.0,
+            input_power: 0.0,
+            contact_out: Vec::new(),
+            broad_reference: Vec::new(),
+            body_contact: Vec::new(),
+            group_out: Vec::new(),
+        }
+    }
+
+    /// Makes this data what [`Data::with_event_log`]`(model, log_capacity)` gives, keeping its
+    /// buffers (they allocate only where they are too small): the data of an island that
+    /// ended, made the data of a new one. Every field is set (the destructuring below names
+    /// them all); the integrator is made fresh in place where `fresh` can
+    /// ([`FreshIntegrators::renew`]), else created anew.
+    pub fn refit(&mut self, model: &Model, log_capacity: usize, fresh: &mut FreshIntegrators) {
         let nb = model.bodies.len();
         let (nv, nc, n) = (model.nv, model.nc, model.nstate());
         let ncontacts = model.contacts.len();
         let mass_len = model.trees.iter().map(|&(_, k)| k * k).sum();
-        let mut state = vec![0.0; n];
+        let impulse_contacts = model.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        let Data {
+            time,
+            state,
+            inputs,
+            contact_memory,
+            counters,
+            solver,
+            clamp_events,
+            log_peaks,
+            event_log,
+            eval_state,
+            planned_kinematics,
+            dense_pending,
+            outputs_valid,
+            kinematics_valid,
+            events,
+            impacts,
+            body_pos,
+            body_rot,
+            body_quat,
+            body_vel,
+            body_acc_bias,
+            body_inertia,
+            body_force,
+            dof_s,
+            dof_sdot,
+            path_joints,
+            composite,
+            body_wrench,
+            mass_blocks,
+            qacc,
+            tau,
+            phi,
+            phi_dot,
+            phi_q,
+            gamma,
+            minv_phit,
+            schur,
+            schur_perm,
+            schur_rank,
+            lambda,
+            work,
+            work2,
+            friction_applied,
+            friction_step,
+            friction_dlambda,
+            dissipation,
+            input_power,
+            contact_out,
+            broad_reference,
+            body_contact,
+            group_out,
+        } = self;
+        *time = 0.0;
+        filled(state, n, 0.0);
         for j in &model.joints {
             state[j.qpos..j.qpos + j.nq()].copy_from_slice(&j.q0[..j.nq()]);
         }
-        let impulse_contacts = model.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        eval_state.clear();
+        eval_state.extend_from_slice(state);
+        *planned_kinematics = false;
+        inputs.clear();
+        inputs.extend_from_slice(&model.input_start);
+        filled(contact_memory, ncontacts, ContactMemory::default());
+        *counters = Counters::default();
+        let (method, mut start) = match solver.stepper.take() {
+            Some(s) => (fresh.renew(s.method, &model.solver, n), s.start),
+            None => (None, Vec::new()),
+        };
+        let mut method = method.unwrap_or_else(|| integrator::create(&model.solver, n));
+        method.use_second_order(&model.second_order());
+        filled(&mut start, n, 0.0);
+        *solver = Solver {
+            stepper: Some(Stepper { method, start }),
+            started: false,
+            pending_event: f64::INFINITY,
+            next_h: 0.0,
+            base: Stats::default(),
+        };
+        *clamp_events = true;
+        *log_peaks = false;
+        emptied(event_log, if ncontacts > 0 { log_capacity } else { 0 });
+        *dense_pending = false;
+        *outputs_valid = false;
+        *kinematics_valid = false;
+        let EventWork {
+            g,
+            g_new,
+            aux,
+            aux_new,
+            changed,
+        } = events;
+        filled(g, 3 * ncontacts, 0.0);
+        filled(g_new, 3 * ncontacts, 0.0);
+        filled(aux, ncontacts + 1, (0.0, 0.0));
+        filled(aux_new, ncontacts + 1, (0.0, 0.0));
+        emptied(changed, ncontacts);
+        let ImpactWork {
+            solve,
+            set,
+            restitution,
+            approach,
+            was,
+            candidates,
+        } = impacts;
+        solve.refit(nv, model.fixed_rows(), impulse_contacts);
+        emptied(set, impulse_contacts);
+        emptied(restitution, impulse_contacts);
+        emptied(approach, impulse_contacts);
+        emptied(was, ncontacts);
+        emptied(candidates, impulse_contacts);
+        filled(body_pos, nb, Vector3::zeros());
+        filled(body_rot, nb, Matrix3::identity());
+        filled(body_quat, nb, UnitQuaternion::identity());
+        filled(body_vel, nb, Spatial::zero());
+        filled(body_acc_bias, nb, Spatial::zero());
+        filled(body_inertia, nb, Inertia::zero());
+        filled(body_force, nb, Spatial::zero());
+        filled(dof_s, nv, Spatial::zero());
+        filled(dof_sdot, nv, Spatial::zero());
+        emptied(path_joints, model.joints.len());
+        filled(composite, nb, Inertia::zero());
+        filled(body_wrench, nb, Spatial::zero());
         // A free body's block of M̄ is diag(m, m, m, I₁, I₂, I₃), its own LᵀDL factor: the
         // lean right-hand side never assembles it, and a solve over every block must find a
         // valid factor there (see `forward::evaluate_rhs`).
-        let mut mass_blocks = vec![0.0; mass_len];
+        filled(mass_blocks, mass_len, 0.0);
         for fb in &model.plan.free {
             let t = model.joints[model.bodies[fb.body].joint].tree;
             let off = model.tree_block[t];
@@ -343,85 +608,28 @@ impl Data {
             let (off, n) = (model.tree_block[t], model.trees[t].1);
             leaves.write(&mut mass_blocks[off..off + n * n], n);
         }
-        Data {
-            time: 0.0,
-            eval_state: state.clone(),
-            planned_kinematics: false,
-            state,
-            inputs: model.input_start.clone(),
-            contact_memory: vec![ContactMemory::default(); ncontacts],
-            counters: Counters::default(),
-            solver: Solver {
-                stepper: Some(Stepper {
-                    method: {
-                        let mut method = integrator::create(&model.solver, n);
-                        method.use_second_order(&model.second_order());
-                        method
-                    },
-                    start: vec![0.0; n],
-                }),
-                started: false,
-                pending_event: f64::INFINITY,
-                next_h: 0.0,
-                base: Stats::default(),
-            },
-            clamp_events: true,
-            log_peaks: false,
-            event_log: Vec::with_capacity(if ncontacts > 0 { log_capacity } else { 0 }),
-            dense_pending: false,
-            outputs_valid: false,
-            kinematics_valid: false,
-            events: EventWork {
-                g: vec![0.0; 3 * ncontacts],
-                g_new: vec![0.0; 3 * ncontacts],
-                aux: vec![(0.0, 0.0); ncontacts + 1],
-                aux_new: vec![(0.0, 0.0); ncontacts + 1],
-                changed: Vec::with_capacity(ncontacts),
-            },
-            impacts: ImpactWork {
-                solve: ImpulseWork::new(nv, model.fixed_rows(), impulse_contacts),
-                set: Vec::with_capacity(impulse_contacts),
-                restitution: Vec::with_capacity(impulse_contacts),
-                approach: Vec::with_capacity(impulse_contacts),
-                was: Vec::with_capacity(ncontacts),
-                candidates: Vec::with_capacity(impulse_contacts),
-            },
-            body_pos: vec![Vector3::zeros(); nb],
-            body_rot: vec![Matrix3::identity(); nb],
-            body_quat: vec![UnitQuaternion::identity(); nb],
-            body_vel: vec![Spatial::zero(); nb],
-            body_acc_bias: vec![Spatial::zero(); nb],
-            body_inertia: vec![Inertia::zero(); nb],
-            body_force: vec![Spatial::zero(); nb],
-            dof_s: vec![Spatial::zero(); nv],
-            dof_sdot: vec![Spatial::zero(); nv],
-            path_joints: Vec::with_capacity(model.joints.len()),
-            composite: vec![Inertia::zero(); nb],
-            body_wrench: vec![Spatial::zero(); nb],
-            mass_blocks,
-            qacc: vec![0.0; nv],
-            tau: vec![0.0; nv],
-            phi: vec![0.0; nc],
-            phi_dot: vec![0.0; nc],
-            phi_q: vec![0.0; nc * nv],
-            gamma: vec![0.0; nc],
-            minv_phit: vec![0.0; nc * nv],
-            schur: vec![0.0; nc * nc],
-            schur_perm: vec![0; nc],
-            schur_rank: 0,
-            lambda: vec![0.0; nc],
-            work: vec![0.0; nv.max(nc)],
-            work2: vec![0.0; nv],
-            friction_applied: vec![0.0; nv],
-            friction_step: vec![0.0; nv],
-            friction_dlambda: vec![0.0; nc],
-            dissipation: 0.0,
-            input_power: 0.0,
-            contact_out: vec![ContactOutput::default(); ncontacts],
-            broad_reference: vec![(Vector3::zeros(), UnitQuaternion::identity()); nb],
-            body_contact: vec![[0.0; 6]; if model.groups.is_active() { nb } else { 0 }],
-            group_out: vec![(0.0, 0.0); model.groups.pair_names.len()],
-        }
+        filled(qacc, nv, 0.0);
+        filled(tau, nv, 0.0);
+        filled(phi, nc, 0.0);
+        filled(phi_dot, nc, 0.0);
+        filled(phi_q, nc * nv, 0.0);
+        filled(gamma, nc, 0.0);
+        filled(minv_phit, nc * nv, 0.0);
+        filled(schur, nc * nc, 0.0);
+        filled(schur_perm, nc, 0);
+        *schur_rank = 0;
+        filled(lambda, nc, 0.0);
+        filled(work, nv.max(nc), 0.0);
+        filled(work2, nv, 0.0);
+        filled(friction_applied, nv, 0.0);
+        filled(friction_step, nv, 0.0);
+        filled(friction_dlambda, nc, 0.0);
+        *dissipation = 0.0;
+        *input_power = 0.0;
+        filled(contact_out, ncontacts, ContactOutput::default());
+        filled(broad_reference, nb, (Vector3::zeros(), UnitQuaternion::identity()));
+        filled(body_contact, if model.groups.is_active() { nb } else { 0 }, [0.0; 6]);
+        filled(group_out, model.groups.pair_names.len(), (0.0, 0.0));
     }
 
     /// Appends a contact event at the current time to the log (the oldest half is dropped
@@ -451,5 +659,51 @@ impl Data {
             delta_dot,
             force,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compile::compile;
+    use crate::scene::Scene;
+
+    /// The compiled model of a bundled scene and its data run to `t` (events, impacts and
+    /// counters in it).
+    fn run(name: &str, t: f64) -> (Model, Data) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("fmu/{name}/scene.toml"));
+        let scene = Scene::from_file(&path).unwrap();
+        let (m, mut d) = compile(&scene, name).unwrap();
+        crate::engine::advance(&m, &mut d, t).unwrap();
+        (m, d)
+    }
+
+    /// A used data refitted to a model equals the data made for it, field by field (their
+    /// debug forms, every number read back exactly, the integrator by its saved state): to the
+    /// same model (its integrator made fresh in place) and to others (a new integrator), from
+    /// scenes with contacts (a ball bouncing, a pile of balls) and joints and loops (the
+    /// slider-crank, the rail vehicle).
+    #[test]
+    fn refitted_data_equals_new_data() {
+        let names = ["bouncing_ball", "pile_of_balls", "slider_crank", "rail_vehicle"];
+        let runs: Vec<(Model, Data)> = names.iter().map(|n| run(n, 0.3)).collect();
+        let mut fresh = FreshIntegrators::default();
+        for (a, (_, used)) in names.iter().zip(&runs) {
+            assert!(used.counters.steps > 0, "{a} ran");
+            for (b, (m, _)) in names.iter().zip(&runs) {
+                let mut d = run(a, 0.3).1;
+                d.refit(m, 0, &mut fresh);
+                assert_eq!(
+                    format!("{d:?}"),
+                    format!("{:?}", Data::with_event_log(m, 0)),
+                    "{a} refitted to {b}"
+                );
+            }
+        }
+        // a used integrator of the same model was renewed, not created: its buffers stay
+        let (m, mut d) = run("bouncing_ball", 0.3);
+        let y = d.solver.method().unwrap().y().as_ptr();
+        d.refit(&m, 0, &mut fresh);
+        assert_eq!(d.solver.method().unwrap().y().as_ptr(), y);
     }
 }

@@ -15,14 +15,18 @@ pub(crate) struct Projection {
 
 impl Projection {
     pub(crate) fn with_rows(nl: usize) -> Projection {
-        Projection {
-            nl,
-            schur: vec![0.0; nl * nl],
-            perm: vec![0; nl],
-            rank: 0,
-            b: vec![0.0; nl],
-            work: vec![0.0; nl],
-        }
+        let mut p = Projection::default();
+        p.refit(nl);
+        p
+    }
+
+    /// Makes these buffers what [`Projection::with_rows`]`(nl)` gives, reusing them.
+    fn refit(&mut self, nl: usize) {
+        (self.nl, self.rank) = (nl, 0);
+        filled(&mut self.schur, nl * nl, 0.0);
+        filled(&mut self.perm, nl, 0);
+        filled(&mut self.b, nl, 0.0);
+        filled(&mut self.work, nl, 0.0);
     }
 }
 
@@ -43,16 +47,20 @@ pub struct LcpWork {
 impl LcpWork {
     /// Buffers for problems of up to `n` unknowns.
     pub fn new(n: usize) -> LcpWork {
-        LcpWork {
-            n,
-            active: vec![false; n],
-            idx: Vec::with_capacity(n),
-            p: vec![0.0; n],
-            a: vec![0.0; n * n],
-            rhs: vec![0.0; n],
-            perm: vec![0; n],
-            work: vec![0.0; n],
-            wv: vec![0.0; n],
+        let mut w = LcpWork::default();
+        w.refit(n);
+        w
+    }
+
+    /// Makes these buffers what [`LcpWork::new`]`(n)` gives, reusing them.
+    fn refit(&mut self, n: usize) {
+        self.n = n;
+        filled(&mut self.active, n, false);
+        emptied(&mut self.idx, n);
+        filled(&mut self.perm, n, 0);
+        filled(&mut self.a, n * n, 0.0);
+        for v in [&mut self.p, &mut self.rhs, &mut self.work, &mut self.wv] {
+            filled(v, n, 0.0);
         }
     }
 
@@ -81,15 +89,23 @@ pub(crate) struct FrictionWork {
 }
 
 impl FrictionWork {
-    fn new(nv: usize, k: usize) -> FrictionWork {
-        FrictionWork {
-            fric: Vec::with_capacity(k),
-            trows: vec![0.0; 2 * k * nv],
-            gt: vec![0.0; 2 * k * nv],
-            wtt: vec![0.0; 4 * k * k],
-            bt: vec![0.0; 2 * k],
-            pt: vec![0.0; 2 * k],
-        }
+    /// Makes these buffers those of rounds of up to `k` contacts in a model with `nv`
+    /// velocities, reusing them.
+    fn refit(&mut self, nv: usize, k: usize) {
+        let FrictionWork {
+            fric,
+            trows,
+            gt,
+            wtt,
+            bt,
+            pt,
+        } = self;
+        emptied(fric, k);
+        filled(trows, 2 * k * nv, 0.0);
+        filled(gt, 2 * k * nv, 0.0);
+        filled(wtt, 4 * k * k, 0.0);
+        filled(bt, 2 * k, 0.0);
+        filled(pt, 2 * k, 0.0);
     }
 }
 
@@ -128,26 +144,35 @@ impl ImpulseWork {
     /// Buffers for up to `k` simultaneous impacts in a model with `nv` velocities and `nl`
     /// loop-constraint rows.
     pub fn new(nv: usize, nl: usize, k: usize) -> ImpulseWork {
-        ImpulseWork {
-            k,
-            nv,
-            proj: Projection::with_rows(nl),
-            jrows: vec![0.0; k * nv],
-            gj: vec![0.0; k * nv],
-            qvel: vec![0.0; nv],
-            rate: vec![0.0; k],
-            impulses: vec![0.0; k],
-            exact: Vec::with_capacity(k),
-            w: vec![0.0; k * k],
-            q: vec![0.0; k],
-            p: vec![0.0; k],
-            lcp: LcpWork::new(k),
-            friction: FrictionWork::new(nv, k),
-            row: vec![0.0; nv],
-            free: vec![0.0; nv],
-            x: vec![0.0; nv],
-            last: 0,
+        let mut w = ImpulseWork::default();
+        w.refit(nv, nl, k);
+        w
+    }
+
+    /// Makes these buffers what [`ImpulseWork::new`]`(nv, nl, k)` gives, reusing them (they
+    /// allocate only where they are too small). (`Data`'s test `refitted_data_equals_new_data`
+    /// compares every field.)
+    pub(crate) fn refit(&mut self, nv: usize, nl: usize, k: usize) {
+        (self.k, self.nv, self.last) = (k, nv, 0);
+        self.proj.refit(nl);
+        for (v, n) in [
+            (&mut self.jrows, k * nv),
+            (&mut self.gj, k * nv),
+            (&mut self.qvel, nv),
+            (&mut self.rate, k),
+            (&mut self.impulses, k),
+            (&mut self.w, k * k),
+            (&mut self.q, k),
+            (&mut self.p, k),
+            (&mut self.row, nv),
+            (&mut self.free, nv),
+            (&mut self.x, nv),
+        ] {
+            filled(v, n, 0.0);
         }
+        emptied(&mut self.exact, k);
+        self.lcp.refit(k);
+        self.friction.refit(nv, k);
     }
 
     /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
@@ -174,4 +199,16 @@ impl ImpulseWork {
             *self = ImpulseWork::new(nv, nl, k.max(self.k));
         }
     }
+}
+
+/// Sets `v` to `n` copies of `x`, keeping its buffer (it allocates only when too small).
+pub(crate) fn filled<T: Clone>(v: &mut Vec<T>, n: usize, x: T) {
+    v.clear();
+    v.resize(n, x);
+}
+
+/// Empties `v` and makes room for `n` entries, keeping its buffer.
+pub(crate) fn emptied<T>(v: &mut Vec<T>, n: usize) {
+    v.clear();
+    v.reserve(n);
 }

@@ -49,26 +49,21 @@ fn poison(d: &mut Data) {
     }
 }
 
-/// All numbers describing body `b` (and its joint's motion subspace) as bit patterns.
+/// All numbers describing body `b` (and its joint's motion subspace) as bit patterns: its
+/// motion (`motion_bits`), bias acceleration, inertia and the motion subspace's rates.
 fn body_bits(m: &Model, d: &Data, b: usize) -> Vec<u64> {
     let j = &m.joints[m.bodies[b].joint];
-    let q = d.body_quat[b].quaternion();
     let mut v: Vec<f64> = Vec::new();
-    v.extend(d.body_pos[b].iter());
-    v.extend(d.body_rot[b].iter());
-    v.extend([q.w, q.i, q.j, q.k]);
-    for s in [&d.body_vel[b], &d.body_acc_bias[b]] {
-        v.extend(s.ang.iter().chain(s.lin.iter()));
-    }
+    v.extend(d.body_acc_bias[b].ang.iter().chain(d.body_acc_bias[b].lin.iter()));
     let i = &d.body_inertia[b];
     v.push(i.mass);
     v.extend(i.h.iter().chain(i.i_o.iter()));
-    for k in j.qvel..j.qvel + j.nv() {
-        for s in [&d.dof_s[k], &d.dof_sdot[k]] {
-            v.extend(s.ang.iter().chain(s.lin.iter()));
-        }
+    for s in &d.dof_sdot[j.qvel..j.qvel + j.nv()] {
+        v.extend(s.ang.iter().chain(s.lin.iter()));
     }
-    v.into_iter().map(f64::to_bits).collect()
+    let mut bits = motion_bits(m, d, b);
+    bits.extend(v.into_iter().map(f64::to_bits));
+    bits
 }
 
 #[test]
@@ -113,4 +108,56 @@ fn path_kinematics_equals_full_kinematics_and_touches_only_the_path() {
     d.eval_state.copy_from_slice(&state);
     kinematics::kinematics_path(&m, &mut d, None);
     assert!(d.body_pos.iter().all(|p| p[0].is_nan()));
+}
+
+/// A body's pose, orientation and spatial velocity (and its joint's motion subspace) as bit
+/// patterns: what `kinematics::poses_and_velocities` computes.
+fn motion_bits(m: &Model, d: &Data, b: usize) -> Vec<u64> {
+    let j = &m.joints[m.bodies[b].joint];
+    let q = d.body_quat[b].quaternion();
+    let mut v: Vec<f64> = Vec::new();
+    v.extend(d.body_pos[b].iter());
+    v.extend(d.body_rot[b].iter());
+    v.extend([q.w, q.i, q.j, q.k]);
+    v.extend(d.body_vel[b].ang.iter().chain(d.body_vel[b].lin.iter()));
+    for s in &d.dof_s[j.qvel..j.qvel + j.nv()] {
+        v.extend(s.ang.iter().chain(s.lin.iter()));
+    }
+    v.into_iter().map(f64::to_bits).collect()
+}
+
+/// `kinematics::poses_and_velocities` (the contact groups' margin values after a new broad
+/// phase) gives every body's pose, orientation, velocity and motion subspace bit for bit as
+/// `kinematics::kinematics`: on the pile of balls (free bodies, every one turned and spinning)
+/// and the rail vehicle (joints).
+#[test]
+fn poses_and_velocities_are_those_of_kinematics() {
+    for name in ["pile_of_balls", "rail_vehicle"] {
+        let scene = Scene::from_file(&common::bundled(name)).unwrap();
+        let (m, d) = compile(&scene, name).unwrap();
+        let mut state = d.state.clone();
+        for (k, x) in state[..m.nq].iter_mut().enumerate() {
+            *x += 0.01 * ((k % 7) as f64 - 3.0);
+        }
+        for (k, x) in state[m.nq..m.nq + m.nv].iter_mut().enumerate() {
+            *x = 0.3 * ((k * 5 % 11) as f64 - 5.0) + 0.05;
+        }
+        let (mut full, mut lean) = (compile(&scene, name).unwrap().1, d);
+        full.eval_state.copy_from_slice(&state);
+        kinematics::kinematics(&m, &mut full);
+        poison(&mut lean);
+        lean.eval_state.copy_from_slice(&state);
+        kinematics::poses_and_velocities(&m, &mut lean);
+        if name == "pile_of_balls" {
+            assert!(m.plan.free.len() == m.bodies.len(), "the pile's balls are free bodies");
+        }
+        for b in 0..m.bodies.len() {
+            assert_eq!(
+                motion_bits(&m, &lean, b),
+                motion_bits(&m, &full, b),
+                "{name}: body {}",
+                m.bodies[b].name
+            );
+        }
+    }
 }
