@@ -1,0 +1,94 @@
+//! What the scene's own model and data receive from the islands (see [`Islands::gather`]):
+//! coordinates, time, energies, counters, the contact events and the contact memory, so that
+//! every output, energy and saved state reads them as with one integrator.
+
+use super::Islands;
+use crate::model::data::EVENT_LOG_CAPACITY;
+use crate::model::{ContactEvent, Data, Model};
+
+impl Islands {
+    /// Writes the islands' coordinates and time into the scene's data.
+    pub(super) fn put_coordinates(&self, d: &mut Data) {
+        for island in &self.parts {
+            island.put_coordinates(&mut d.state);
+        }
+        d.time = self.time;
+    }
+
+    /// Writes the islands' motion into the scene's data `d` of model `m`: coordinates, time,
+    /// dissipated energy, counters and the contact events logged since the last gathering
+    /// (numbered by the islands' candidate list, [`Islands::candidates`]).
+    pub fn gather(&mut self, m: &Model, d: &mut Data) {
+        self.put_coordinates(d);
+        let n_explicit = self.n_explicit;
+        let (mut dissipated, mut counters) = (self.dissipated_base, self.retired);
+        let mut input_work = self.input_work_base;
+        let mut logged = !self.retired_log.is_empty();
+        d.event_log.append(&mut self.retired_log);
+        for island in &mut self.parts {
+            dissipated += island.dissipated();
+            input_work += island.input_work();
+            counters = counters + island.data.counters;
+            for e in &island.data.event_log {
+                if let Some(g) = island.scene_contact(e.contact, n_explicit, &self.candidate_index) {
+                    d.event_log.push(ContactEvent { contact: g, ..*e });
+                    logged = true;
+                }
+            }
+            island.data.event_log.clear();
+        }
+        if logged {
+            // (unstable sorts allocate nothing; ties broken by the contact: deterministic)
+            d.event_log
+                .sort_unstable_by(|a, b| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact)));
+            let excess = d.event_log.len().saturating_sub(EVENT_LOG_CAPACITY);
+            d.event_log.drain(..excess);
+        }
+        d.state[m.dissipated_index()] = dissipated;
+        if let Some(i) = m.input_work_index() {
+            d.state[i] = input_work;
+        }
+        d.counters = counters;
+        d.outputs_valid = false;
+        d.kinematics_valid = false;
+    }
+
+    /// Writes the islands' contact memory into the scene's data `d` of model `m`, which must
+    /// have the islands' candidate pairs.
+    pub fn gather_contacts(&self, m: &Model, d: &mut Data) {
+        debug_assert!(m.groups.candidates == self.candidates);
+        for island in &self.parts {
+            for (k, mem) in island.data.contact_memory.iter().enumerate() {
+                if let Some(g) = island.scene_contact(k, self.n_explicit, &self.candidate_index) {
+                    d.contact_memory[g] = *mem;
+                }
+            }
+        }
+        d.outputs_valid = false;
+    }
+
+    /// The energies of the scene: the islands' summed, the dissipated energy of islands that
+    /// ended added.
+    pub fn energies(&mut self) -> crate::outputs::Energies {
+        let mut e = crate::outputs::Energies {
+            dissipated: self.dissipated_base,
+            input_work: self.input_work_base,
+            ..Default::default()
+        };
+        for island in &mut self.parts {
+            let i = crate::outputs::energies(&island.model, &mut island.data);
+            e.kinetic += i.kinetic;
+            e.potential += i.potential;
+            e.contact += i.contact;
+            e.dissipated += i.dissipated;
+            e.input_work += i.input_work;
+        }
+        e
+    }
+
+    /// Adds work of the inputs done outside the islands' integration (a host moving a driven
+    /// joint) [J].
+    pub fn add_input_work(&mut self, work: f64) {
+        self.input_work_base += work;
+    }
+}
