@@ -30,7 +30,10 @@ def test_fmi2_do_step_refuses_the_step_that_blows_up(unzipped, make_instance, lo
     names = real_outputs(inst)
     h = 1e-3
     refused = False
-    for _ in range(2000):
+    # up to 5 s: the ball at rtol 1e-2 crosses ten times its energy scale at 3.2 s (its
+    # dissipated energy grows to 11 times its initial energy), the slider-crank blows up at its
+    # block's first impact
+    for _ in range(5000):
         values = [inst.get(n) for n in names]
         assert all(math.isfinite(x) for x in values), "an output is not finite after fmi2OK"
         try:
