@@ -10,6 +10,19 @@ use crate::scene::{Scene, SceneError, ShapeType};
 use nalgebra::{UnitQuaternion, Vector3};
 use std::collections::HashMap;
 
+/// The scene's group numbering: the shapes' groups in their order, then those a group pair
+/// names that no shape has (a part of a scene cut for an island may hold none of a group's
+/// shapes). An island's model is cut with the same numbering.
+pub(crate) fn group_numbering(scene: &Scene) -> HashMap<&str, usize> {
+    let mut group_index: HashMap<&str, usize> = HashMap::new();
+    let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
+    for group in scene.shape.iter().map(|s| &s.group).chain(named) {
+        let n = group_index.len();
+        group_index.entry(group.as_str()).or_insert(n);
+    }
+    group_index
+}
+
 /// Builds the groups and the contact elements of `candidates` (None: the broad phase's pairs
 /// at the initial configuration). `pose0` gives a body's initial pose, the other closures are
 /// those of [`compile_contact`].
@@ -37,14 +50,7 @@ pub(super) fn compile_groups(
         ));
     }
     let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
-    // the groups of the shapes, then those a group pair names that have no shape here (a
-    // part of a scene cut for an island may hold none of a group's shapes)
-    let mut group_index: HashMap<&str, usize> = HashMap::new();
-    let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
-    for group in scene.shape.iter().map(|s| &s.group).chain(named) {
-        let n = group_index.len();
-        group_index.entry(group.as_str()).or_insert(n);
-    }
+    let group_index = group_numbering(scene);
     let ngroups = group_index.len();
     let mut touch = vec![None; ngroups * ngroups];
     for (p, g) in scene.contact_group.iter().enumerate() {

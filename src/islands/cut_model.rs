@@ -10,7 +10,9 @@
 //! loops, springs, contacts, inputs and shapes keep the scene's order too.
 
 use super::cut::{items, SceneIndex};
-use crate::compile::{contact_warnings, dof_maps, group_contact, initial_pose, reserve_constraint_rows, Parameters};
+use crate::compile::{
+    contact_warnings, dof_maps, group_contact, group_numbering, initial_pose, reserve_constraint_rows, Parameters,
+};
 use crate::model::contact::ContactElement;
 use crate::model::groups::{Candidate, GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
@@ -50,13 +52,8 @@ pub(super) struct CutModel {
 impl ModelCutter {
     /// The cutter of the scene `scene` whose model `m` was compiled from it.
     pub(super) fn new(scene: &Scene, m: &Model) -> ModelCutter {
-        // the scene's group numbering: the shapes' groups, then those the pairs name
-        let mut group_index: HashMap<&str, usize> = HashMap::new();
-        let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
-        for group in scene.shape.iter().map(|s| &s.group).chain(named) {
-            let n = group_index.len();
-            group_index.entry(group.as_str()).or_insert(n);
-        }
+        // the scene's group numbering, as the compiler's
+        let group_index = group_numbering(scene);
         let pair_groups = scene
             .contact_group
             .iter()
