@@ -127,27 +127,13 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
             }
         }
         JointType::Free => {
-            quat = p.quat * quat_at(&q[3..7]);
-            let rot = *quat.to_rotation_matrix().matrix();
-            pos = p.pos + p.rot * Vector3::new(q[0], q[1], q[2]);
-            for (k, &wk) in w[..3].iter().enumerate() {
-                let s = Spatial::new(Vector3::zeros(), p.rot.column(k).into_owned());
-                let sdot = p.vel.cross_motion(&s);
-                d.dof_s[j.qvel + k] = s;
+            let s = &mut d.dof_s[j.qvel..j.qvel + 6];
+            (pos, quat, vel) = free_joint_motion(&p, q, w, s);
+            for (k, &wk) in w.iter().enumerate() {
+                // the translations' rates from the parent's velocity, the rotations' from the child's
+                let sdot = if k < 3 { p.vel } else { vel }.cross_motion(&d.dof_s[j.qvel + k]);
                 d.dof_sdot[j.qvel + k] = sdot;
-                vel = vel.add(&s.scale(wk));
                 acc = acc.add(&sdot.scale(wk));
-            }
-            for k in 0..3 {
-                let h = rot.column(k).into_owned();
-                let s = Spatial::new(h, pos.cross(&h));
-                d.dof_s[j.qvel + 3 + k] = s;
-                vel = vel.add(&s.scale(w[3 + k]));
-            }
-            for k in 0..3 {
-                let sdot = vel.cross_motion(&d.dof_s[j.qvel + 3 + k]);
-                d.dof_sdot[j.qvel + 3 + k] = sdot;
-                acc = acc.add(&sdot.scale(w[3 + k]));
             }
         }
     }
@@ -169,9 +155,8 @@ pub fn joint_kinematics(m: &Model, d: &mut Data, ji: usize) {
 
 /// The pose, orientation and spatial velocity of a free joint's child from its parent's frame
 /// `p`, the joint's coordinates `q` and rates `w`, its motion subspace into `s` (six columns):
-/// what [`joint_kinematics`] computes of them, the same operations in the same order (so the
-/// same numbers, bit for bit: `poses_and_velocities_are_those_of_kinematics`), without the
-/// rates, bias acceleration and inertia.
+/// what [`joint_kinematics`] computes of them (it calls this, then adds the rates, bias
+/// acceleration and inertia; [`poses_and_velocities`] does not).
 fn free_joint_motion(
     p: &Frame,
     q: &[f64],
