@@ -10,7 +10,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 #[macro_use]
-mod keys;
+pub(crate) mod keys;
 mod groups;
 mod inputs;
 mod validate;

@@ -4,7 +4,8 @@
 
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
-use crate::model::contact::{ContactElement, Shape};
+use crate::model::contact::{ContactElement, LawConstants, OtherSide, Shape, SphereSide};
+use crate::scene::keys::Surface;
 use crate::scene::{item_name, ContactSpec, ContactType, Law, SceneError, Side};
 use crate::spatial::triad;
 use nalgebra::Vector3;
@@ -24,48 +25,151 @@ pub(super) fn compile_contact(
     local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
     local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
 ) -> Result<ContactElement, SceneError> {
-    let item = item_name("contact", &c.name);
-    let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
+    let material = |name: &Option<String>| {
+        name.as_ref()
+            .and_then(|n| material_of(n))
+            .map(|i| [materials[i].youngs_modulus, materials[i].poisson_ratio])
+    };
     let sphere_body = body_of(&c.sphere_body);
+    let sphere = SphereSide {
+        body: sphere_body,
+        center: local_point(sphere_body, to_v(c.center)),
+        radius: p.radius,
+        material: material(&c.sphere_material),
+    };
     let body = body_of(&c.body);
-    let radius = p.radius;
-    let (shape, r_eff, bound_radius) = match c.kind {
+    let dims = Dimensions {
+        other_radius: p.other_radius,
+        size: p.size,
+        cylinder_radius: p.cylinder_radius,
+        length: p.length,
+    };
+    let (shape, bound_radius) = other_shape(
+        c.kind,
+        c.other_center,
+        &c.surface(),
+        &dims,
+        body,
+        local_point,
+        local_dir,
+    );
+    let other = OtherSide {
+        body,
+        kind: c.kind,
+        shape,
+        bound_radius,
+        material: material(&c.material),
+    };
+    let law = LawConstants {
+        law: p.law,
+        restitution: p.restitution,
+        exponent: p.exponent,
+        damping: p.damping,
+        max_penetration: Some(p.max_penetration),
+        min_impact_velocity: p.min_impact_velocity,
+        stiffness: p.stiffness,
+        friction: p.friction,
+        impulse_method: c.impulse_method,
+    };
+    element(c.name.clone(), &sphere, &other, &law)
+        .map_err(|message| SceneError::new(origin, item_name("contact", &c.name), "stiffness", message))
+}
+
+fn to_v(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+/// The sizes of the other shape (parameters a host may set).
+pub(super) struct Dimensions {
+    /// sphere_sphere: radius of the other sphere [m].
+    pub other_radius: f64,
+    /// sphere_plane: side lengths of the rectangle [m].
+    pub size: [f64; 2],
+    /// sphere_cylinder: cylinder radius [m].
+    pub cylinder_radius: f64,
+    /// sphere_cylinder: length of the patch [m].
+    pub length: f64,
+}
+
+/// The shape a sphere touches, in the frame of `body`, and the radius of a bounding sphere
+/// around its reference point: a sphere centred at `center` (world), or the plane or cylinder
+/// `surface` with the sizes `dims`.
+pub(super) fn other_shape(
+    kind: ContactType,
+    center: Option<[f64; 3]>,
+    surface: &Surface,
+    dims: &Dimensions,
+    body: Option<usize>,
+    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+) -> (Shape, f64) {
+    match kind {
         ContactType::SphereSphere => {
-            let r2 = p.other_radius;
+            let r2 = dims.other_radius;
             (
                 Shape::Sphere {
-                    center: local_point(body, v(c.other_center.unwrap_or_default())),
+                    center: local_point(body, to_v(center.unwrap_or_default())),
                     radius: r2,
                 },
-                radius * r2 / (radius + r2),
                 r2,
             )
         }
         ContactType::SpherePlane => {
-            let n = v(c.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
-            let u = v(c.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
+            let n = to_v(surface.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
+            let u = to_v(surface.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
             let w = n.cross(&u);
-            let [lu, lv] = p.size;
+            let [lu, lv] = dims.size;
             (
                 Shape::Plane {
-                    origin: local_point(body, v(c.origin.unwrap_or_default())),
+                    origin: local_point(body, to_v(surface.origin.unwrap_or_default())),
                     normal: local_dir(body, n),
                     u: local_dir(body, u),
                     v: local_dir(body, w),
                     half: [lu / 2.0, lv / 2.0],
                 },
-                radius,
                 0.5 * (lu * lu + lv * lv).sqrt(),
             )
         }
         ContactType::SphereCylinder => {
-            let k = v(c.axis.unwrap_or([0.0, 0.0, 1.0])).normalize();
-            let (rho, len) = (p.cylinder_radius, p.length);
-            let reference = match c.ref_axis {
-                Some(r) => v(r).normalize(),
+            let k = to_v(surface.axis.unwrap_or([0.0, 0.0, 1.0])).normalize();
+            let (rho, len) = (dims.cylinder_radius, dims.length);
+            let reference = match surface.ref_axis {
+                Some(r) => to_v(r).normalize(),
                 None => triad(&k).column(1).into_owned(),
             };
-            let inside = c.side == Side::Inside;
+            (
+                Shape::Cylinder {
+                    point: local_point(body, to_v(surface.axis_point.unwrap_or_default())),
+                    axis: local_dir(body, k),
+                    reference: local_dir(body, reference),
+                    radius: rho,
+                    half_length: len / 2.0,
+                    theta_range: surface.theta_range,
+                    inside: surface.side == Side::Inside,
+                },
+                (rho * rho + len * len / 4.0).sqrt(),
+            )
+        }
+    }
+}
+
+/// The contact element `name` of a sphere and the shape it touches, with the law constants
+/// `law`: the stiffness given, or Hertz's from the two materials and the effective radius;
+/// the hysteresis factor. Errs (with the message) when neither stiffness nor both materials
+/// are given for a law that needs a stiffness.
+pub(crate) fn element(
+    name: String,
+    sphere: &SphereSide,
+    other: &OtherSide,
+    law: &LawConstants,
+) -> Result<ContactElement, &'static str> {
+    let radius = sphere.radius;
+    let r_eff = match other.shape {
+        Shape::Sphere { radius: r2, .. } => radius * r2 / (radius + r2),
+        Shape::Plane { .. } => radius,
+        Shape::Cylinder {
+            radius: rho, inside, ..
+        } => {
             // Effective radius of the elliptical contact: geometric mean of the principal
             // relative radii (axial: R; circumferential: 1/(1/R ± 1/ρ)).
             let circ = if inside {
@@ -73,67 +177,38 @@ pub(super) fn compile_contact(
             } else {
                 1.0 / (1.0 / radius + 1.0 / rho)
             };
-            (
-                Shape::Cylinder {
-                    point: local_point(body, v(c.axis_point.unwrap_or_default())),
-                    axis: local_dir(body, k),
-                    reference: local_dir(body, reference),
-                    radius: rho,
-                    half_length: len / 2.0,
-                    theta_range: c.theta_range,
-                    inside,
-                },
-                (radius * circ).sqrt(),
-                (rho * rho + len * len / 4.0).sqrt(),
-            )
+            (radius * circ).sqrt()
         }
     };
-    let material = |name: &Option<String>| name.as_ref().and_then(|n| material_of(n)).map(|i| materials[i]);
-    let (stiffness, derived) = match p.stiffness {
+    let (stiffness, derived) = match law.stiffness {
         Some(k) => (k, false),
-        None => match (material(&c.sphere_material), material(&c.material)) {
-            (Some(a), Some(b)) => (
-                hertz_stiffness(
-                    a.youngs_modulus,
-                    a.poisson_ratio,
-                    b.youngs_modulus,
-                    b.poisson_ratio,
-                    r_eff,
-                ),
-                true,
-            ),
-            _ if p.law == Law::Impulse => (0.0, true),
-            _ => {
-                return Err(SceneError::new(
-                    origin,
-                    item,
-                    "stiffness",
-                    "give stiffness, or both sphere_material and material",
-                ))
-            }
+        None => match (sphere.material, other.material) {
+            (Some([ea, nua]), Some([eb, nub])) => (hertz_stiffness(ea, nua, eb, nub, r_eff), true),
+            _ if law.law == Law::Impulse => (0.0, true),
+            _ => return Err("give stiffness, or both sphere_material and material"),
         },
     };
     Ok(ContactElement {
-        name: c.name.clone(),
-        kind: c.kind,
-        law: p.law,
-        restitution: p.restitution,
-        sphere_body,
-        center: local_point(sphere_body, v(c.center)),
+        name,
+        kind: other.kind,
+        law: law.law,
+        restitution: law.restitution,
+        sphere_body: sphere.body,
+        center: sphere.center,
         radius,
-        body,
-        shape,
+        body: other.body,
+        shape: other.shape.clone(),
         stiffness,
         stiffness_derived: derived,
-        exponent: p.exponent,
-        damping: p.damping,
-        max_penetration: p.max_penetration,
-        min_impact_velocity: p.min_impact_velocity,
-        bound_radius,
-        impulse_method: c.impulse_method,
+        exponent: law.exponent,
+        damping: law.damping,
+        max_penetration: law.max_penetration.unwrap_or(radius),
+        min_impact_velocity: law.min_impact_velocity,
+        bound_radius: other.bound_radius,
+        impulse_method: law.impulse_method,
         constraint_row: None,
-        hysteresis: hysteresis_factor(p.law, p.restitution),
-        friction: p.friction,
+        hysteresis: hysteresis_factor(law.law, law.restitution),
+        friction: law.friction,
     })
 }
 

@@ -2,11 +2,11 @@
 //! pairs (found by the broad phase at the initial configuration, or given), and one contact
 //! element per candidate, compiled as the `[[contact]]` the group pair stands for.
 
-use super::contact::compile_contact;
-use super::parameters::{ContactValues, Parameters};
-use crate::model::contact::ContactElement;
+use super::contact::{element, other_shape, Dimensions};
+use super::parameters::Parameters;
+use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
-use crate::scene::{Scene, SceneError, ShapeType};
+use crate::scene::{item_name, ContactType, Scene, SceneError, ShapeType};
 use nalgebra::{UnitQuaternion, Vector3};
 use std::collections::HashMap;
 
@@ -106,6 +106,43 @@ pub(super) fn compile_groups(
             }
         })
         .collect();
+    let material = |name: &Option<String>| {
+        name.as_ref()
+            .and_then(|n| material_of(n))
+            .map(|i| [params.materials[i].youngs_modulus, params.materials[i].poisson_ratio])
+    };
+    // what each shape brings to a contact element, as the sphere and as the other shape
+    let mut sphere_sides = Vec::with_capacity(scene.shape.len());
+    let mut other_sides = Vec::with_capacity(scene.shape.len());
+    for s in &scene.shape {
+        let body = body_of(&s.body);
+        let center = s.center.unwrap_or_else(|| pose0(body).0.into());
+        sphere_sides.push(SphereSide {
+            body,
+            center: local_point(body, v(center)),
+            radius: s.radius.unwrap_or(1.0),
+            material: material(&s.material),
+        });
+        let kind = match s.kind {
+            ShapeType::Sphere => ContactType::SphereSphere,
+            ShapeType::Plane => ContactType::SpherePlane,
+            ShapeType::Cylinder => ContactType::SphereCylinder,
+        };
+        let dims = Dimensions {
+            other_radius: s.radius.unwrap_or(1.0),
+            size: s.size.unwrap_or([1.0, 1.0]),
+            cylinder_radius: s.cylinder_radius.unwrap_or(1.0),
+            length: s.length.unwrap_or(1.0),
+        };
+        let (shape, bound_radius) = other_shape(kind, Some(center), &s.surface(), &dims, body, local_point, local_dir);
+        other_sides.push(OtherSide {
+            body,
+            kind,
+            shape,
+            bound_radius,
+            material: material(&s.material),
+        });
+    }
     let mut groups = Groups {
         shapes,
         ngroups,
@@ -118,6 +155,9 @@ pub(super) fn compile_groups(
         reach,
         has_shape,
         stale_fraction: crate::contact::broad::STALE_FRACTION,
+        sphere_sides,
+        other_sides,
+        laws: params.groups.clone(),
     };
     groups.candidates = match candidates {
         Some(c) => {
@@ -139,65 +179,27 @@ pub(super) fn compile_groups(
     };
     let mut elements = Vec::with_capacity(groups.candidates.len());
     for c in &groups.candidates {
-        let name = format!("{}[{}:{}]", scene.contact_group[c.pair].name, c.sphere + 1, c.other + 1);
-        elements.push(group_contact(
-            scene,
-            params,
-            origin,
-            c,
-            &name,
-            material_of,
-            body_of,
-            local_point,
-            local_dir,
-        )?);
+        elements.push(candidate_element(&groups, c, groups.element_name(c), origin)?);
     }
     Ok((groups, elements))
 }
 
 /// The contact element of candidate pair `c` (named `name`): the `[[contact]]` its group pair
-/// stands for between its two shapes, with the group pair's parameter values (the closures are
-/// those of [`compile_contact`]).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn group_contact(
-    scene: &Scene,
-    params: &Parameters,
-    origin: &str,
+/// stands for between its two shapes, from the sides and law constants compiled in `groups`.
+pub(crate) fn candidate_element(
+    groups: &Groups,
     c: &Candidate,
-    name: &str,
-    material_of: &dyn Fn(&str) -> Option<usize>,
-    body_of: &dyn Fn(&str) -> Option<usize>,
-    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
-    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    name: String,
+    origin: &str,
 ) -> Result<ContactElement, SceneError> {
-    let g = &scene.contact_group[c.pair];
-    let (a, b) = (&scene.shape[c.sphere], &scene.shape[c.other]);
-    let spec = scene.group_pair_contact(g, name, a, b);
-    let gv = &params.groups[c.pair];
-    let radius = a.radius.unwrap_or(1.0);
-    let values = ContactValues {
-        law: gv.law,
-        restitution: gv.restitution,
-        exponent: gv.exponent,
-        damping: gv.damping,
-        max_penetration: gv.max_penetration.unwrap_or(radius),
-        min_impact_velocity: gv.min_impact_velocity,
-        stiffness: gv.stiffness,
-        friction: gv.friction,
-        radius,
-        other_radius: b.radius.unwrap_or(1.0),
-        size: b.size.unwrap_or([1.0, 1.0]),
-        cylinder_radius: b.cylinder_radius.unwrap_or(1.0),
-        length: b.length.unwrap_or(1.0),
-    };
-    compile_contact(
-        &spec,
-        &values,
-        &params.materials,
-        material_of,
-        origin,
-        body_of,
-        local_point,
-        local_dir,
+    element(
+        name,
+        &groups.sphere_sides[c.sphere],
+        &groups.other_sides[c.other],
+        &groups.laws[c.pair],
     )
+    .map_err(|message| {
+        let item = item_name("contact", &groups.element_name(c));
+        SceneError::new(origin, item, "stiffness", message)
+    })
 }

@@ -19,7 +19,7 @@ pub mod parameters;
 mod velocities;
 
 pub(crate) use contact::reserve_constraint_rows;
-pub(crate) use groups::{group_contact, group_numbering};
+pub(crate) use groups::{candidate_element, group_numbering};
 pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;

@@ -6,6 +6,7 @@
 //! parameter never edits the scene.
 
 use crate::contact::Friction;
+use crate::model::contact::LawConstants;
 use crate::scene::{
     check_law, check_max_step, inertia_is_physical, item_name, ContactType, Law, Scene, SceneError, Side, SolverSection,
 };
@@ -50,28 +51,6 @@ pub struct ContactValues {
     pub length: f64,
 }
 
-/// The settable constants of a contact group pair (its law constants; the geometry is the
-/// shapes').
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GroupValues {
-    /// Force law.
-    pub law: Law,
-    /// Coefficient of restitution.
-    pub restitution: f64,
-    /// Exponent n.
-    pub exponent: f64,
-    /// Kelvin-Voigt damping [N s/m].
-    pub damping: f64,
-    /// Largest admissible penetration [m] (None: each pair's sphere radius).
-    pub max_penetration: Option<f64>,
-    /// Floor on δ̇⁻ [m/s].
-    pub min_impact_velocity: f64,
-    /// Stiffness, when the scene gives one (else derived per pair from the materials).
-    pub stiffness: Option<f64>,
-    /// Friction constants.
-    pub friction: Friction,
-}
-
 /// The settable constants of a spring-damper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringValues {
@@ -101,7 +80,7 @@ pub struct Parameters {
     /// Per contact.
     pub contacts: Vec<ContactValues>,
     /// Per contact group pair.
-    pub groups: Vec<GroupValues>,
+    pub groups: Vec<LawConstants>,
     /// Solver settings.
     pub solver: SolverSection,
     /// Per input value (a `joint_motion` has three): its value at the start.
@@ -157,7 +136,7 @@ impl Parameters {
                 .iter()
                 .map(|g| {
                     let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
-                    GroupValues {
+                    LawConstants {
                         law: g.law,
                         restitution: g.restitution,
                         exponent: g.exponent.unwrap_or(1.5),
@@ -166,6 +145,7 @@ impl Parameters {
                         min_impact_velocity: template.min_impact_velocity_or_default(),
                         stiffness: g.stiffness,
                         friction: Friction::from_values(template.friction_or_default()),
+                        impulse_method: g.impulse_method,
                     }
                 })
                 .collect(),

@@ -11,9 +11,9 @@
 
 use super::cut::{items, SceneIndex};
 use crate::compile::{
-    contact_warnings, dof_maps, group_contact, group_numbering, initial_pose, reserve_constraint_rows, Parameters,
+    candidate_element, contact_warnings, dof_maps, group_numbering, reserve_constraint_rows, Parameters,
 };
-use crate::model::contact::ContactElement;
+use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{Candidate, GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
@@ -29,9 +29,6 @@ pub(super) struct ModelCutter {
     pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
-    /// The scene's bodies and materials by name (to compile a candidate pair's contact).
-    body_index: HashMap<String, usize>,
-    material_index: HashMap<String, usize>,
     /// The contact elements of the candidate pairs met so far (scene numbering, no name), with
     /// their [`Model::step_rtol_powers`].
     elements: FxHashMap<Candidate, (ContactElement, [f64; 2])>,
@@ -85,18 +82,6 @@ impl ModelCutter {
             index: SceneIndex::of(scene),
             pair_groups,
             drive_joint,
-            body_index: scene
-                .body
-                .iter()
-                .enumerate()
-                .map(|(i, b)| (b.name.clone(), i))
-                .collect(),
-            material_index: scene
-                .material
-                .iter()
-                .enumerate()
-                .map(|(i, x)| (x.name.clone(), i))
-                .collect(),
             elements: FxHashMap::default(),
             names: FxHashMap::default(),
             local_body: vec![usize::MAX; scene.body.len()],
@@ -104,41 +89,19 @@ impl ModelCutter {
         }
     }
 
-    /// The contact element of candidate pair `c` (scene numbering, no name) and its
-    /// [`Model::step_rtol_powers`] at `params`, compiled at its first use.
-    fn element(
-        &mut self,
-        scene: &Scene,
-        params: &Parameters,
-        origin: &str,
-        c: &Candidate,
-    ) -> Result<(ContactElement, [f64; 2]), String> {
+    /// The contact element of candidate pair `c` (scene numbering, no name) of the scene's
+    /// model `m` and its [`Model::step_rtol_powers`], made at its first use.
+    fn element(&mut self, m: &Model, origin: &str, c: &Candidate) -> Result<(ContactElement, [f64; 2]), String> {
         if let Some(e) = self.elements.get(c) {
             return Ok(e.clone());
         }
-        let (bodies, materials) = (&self.body_index, &self.material_index);
-        let local_point = |b: Option<usize>, p| {
-            let (r, q) = initial_pose(scene, b);
-            q.inverse() * (p - r)
-        };
-        let local_dir = |b: Option<usize>, v| initial_pose(scene, b).1.inverse() * v;
-        let e = group_contact(
-            scene,
-            params,
-            origin,
-            c,
-            "",
-            &|n| materials.get(n).copied(),
-            &|n| bodies.get(n).copied(),
-            &local_point,
-            &local_dir,
-        )
-        .map_err(|e| format!("an island could not be compiled: {e}"))?;
+        let e = candidate_element(&m.groups, c, String::new(), origin)
+            .map_err(|e| format!("an island could not be compiled: {e}"))?;
         // (bounded like the pool: beyond 16 pairs per body it starts empty again)
         if self.elements.len() >= 16 * self.local_body.len() {
             self.elements.clear();
         }
-        let powers = crate::model::step_rtol_powers(std::slice::from_ref(&e), params.solver.rtol)[0];
+        let powers = crate::model::step_rtol_powers(std::slice::from_ref(&e), m.solver.rtol)[0];
         self.elements.insert(*c, (e.clone(), powers));
         Ok((e, powers))
     }
@@ -158,7 +121,7 @@ impl ModelCutter {
         // the candidate pairs' elements first (the only part that can fail)
         let mut group_elements = Vec::with_capacity(candidates.len());
         for c in candidates {
-            group_elements.push(self.element(scene, params, origin, c)?);
+            group_elements.push(self.element(m, origin, c)?);
         }
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
@@ -377,6 +340,21 @@ impl ModelCutter {
                 reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
                 has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
                 stale_fraction: super::ISLAND_STALE_FRACTION,
+                sphere_sides: shapes
+                    .iter()
+                    .map(|&s| SphereSide {
+                        body: lb(m.groups.sphere_sides[s].body),
+                        ..m.groups.sphere_sides[s]
+                    })
+                    .collect(),
+                other_sides: shapes
+                    .iter()
+                    .map(|&s| OtherSide {
+                        body: lb(m.groups.other_sides[s].body),
+                        ..m.groups.other_sides[s].clone()
+                    })
+                    .collect(),
+                laws: m.groups.laws.clone(),
             }
         };
         let warnings = contact_warnings(&contacts);

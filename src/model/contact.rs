@@ -48,6 +48,58 @@ pub enum Shape {
     },
 }
 
+/// The sphere of a contact, compiled: what an element takes from its sphere shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereSide {
+    /// Body carrying the sphere (None = ground).
+    pub body: Option<usize>,
+    /// Centre in that body's frame.
+    pub center: Vector3<f64>,
+    /// Radius [m].
+    pub radius: f64,
+    /// Young's modulus and Poisson's ratio of its material (None: no material).
+    pub material: Option<[f64; 2]>,
+}
+
+/// The shape a sphere touches, compiled: what an element takes from its other shape.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OtherSide {
+    /// Body carrying the shape (None = ground).
+    pub body: Option<usize>,
+    /// Element type (from the shape's type).
+    pub kind: ContactType,
+    /// The shape in its body's frame.
+    pub shape: Shape,
+    /// Radius of a bounding sphere around its reference point (infinite: unbounded).
+    pub bound_radius: f64,
+    /// Young's modulus and Poisson's ratio of its material (None: no material).
+    pub material: Option<[f64; 2]>,
+}
+
+/// The law constants of a contact: a declared contact's, or a contact group pair's (the same
+/// for all its candidate pairs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawConstants {
+    /// Force law.
+    pub law: Law,
+    /// Coefficient of restitution.
+    pub restitution: f64,
+    /// Exponent n.
+    pub exponent: f64,
+    /// Kelvin-Voigt damping c [N s/m].
+    pub damping: f64,
+    /// Largest admissible penetration [m] (None: the sphere's radius).
+    pub max_penetration: Option<f64>,
+    /// Floor on δ̇⁻ [m/s].
+    pub min_impact_velocity: f64,
+    /// Stiffness K (None: Hertz's, from the materials).
+    pub stiffness: Option<f64>,
+    /// Friction constants.
+    pub friction: Friction,
+    /// Impulse law: how the impulse of an impact is computed.
+    pub impulse_method: ImpulseMethod,
+}
+
 /// A compiled contact element.
 #[derive(Debug, Clone)]
 pub struct ContactElement {

@@ -3,6 +3,7 @@
 //! (`Model::contacts[n_explicit..]`). The broad phase that finds the candidates is
 //! in the contact module (`broad.rs`).
 
+use crate::model::contact::{LawConstants, OtherSide, SphereSide};
 use crate::scene::BroadPhaseMethod;
 use nalgebra::Vector3;
 
@@ -67,6 +68,12 @@ pub struct Groups {
     /// The candidate list is made again once a body's shapes moved this fraction of the
     /// margin ([`STALE_FRACTION`]; more for an island, see [`crate::islands`]).
     pub stale_fraction: f64,
+    /// Per shape: what it brings to a contact element as the sphere of a pair.
+    pub sphere_sides: Vec<SphereSide>,
+    /// Per shape: what it brings as the other shape.
+    pub other_sides: Vec<OtherSide>,
+    /// Per group pair: its law constants.
+    pub laws: Vec<LawConstants>,
 }
 
 /// The fraction of the margin a body's shapes may move before the candidate list is made
@@ -77,6 +84,12 @@ impl Groups {
     /// True when the model has group shapes.
     pub fn is_active(&self) -> bool {
         !self.candidates.is_empty() || !self.shapes.is_empty()
+    }
+
+    /// The name of candidate pair `c`'s contact: `<group pair>[<sphere>:<other>]` (1-based
+    /// shape numbers).
+    pub fn element_name(&self, c: &Candidate) -> String {
+        format!("{}[{}:{}]", self.pair_names[c.pair], c.sphere + 1, c.other + 1)
     }
 
     /// The candidate of contact element `i`, if it is a group contact.

@@ -48,10 +48,45 @@ macro_rules! surface_keys {
     };
 }
 
+/// The placement keys of a plane or cylinder surface, as an item gives them (world frame).
+#[derive(Debug, Clone, Copy)]
+pub struct Surface {
+    /// Plane: centre of the rectangle.
+    pub origin: Option<[f64; 3]>,
+    /// Plane: outward normal.
+    pub normal: Option<[f64; 3]>,
+    /// Plane: first in-plane axis.
+    pub u_axis: Option<[f64; 3]>,
+    /// Cylinder: a point on the axis.
+    pub axis_point: Option<[f64; 3]>,
+    /// Cylinder: axis direction.
+    pub axis: Option<[f64; 3]>,
+    /// Cylinder: angular range [rad].
+    pub theta_range: Option<[f64; 2]>,
+    /// Cylinder: direction where θ = 0.
+    pub ref_axis: Option<[f64; 3]>,
+    /// Cylinder: the side the spheres touch.
+    pub side: crate::scene::Side,
+}
+
 /// The checks of the surface keys, for an item with `surface_keys!`.
 macro_rules! surface_checks {
     ($name:ident) => {
         impl $name {
+            /// Where the surface is and which way it faces (its sizes are parameters).
+            pub(crate) fn surface(&self) -> $crate::scene::keys::Surface {
+                $crate::scene::keys::Surface {
+                    origin: self.origin,
+                    normal: self.normal,
+                    u_axis: self.u_axis,
+                    axis_point: self.axis_point,
+                    axis: self.axis,
+                    theta_range: self.theta_range,
+                    ref_axis: self.ref_axis,
+                    side: self.side,
+                }
+            }
+
             /// Checks every surface key given, whether or not the item's type uses it: points
             /// finite, directions nonzero, lengths positive, the extent ordered.
             pub(crate) fn check_surface_keys(&self, origin: &str, item: &str) -> Result<(), $crate::scene::SceneError> {
