@@ -18,7 +18,7 @@ use crate::scene::JointType;
 use crate::spatial::{point_acceleration, Spatial};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-/// Fills the constraint rows after the loops' (rows `m.fixed_rows()..m.nc` of `d.phi_q`,
+/// Fills the constraint rows after the loops' (rows `m.fixed_rows()..d.nc` of `d.phi_q`,
 /// `d.phi`, `d.gamma`, already zeroed) at the evaluated kinematics.
 pub type ConstraintRows = fn(&Model, &mut Data);
 
@@ -369,7 +369,7 @@ pub fn constraints(m: &Model, d: &mut Data, extra_rows: ConstraintRows) {
     let alpha = m.baumgarte;
     let qvel = &d.eval_state[m.nq..m.nq + nv];
     let drives = nl - m.drives.len()..nl;
-    for r in 0..m.nc {
+    for r in 0..d.nc {
         if drives.contains(&r) {
             d.phi_dot[r] = 0.0;
             continue;
@@ -391,7 +391,7 @@ pub const REDUNDANT_PIVOT: f64 = 1e-10;
 /// mass blocks are factorised; on exit `d.qacc` holds q̈ and `d.lambda` the multipliers.
 pub fn solve_constrained(m: &Model, d: &mut Data) {
     solve_mass(m, &d.mass_blocks, &mut d.qacc);
-    let (nv, nc) = (m.nv, m.nc);
+    let (nv, nc) = (m.nv, d.nc);
     if nc == 0 {
         return;
     }
@@ -415,7 +415,7 @@ pub fn solve_constrained(m: &Model, d: &mut Data) {
 /// [`solve_constrained`], with the Schur complement factorised): `x ← G x` (the change of the
 /// accelerations) and `dl ← (Φ_q M̄⁻¹ Φ_qᵀ)⁻¹ Φ_q M̄⁻¹ x` (the change of the multipliers).
 pub fn constrained_response(m: &Model, d: &mut Data, x: &mut [f64], dl: &mut [f64]) {
-    let (nv, nc) = (m.nv, m.nc);
+    let (nv, nc) = (m.nv, d.nc);
     solve_mass(m, &d.mass_blocks, x);
     for (r, l) in dl.iter_mut().enumerate().take(nc) {
         *l = linalg::dot(&d.phi_q[r * nv..(r + 1) * nv], x);
@@ -447,7 +447,7 @@ fn solve_schur(d: &mut Data, nc: usize) {
 /// and factorises it with diagonal pivoting; dependent (redundant) rows are left out of the
 /// leading `d.schur_rank` pivots.
 pub fn factor_schur(m: &Model, d: &mut Data) {
-    let (nv, nc) = (m.nv, m.nc);
+    let (nv, nc) = (m.nv, d.nc);
     for r in 0..nc {
         let col = &mut d.minv_phit[r * nv..(r + 1) * nv];
         col.copy_from_slice(&d.phi_q[r * nv..(r + 1) * nv]);
@@ -487,7 +487,7 @@ fn max_abs(v: &[f64]) -> f64 {
 /// `d.lambda` on entry; the other rows are held): `Δv = M̄⁻¹ Φ_qᵀ (Φ_q M̄⁻¹ Φ_qᵀ)⁺ rhs`,
 /// written to `d.work2`.
 fn mass_metric_correction(m: &Model, d: &mut Data, nl: usize) {
-    let (nv, nc) = (m.nv, m.nc);
+    let (nv, nc) = (m.nv, d.nc);
     d.lambda[nl..nc].iter_mut().for_each(|x| *x = 0.0);
     solve_schur(d, nc);
     d.work2.iter_mut().for_each(|x| *x = 0.0);

@@ -48,8 +48,8 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
         kinematics(m, d);
     }
     let mut power = dynamics::applied_forces(m, d);
-    if !m.contacts.is_empty() {
-        power += contact::apply_forces(m, d);
+    if !d.contacts.is_empty() {
+        power += contact::apply_forces(d);
     }
     d.dissipation = power;
     dynamics::mass_and_bias(m, d);
@@ -57,15 +57,15 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
     if ok {
         // The constraint rows: the loops, and the rows of resting impulse contacts (skipped
         // when there are no loops and nothing rests).
-        let resting = any_resting(m, d);
-        if m.nc > 0 && (resting || m.fixed_rows() > 0) {
+        let resting = any_resting(d);
+        if d.nc > 0 && (resting || m.fixed_rows() > 0) {
             constrained_accelerations(m, d);
             if resting {
                 let friction = contact::resting_friction(m, d);
                 if friction != 0.0 {
                     d.dissipation += friction;
                 }
-                contact::resting_outputs(m, d);
+                contact::resting_outputs(d);
             }
         } else {
             dynamics::solve_mass(m, &d.mass_blocks, &mut d.qacc);
@@ -97,7 +97,7 @@ fn constrained_accelerations(m: &Model, d: &mut Data) {
 pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let plan = &m.plan;
     d.planned_kinematics = false;
-    if any_resting(m, d) {
+    if any_resting(d) {
         return evaluate(m, d);
     }
     if plan.free.is_empty() {
@@ -137,7 +137,7 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
 /// multipliers and the rank of its constraint rows, as before) or while an impulse-law
 /// contact rests (its force is a multiplier): then this is [`evaluate_current`].
 pub fn evaluate_outputs(m: &Model, d: &mut Data) {
-    if m.fixed_rows() > 0 || any_resting(m, d) {
+    if m.fixed_rows() > 0 || any_resting(d) {
         evaluate_current(m, d);
         return;
     }
@@ -150,7 +150,7 @@ pub fn evaluate_outputs(m: &Model, d: &mut Data) {
 /// [`evaluate_outputs`] would take the full evaluation for them (loops, resting contacts;
 /// drives alone need it only for their forces).
 pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
-    if m.loop_rows() > 0 || any_resting(m, d) {
+    if m.loop_rows() > 0 || any_resting(d) {
         return false;
     }
     d.eval_state.copy_from_slice(&d.state);
@@ -175,8 +175,8 @@ pub fn planned_kinematics(m: &Model, d: &mut Data) {
 fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
     planned_kinematics(m, d);
     let mut power = dynamics::applied_forces(m, d);
-    if !m.contacts.is_empty() {
-        power += contact::apply_forces(m, d);
+    if !d.contacts.is_empty() {
+        power += contact::apply_forces(d);
     }
     d.dissipation = power;
 }
@@ -200,8 +200,8 @@ pub fn state_derivative(m: &Model, d: &Data, dy: &mut [f64]) {
 }
 
 /// True when some impulse-law contact is resting (its constraint row is on).
-pub fn any_resting(m: &Model, d: &Data) -> bool {
-    m.contacts
+pub fn any_resting(d: &Data) -> bool {
+    d.contacts
         .iter()
         .zip(&d.contact_memory)
         .any(|(c, mem)| mem.active && c.law == Law::Impulse)

@@ -146,18 +146,18 @@ fn contact_totals(m: &Model, d: &mut Data) {
     for o in d.group_out.iter_mut() {
         *o = (0.0, 0.0);
     }
-    for i in 0..m.contacts.len() {
+    for i in 0..d.contacts.len() {
         if !d.contact_memory[i].active {
             continue;
         }
-        let c = &m.contacts[i];
+        let c = &d.contacts[i];
         let out = d.contact_out[i];
         if let Some(k) = m.groups.candidate_of(i) {
             let o = &mut d.group_out[k.pair];
             o.0 += 1.0;
             o.1 = o.1.max(out.delta);
         }
-        let g = contact::gap(m, d, i);
+        let g = contact::gap(d, i);
         let f = g.normal * out.force + out.friction_force;
         for (body, sign) in [(c.sphere_body, 1.0), (c.body, -1.0)] {
             if let Some(b) = body {
@@ -192,7 +192,7 @@ fn energies_evaluated(m: &Model, d: &Data) -> Energies {
 /// Largest loop-constraint (and resting-contact) residual |Φ| at the current state.
 pub fn constraint_residual(m: &Model, d: &mut Data) -> f64 {
     refresh(m, d);
-    if m.nc == 0 {
+    if d.nc == 0 {
         return 0.0;
     }
     dynamics::constraints(m, d, contact::resting_rows);
@@ -251,7 +251,7 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         | VarRef::InitialAngularVelocity(..)
         | VarRef::Group(..)
         | VarRef::Input(_) => return None,
-        VarRef::Stiffness(i) => m.contacts[i].stiffness,
+        VarRef::Stiffness(i) => d.contacts[i].stiffness,
         // a free body's coordinates: its centre of mass, the quaternion (normalised as the
         // kinematics do), the centre-of-mass velocity
         VarRef::BodyPosition(b, k) => match state_slot(m, target) {

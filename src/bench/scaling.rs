@@ -52,7 +52,7 @@ pub fn rhs_and_event_cost(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64)
     let ev = time_per_call(repeats, iters, || {
         kinematics(m, d);
         for (i, o) in g.iter_mut().enumerate() {
-            *o = contact::event_function(&m.contacts[i], &contact::gap(m, d, i));
+            *o = contact::event_function(&m.contacts[i], &contact::gap(d, i));
         }
         std::hint::black_box(&g);
     });

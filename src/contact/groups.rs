@@ -52,14 +52,14 @@ pub fn margin_values(m: &Model, d: &Data) -> (f64, f64) {
 /// the margin since the candidate list was made (from the event values at the current
 /// state): time to make it again.
 pub fn stale(m: &Model, d: &Data) -> bool {
-    m.groups.is_active() && d.events.aux[m.contacts.len()].1 > m.groups.stale_fraction * m.groups.margin
+    m.groups.is_active() && d.events.aux[d.contacts.len()].1 > m.groups.stale_fraction * m.groups.margin
 }
 
 /// The least time in which a body's group shapes could move half the margin from the
 /// reference poses (from the event values at the current state): a bound on the step.
 pub fn time_to_margin(m: &Model, d: &Data) -> f64 {
     if m.groups.is_active() {
-        d.events.aux[m.contacts.len()].0
+        d.events.aux[d.contacts.len()].0
     } else {
         f64::INFINITY
     }

@@ -121,8 +121,8 @@ pub fn resolve_with(
     let gj = &mut gj[..k * nv];
     jrows.iter_mut().for_each(|v| *v = 0.0);
     for (r, &ci) in contacts.iter().enumerate() {
-        let c = &m.contacts[ci];
-        let g = super::gap(m, d, ci);
+        let c = &d.contacts[ci];
+        let g = super::gap(d, ci);
         let row = &mut jrows[r * nv..(r + 1) * nv];
         super::add_separation_row(m, &d.dof_s, c, &g, row);
         let col = &mut gj[r * nv..(r + 1) * nv];
@@ -140,11 +140,11 @@ pub fn resolve_with(
     impulses.iter_mut().for_each(|v| *v = 0.0);
     exact.clear();
     for (r, &ci) in contacts.iter().enumerate() {
-        match m.contacts[ci].impulse_method {
+        match d.contacts[ci].impulse_method {
             ImpulseMethod::Exact => exact.push(r),
             ImpulseMethod::EffectiveMass => {
-                let c = &m.contacts[ci];
-                let g = super::gap(m, d, ci);
+                let c = &d.contacts[ci];
+                let g = super::gap(d, ci);
                 let mut bufs = MassBuffers {
                     row: &mut row[..],
                     free: &mut free[..],
@@ -191,7 +191,7 @@ pub fn resolve_with(
             q[a] = pre + restitution[ra] * rate[ra];
         }
         if !solve_lcp_with(w, q, n, lcp, p) {
-            let names: Vec<&str> = exact.iter().map(|&r| m.contacts[contacts[r]].name.as_str()).collect();
+            let names: Vec<&str> = exact.iter().map(|&r| d.contacts[contacts[r]].name.as_str()).collect();
             return Err(format!(
                 "simultaneous impact of contacts {names:?}: the impulse problem has no solution"
             ));
@@ -223,7 +223,7 @@ pub fn resolve_with(
     // The effective-mass impulse may leave a contact still approaching: report it rather than
     // let the surfaces pass through each other.
     for (r, &ci) in contacts.iter().enumerate() {
-        let c = &m.contacts[ci];
+        let c = &d.contacts[ci];
         if c.impulse_method == ImpulseMethod::EffectiveMass {
             let after = linalg::dot(&jrows[r * nv..(r + 1) * nv], &d.state[m.nq..m.nq + nv]);
             if after < -1e-9 * rate[r].abs() {
@@ -299,7 +299,7 @@ fn friction_impulses(
     let nv = m.nv;
     w.fric.clear();
     for (r, &ci) in contacts.iter().enumerate() {
-        if m.contacts[ci].friction.mu > 0.0 && pn[r] > 0.0 {
+        if d.contacts[ci].friction.mu > 0.0 && pn[r] > 0.0 {
             w.fric.push(r);
         }
     }
@@ -310,13 +310,13 @@ fn friction_impulses(
     let nt = 2 * nf;
     for (a, &r) in w.fric.iter().enumerate() {
         let ci = contacts[r];
-        let g = super::gap(m, d, ci);
+        let g = super::gap(d, ci);
         let (t1, t2) = super::friction::tangents(&g.normal);
         for (k, t) in [t1, t2].iter().enumerate() {
             let i = 2 * a + k;
             let row = &mut w.trows[i * nv..(i + 1) * nv];
             row.iter_mut().for_each(|v| *v = 0.0);
-            super::friction::add_tangent_row(m, &d.dof_s, &m.contacts[ci], &g, t, row);
+            super::friction::add_tangent_row(m, &d.dof_s, &d.contacts[ci], &g, t, row);
             let col = &mut w.gt[i * nv..(i + 1) * nv];
             col.copy_from_slice(row);
             proj.apply(m, d, col);
@@ -350,7 +350,7 @@ fn friction_impulses(
                 }
             }
             let block = [w.wtt[i * nt + i], w.wtt[i * nt + j], w.wtt[j * nt + j]];
-            let radius = m.contacts[contacts[r]].friction.mu * pn[r];
+            let radius = d.contacts[contacts[r]].friction.mu * pn[r];
             let p = disc_minimum(block, b, radius);
             change = change.max((p[0] - pt[i]).abs()).max((p[1] - pt[j]).abs());
             pt[i] = p[0];

@@ -32,8 +32,8 @@ pub use crate::model::contact::{ContactElement, ContactMemory, ContactOutput, Fr
 pub use geometry::Gap;
 
 /// Evaluates the geometry of contact `i` at the current kinematics.
-pub fn gap(m: &Model, d: &Data, i: usize) -> Gap {
-    let c = &m.contacts[i];
+pub fn gap(d: &Data, i: usize) -> Gap {
+    let c = &d.contacts[i];
     geometry::detect_placed(c, placement(d, c.sphere_body), placement(d, c.body))
 }
 
@@ -69,11 +69,11 @@ pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<(f64, f64)> {
 
 /// The geometric event function of contact `i` at the current kinematics, with the broad
 /// phase: the same sign as [`event_function`] of the exact gap.
-pub fn gap_event(m: &Model, d: &Data, i: usize) -> f64 {
-    let c = &m.contacts[i];
+pub fn gap_event(d: &Data, i: usize) -> f64 {
+    let c = &d.contacts[i];
     match broad_phase(c, d) {
         Some((v, _)) => v,
-        None => event_function(c, &gap(m, d, i)),
+        None => event_function(c, &gap(d, i)),
     }
 }
 
@@ -92,7 +92,7 @@ pub fn add_separation_row(m: &Model, dof_s: &[Spatial], c: &ContactElement, g: &
 /// do not rest stay zero (the pivoted factorisation drops them).
 pub fn resting_rows(m: &Model, d: &mut Data) {
     let nv = m.nv;
-    for (i, c) in m.contacts.iter().enumerate() {
+    for (i, c) in d.contacts.iter().enumerate() {
         let Some(r) = c.constraint_row else { continue };
         if !d.contact_memory[i].active {
             continue;
@@ -108,8 +108,8 @@ pub fn resting_rows(m: &Model, d: &mut Data) {
 
 /// Normal force [N] carried by resting contact `i` after a constrained solve (the multiplier
 /// of its row with the sign of a push); 0 when it does not rest.
-pub fn resting_force(m: &Model, d: &Data, i: usize) -> f64 {
-    match m.contacts[i].constraint_row {
+pub fn resting_force(d: &Data, i: usize) -> f64 {
+    match d.contacts[i].constraint_row {
         Some(r) if d.contact_memory[i].active => -d.lambda[r],
         _ => 0.0,
     }
@@ -117,11 +117,11 @@ pub fn resting_force(m: &Model, d: &Data, i: usize) -> f64 {
 
 /// Writes the outputs of the resting impulse contacts after a constrained solve (the
 /// friction fields are [`resting_friction`]'s).
-pub fn resting_outputs(m: &Model, d: &mut Data) {
-    for i in 0..m.contacts.len() {
-        if m.contacts[i].constraint_row.is_some() && d.contact_memory[i].active {
-            let g = gap(m, d, i);
-            let force = resting_force(m, d, i);
+pub fn resting_outputs(d: &mut Data) {
+    for i in 0..d.contacts.len() {
+        if d.contacts[i].constraint_row.is_some() && d.contact_memory[i].active {
+            let g = gap(d, i);
+            let force = resting_force(d, i);
             let out = &mut d.contact_out[i];
             out.delta = g.delta.max(0.0);
             out.delta_dot = g.delta_dot;
@@ -159,8 +159,8 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
     for _ in 0..RESTING_FRICTION_ITERATIONS {
         step.iter_mut().for_each(|x| *x = 0.0);
         power = 0.0;
-        for i in 0..m.contacts.len() {
-            let c = &m.contacts[i];
+        for i in 0..d.contacts.len() {
+            let c = &d.contacts[i];
             if !(d.contact_memory[i].active && c.law == Law::Impulse && c.friction.is_on()) {
                 continue;
             }
@@ -168,7 +168,7 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
             let fo = frame(d, c.body);
             let g = geometry::detect(c, &fs, &fo);
             let slip = friction::slip_velocity(&fs, &fo, &g);
-            let ft = friction::force(&c.friction, resting_force(m, d, i), &slip);
+            let ft = friction::force(&c.friction, resting_force(d, i), &slip);
             power -= ft.dot(&slip);
             let coef = Spatial::force_at(&ft, &g.point);
             add_jacobian_row(m, &d.dof_s, c.sphere_body, &coef, 1.0, &mut step);
@@ -204,16 +204,16 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
 
 /// Adds the forces of the active continuous contacts to the bodies (normal force and
 /// friction), updates the contact outputs and returns the dissipated power [W].
-pub fn apply_forces(m: &Model, d: &mut Data) -> f64 {
+pub fn apply_forces(d: &mut Data) -> f64 {
     let mut power = 0.0;
-    for i in 0..m.contacts.len() {
-        let c = &m.contacts[i];
+    for i in 0..d.contacts.len() {
+        let c = &d.contacts[i];
         let mem = d.contact_memory[i];
         if !mem.active || c.law == Law::Impulse {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        let g = gap(m, d, i);
+        let g = gap(d, i);
         let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let mut force = g.normal * f.total;

@@ -39,14 +39,14 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
 /// kinematics, or the plan's ([`planned_kinematics`]) where nothing after reads more than the
 /// poses and velocities of the free bodies.
 fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of: fn(&Model, &mut Data)) {
-    if any_resting(m, d) {
+    if any_resting(d) {
         evaluate(m, d);
     } else {
         kinematics_of(m, d);
     }
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     for i in 0..n_contacts {
-        let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
+        let (mode, clamp_value, a) = modes::contact_event_values(d, i, d.clamp_events);
         let (g, aux) = if at_step_end {
             (&mut d.events.g_new, &mut d.events.aux_new)
         } else {
@@ -55,7 +55,7 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
         g[i] = mode;
         g[n_contacts + i] = clamp_value;
         aux[i] = a;
-        let slip = modes::slip_event_value(m, d, i);
+        let slip = modes::slip_event_value(d, i);
         let g = if at_step_end {
             &mut d.events.g_new
         } else {
@@ -71,15 +71,15 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
 /// at the step's end (`g_new`, `aux_new`, evaluated at this state before the handling) with
 /// the changed contacts' evaluated again, on the kinematics the handling left (the same
 /// state's), into `g` and `aux` — what [`event_values`] would give there.
-pub fn values_after_mode_changes(m: &Model, d: &mut Data) {
-    let n_contacts = m.contacts.len();
+pub fn values_after_mode_changes(d: &mut Data) {
+    let n_contacts = d.contacts.len();
     let ev = &mut d.events;
     ev.g.copy_from_slice(&ev.g_new);
     ev.aux.copy_from_slice(&ev.aux_new);
     for k in 0..d.events.changed.len() {
         let i = d.events.changed[k];
-        let (mode, clamp_value, a) = modes::contact_event_values(m, d, i, d.clamp_events);
-        let slip = modes::slip_event_value(m, d, i);
+        let (mode, clamp_value, a) = modes::contact_event_values(d, i, d.clamp_events);
+        let slip = modes::slip_event_value(d, i);
         let ev = &mut d.events;
         ev.g[i] = mode;
         ev.g[n_contacts + i] = clamp_value;
@@ -98,7 +98,7 @@ fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
     } else {
         &mut d.events.aux
     };
-    aux[m.contacts.len()] = (time, moved);
+    aux[d.contacts.len()] = (time, moved);
 }
 
 /// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
@@ -116,7 +116,7 @@ pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
 /// (`event_values`, `evaluate`, `project_state` all do).
 fn contact_kinematics(m: &Model, d: &mut Data, i: usize) {
     d.planned_kinematics = false;
-    let c = &m.contacts[i];
+    let c = &d.contacts[i];
     for body in [c.sphere_body, c.body] {
         match body.and_then(|b| m.plan.free_body(b)) {
             Some(fb) => free_body_kinematics(m, d, fb),
@@ -136,9 +136,9 @@ fn interpolate(d: &mut Data, t: f64) {
 /// `d.eval_state` and the data evaluated there).
 fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
     interpolate(d, t);
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     let needs_dynamics = matches!(probe, Probe::Event(k) if k < n_contacts
-        && m.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
+        && d.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
     if needs_dynamics {
         evaluate(m, d);
     } else {
@@ -149,11 +149,11 @@ fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
         contact_kinematics(m, d, i);
     }
     match probe {
-        Probe::Event(k) if k < n_contacts => modes::contact_event_values(m, d, k, d.clamp_events).0,
-        Probe::Event(k) if k < 2 * n_contacts => modes::contact_event_values(m, d, k - n_contacts, d.clamp_events).1,
-        Probe::Event(k) => modes::slip_event_value(m, d, k - 2 * n_contacts),
-        Probe::Delta(i) => contact::gap(m, d, i).delta,
-        Probe::Rate(i) => contact::gap(m, d, i).delta_dot,
+        Probe::Event(k) if k < n_contacts => modes::contact_event_values(d, k, d.clamp_events).0,
+        Probe::Event(k) if k < 2 * n_contacts => modes::contact_event_values(d, k - n_contacts, d.clamp_events).1,
+        Probe::Event(k) => modes::slip_event_value(d, k - 2 * n_contacts),
+        Probe::Delta(i) => contact::gap(d, i).delta,
+        Probe::Rate(i) => contact::gap(d, i).delta_dot,
     }
 }
 
@@ -239,7 +239,7 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
     // the last step's length, over which `aux_new` holds the rates at its start (after an
     // accepted step; 0 after a restart)
     let last_step = d.solver.method().map_or(0.0, |s| s.t() - s.t_prev());
-    for (i, c) in m.contacts.iter().enumerate() {
+    for (i, c) in d.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux[i];
         if d.contact_memory[i].active {
             // An active continuous contact that still closes: the time to penetrate half of
@@ -264,7 +264,7 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
                 let approach =
                     SEPARATION_APPROACH * time_to_separation(delta, closing, d.events.aux_new[i].1, last_step);
                 if approach < bound {
-                    if let Some(floor) = touch_step(m, i, -closing, m.step_rtol_powers[i][1]) {
+                    if let Some(floor) = touch_step(m, d, i, -closing, d.step_rtol_powers[i][1]) {
                         bound = bound.min(approach.max(floor));
                     }
                 }
@@ -297,13 +297,13 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
 /// `p = 1/(n + 1)` below 0.001 rtol).
 pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
     let mut bound = f64::INFINITY;
-    for (i, c) in m.contacts.iter().enumerate() {
+    for (i, c) in d.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux_new[i];
         let touched = c.law != Law::Impulse && d.contact_memory[i].active && delta <= 1e-6 * c.max_penetration;
         if !touched || closing.is_nan() || closing <= 0.0 {
             continue;
         }
-        if let Some(h) = touch_step(m, i, closing, m.step_rtol_powers[i][0]) {
+        if let Some(h) = touch_step(m, d, i, closing, d.step_rtol_powers[i][0]) {
             bound = bound.min(h);
         }
     }
@@ -312,10 +312,10 @@ pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
 
 /// `0.5 rtol_power δ_max / v` for contact `i` at the normal speed `v`, with `δ_max` the
 /// penetration that stores the sphere's kinetic energy at that speed (see
-/// [`first_contact_step`]) and `rtol_power` a power of `rtol` ([`Model::step_rtol_powers`]);
+/// [`first_contact_step`]) and `rtol_power` a power of `rtol` ([`Data::step_rtol_powers`]);
 /// None for a contact without a sphere body or with a law that stores no energy.
-fn touch_step(m: &Model, i: usize, speed: f64, rtol_power: f64) -> Option<f64> {
-    let c = &m.contacts[i];
+fn touch_step(m: &Model, d: &Data, i: usize, speed: f64, rtol_power: f64) -> Option<f64> {
+    let c = &d.contacts[i];
     let b = c.sphere_body?;
     let (k, n) = (c.stiffness, c.exponent);
     let mass = m.bodies[b].mass;
@@ -331,7 +331,7 @@ fn touch_step(m: &Model, i: usize, speed: f64, rtol_power: f64) -> Option<f64> {
 /// (None: the step can be accepted whole). Peaks of continuous contacts before that event
 /// are logged.
 pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     let method = d.solver.method()?;
     // (contact groups without candidates still follow how far their shapes moved)
     if n_contacts == 0 && !m.groups.is_active() {
@@ -354,7 +354,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     let mut any = false;
     for k in 0..2 * n_contacts {
         let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % n_contacts].0);
-        if modes::relevant_crossing(m, d, k, g0, g1, delta1) {
+        if modes::relevant_crossing(d, k, g0, g1, delta1) {
             let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);
             any = true;
             t_first = t_first.min(t);
@@ -369,7 +369,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         }
         interpolate(d, t0);
         contact_kinematics(m, d, i);
-        let d0_exact = contact::gap(m, d, i).delta;
+        let d0_exact = contact::gap(d, i).delta;
         if d0_exact > 0.0 {
             continue;
         }
@@ -414,14 +414,14 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     for i in 0..n_contacts {
         let k = 2 * n_contacts + i;
         let (g0, g1) = (d.events.g[k], d.events.g_new[k]);
-        if !modes::relevant_crossing(m, d, k, g0, g1, d.events.aux_new[i].0) {
+        if !modes::relevant_crossing(d, k, g0, g1, d.events.aux_new[i].0) {
             continue;
         }
         let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t1);
         if t <= t_first {
             interpolate(d, t);
             contact_kinematics(m, d, i);
-            let g = contact::gap(m, d, i);
+            let g = contact::gap(d, i);
             let kind = if g1 <= 0.0 {
                 ContactEventKind::Stick
             } else {
@@ -436,7 +436,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if !d.log_peaks {
             break;
         }
-        if m.contacts[i].law == Law::Impulse || !d.contact_memory[i].active {
+        if d.contacts[i].law == Law::Impulse || !d.contact_memory[i].active {
             continue;
         }
         let (r0, r1) = (d.events.aux[i].1, d.events.aux_new[i].1);
@@ -445,9 +445,9 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
             if t <= t_first {
                 interpolate(d, t);
                 contact_kinematics(m, d, i);
-                let g = contact::gap(m, d, i);
+                let g = contact::gap(d, i);
                 let mem = d.contact_memory[i];
-                let f = contact::laws::force(&m.contacts[i], g.delta.max(0.0), g.delta_dot, mem.impact_velocity);
+                let f = contact::laws::force(&d.contacts[i], g.delta.max(0.0), g.delta_dot, mem.impact_velocity);
                 d.log_event_at(t, i, ContactEventKind::Peak, g.delta, g.delta_dot, f.total);
             }
         }

@@ -58,15 +58,15 @@ fn fail(d: &Data, message: impl Into<String>) -> EngineError {
 pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
     d.eval_state.copy_from_slice(&d.state);
     kinematics(m, d);
-    for i in 0..m.contacts.len() {
-        let g = contact::gap(m, d, i);
-        let c = &m.contacts[i];
+    for i in 0..d.contacts.len() {
+        let g = contact::gap(d, i);
+        let c = &d.contacts[i];
         if contact::event_function(c, &g) > 0.0 && c.law != Law::Impulse {
             d.contact_memory[i].active = true;
             d.contact_memory[i].impact_velocity = g.delta_dot.max(c.min_impact_velocity);
         }
     }
-    if m.contacts.iter().any(|c| c.law == Law::Impulse) {
+    if d.contacts.iter().any(|c| c.law == Law::Impulse) {
         evaluate(m, d);
         modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
     }
@@ -95,7 +95,7 @@ pub fn resync_margins(m: &Model, d: &mut Data) {
             // margin values do not read)
             crate::kinematics::poses_and_velocities(m, d);
             let (moved, time) = contact::groups::margin_values(m, d);
-            d.events.aux_new[m.contacts.len()] = (time, moved);
+            d.events.aux_new[d.contacts.len()] = (time, moved);
         }
         _ => resync(m, d),
     }
@@ -197,7 +197,7 @@ fn advance_steps(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> R
     settle(m, d);
     if !d.solver.started || !continuation {
         // An input changed at this communication point may have made a resting contact pull.
-        let settled = any_resting(m, d) && modes::resting_violated(m, d);
+        let settled = any_resting(d) && modes::resting_violated(m, d);
         if settled {
             modes::settle_impulse_contacts(m, d).map_err(|e| fail(d, e))?;
         }
@@ -395,12 +395,12 @@ fn stop_at_event(m: &Model, d: &mut Data, t: f64) -> Result<(), EngineError> {
     let result = modes::handle_events(m, d);
     let h = d.solver.method().map_or(0.0, |i| i.next_step());
     let h = h.min(events::first_contact_step(m, d));
-    if result.is_ok() && !m.contacts.iter().any(|c| c.law == Law::Impulse) {
+    if result.is_ok() && !d.contacts.iter().any(|c| c.law == Law::Impulse) {
         // The handling changed no state, only the modes of `d.events.changed`: the event
         // values at the restart are those just evaluated at this state, except those
         // contacts' (their clamp and slip functions read the mode), evaluated again on the
         // same kinematics — the numbers `restart` would evaluate, without every contact's.
-        events::values_after_mode_changes(m, d);
+        events::values_after_mode_changes(d);
         return restart_with_values(m, d, h);
     }
     restart(m, d, h, false)?;
@@ -450,7 +450,7 @@ fn project_after_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
     if !dynamics::project_state(m, d, dynamics::PROJECTION_TOL, contact::resting_rows) {
         return Ok(());
     }
-    if !m.contacts.is_empty() {
+    if !d.contacts.is_empty() {
         // The correction moves bodies by about the tolerance. If that alone changed the
         // sign of an event function, keep the step's own end state (still held by the
         // integrator) so that the event is located on the dense output as usual; a later

@@ -18,18 +18,18 @@ use crate::scene::Law;
 
 /// Mode function, clamp function and (δ, δ̇) of contact `i` at the evaluated kinematics
 /// (`clamp`: evaluate the clamp function, else 1).
-pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64, f64)) {
-    let c = &m.contacts[i];
+pub fn contact_event_values(d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64, f64)) {
+    let c = &d.contacts[i];
     let mem = d.contact_memory[i];
     if c.law == Law::Impulse && mem.active {
         // Resting: holds while the normal force pushes and the sphere stays on the patch.
-        let g = gap(m, d, i);
-        return (resting_force(m, d, i).min(g.margin), 1.0, (g.delta, g.delta_dot));
+        let g = gap(d, i);
+        return (resting_force(d, i).min(g.margin), 1.0, (g.delta, g.delta_dot));
     }
     if let Some((v, closing)) = broad_phase(c, d) {
         return (v, 1.0, (v, closing));
     }
-    let g = gap(m, d, i);
+    let g = gap(d, i);
     let clamp_value = if clamp && mem.active && c.law != Law::Impulse && laws::can_clamp(c) {
         laws::clamp_function(c, g.delta.max(0.0), g.delta_dot, mem.impact_velocity)
     } else {
@@ -49,8 +49,8 @@ pub fn contact_event_values(m: &Model, d: &Data, i: usize, clamp: bool) -> (f64,
 /// stiction velocity for an active contact with friction (continuous law in contact, or
 /// impulse law resting) (its sign change is
 /// a stick or slip transition, where the regularised law changes its formula), else 1.
-pub fn slip_event_value(m: &Model, d: &Data, i: usize) -> f64 {
-    let c = &m.contacts[i];
+pub fn slip_event_value(d: &Data, i: usize) -> f64 {
+    let c = &d.contacts[i];
     // active: in contact under a continuous law, resting under the impulse law
     if !c.friction.is_on() || !d.contact_memory[i].active {
         return 1.0;
@@ -65,20 +65,20 @@ pub fn slip_event_value(m: &Model, d: &Data, i: usize) -> f64 {
 /// then friction functions)
 /// from `g0` to `g1` needs handling (an impulse contact leaving its zone after an impact does
 /// not; a cut of the force only matters while the contact is active).
-pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
+pub fn relevant_crossing(d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
     let crossed = (g0 <= 0.0) != (g1 <= 0.0);
     if !crossed {
         return false;
     }
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     if k >= 2 * n_contacts {
         let i = k - 2 * n_contacts;
-        return d.contact_memory[i].active && m.contacts[i].friction.is_on();
+        return d.contact_memory[i].active && d.contacts[i].friction.is_on();
     }
     if k >= n_contacts {
         return d.contact_memory[k - n_contacts].active;
     }
-    let c = &m.contacts[k];
+    let c = &d.contacts[k];
     if c.law == Law::Impulse && !d.contact_memory[k].active && g1 <= 0.0 {
         // Leaving after an impact: nothing to do, unless δ went past δ_max.
         return delta1 >= 0.5 * c.max_penetration;
@@ -90,8 +90,8 @@ pub fn relevant_crossing(m: &Model, d: &Data, k: usize, g0: f64, g1: f64, delta1
 /// the current state).
 pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
     evaluate_current(m, d);
-    (0..m.contacts.len()).any(|i| {
-        m.contacts[i].law == Law::Impulse && d.contact_memory[i].active && contact_event_values(m, d, i, false).0 <= 0.0
+    (0..d.contacts.len()).any(|i| {
+        d.contacts[i].law == Law::Impulse && d.contact_memory[i].active && contact_event_values(d, i, false).0 <= 0.0
     })
 }
 
@@ -105,22 +105,22 @@ pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
 /// them, the whole evaluation (their resting forces are multipliers of the constrained
 /// solve, and their impacts read the mass matrix).
 pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
-    let impulse_law = m.contacts.iter().any(|c| c.law == Law::Impulse);
+    let impulse_law = d.contacts.iter().any(|c| c.law == Law::Impulse);
     if impulse_law {
         evaluate_current(m, d);
     } else {
         d.eval_state.copy_from_slice(&d.state);
         kinematics(m, d);
     }
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     let mut impulse_work = false;
     d.events.changed.clear();
     for i in 0..n_contacts {
-        let c = &m.contacts[i];
-        let gap = gap(m, d, i);
+        let c = &d.contacts[i];
+        let gap = gap(d, i);
         let mem = d.contact_memory[i];
         let (before, now) = (d.events.g[i], d.events.g_new[i]);
-        let crossed = relevant_crossing(m, d, i, before, now, gap.delta);
+        let crossed = relevant_crossing(d, i, before, now, gap.delta);
         // Reaching δ_max in contact is an error. (A continuous contact that is not active
         // there is a sphere passing behind a plate: not a contact at all.)
         let in_contact = if c.law == Law::Impulse { !mem.active } else { mem.active };
@@ -154,7 +154,7 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
             }
         }
         let (before, now) = (d.events.g[n_contacts + i], d.events.g_new[n_contacts + i]);
-        if relevant_crossing(m, d, n_contacts + i, before, now, gap.delta) {
+        if relevant_crossing(d, n_contacts + i, before, now, gap.delta) {
             let kind = if now <= 0.0 {
                 ContactEventKind::Clamp
             } else {
@@ -165,7 +165,7 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
             let f = if impulse_law {
                 d.contact_out[i].force
             } else if mem.active {
-                laws::force(c, gap.delta, gap.delta_dot, mem.impact_velocity).total
+                laws::force(&d.contacts[i], gap.delta, gap.delta_dot, mem.impact_velocity).total
             } else {
                 0.0
             };
@@ -185,7 +185,7 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
 /// approach nor separate rest if their constraint force pushes (an active set: the most
 /// tensile one is dropped until all push). Works on the preallocated `d.impacts`.
 pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
-    let n_contacts = m.contacts.len();
+    let n_contacts = d.contacts.len();
     let max_rounds = 100 + 20 * n_contacts;
     let mut rounds = 0;
     loop {
@@ -193,11 +193,11 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         w.set.clear();
         w.restitution.clear();
         w.approach.clear();
-        for (i, c) in m.contacts.iter().enumerate() {
+        for (i, c) in d.contacts.iter().enumerate() {
             if c.law != Law::Impulse {
                 continue;
             }
-            let g = gap(m, d, i);
+            let g = gap(d, i);
             if touching(c, &g, d.contact_memory[i].active) && g.delta_dot > velocity_tolerance(c) {
                 let w = &mut d.impacts;
                 w.set.push(i);
@@ -210,7 +210,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         }
         rounds += 1;
         if rounds > max_rounds {
-            let names: Vec<&str> = d.impacts.set.iter().map(|&i| m.contacts[i].name.as_str()).collect();
+            let names: Vec<&str> = d.impacts.set.iter().map(|&i| d.contacts[i].name.as_str()).collect();
             return Err(format!(
                 "impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"
             ));
@@ -235,11 +235,11 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         d.impacts.was.push(active);
     }
     d.impacts.candidates.clear();
-    for (i, c) in m.contacts.iter().enumerate() {
+    for (i, c) in d.contacts.iter().enumerate() {
         if c.law != Law::Impulse {
             continue;
         }
-        let g = gap(m, d, i);
+        let g = gap(d, i);
         let rest = touching(c, &g, d.impacts.was[i]) && g.margin > 0.0 && g.delta_dot.abs() <= velocity_tolerance(c);
         d.contact_memory[i].active = rest;
         if rest {
@@ -253,7 +253,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
             .candidates
             .iter()
             .enumerate()
-            .map(|(k, &i)| (k, resting_force(m, d, i)))
+            .map(|(k, &i)| (k, resting_force(d, i)))
             .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
         if p > 0.0 {
             break;
@@ -264,9 +264,9 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
     }
     for i in 0..n_contacts {
         let (before, now) = (d.impacts.was[i], d.contact_memory[i].active);
-        if m.contacts[i].law == Law::Impulse && now != before {
-            let g = gap(m, d, i);
-            let f = resting_force(m, d, i);
+        if d.contacts[i].law == Law::Impulse && now != before {
+            let g = gap(d, i);
+            let f = resting_force(d, i);
             let kind = if now {
                 ContactEventKind::Rest
             } else {

@@ -396,7 +396,7 @@ impl Islands {
                     if self.candidate_index.contains_key(c) {
                         continue;
                     }
-                    let g = contact::gap(&island.model, &island.data, n + k);
+                    let g = contact::gap(&island.data, n + k);
                     if contact::event_function(&island.model.contacts[n + k], &g) > 0.0 {
                         return Err(fail(
                             d.time,

@@ -5,7 +5,8 @@
 
 use super::compiled::Model;
 use crate::integrator::{self, Integrator, Stats};
-use crate::model::contact::{ContactMemory, ContactOutput};
+use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
+use crate::model::groups::Candidate;
 use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
@@ -271,6 +272,18 @@ pub struct Data {
     pub counters: Counters,
     /// The integrator with its memory.
     pub solver: Solver,
+    // --- the contact list (the model's at compilation; the broad phase's stage makes it anew) ---
+    /// Contact elements: the declared contacts, then one per candidate pair of the contact
+    /// groups.
+    pub contacts: Vec<ContactElement>,
+    /// The candidate pairs behind `contacts[m.groups.n_explicit..]`, in their order.
+    pub candidates: Vec<Candidate>,
+    /// Per contact, `solver.rtol` to its [`ContactElement::touch_power`] and
+    /// [`ContactElement::separation_power`] (see [`crate::model::step_rtol_powers`]).
+    pub step_rtol_powers: Vec<[f64; 2]>,
+    /// Total constraint rows: the model's fixed rows, then one row per impulse-law contact
+    /// (its resting mode; zero while the contact does not rest).
+    pub nc: usize,
     // --- options ---
     /// Locate the instants a damped law's force is cut at zero (and restart there).
     pub clamp_events: bool,
@@ -400,6 +413,10 @@ impl Data {
             state: Vec::new(),
             inputs: Vec::new(),
             contact_memory: Vec::new(),
+            contacts: Vec::new(),
+            candidates: Vec::new(),
+            step_rtol_powers: Vec::new(),
+            nc: 0,
             counters: Counters::default(),
             solver: Solver {
                 stepper: None,
@@ -472,6 +489,10 @@ impl Data {
             state,
             inputs,
             contact_memory,
+            contacts,
+            candidates,
+            step_rtol_powers,
+            nc: rows,
             counters,
             solver,
             clamp_events,
@@ -531,6 +552,7 @@ impl Data {
         inputs.clear();
         inputs.extend_from_slice(&model.input_start);
         filled(contact_memory, ncontacts, ContactMemory::default());
+        take_contact_list(model, contacts, candidates, step_rtol_powers, rows);
         *counters = Counters::default();
         let (method, mut start) = match solver.stepper.take() {
             Some(s) => (fresh.renew(s.method, &model.solver, n), s.start),
@@ -632,6 +654,19 @@ impl Data {
         filled(group_out, model.groups.pair_names.len(), (0.0, 0.0));
     }
 
+    /// Takes the model's contact list (its contact elements, candidate pairs, step powers and
+    /// constraint rows), as after a change of its law constants.
+    pub fn take_contacts(&mut self, model: &Model) {
+        let Data {
+            contacts,
+            candidates,
+            step_rtol_powers,
+            nc,
+            ..
+        } = self;
+        take_contact_list(model, contacts, candidates, step_rtol_powers, nc);
+    }
+
     /// Appends a contact event at the current time to the log (the oldest half is dropped
     /// when it is full).
     pub fn log_event(&mut self, contact: usize, kind: ContactEventKind, delta: f64, delta_dot: f64, force: f64) {
@@ -660,6 +695,20 @@ impl Data {
             force,
         });
     }
+}
+
+/// [`Data::take_contacts`] on the data's fields.
+fn take_contact_list(
+    model: &Model,
+    contacts: &mut Vec<ContactElement>,
+    candidates: &mut Vec<Candidate>,
+    step_rtol_powers: &mut Vec<[f64; 2]>,
+    nc: &mut usize,
+) {
+    contacts.clone_from(&model.contacts);
+    candidates.clone_from(&model.groups.candidates);
+    step_rtol_powers.clone_from(&model.step_rtol_powers);
+    *nc = model.nc;
 }
 
 #[cfg(test)]

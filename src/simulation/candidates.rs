@@ -78,7 +78,7 @@ impl Simulation {
             match old.get(cand) {
                 Some(mem) => d2.contact_memory[n + k] = *mem,
                 None => {
-                    let g = crate::contact::gap(&m2, &d2, n + k);
+                    let g = crate::contact::gap(&d2, n + k);
                     if crate::contact::event_function(&m2.contacts[n + k], &g) > 0.0 {
                         return Err(SimError::Step {
                             time: d.time,

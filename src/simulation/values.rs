@@ -129,6 +129,7 @@ impl Simulation {
         };
         let c = self.running()?;
         c.model = model;
+        c.data.take_contacts(&c.model);
         c.direct_reads.0.clear();
         // the islands are formed again, with the new value, at the next step
         c.islands = None;

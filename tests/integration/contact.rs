@@ -1268,7 +1268,7 @@ fn tangent_jacobian_rows_give_the_slip_of_a_spinning_ball() {
     let (m, mut d) = compile(scene);
     d.eval_state.copy_from_slice(&d.state);
     kinematics::kinematics(&m, &mut d);
-    let g = contact::gap(&m, &d, 0);
+    let g = contact::gap(&d, 0);
     let fs = kinematics::frame(&d, m.contacts[0].sphere_body);
     let slip = contact::friction::slip_velocity(&fs, &kinematics::frame(&d, None), &g);
     let by_hand = v + w.cross(&Vector3::new(0.0, 0.0, -R));
@@ -1331,8 +1331,8 @@ fn broad_phase_keeps_the_event_sign() {
         d.eval_state.copy_from_slice(&state);
         kinematics::kinematics(&m, &mut d);
         for i in 0..3 {
-            let exact = contact::event_function(&m.contacts[i], &contact::gap(&m, &d, i));
-            let fast = contact::gap_event(&m, &d, i);
+            let exact = contact::event_function(&m.contacts[i], &contact::gap(&d, i));
+            let fast = contact::gap_event(&d, i);
             assert_eq!(
                 exact > 0.0,
                 fast > 0.0,
