@@ -152,7 +152,7 @@ fn contact_totals(m: &Model, d: &mut Data) {
         }
         let c = &d.contacts[i];
         let out = d.contact_out[i];
-        if let Some(k) = m.groups.candidate_of(i) {
+        if let Some(k) = i.checked_sub(m.groups.n_explicit).map(|k| d.candidates[k]) {
             let o = &mut d.group_out[k.pair];
             o.0 += 1.0;
             o.1 = o.1.max(out.delta);

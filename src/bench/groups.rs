@@ -115,7 +115,7 @@ pub fn run(ns: &[usize], repeats: usize, run_time: f64, csv_path: &Path) -> Resu
                         grid = t;
                     }
                 }
-                if counts[0] != counts[1] || counts[0] != m.groups.candidates.len() {
+                if counts[0] != counts[1] || counts[0] != d.candidates.len() {
                     return Err(format!("N = {n}: sweep and grid disagree: {counts:?}"));
                 }
             }
@@ -134,7 +134,7 @@ pub fn run(ns: &[usize], repeats: usize, run_time: f64, csv_path: &Path) -> Resu
                 "{:>6} {:<9} {:>9} {:>12.4} {:>14.1} {:>16.1} {:>12.1} {:>12.1} {:>12.3} {:>7} {:>7}",
                 n,
                 kind,
-                m.contacts.len(),
+                d.contacts.len(),
                 compile_s,
                 rhs0 * 1e6,
                 rhs1 * 1e6,
@@ -147,7 +147,7 @@ pub fn run(ns: &[usize], repeats: usize, run_time: f64, csv_path: &Path) -> Resu
             csv.push(vec![
                 n.to_string(),
                 kind.into(),
-                m.contacts.len().to_string(),
+                d.contacts.len().to_string(),
                 f(compile_s),
                 f(rhs0),
                 f(rhs1),

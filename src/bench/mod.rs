@@ -594,7 +594,12 @@ pub fn record(spec: &RunSpec, outputs: &[&str]) -> Result<Outcome, String> {
         }
         let max_penetration: Vec<f64> = sim
             .model()
-            .map(|m| m.contacts.iter().map(|c| c.max_penetration).collect())
+            .map(|m| {
+                m.initial_contacts[..m.groups.n_explicit]
+                    .iter()
+                    .map(|c| c.max_penetration)
+                    .collect()
+            })
             .unwrap_or_default();
         for (i, dm) in max_penetration.into_iter().enumerate() {
             let d = sim.output(VarRef::ContactDelta(i)).ok().flatten().unwrap_or(f64::NAN);

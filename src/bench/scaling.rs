@@ -47,12 +47,12 @@ pub fn rhs_and_event_cost(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64)
         Rhs { model: m, data: d }.rhs(0.0, &state, &mut dy);
         std::hint::black_box(&dy);
     });
-    let mut g = vec![0.0; m.contacts.len()];
+    let mut g = vec![0.0; d.contacts.len()];
     d.eval_state.copy_from_slice(&state);
     let ev = time_per_call(repeats, iters, || {
         kinematics(m, d);
         for (i, o) in g.iter_mut().enumerate() {
-            *o = contact::event_function(&m.contacts[i], &contact::gap(d, i));
+            *o = contact::event_function(&d.contacts[i], &contact::gap(d, i));
         }
         std::hint::black_box(&g);
     });
@@ -116,10 +116,10 @@ pub fn run(ns: &[usize], time: f64, repeats: usize, csv_path: &Path) -> Result<(
         let compile = t0.elapsed().as_secs_f64();
         let blocks = m.trees.len();
         let largest = m.trees.iter().map(|t| t.1).max().unwrap_or(0);
-        if blocks != n || largest != 6 || m.nc != 0 || d.mass_blocks.len() != 36 * n {
+        if blocks != n || largest != 6 || d.nc != 0 || d.mass_blocks.len() != 36 * n {
             return Err(format!(
                 "N = {n}: expected {n} mass blocks of 6 and no loop rows, got {blocks} blocks (largest {largest}), {} loop rows, {} stored mass entries",
-                m.nc,
+                d.nc,
                 d.mass_blocks.len()
             ));
         }
@@ -131,11 +131,11 @@ pub fn run(ns: &[usize], time: f64, repeats: usize, csv_path: &Path) -> Result<(
         println!(
             "{:>6} {:>8} {:>7} {:>7} {:>5} {:>5} {:>8.3}s {:>12.4e} {:>8} {:>9} {:>7} {:>10.2} {:>10.2} {}",
             n,
-            m.contacts.len(),
+            d.contacts.len(),
             m.nv,
             blocks,
             largest,
-            m.nc,
+            d.nc,
             compile,
             per_sim,
             c.steps,
@@ -147,11 +147,11 @@ pub fn run(ns: &[usize], time: f64, repeats: usize, csv_path: &Path) -> Result<(
         );
         csv.push(vec![
             n.to_string(),
-            m.contacts.len().to_string(),
+            d.contacts.len().to_string(),
             m.nv.to_string(),
             blocks.to_string(),
             largest.to_string(),
-            m.nc.to_string(),
+            d.nc.to_string(),
             f(compile),
             f(per_sim),
             c.steps.to_string(),

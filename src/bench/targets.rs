@@ -34,8 +34,8 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
             "{:<16} {:>5} {:>5} {:>5} {:>10.3} {:>12.3}",
             name,
             m.nv,
-            m.nc,
-            m.contacts.len(),
+            d.nc,
+            d.contacts.len(),
             rhs * 1e6,
             ev * 1e6
         );
@@ -51,7 +51,7 @@ pub fn run(dir: &Path, repeats: usize, csv_path: &Path) -> Result<(), String> {
             } else {
                 String::new()
             },
-            format!("nv={} nc={} contacts={}", m.nv, m.nc, m.contacts.len()),
+            format!("nv={} nc={} contacts={}", m.nv, d.nc, d.contacts.len()),
         ]);
         csv.push(vec![
             format!("event_eval:{name}"),

@@ -3,10 +3,10 @@
 //! materials and the radii), the law constants.
 
 use super::parameters::{ContactValues, MaterialValues};
-use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
+use crate::contact::elements::element;
 use crate::model::contact::{ContactElement, LawConstants, OtherSide, Shape, SphereSide};
 use crate::scene::keys::Surface;
-use crate::scene::{item_name, ContactSpec, ContactType, Law, SceneError, Side};
+use crate::scene::{item_name, ContactSpec, ContactType, SceneError, Side};
 use crate::spatial::triad;
 use nalgebra::Vector3;
 
@@ -151,78 +151,4 @@ pub(super) fn other_shape(
             )
         }
     }
-}
-
-/// The contact element `name` of a sphere and the shape it touches, with the law constants
-/// `law`: the stiffness given, or Hertz's from the two materials and the effective radius;
-/// the hysteresis factor. Errs (with the message) when neither stiffness nor both materials
-/// are given for a law that needs a stiffness.
-pub(crate) fn element(
-    name: String,
-    sphere: &SphereSide,
-    other: &OtherSide,
-    law: &LawConstants,
-) -> Result<ContactElement, &'static str> {
-    let radius = sphere.radius;
-    let r_eff = match other.shape {
-        Shape::Sphere { radius: r2, .. } => radius * r2 / (radius + r2),
-        Shape::Plane { .. } => radius,
-        Shape::Cylinder {
-            radius: rho, inside, ..
-        } => {
-            // Effective radius of the elliptical contact: geometric mean of the principal
-            // relative radii (axial: R; circumferential: 1/(1/R ± 1/ρ)).
-            let circ = if inside {
-                1.0 / (1.0 / radius - 1.0 / rho)
-            } else {
-                1.0 / (1.0 / radius + 1.0 / rho)
-            };
-            (radius * circ).sqrt()
-        }
-    };
-    let (stiffness, derived) = match law.stiffness {
-        Some(k) => (k, false),
-        None => match (sphere.material, other.material) {
-            (Some([ea, nua]), Some([eb, nub])) => (hertz_stiffness(ea, nua, eb, nub, r_eff), true),
-            _ if law.law == Law::Impulse => (0.0, true),
-            _ => return Err("give stiffness, or both sphere_material and material"),
-        },
-    };
-    Ok(ContactElement {
-        name,
-        kind: other.kind,
-        law: law.law,
-        restitution: law.restitution,
-        sphere_body: sphere.body,
-        center: sphere.center,
-        radius,
-        body: other.body,
-        shape: other.shape.clone(),
-        stiffness,
-        stiffness_derived: derived,
-        exponent: law.exponent,
-        damping: law.damping,
-        max_penetration: law.max_penetration.unwrap_or(radius),
-        min_impact_velocity: law.min_impact_velocity,
-        bound_radius: other.bound_radius,
-        impulse_method: law.impulse_method,
-        constraint_row: None,
-        hysteresis: hysteresis_factor(law.law, law.restitution),
-        friction: law.friction,
-    })
-}
-
-/// Reserves one constraint row per impulse-law contact after the `nc` loop rows (for its
-/// resting mode) and returns the new total.
-pub(crate) fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
-    let mut n = nc;
-    for c in contacts.iter_mut() {
-        c.constraint_row = if c.law == Law::Impulse {
-            n += 1;
-            Some(n - 1)
-        } else {
-            None
-        };
-    }
-    n
 }

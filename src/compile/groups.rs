@@ -2,8 +2,9 @@
 //! pairs (found by the broad phase at the initial configuration, or given), and one contact
 //! element per candidate, compiled as the `[[contact]]` the group pair stands for.
 
-use super::contact::{element, other_shape, Dimensions};
+use super::contact::{other_shape, Dimensions};
 use super::parameters::Parameters;
+use crate::contact::elements::candidate_element;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
 use crate::scene::{item_name, ContactType, Scene, SceneError, ShapeType};
@@ -149,7 +150,7 @@ pub(super) fn compile_groups(
         touch,
         pair_names: scene.contact_group.iter().map(|g| g.name.clone()).collect(),
         n_explicit,
-        candidates: Vec::new(),
+        initial_candidates: Vec::new(),
         margin: scene.broad_phase_margin(),
         method: scene.broad_phase.method,
         reach,
@@ -159,7 +160,7 @@ pub(super) fn compile_groups(
         other_sides,
         laws: params.groups.clone(),
     };
-    groups.candidates = match candidates {
+    groups.initial_candidates = match candidates {
         Some(c) => {
             let (np, ns) = (scene.contact_group.len(), scene.shape.len());
             if let Some(bad) = c.iter().find(|k| k.pair >= np || k.sphere >= ns || k.other >= ns) {
@@ -177,29 +178,18 @@ pub(super) fn compile_groups(
             (p, *q.to_rotation_matrix().matrix())
         }),
     };
-    let mut elements = Vec::with_capacity(groups.candidates.len());
-    for c in &groups.candidates {
-        elements.push(candidate_element(&groups, c, groups.element_name(c), origin)?);
+    let mut elements = Vec::with_capacity(groups.initial_candidates.len());
+    for c in &groups.initial_candidates {
+        let name = groups.element_name(c);
+        let e = candidate_element(&groups, c, name).map_err(|message| {
+            SceneError::new(
+                origin,
+                item_name("contact", &groups.element_name(c)),
+                "stiffness",
+                message,
+            )
+        })?;
+        elements.push(e);
     }
     Ok((groups, elements))
-}
-
-/// The contact element of candidate pair `c` (named `name`): the `[[contact]]` its group pair
-/// stands for between its two shapes, from the sides and law constants compiled in `groups`.
-pub(crate) fn candidate_element(
-    groups: &Groups,
-    c: &Candidate,
-    name: String,
-    origin: &str,
-) -> Result<ContactElement, SceneError> {
-    element(
-        name,
-        &groups.sphere_sides[c.sphere],
-        &groups.other_sides[c.other],
-        &groups.laws[c.pair],
-    )
-    .map_err(|message| {
-        let item = item_name("contact", &groups.element_name(c));
-        SceneError::new(origin, item, "stiffness", message)
-    })
 }

@@ -18,8 +18,7 @@ mod groups;
 pub mod parameters;
 mod velocities;
 
-pub(crate) use contact::reserve_constraint_rows;
-pub(crate) use groups::{candidate_element, group_numbering};
+pub(crate) use groups::group_numbering;
 pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;
@@ -380,7 +379,7 @@ pub fn compile_model(
     )?;
     contacts.extend(group_contacts);
     // One constraint row per impulse-law contact after the loop rows (its resting mode).
-    nc = contact::reserve_constraint_rows(&mut contacts, nc);
+    crate::contact::elements::reserve_constraint_rows(&mut contacts, nc);
     let warnings = contact_warnings(&contacts);
 
     let inputs = scene
@@ -411,7 +410,6 @@ pub fn compile_model(
         })
         .collect();
     let quaternions = crate::model::quaternion_coordinates(&joints);
-    let step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
 
     let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, &trees);
     let model = Model {
@@ -421,10 +419,8 @@ pub fn compile_model(
         joints,
         scene_joint,
         loops,
-        nc,
         springs,
-        contacts,
-        step_rtol_powers,
+        initial_contacts: contacts,
         groups,
         inputs,
         input_value,

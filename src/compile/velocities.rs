@@ -67,11 +67,11 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, params: &Parameters) -
     for dr in &m.drives {
         qvel[dr.qvel] = d.inputs[dr.value + 1];
     }
-    if m.nc > 0 {
+    if d.nc > 0 {
         d.eval_state[m.nq..m.nq + m.nv].copy_from_slice(&qvel);
         kinematics(m, d);
         constraints(m, d, resting_rows);
-        let j = DMatrix::from_row_slice(m.nc, m.nv, &d.phi_q);
+        let j = DMatrix::from_row_slice(d.nc, m.nv, &d.phi_q);
         let v = DVector::from_column_slice(&qvel);
         // Φ_q q̇ = 0 for the loops, q̇_k = qd for the drives (kept: their rows hold them)
         let mut viol = &j * &v;
@@ -83,7 +83,7 @@ pub(super) fn initial_velocities(m: &Model, d: &mut Data, params: &Parameters) -
             let corr = jjt
                 .svd(true, true)
                 .solve(&viol, 1e-10)
-                .unwrap_or_else(|_| DVector::zeros(m.nc));
+                .unwrap_or_else(|_| DVector::zeros(d.nc));
             let fixed = v - j.transpose() * corr;
             if viol.norm() > 1e-9 * (1.0 + fixed.norm()) {
                 warnings.push(format!(

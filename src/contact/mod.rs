@@ -17,6 +17,7 @@
 //! holds it until its normal force would become tensile, or the sphere leaves the patch.
 
 pub mod broad;
+pub mod elements;
 pub mod friction;
 pub mod geometry;
 pub mod groups;
@@ -143,7 +144,7 @@ const RESTING_FRICTION_ITERATIONS: usize = 50;
 /// normal force does not depend on friction). Returns the dissipated power [W]; 0 and
 /// nothing done when no resting contact has friction.
 pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
-    let any = m
+    let any = d
         .contacts
         .iter()
         .zip(&d.contact_memory)

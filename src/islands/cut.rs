@@ -126,7 +126,7 @@ pub fn partition(m: &Model, candidates: &[Candidate]) -> Partition {
     for s in &m.springs {
         sets.join(s.body_a, s.body_b);
     }
-    for c in &m.contacts[..m.groups.n_explicit] {
+    for c in &m.initial_contacts[..m.groups.n_explicit] {
         sets.join(c.sphere_body, c.body);
     }
     let shapes = &m.groups.shapes;
@@ -180,7 +180,9 @@ pub fn partition(m: &Model, candidates: &[Candidate]) -> Partition {
 /// default) and either has contact groups (whose islands change as the bodies move) or more
 /// than one island.
 pub fn wanted(m: &Model) -> bool {
-    m.solver.islands && !m.bodies.is_empty() && (m.groups.is_active() || partition(m, &m.groups.candidates).len() > 1)
+    m.solver.islands
+        && !m.bodies.is_empty()
+        && (m.groups.is_active() || partition(m, &m.groups.initial_candidates).len() > 1)
 }
 
 /// The body of a candidate pair that is not the ground.

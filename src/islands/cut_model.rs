@@ -10,9 +10,8 @@
 //! loops, springs, contacts, inputs and shapes keep the scene's order too.
 
 use super::cut::{items, SceneIndex};
-use crate::compile::{
-    candidate_element, contact_warnings, dof_maps, group_numbering, reserve_constraint_rows, Parameters,
-};
+use crate::compile::{contact_warnings, dof_maps, group_numbering, Parameters};
+use crate::contact::elements::{candidate_element, reserve_constraint_rows};
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{Candidate, GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
@@ -29,9 +28,8 @@ pub(super) struct ModelCutter {
     pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
-    /// The contact elements of the candidate pairs met so far (scene numbering, no name), with
-    /// their [`Model::step_rtol_powers`].
-    elements: FxHashMap<Candidate, (ContactElement, [f64; 2])>,
+    /// The contact elements of the candidate pairs met so far (scene numbering, no name).
+    elements: FxHashMap<Candidate, ContactElement>,
     /// The names of candidate pairs' contacts by the island's numbering of their shapes.
     names: FxHashMap<Candidate, String>,
     /// Scratch: per scene body its island index, per scene group its island index.
@@ -90,20 +88,23 @@ impl ModelCutter {
     }
 
     /// The contact element of candidate pair `c` (scene numbering, no name) of the scene's
-    /// model `m` and its [`Model::step_rtol_powers`], made at its first use.
-    fn element(&mut self, m: &Model, origin: &str, c: &Candidate) -> Result<(ContactElement, [f64; 2]), String> {
+    /// model `m`, made at its first use.
+    fn element(&mut self, m: &Model, c: &Candidate) -> Result<ContactElement, String> {
         if let Some(e) = self.elements.get(c) {
             return Ok(e.clone());
         }
-        let e = candidate_element(&m.groups, c, String::new(), origin)
-            .map_err(|e| format!("an island could not be compiled: {e}"))?;
+        let e = candidate_element(&m.groups, c, String::new()).map_err(|message| {
+            format!(
+                "an island could not be made: contact {:?}: {message}",
+                m.groups.element_name(c)
+            )
+        })?;
         // (bounded like the pool: beyond 16 pairs per body it starts empty again)
         if self.elements.len() >= 16 * self.local_body.len() {
             self.elements.clear();
         }
-        let powers = crate::model::step_rtol_powers(std::slice::from_ref(&e), m.solver.rtol)[0];
-        self.elements.insert(*c, (e.clone(), powers));
-        Ok((e, powers))
+        self.elements.insert(*c, e.clone());
+        Ok(e)
     }
 
     /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
@@ -113,7 +114,6 @@ impl ModelCutter {
         &mut self,
         scene: &Scene,
         params: &Parameters,
-        origin: &str,
         m: &Model,
         bodies: &[usize],
         candidates: &[Candidate],
@@ -121,7 +121,7 @@ impl ModelCutter {
         // the candidate pairs' elements first (the only part that can fail)
         let mut group_elements = Vec::with_capacity(candidates.len());
         for c in candidates {
-            group_elements.push(self.element(m, origin, c)?);
+            group_elements.push(self.element(m, c)?);
         }
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
@@ -250,7 +250,7 @@ impl ModelCutter {
         let explicit = items(&self.index.contacts, bodies);
         let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len() + candidates.len());
         for &i in &explicit {
-            let mut c = m.contacts[i].clone();
+            let mut c = m.initial_contacts[i].clone();
             c.sphere_body = lb(c.sphere_body);
             c.body = lb(c.body);
             contacts.push(c);
@@ -272,23 +272,21 @@ impl ModelCutter {
                 other: local_shape(k.other),
             })
             .collect();
-        let mut step_rtol_powers = crate::model::step_rtol_powers(&contacts, params.solver.rtol);
         // (the names by the island's numbering are few: the same shapes' pairs come again)
         if self.names.len() >= 16 * self.local_body.len() {
             self.names.clear();
         }
-        for (k, (mut e, powers)) in local_candidates.iter().zip(group_elements) {
+        for (k, mut e) in local_candidates.iter().zip(group_elements) {
             e.name = self
                 .names
                 .entry(*k)
                 .or_insert_with(|| format!("{}[{}:{}]", m.groups.pair_names[k.pair], k.sphere + 1, k.other + 1))
                 .clone();
-            step_rtol_powers.push(powers);
             e.sphere_body = lb(e.sphere_body);
             e.body = lb(e.body);
             contacts.push(e);
         }
-        let nc = reserve_constraint_rows(&mut contacts, nc);
+        reserve_constraint_rows(&mut contacts, nc);
 
         let groups = if scene.contact_group.is_empty() {
             Groups {
@@ -334,7 +332,7 @@ impl ModelCutter {
                 touch,
                 pair_names: m.groups.pair_names.clone(),
                 n_explicit: explicit.len(),
-                candidates: local_candidates,
+                initial_candidates: local_candidates,
                 margin: m.groups.margin,
                 method: m.groups.method,
                 reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
@@ -367,11 +365,9 @@ impl ModelCutter {
             joints,
             scene_joint,
             loops,
-            nc,
             drives,
             springs,
-            contacts,
-            step_rtol_powers,
+            initial_contacts: contacts,
             groups,
             inputs: out_inputs,
             input_value,
@@ -423,13 +419,12 @@ mod tests {
         let (m, mut d) = compile_scene(scene, origin).unwrap();
         let src = Source { scene, origin };
         let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
-        let all: Key = ((0..m.bodies.len()).collect(), m.groups.candidates.clone());
+        let all: Key = ((0..m.bodies.len()).collect(), d.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
-        for bodies in partition(&m, &m.groups.candidates).iter() {
+        for bodies in partition(&m, &d.candidates).iter() {
             let bodies = bodies.to_vec();
-            let cands = m
-                .groups
+            let cands = d
                 .candidates
                 .iter()
                 .filter(|c| super::super::cut::candidate_body(&m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))

@@ -53,10 +53,10 @@ impl Islands {
         d.kinematics_valid = false;
     }
 
-    /// Writes the islands' contact memory into the scene's data `d` of model `m`, which must
-    /// have the islands' candidate pairs.
-    pub fn gather_contacts(&self, m: &Model, d: &mut Data) {
-        debug_assert!(m.groups.candidates == self.candidates);
+    /// Writes the islands' contact memory into the scene's data `d`, which must have the
+    /// islands' candidate pairs.
+    pub fn gather_contacts(&self, d: &mut Data) {
+        debug_assert!(d.candidates == self.candidates);
         for island in &self.parts {
             for (k, mem) in island.data.contact_memory.iter().enumerate() {
                 if let Some(g) = island.scene_contact(k, self.n_explicit, &self.candidate_index) {

@@ -258,8 +258,8 @@ impl Islands {
             retired: d.counters,
             dissipated_base: d.state[m.dissipated_index()],
             input_work_base: m.input_work(&d.state),
-            candidates: m.groups.candidates.clone(),
-            candidate_index: m.groups.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
+            candidates: d.candidates.clone(),
+            candidate_index: d.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
             retired_log: Vec::new(),
             rebuilds: 0,
             compiled: 0,
@@ -286,8 +286,7 @@ impl Islands {
         let n = m.groups.n_explicit;
         Memory {
             explicit: d.contact_memory[..n].to_vec(),
-            candidates: m
-                .groups
+            candidates: d
                 .candidates
                 .iter()
                 .zip(&d.contact_memory[n..])
@@ -397,13 +396,13 @@ impl Islands {
                         continue;
                     }
                     let g = contact::gap(&island.data, n + k);
-                    if contact::event_function(&island.model.contacts[n + k], &g) > 0.0 {
+                    if contact::event_function(&island.data.contacts[n + k], &g) > 0.0 {
                         return Err(fail(
                             d.time,
                             format!(
                                 "contact {:?} touched before the broad phase listed it: a body moved more than \
                                  half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                island.model.contacts[n + k].name,
+                                island.data.contacts[n + k].name,
                                 m.groups.margin
                             ),
                         ));

@@ -42,7 +42,7 @@ pub(super) fn compile(
     key: &Key,
 ) -> Result<Compiled, String> {
     let (bodies, candidates) = key;
-    let cut = cutter.cut(src.scene, params, src.origin, m, bodies, candidates)?;
+    let cut = cutter.cut(src.scene, params, m, bodies, candidates)?;
     Ok(numbered(m, cut.model, joint_coords, bodies, cut.explicit, &cut.inputs))
 }
 

@@ -103,7 +103,7 @@ impl Islands {
             let mut island = is
                 .compile_island(src, m, d, bodies, cands, &memory)
                 .map_err(|e| e.message)?;
-            if state::group_candidates(&island.model, st).as_ref() != Some(&island.model.groups.candidates)
+            if state::group_candidates(&island.model, st).as_ref() != Some(&island.data.candidates)
                 && island.model.groups.is_active()
             {
                 return Err("saved islands: an island's candidate pairs are not the scene's".into());

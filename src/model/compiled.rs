@@ -92,7 +92,9 @@ pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
     joints.iter().filter_map(|j| j.quaternion()).collect()
 }
 
-/// [`Model::step_rtol_powers`] of `contacts` at the solver's `rtol`.
+/// Per contact, `rtol` to its [`ContactElement::touch_power`] and
+/// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
+/// toward a separation, taken at every step in contact: computed once per contact list).
 pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
     contacts
         .iter()
@@ -498,21 +500,17 @@ pub struct Model {
     pub scene_joint: Vec<Result<usize, usize>>,
     /// Loop-closing constraints.
     pub loops: Vec<LoopConstraint>,
-    /// Total constraint rows: the loops' rows, one row per driven joint, then one row per
-    /// impulse-law contact (its resting mode; zero while the contact does not rest).
-    pub nc: usize,
     /// Driven joints (`joint_motion` inputs), in scene order.
     pub drives: Vec<Drive>,
     /// Spring-dampers.
     pub springs: Vec<SpringDamper>,
-    /// Contact elements.
-    pub contacts: Vec<ContactElement>,
-    /// Per contact, `solver.rtol` to its [`ContactElement::touch_power`] and
-    /// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
-    /// toward a separation, taken at every step in contact: computed once here).
-    pub step_rtol_powers: Vec<[f64; 2]>,
-    /// Contact groups: the group shapes and the candidate pairs behind the group contacts
-    /// (`contacts[groups.n_explicit..]`).
+    /// The contact elements at the initial configuration: the declared contacts (with their
+    /// constraint rows after the fixed rows), then one per initial candidate pair of the
+    /// contact groups. The data's list ([`crate::model::Data::contacts`]) starts as this one;
+    /// the broad phase makes it anew there.
+    pub initial_contacts: Vec<ContactElement>,
+    /// Contact groups: the group shapes, their compiled sides and law constants, and the
+    /// initial candidate pairs (`initial_contacts[groups.n_explicit..]`).
     pub groups: crate::model::groups::Groups,
     /// Inputs, in scene order.
     pub inputs: Vec<Input>,

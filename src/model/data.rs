@@ -480,10 +480,9 @@ impl Data {
     /// ([`FreshIntegrators::renew`]), else created anew.
     pub fn refit(&mut self, model: &Model, log_capacity: usize, fresh: &mut FreshIntegrators) {
         let nb = model.bodies.len();
-        let (nv, nc, n) = (model.nv, model.nc, model.nstate());
-        let ncontacts = model.contacts.len();
+        let (nv, n) = (model.nv, model.nstate());
+        let ncontacts = model.initial_contacts.len();
         let mass_len = model.trees.iter().map(|&(_, k)| k * k).sum();
-        let impulse_contacts = model.contacts.iter().filter(|c| c.law == Law::Impulse).count();
         let Data {
             time,
             state,
@@ -503,8 +502,8 @@ impl Data {
             dense_pending,
             outputs_valid,
             kinematics_valid,
-            events,
-            impacts,
+            events: _,
+            impacts: _,
             body_pos,
             body_rot,
             body_quat,
@@ -520,23 +519,23 @@ impl Data {
             mass_blocks,
             qacc,
             tau,
-            phi,
-            phi_dot,
-            phi_q,
-            gamma,
-            minv_phit,
-            schur,
-            schur_perm,
-            schur_rank,
-            lambda,
-            work,
+            phi: _,
+            phi_dot: _,
+            phi_q: _,
+            gamma: _,
+            minv_phit: _,
+            schur: _,
+            schur_perm: _,
+            schur_rank: _,
+            lambda: _,
+            work: _,
             work2,
             friction_applied,
             friction_step,
-            friction_dlambda,
+            friction_dlambda: _,
             dissipation,
             input_power,
-            contact_out,
+            contact_out: _,
             broad_reference,
             body_contact,
             group_out,
@@ -574,32 +573,6 @@ impl Data {
         *dense_pending = false;
         *outputs_valid = false;
         *kinematics_valid = false;
-        let EventWork {
-            g,
-            g_new,
-            aux,
-            aux_new,
-            changed,
-        } = events;
-        filled(g, 3 * ncontacts, 0.0);
-        filled(g_new, 3 * ncontacts, 0.0);
-        filled(aux, ncontacts + 1, (0.0, 0.0));
-        filled(aux_new, ncontacts + 1, (0.0, 0.0));
-        emptied(changed, ncontacts);
-        let ImpactWork {
-            solve,
-            set,
-            restitution,
-            approach,
-            was,
-            candidates,
-        } = impacts;
-        solve.refit(nv, model.fixed_rows(), impulse_contacts);
-        emptied(set, impulse_contacts);
-        emptied(restitution, impulse_contacts);
-        emptied(approach, impulse_contacts);
-        emptied(was, ncontacts);
-        emptied(candidates, impulse_contacts);
         filled(body_pos, nb, Vector3::zeros());
         filled(body_rot, nb, Matrix3::identity());
         filled(body_quat, nb, UnitQuaternion::identity());
@@ -632,26 +605,61 @@ impl Data {
         }
         filled(qacc, nv, 0.0);
         filled(tau, nv, 0.0);
-        filled(phi, nc, 0.0);
-        filled(phi_dot, nc, 0.0);
-        filled(phi_q, nc * nv, 0.0);
-        filled(gamma, nc, 0.0);
-        filled(minv_phit, nc * nv, 0.0);
-        filled(schur, nc * nc, 0.0);
-        filled(schur_perm, nc, 0);
-        *schur_rank = 0;
-        filled(lambda, nc, 0.0);
-        filled(work, nv.max(nc), 0.0);
         filled(work2, nv, 0.0);
         filled(friction_applied, nv, 0.0);
         filled(friction_step, nv, 0.0);
-        filled(friction_dlambda, nc, 0.0);
         *dissipation = 0.0;
         *input_power = 0.0;
-        filled(contact_out, ncontacts, ContactOutput::default());
         filled(broad_reference, nb, (Vector3::zeros(), UnitQuaternion::identity()));
         filled(body_contact, if model.groups.is_active() { nb } else { 0 }, [0.0; 6]);
         filled(group_out, model.groups.pair_names.len(), (0.0, 0.0));
+        // (the fields bound to `_` above: the work of the contact list)
+        self.fit_contact_work(model);
+    }
+
+    /// Sizes the work buffers that depend on the contact list (`contacts`, `nc`) and zeroes
+    /// them: event values, impact work, the constraint rows' arrays, contact outputs.
+    pub fn fit_contact_work(&mut self, model: &Model) {
+        let (nv, nc, ncontacts) = (model.nv, self.nc, self.contacts.len());
+        let impulse_contacts = self.contacts.iter().filter(|c| c.law == Law::Impulse).count();
+        let EventWork {
+            g,
+            g_new,
+            aux,
+            aux_new,
+            changed,
+        } = &mut self.events;
+        filled(g, 3 * ncontacts, 0.0);
+        filled(g_new, 3 * ncontacts, 0.0);
+        filled(aux, ncontacts + 1, (0.0, 0.0));
+        filled(aux_new, ncontacts + 1, (0.0, 0.0));
+        emptied(changed, ncontacts);
+        let ImpactWork {
+            solve,
+            set,
+            restitution,
+            approach,
+            was,
+            candidates,
+        } = &mut self.impacts;
+        solve.refit(nv, model.fixed_rows(), impulse_contacts);
+        emptied(set, impulse_contacts);
+        emptied(restitution, impulse_contacts);
+        emptied(approach, impulse_contacts);
+        emptied(was, ncontacts);
+        emptied(candidates, impulse_contacts);
+        filled(&mut self.phi, nc, 0.0);
+        filled(&mut self.phi_dot, nc, 0.0);
+        filled(&mut self.phi_q, nc * nv, 0.0);
+        filled(&mut self.gamma, nc, 0.0);
+        filled(&mut self.minv_phit, nc * nv, 0.0);
+        filled(&mut self.schur, nc * nc, 0.0);
+        filled(&mut self.schur_perm, nc, 0);
+        self.schur_rank = 0;
+        filled(&mut self.lambda, nc, 0.0);
+        filled(&mut self.work, nv.max(nc), 0.0);
+        filled(&mut self.friction_dlambda, nc, 0.0);
+        filled(&mut self.contact_out, ncontacts, ContactOutput::default());
     }
 
     /// Takes the model's contact list (its contact elements, candidate pairs, step powers and
@@ -705,10 +713,10 @@ fn take_contact_list(
     step_rtol_powers: &mut Vec<[f64; 2]>,
     nc: &mut usize,
 ) {
-    contacts.clone_from(&model.contacts);
-    candidates.clone_from(&model.groups.candidates);
-    step_rtol_powers.clone_from(&model.step_rtol_powers);
-    *nc = model.nc;
+    contacts.clone_from(&model.initial_contacts);
+    candidates.clone_from(&model.groups.initial_candidates);
+    *step_rtol_powers = crate::model::step_rtol_powers(contacts, model.solver.rtol);
+    *nc = model.fixed_rows() + contacts.iter().filter(|c| c.law == Law::Impulse).count();
 }
 
 #[cfg(test)]

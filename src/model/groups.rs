@@ -1,7 +1,8 @@
 //! The contact groups a model holds: the group shapes in their bodies' frames, which groups
-//! touch, the broad phase's settings, and the candidate pairs behind the group contacts
-//! (`Model::contacts[n_explicit..]`). The broad phase that finds the candidates is
-//! in the contact module (`broad.rs`).
+//! touch, the broad phase's settings, what each shape and group pair brings to a contact
+//! element, and the candidate pairs at the initial configuration. The data holds the current
+//! candidate pairs (`Data::candidates`, behind `Data::contacts[n_explicit..]`); the broad
+//! phase that finds them is in the contact module (`broad.rs`).
 
 use crate::model::contact::{LawConstants, OtherSide, SphereSide};
 use crate::scene::BroadPhaseMethod;
@@ -54,8 +55,9 @@ pub struct Groups {
     pub pair_names: Vec<String>,
     /// Contact elements before the group contacts (the scene's `[[contact]]` entries).
     pub n_explicit: usize,
-    /// The candidates, in the order of their contact elements.
-    pub candidates: Vec<Candidate>,
+    /// The candidate pairs at the initial configuration (found by the broad phase there, or
+    /// given), in the order of their contact elements.
+    pub initial_candidates: Vec<Candidate>,
     /// Broad-phase margin [m].
     pub margin: f64,
     /// Algorithm.
@@ -83,18 +85,12 @@ pub const STALE_FRACTION: f64 = 0.25;
 impl Groups {
     /// True when the model has group shapes.
     pub fn is_active(&self) -> bool {
-        !self.candidates.is_empty() || !self.shapes.is_empty()
+        !self.initial_candidates.is_empty() || !self.shapes.is_empty()
     }
 
     /// The name of candidate pair `c`'s contact: `<group pair>[<sphere>:<other>]` (1-based
     /// shape numbers).
     pub fn element_name(&self, c: &Candidate) -> String {
         format!("{}[{}:{}]", self.pair_names[c.pair], c.sphere + 1, c.other + 1)
-    }
-
-    /// The candidate of contact element `i`, if it is a group contact.
-    pub fn candidate_of(&self, i: usize) -> Option<Candidate> {
-        i.checked_sub(self.n_explicit)
-            .and_then(|k| self.candidates.get(k).copied())
     }
 }

@@ -82,8 +82,8 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
             StatePart::Inputs => out.extend_from_slice(&d.inputs),
             StatePart::ContactMemory => {
                 if m.groups.is_active() {
-                    out.push(m.groups.candidates.len() as f64);
-                    for c in &m.groups.candidates {
+                    out.push(d.candidates.len() as f64);
+                    for c in &d.candidates {
                         out.extend_from_slice(&[c.pair as f64, c.sphere as f64, c.other as f64]);
                     }
                     for (p, q) in &d.broad_reference {
@@ -119,9 +119,9 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
 
 /// Numbers of the contact groups' section at the start of [`StatePart::ContactMemory`] (0
 /// without groups).
-fn group_section_len(m: &Model) -> usize {
+fn group_section_len(m: &Model, d: &Data) -> usize {
     if m.groups.is_active() {
-        1 + 3 * m.groups.candidates.len() + 7 * m.bodies.len()
+        1 + 3 * d.candidates.len() + 7 * m.bodies.len()
     } else {
         0
     }
@@ -181,7 +181,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Time => 1,
             StatePart::Coordinates => m.nstate(),
             StatePart::Inputs => m.input_values(),
-            StatePart::ContactMemory => group_section_len(m) + MEMORY_LEN * m.contacts.len(),
+            StatePart::ContactMemory => group_section_len(m, d) + MEMORY_LEN * d.contacts.len(),
             StatePart::Counters => COUNTERS_LEN,
             StatePart::Solver => {
                 let head = v
@@ -211,8 +211,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         }
         match part {
             StatePart::ContactMemory => {
-                let groups = group_section_len(m);
-                if groups > 0 && candidates_in(&slice[..groups]) != Some(m.groups.candidates.clone()) {
+                let groups = group_section_len(m, d);
+                if groups > 0 && candidates_in(&slice[..groups]) != Some(d.candidates.clone()) {
                     return Err("state: its contact-group candidate pairs are not this model's".into());
                 }
                 for c in slice[groups..].chunks(MEMORY_LEN) {
@@ -283,8 +283,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             }
             StatePart::Inputs => d.inputs.copy_from_slice(s),
             StatePart::ContactMemory => {
-                let groups = group_section_len(m);
-                let poses = &s[(1 + 3 * m.groups.candidates.len()).min(groups)..groups];
+                let groups = group_section_len(m, d);
+                let poses = &s[(1 + 3 * d.candidates.len()).min(groups)..groups];
                 for (r, p) in d.broad_reference.iter_mut().zip(poses.chunks(7)) {
                     r.0 = Vector3::new(p[0], p[1], p[2]);
                     r.1 = UnitQuaternion::new_unchecked(Quaternion::new(p[3], p[4], p[5], p[6]));

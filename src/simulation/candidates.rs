@@ -1,18 +1,16 @@
-//! Contact groups and islands seen from the facade: the model compiled again for new candidate
-//! pairs (found again by the broad phase, or the islands'), with the data carried over.
+//! Contact groups and islands seen from the facade: the data's contact list made anew for
+//! new candidate pairs (found again by the broad phase, or the islands'). The model does not
+//! change.
 
 use super::{Compiled, SimError, Simulation};
-use crate::compile;
-use crate::contact::groups;
+use crate::contact::{self, elements, groups};
 use crate::engine;
-use crate::model::state;
 
 impl Simulation {
-    /// With islands: when the islands' candidate pairs changed since the model was compiled,
-    /// compiles it with theirs and gives its data their contact memory (done when something
-    /// reads the contacts, not at every communication point).
+    /// With islands: when the islands' candidate pairs changed since the scene's data last took
+    /// them, makes its contact list theirs and gives it their contact memory (done when
+    /// something reads the contacts, not at every communication point).
     pub(super) fn sync_islands(&mut self) -> Result<(), SimError> {
-        let (scene, origin) = (&self.scene, &self.origin);
         let Some(Compiled {
             model,
             data,
@@ -23,34 +21,25 @@ impl Simulation {
         else {
             return Ok(());
         };
-        if is.candidates == model.groups.candidates {
+        if is.candidates == data.candidates {
             return Ok(());
         }
-        let (m2, mut d2) = compile::compile_with_candidates(scene, is.params(), origin, Some(&is.candidates))?;
-        d2.time = data.time;
-        d2.state.copy_from_slice(&data.state);
-        d2.inputs.copy_from_slice(&data.inputs);
-        d2.counters = data.counters;
-        d2.clamp_events = data.clamp_events;
-        d2.log_peaks = data.log_peaks;
-        d2.event_log = std::mem::take(&mut data.event_log);
-        d2.broad_reference.copy_from_slice(&data.broad_reference);
-        d2.solver.base = data.solver.base;
-        is.gather_contacts(&m2, &mut d2);
-        *model = m2;
-        *data = d2;
+        elements::set_candidates(model, data, &is.candidates).map_err(|message| SimError::Step {
+            time: data.time,
+            message,
+        })?;
+        is.gather_contacts(data);
+        data.outputs_valid = false;
         direct_reads.0.clear();
         Ok(())
     }
 
-    /// Contact groups: finds the candidate pairs again at the current state, compiles the
-    /// model with them and carries the data over (the state, the integrator with its step,
-    /// the contact memory of the pairs kept, the counters, the event log). A pair that is new
-    /// to the list and already touches was missed by the bounds on the step: an error (it
-    /// cannot happen while no body is accelerated far beyond gravity within one step).
+    /// Contact groups: finds the candidate pairs again at the current state and makes the
+    /// data's contact list theirs (the contact memory of the pairs kept carries over). A pair
+    /// that is new to the list and already touches was missed by the bounds on the step: an
+    /// error (it cannot happen while no body is accelerated far beyond gravity within one
+    /// step).
     pub(super) fn refresh_candidates(&mut self) -> Result<(), SimError> {
-        let params = self.parameters();
-        let (scene, origin) = (&self.scene, &self.origin);
         let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
             return Err(SimError::NotInitialized);
         };
@@ -58,54 +47,36 @@ impl Simulation {
         d.eval_state.copy_from_slice(&d.state);
         crate::kinematics::kinematics(m, d);
         let found = m.groups.find(&|b| groups::pose(d, b));
-        let (m2, mut d2) = compile::compile_with_candidates(scene, &params, origin, Some(&found))?;
-        let mask = state::FULL & !(state::StatePart::ContactMemory as u32);
-        let mut v = Vec::new();
-        state::get(m, d, mask, &mut v);
-        state::set(&m2, &mut d2, mask, &v).map_err(SimError::Variable)?;
         let n = m.groups.n_explicit;
-        d2.contact_memory[..n].copy_from_slice(&d.contact_memory[..n]);
-        let old: std::collections::HashMap<_, _> = m
-            .groups
-            .candidates
-            .iter()
-            .zip(&d.contact_memory[n..])
-            .map(|(k, mem)| (*k, *mem))
-            .collect();
-        d2.eval_state.copy_from_slice(&d2.state);
-        crate::kinematics::kinematics(&m2, &mut d2);
-        for (k, cand) in m2.groups.candidates.iter().enumerate() {
-            match old.get(cand) {
-                Some(mem) => d2.contact_memory[n + k] = *mem,
-                None => {
-                    let g = crate::contact::gap(&d2, n + k);
-                    if crate::contact::event_function(&m2.contacts[n + k], &g) > 0.0 {
-                        return Err(SimError::Step {
-                            time: d.time,
-                            message: format!(
-                                "contact {:?} touched before the broad phase listed it: a body moved more than \
-                                 half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                m2.contacts[n + k].name,
-                                m2.groups.margin
-                            ),
-                        });
-                    }
-                }
+        let new: Vec<bool> = {
+            let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
+            found.iter().map(|k| !before.contains(k)).collect()
+        };
+        let time = d.time;
+        elements::set_candidates(m, d, &found).map_err(|message| SimError::Step { time, message })?;
+        for (k, _) in new.iter().enumerate().filter(|(_, &is_new)| is_new) {
+            let g = contact::gap(d, n + k);
+            if contact::event_function(&d.contacts[n + k], &g) > 0.0 {
+                return Err(SimError::Step {
+                    time: d.time,
+                    message: format!(
+                        "contact {:?} touched before the broad phase listed it: a body moved more than half the \
+                         broad-phase margin ({} m) within one step; raise [broad_phase] margin",
+                        d.contacts[n + k].name,
+                        m.groups.margin
+                    ),
+                });
             }
         }
-        for b in 0..m2.bodies.len() {
-            d2.broad_reference[b] = (d2.body_pos[b], d2.body_quat[b]);
+        for b in 0..m.bodies.len() {
+            d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }
-        d2.clamp_events = d.clamp_events;
-        d2.log_peaks = d.log_peaks;
-        d2.solver.base = d.solver.base;
-        d2.event_log = std::mem::take(&mut d.event_log);
+        d.outputs_valid = false;
+        d.kinematics_valid = false;
+        d.planned_kinematics = false;
         // the step was accepted: the event values at the current state start the next one
-        d2.eval_state.copy_from_slice(&d2.state);
-        engine::events::event_values(&m2, &mut d2, false);
-        c.model = m2;
+        engine::events::event_values(m, d, false);
         c.direct_reads.0.clear();
-        c.data = d2;
         self.refreshes += 1;
         Ok(())
     }

@@ -4,7 +4,7 @@
 //! variables and the same numbers.
 
 use crate::checkpoint::Snapshot;
-use crate::compile::{self, compile_with};
+use crate::compile::compile_with;
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::islands::{Islands, Source};
@@ -482,8 +482,8 @@ impl Simulation {
         let src = Source { scene, origin };
         let result = is.advance(&src, model, data, t_end, stop_at_events);
         is.gather(model, data);
-        if is.candidates == model.groups.candidates {
-            is.gather_contacts(model, data);
+        if is.candidates == data.candidates {
+            is.gather_contacts(data);
         }
         result.map_err(step_error)
     }
@@ -564,11 +564,12 @@ impl Simulation {
         let params = self.parameters();
         let (scene, origin) = (self.scene.clone(), self.origin.clone());
         let restored = self.ensure_compiled().and_then(|c| {
-            // contact groups: the model of the snapshot's candidate pairs
+            // contact groups: the contact list of the snapshot's candidate pairs
             if let Some(found) = state::group_candidates(&c.model, &s.state) {
-                if found != c.model.groups.candidates {
-                    let (m, d) = compile::compile_with_candidates(&scene, &params, &origin, Some(&found))?;
-                    *c = Compiled::new(m, d);
+                if found != c.data.candidates {
+                    crate::contact::elements::set_candidates(&c.model, &mut c.data, &found)
+                        .map_err(SimError::Variable)?;
+                    c.direct_reads.0.clear();
                 }
             }
             state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
@@ -610,6 +611,13 @@ impl Simulation {
     pub fn model(&mut self) -> Result<&Model, SimError> {
         self.sync_islands()?;
         Ok(&self.ensure_compiled()?.model)
+    }
+
+    /// The data's contact list (the declared contacts, then the contact groups' candidate
+    /// pairs as the broad phase last listed them), after compilation.
+    pub fn contacts(&mut self) -> Result<&[crate::model::contact::ContactElement], SimError> {
+        self.sync_islands()?;
+        Ok(&self.ensure_compiled()?.data.contacts)
     }
 
     /// The data (state, buffers, counters), after compilation.

@@ -99,11 +99,11 @@ impl Simulation {
             return Ok(());
         }
         let before = if self.watch.started { self.balance()? } else { 0.0 };
-        // the islands end here: the model first gets their candidate pairs and memory
+        // the islands end here: the data first gets their candidate pairs and memory
         self.sync_islands()?;
         let old = std::mem::replace(&mut self.values[vr], value);
         // the contact groups keep their candidate pairs (the data's contact memory is theirs)
-        let candidates = self.running()?.model.groups.candidates.clone();
+        let candidates = self.running()?.data.candidates.clone();
         let compiled = self.check_parameter(vr).and_then(|()| {
             Ok(compile::compile_with_candidates(
                 &self.scene,
@@ -252,9 +252,12 @@ pub(super) fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>
 pub(super) fn same_layout(a: &Model, b: &Model) -> bool {
     a.nq == b.nq
         && a.nv == b.nv
-        && a.nc == b.nc
-        && a.contacts.len() == b.contacts.len()
-        && a.contacts.iter().zip(&b.contacts).all(|(x, y)| x.law == y.law)
+        && a.fixed_rows() == b.fixed_rows()
+        && a.initial_contacts.len() == b.initial_contacts.len()
+        && a.initial_contacts
+            .iter()
+            .zip(&b.initial_contacts)
+            .all(|(x, y)| x.law == y.law)
 }
 
 /// Sets input value `i`; the integrator restarts at the next advance (inputs are piecewise

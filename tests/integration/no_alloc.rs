@@ -190,14 +190,13 @@ fn impulse_run(
     sim.initialize(0.0).expect("initialises");
     let (h, mut t) = warm_up(&mut sim, warmup);
     let ci = sim
-        .model()
+        .contacts()
         .expect("model")
-        .contacts
         .iter()
         .position(|c| c.name == contact)
         .expect("contact");
     assert_eq!(
-        sim.model().expect("model").contacts[ci].law,
+        sim.contacts().expect("model")[ci].law,
         Law::Impulse,
         "the law parameter took effect"
     );

@@ -224,12 +224,12 @@ fn derived_hertz_stiffness_and_default_max_penetration_follow_the_radius() {
     assert_eq!(k, hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.04));
     // the scene gives no max_penetration: its default, the radius, follows...
     assert_eq!(common::get(&mut s, "ball_floor.max_penetration"), 0.04);
-    assert_eq!(s.model().unwrap().contacts[0].max_penetration, 0.04);
+    assert_eq!(s.contacts().unwrap()[0].max_penetration, 0.04);
     // ...until the host sets it
     s.set_by_name("ball_floor.max_penetration", 0.002).unwrap();
     s.set_by_name("ball_floor.radius", 0.03).unwrap();
     assert_eq!(common::get(&mut s, "ball_floor.max_penetration"), 0.002);
-    assert_eq!(s.model().unwrap().contacts[0].max_penetration, 0.002);
+    assert_eq!(s.contacts().unwrap()[0].max_penetration, 0.002);
 }
 
 /// Initialises `scene` with `set`; returns the error message.

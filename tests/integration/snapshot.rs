@@ -123,8 +123,9 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     for k in 1..=10 {
         a.step_to(k as f64 * 0.01).unwrap();
     }
+    let ncontacts = a.contacts().unwrap().len();
     let m = a.model().unwrap();
-    let (n, head) = (m.nstate(), 1 + m.nstate() + m.inputs.len() + 3 * m.contacts.len() + 5);
+    let (n, head) = (m.nstate(), 1 + m.nstate() + m.inputs.len() + 3 * ncontacts + 5);
     let snap = a.snapshot(Vec::new());
     let len = snap.state.len();
     // integrator part: started, next step, pending event, length, then sdirk's own state

@@ -1,0 +1,127 @@
+//! The contact list: a contact element from its compiled sides and law constants (a declared
+//! contact's at compilation, a candidate pair's whenever the broad phase lists it), and the
+//! data's list made for a list of candidate pairs ([`set_candidates`]: the broad phase's
+//! stage; the model does not change).
+
+use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
+use crate::model::contact::{ContactElement, ContactMemory, LawConstants, OtherSide, Shape, SphereSide};
+use crate::model::groups::{Candidate, Groups};
+use crate::model::{Data, Model};
+use crate::scene::Law;
+
+/// The contact element `name` of a sphere and the shape it touches, with the law constants
+/// `law`: the stiffness given, or Hertz's from the two materials and the effective radius;
+/// the hysteresis factor. Errs (with the message) when neither stiffness nor both materials
+/// are given for a law that needs a stiffness.
+pub fn element(
+    name: String,
+    sphere: &SphereSide,
+    other: &OtherSide,
+    law: &LawConstants,
+) -> Result<ContactElement, &'static str> {
+    let radius = sphere.radius;
+    let r_eff = match other.shape {
+        Shape::Sphere { radius: r2, .. } => radius * r2 / (radius + r2),
+        Shape::Plane { .. } => radius,
+        Shape::Cylinder {
+            radius: rho, inside, ..
+        } => {
+            // Effective radius of the elliptical contact: geometric mean of the principal
+            // relative radii (axial: R; circumferential: 1/(1/R ± 1/ρ)).
+            let circ = if inside {
+                1.0 / (1.0 / radius - 1.0 / rho)
+            } else {
+                1.0 / (1.0 / radius + 1.0 / rho)
+            };
+            (radius * circ).sqrt()
+        }
+    };
+    let (stiffness, derived) = match law.stiffness {
+        Some(k) => (k, false),
+        None => match (sphere.material, other.material) {
+            (Some([ea, nua]), Some([eb, nub])) => (hertz_stiffness(ea, nua, eb, nub, r_eff), true),
+            _ if law.law == Law::Impulse => (0.0, true),
+            _ => return Err("give stiffness, or both sphere_material and material"),
+        },
+    };
+    Ok(ContactElement {
+        name,
+        kind: other.kind,
+        law: law.law,
+        restitution: law.restitution,
+        sphere_body: sphere.body,
+        center: sphere.center,
+        radius,
+        body: other.body,
+        shape: other.shape.clone(),
+        stiffness,
+        stiffness_derived: derived,
+        exponent: law.exponent,
+        damping: law.damping,
+        max_penetration: law.max_penetration.unwrap_or(radius),
+        min_impact_velocity: law.min_impact_velocity,
+        bound_radius: other.bound_radius,
+        impulse_method: law.impulse_method,
+        constraint_row: None,
+        hysteresis: hysteresis_factor(law.law, law.restitution),
+        friction: law.friction,
+    })
+}
+
+/// Reserves one constraint row per impulse-law contact after the `nc` loop rows (for its
+/// resting mode) and returns the new total.
+pub fn reserve_constraint_rows(contacts: &mut [ContactElement], nc: usize) -> usize {
+    let mut n = nc;
+    for c in contacts.iter_mut() {
+        c.constraint_row = if c.law == Law::Impulse {
+            n += 1;
+            Some(n - 1)
+        } else {
+            None
+        };
+    }
+    n
+}
+
+/// The contact element of candidate pair `c`, named `name`, from the sides and law constants
+/// compiled in `groups` (Err: the message of [`element`]).
+pub fn candidate_element(groups: &Groups, c: &Candidate, name: String) -> Result<ContactElement, &'static str> {
+    element(
+        name,
+        &groups.sphere_sides[c.sphere],
+        &groups.other_sides[c.other],
+        &groups.laws[c.pair],
+    )
+}
+
+/// Makes the data's contact list that of the candidate pairs `found`: the declared contacts,
+/// then one element per pair, their constraint rows, step powers and work buffers. A pair that
+/// was listed before keeps its contact memory; a new one starts apart. On an error (a pair
+/// whose law needs a stiffness that neither it nor the materials give) the data is unchanged.
+pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<(), String> {
+    let n = m.groups.n_explicit;
+    let mut contacts = Vec::with_capacity(n + found.len());
+    contacts.extend_from_slice(&d.contacts[..n]);
+    for c in found {
+        let name = m.groups.element_name(c);
+        let e = candidate_element(&m.groups, c, name)
+            .map_err(|message| format!("contact {:?}: {message}", m.groups.element_name(c)))?;
+        contacts.push(e);
+    }
+    let nc = reserve_constraint_rows(&mut contacts, m.fixed_rows());
+    let old: rustc_hash::FxHashMap<Candidate, ContactMemory> = d
+        .candidates
+        .iter()
+        .copied()
+        .zip(d.contact_memory[n..].iter().copied())
+        .collect();
+    d.contact_memory.truncate(n);
+    d.contact_memory
+        .extend(found.iter().map(|c| old.get(c).copied().unwrap_or_default()));
+    d.step_rtol_powers = crate::model::step_rtol_powers(&contacts, m.solver.rtol);
+    d.contacts = contacts;
+    d.candidates = found.to_vec();
+    d.nc = nc;
+    d.fit_contact_work(m);
+    Ok(())
+}
