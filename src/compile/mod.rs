@@ -411,7 +411,7 @@ pub fn compile_model(
         .collect();
     let quaternions = crate::model::quaternion_coordinates(&joints);
 
-    let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, &trees);
+    let plan = Plan::of(&bodies, &joints, &loops, &springs, &contacts, &groups, &trees);
     let model = Model {
         name: scene.model.name.clone(),
         gravity: to_v(scene.model.gravity),

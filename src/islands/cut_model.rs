@@ -357,7 +357,7 @@ impl ModelCutter {
         };
         let warnings = contact_warnings(&contacts);
         let quaternions = crate::model::quaternion_coordinates(&joints);
-        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &trees);
+        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &groups, &trees);
         let model = Model {
             name: m.name.clone(),
             gravity: m.gravity,

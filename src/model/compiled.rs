@@ -10,6 +10,7 @@
 use crate::integrator::second_order::{Block, SecondOrder};
 use crate::linalg::{ConstantLeaves, LeafRow};
 use crate::model::contact::ContactElement;
+use crate::model::groups::Groups;
 use crate::scene::JointType;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -285,7 +286,14 @@ pub struct Rotor {
 
 impl Rotor {
     /// The rotor of tree joint `j`, if it is one (see [`Rotor`]).
-    fn of(j: &TreeJoint, b: &Body, is_attached: bool, contacts: &[ContactElement], child: usize) -> Option<Rotor> {
+    fn of(
+        j: &TreeJoint,
+        b: &Body,
+        is_attached: bool,
+        contacts: &[ContactElement],
+        groups: &Groups,
+        child: usize,
+    ) -> Option<Rotor> {
         if j.kind != JointType::Revolute || is_attached {
             return None;
         }
@@ -298,6 +306,20 @@ impl Rotor {
         }
         for c in contacts {
             if c.body == Some(child) || (c.sphere_body == Some(child) && !on_axis(&c.center, &a_body)) {
+                return None;
+            }
+        }
+        // the contact groups' shapes on it, whatever pairs the broad phase will list: none may
+        // be the other shape of a pair, and its spheres must be centred on the axis
+        let ng = groups.ngroups;
+        for (s, shape) in groups.shapes.iter().enumerate() {
+            if shape.body != Some(child) {
+                continue;
+            }
+            let g = shape.group;
+            let touched = (0..ng).any(|a| groups.touch[a * ng + g].is_some());
+            let touching = (0..ng).any(|o| groups.touch[g * ng + o].is_some());
+            if touched || (touching && !on_axis(&groups.sphere_sides[s].center, &a_body)) {
                 return None;
             }
         }
@@ -398,6 +420,7 @@ impl Plan {
         loops: &[LoopConstraint],
         springs: &[SpringDamper],
         contacts: &[ContactElement],
+        groups: &Groups,
         trees: &[(usize, usize)],
     ) -> Plan {
         let ntrees = trees.len();
@@ -462,7 +485,7 @@ impl Plan {
         }
         plan.rotors = joints
             .iter()
-            .map(|j| Rotor::of(j, &bodies[j.child], attached[j.child], contacts, j.child))
+            .map(|j| Rotor::of(j, &bodies[j.child], attached[j.child], contacts, groups, j.child))
             .collect();
         // the rotors' constant rows of M̄, by tree (velocity indices local to its block)
         let mut leaves: Vec<Vec<LeafRow>> = vec![Vec::new(); ntrees];

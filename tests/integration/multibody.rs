@@ -1394,6 +1394,47 @@ fn lean_right_hand_side_matches_the_general_path() {
     }
 }
 
+/// A wheel that carries a contact group's shape is a rotor only if no pair the broad phase
+/// may list later breaks the rule (the plan is made once, at compilation): a sphere off the
+/// axle, or any shape of a group that other spheres touch, makes its axle general even when
+/// nothing is near at the start; a sphere on the axle, in a group that only touches, keeps it
+/// a rotor.
+#[test]
+fn a_wheel_with_group_shapes_is_a_rotor_only_if_no_later_pair_breaks_the_rule() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/rail_vehicle/scene.toml");
+    let base = std::fs::read_to_string(path).unwrap();
+    let rotor = |shapes: &str| {
+        // a floor far below the track: no pair is within reach at the start
+        let text = format!(
+            "{base}\n{shapes}\n[[shape]]\ngroup = \"floor\"\ntype = \"plane\"\nbody = \"ground\"\n\
+             origin = [0.0, 0.0, -50.0]\nnormal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [1.0, 1.0]\n\n\
+             [[contact_group]]\nname = \"bits_floor\"\ngroups = [\"bits\", \"floor\"]\nlaw = \"hertz\"\n\
+             stiffness = 1e9\n"
+        );
+        let scene = contact_fmu::scene::Scene::from_str(&text, "wheel with shapes").unwrap();
+        let (m, d) = contact_fmu::compile::compile(&scene, "wheel with shapes").unwrap();
+        assert!(d.candidates.is_empty(), "no pair at the start: {:?}", d.candidates);
+        let ji = m.joints.iter().position(|j| j.name == "axle_fl1").unwrap();
+        m.plan.rotors[ji].is_some()
+    };
+    let sphere = |body: &str, center: [f64; 3], group: &str| {
+        format!(
+            "[[shape]]\ngroup = \"{group}\"\ntype = \"sphere\"\nbody = \"{body}\"\nradius = 0.05\n\
+             center = [{}, {}, {}]\n",
+            center[0], center[1], center[2]
+        )
+    };
+    // the wheel's centre is (10, 0.75, 0.459974), its axle along y
+    let on_axle = [10.0, 0.9, 0.459974];
+    assert!(rotor(&sphere("wheel_fl1", on_axle, "bits")), "a sphere on the axle");
+    assert!(
+        !rotor(&sphere("wheel_fl1", [10.0, 0.75, 0.1], "bits")),
+        "a sphere off the axle"
+    );
+    let touched = sphere("wheel_fl1", on_axle, "floor") + &sphere("bogie_fl", [10.0, 0.75, 0.8], "bits");
+    assert!(!rotor(&touched), "a shape that spheres touch");
+}
+
 /// The rail vehicle's wheels are rotors (a revolute joint, the centre of mass and the spheres
 /// on the axis, the inertia symmetric about it): the right-hand side skips their rotation by
 /// the wheel angle and takes their world inertia from the axis. It gives the accelerations of
