@@ -201,6 +201,7 @@ pub(super) struct Cut {
     pub(super) candidates: Vec<Candidate>,
     pub(super) explicit: Vec<usize>,
     pub(super) inputs: Vec<usize>,
+    pub(super) shapes: Vec<usize>,
 }
 
 /// The sorted, deduplicated items of `lists` over `bodies`.
@@ -269,5 +270,6 @@ pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usiz
         candidates,
         explicit,
         inputs,
+        shapes,
     }
 }

@@ -1,8 +1,10 @@
 //! An island's model cut from the scene's compiled model: its bodies, joints, loops, springs,
-//! declared contacts, inputs and group shapes taken from the scene's model and numbered
-//! anew, its candidate pairs' contact elements compiled once per pair and kept. No scene is
-//! cut and nothing is compiled from names: the model is the one compiling the island's part
-//! of the scene gives (the test below compares them), at a fraction of the cost.
+//! declared contacts, inputs and group shapes (with what they bring to a contact element)
+//! taken from the scene's model and numbered anew. It depends on the island's bodies alone:
+//! the island's data lists its candidate pairs' contact elements
+//! ([`crate::contact::elements::set_candidates`]). No scene is cut and nothing is compiled
+//! from names: the model is the one compiling the island's part of the scene gives (the test
+//! below compares them), at a fraction of the cost.
 //!
 //! Why the numbering carries over: compilation orders the tree joints depth first from the
 //! ground, the trees by their root bodies and the children by body order. An island holds
@@ -11,12 +13,11 @@
 
 use super::cut::{items, SceneIndex};
 use crate::compile::{contact_warnings, dof_maps, group_numbering, Parameters};
-use crate::contact::elements::{candidate_element, reserve_constraint_rows};
+use crate::contact::elements::reserve_constraint_rows;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
-use crate::model::groups::{Candidate, GroupShape, Groups};
+use crate::model::groups::{GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
-use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
@@ -28,10 +29,6 @@ pub(super) struct ModelCutter {
     pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
-    /// The contact elements of the candidate pairs met so far (scene numbering, no name).
-    elements: FxHashMap<Candidate, ContactElement>,
-    /// The names of candidate pairs' contacts by the island's numbering of their shapes.
-    names: FxHashMap<Candidate, String>,
     /// Scratch: per scene body its island index, per scene group its island index.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
@@ -42,6 +39,9 @@ pub(super) struct CutModel {
     pub(super) model: Model,
     pub(super) explicit: Vec<usize>,
     pub(super) inputs: Vec<usize>,
+    /// The scene's index of each of the island's group shapes (sorted: the island numbers
+    /// its shapes in the scene's order).
+    pub(super) shapes: Vec<usize>,
 }
 
 impl ModelCutter {
@@ -80,49 +80,15 @@ impl ModelCutter {
             index: SceneIndex::of(scene),
             pair_groups,
             drive_joint,
-            elements: FxHashMap::default(),
-            names: FxHashMap::default(),
             local_body: vec![usize::MAX; scene.body.len()],
             local_group: vec![usize::MAX; group_index.len()],
         }
     }
 
-    /// The contact element of candidate pair `c` (scene numbering, no name) of the scene's
-    /// model `m`, made at its first use.
-    fn element(&mut self, m: &Model, c: &Candidate) -> Result<ContactElement, String> {
-        if let Some(e) = self.elements.get(c) {
-            return Ok(e.clone());
-        }
-        let e = candidate_element(&m.groups, c, String::new()).map_err(|message| {
-            format!(
-                "an island could not be made: contact {:?}: {message}",
-                m.groups.element_name(c)
-            )
-        })?;
-        // (bounded like the pool: beyond 16 pairs per body it starts empty again)
-        if self.elements.len() >= 16 * self.local_body.len() {
-            self.elements.clear();
-        }
-        self.elements.insert(*c, e.clone());
-        Ok(e)
-    }
-
     /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
     /// `candidates` (scene numbering), cut from the scene's model `m` (compiled from `scene`
     /// with `params`; its own candidate pairs play no part).
-    pub(super) fn cut(
-        &mut self,
-        scene: &Scene,
-        params: &Parameters,
-        m: &Model,
-        bodies: &[usize],
-        candidates: &[Candidate],
-    ) -> Result<CutModel, String> {
-        // the candidate pairs' elements first (the only part that can fail)
-        let mut group_elements = Vec::with_capacity(candidates.len());
-        for c in candidates {
-            group_elements.push(self.element(m, c)?);
-        }
+    pub(super) fn cut(&mut self, scene: &Scene, params: &Parameters, m: &Model, bodies: &[usize]) -> CutModel {
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
         }
@@ -246,9 +212,9 @@ impl ModelCutter {
             })
             .collect();
 
-        // contacts: the declared ones, then one per candidate pair
+        // contacts: the declared ones (the data lists the candidate pairs' after them)
         let explicit = items(&self.index.contacts, bodies);
-        let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len() + candidates.len());
+        let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len());
         for &i in &explicit {
             let mut c = m.initial_contacts[i].clone();
             c.sphere_body = lb(c.sphere_body);
@@ -263,29 +229,6 @@ impl ModelCutter {
         shapes.dedup();
         shapes.extend(ground);
         shapes.sort_unstable();
-        let local_shape = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
-        let local_candidates: Vec<Candidate> = candidates
-            .iter()
-            .map(|k| Candidate {
-                pair: k.pair,
-                sphere: local_shape(k.sphere),
-                other: local_shape(k.other),
-            })
-            .collect();
-        // (the names by the island's numbering are few: the same shapes' pairs come again)
-        if self.names.len() >= 16 * self.local_body.len() {
-            self.names.clear();
-        }
-        for (k, mut e) in local_candidates.iter().zip(group_elements) {
-            e.name = self
-                .names
-                .entry(*k)
-                .or_insert_with(|| format!("{}[{}:{}]", m.groups.pair_names[k.pair], k.sphere + 1, k.other + 1))
-                .clone();
-            e.sphere_body = lb(e.sphere_body);
-            e.body = lb(e.body);
-            contacts.push(e);
-        }
         reserve_constraint_rows(&mut contacts, nc);
 
         let groups = if scene.contact_group.is_empty() {
@@ -332,7 +275,7 @@ impl ModelCutter {
                 touch,
                 pair_names: m.groups.pair_names.clone(),
                 n_explicit: explicit.len(),
-                initial_candidates: local_candidates,
+                initial_candidates: Vec::new(),
                 margin: m.groups.margin,
                 method: m.groups.method,
                 reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
@@ -384,31 +327,52 @@ impl ModelCutter {
             baumgarte: m.baumgarte,
             warnings,
         };
-        Ok(CutModel {
+        CutModel {
             model,
             explicit,
             inputs,
-        })
+            shapes,
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::pool::tests::assert_same_part;
-    use super::super::pool::{compile, compile_cut_scene, Key};
+    use super::super::pool::{compile, compile_cut_scene};
     use super::super::{partition, Islands, Source};
     use crate::bench::islands::grouped;
-    use crate::compile::{compile as compile_scene, Parameters};
-    use crate::model::Model;
+    use crate::compile::{compile as compile_scene, compile_model, Parameters};
+    use crate::contact::elements::set_candidates;
+    use crate::model::groups::Candidate;
+    use crate::model::{Data, Model};
     use crate::scene::{Law, Scene};
     use std::path::Path;
 
-    /// Asserts that the part of `key` cut from the scene's model `m` is the one compiling the
-    /// island's part of the scene gives.
-    fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Key) {
-        let cut = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, key).unwrap();
-        let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, key).unwrap();
-        assert_same_part(&cut, &oracle, key);
+    /// An island's bodies and candidate pairs (scene numbering).
+    type Part = (Vec<usize>, Vec<Candidate>);
+
+    /// Asserts that the part of the bodies of `key` cut from the scene's model `m` is the one
+    /// compiling the island's part of the scene gives, and that the contact list its data
+    /// makes for the candidate pairs of `key` is the one compiling that part with them gives.
+    fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Part) {
+        let (bodies, candidates) = key;
+        let cut = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, bodies);
+        let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, bodies).unwrap();
+        assert_same_part(&cut, &oracle, bodies);
+        let part = super::super::cut::cut(src.scene, &is.params, &is.cutter.index, bodies, candidates);
+        let with = compile_model(&part.scene, &part.params, src.origin, Some(&part.candidates)).unwrap();
+        let mut data = Data::new(&cut.model);
+        set_candidates(&cut.model, &mut data, &part.candidates).unwrap();
+        assert_eq!(
+            format!("{:?}", data.contacts),
+            format!("{:?}", with.initial_contacts),
+            "bodies {bodies:?}"
+        );
+        assert_eq!(
+            data.nc,
+            with.fixed_rows() + (data.contacts.iter().filter(|c| c.constraint_row.is_some())).count()
+        );
     }
 
     /// Compares, for `scene`: the whole scene and each of its islands at the start, then
@@ -419,7 +383,7 @@ mod tests {
         let (m, mut d) = compile_scene(scene, origin).unwrap();
         let src = Source { scene, origin };
         let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
-        let all: Key = ((0..m.bodies.len()).collect(), d.candidates.clone());
+        let all: Part = ((0..m.bodies.len()).collect(), d.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
         for bodies in partition(&m, &d.candidates).iter() {
@@ -435,12 +399,12 @@ mod tests {
         }
         for &t in advances {
             is.advance(&src, &m, &mut d, t, false).unwrap();
-            let mut keys: Vec<Key> = is
+            let mut keys: Vec<Part> = is
                 .parts
                 .iter()
                 .map(|i| (i.bodies.clone(), i.candidates.clone()))
                 .collect();
-            keys.extend(is.pool.keys().cloned());
+            keys.extend(is.pool.keys().map(|bodies| (bodies.clone(), Vec::new())));
             for key in &keys {
                 assert_same(&src, &mut is, &m, key);
             }

@@ -32,6 +32,7 @@
 //! a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
+use crate::contact::elements::set_candidates;
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::kinematics::kinematics;
@@ -101,6 +102,8 @@ pub struct Island {
     inputs: Vec<(usize, usize)>,
     /// (island, scene) index pairs of the driven joints' coordinates and rates.
     driven: Vec<(usize, usize)>,
+    /// The scene's index of each of its group shapes (sorted).
+    shapes: Vec<usize>,
     /// Its whole state at the start of the round.
     saved: Vec<f64>,
     /// The length of its event log then.
@@ -438,14 +441,10 @@ impl Islands {
             explicit: island.explicit,
             inputs: island.inputs,
             driven: island.driven,
+            shapes: island.shapes,
         };
         let limit = POOL_PER_BODY * self.island_of.len();
-        self.pool.put(
-            (island.bodies, island.candidates),
-            part,
-            self.params.solver.max_steps,
-            limit,
-        );
+        self.pool.put(island.bodies, part, self.params.solver.max_steps, limit);
         if self.n_spare < self.spare_limit {
             self.n_spare += 1;
             let saved = island.saved;
@@ -468,16 +467,14 @@ impl Islands {
         candidates: Vec<Candidate>,
         memory: &Memory,
     ) -> Result<Box<Island>, EngineError> {
-        let key = (bodies, candidates);
-        let ((bodies, candidates), part) = match self.pool.take(&key) {
+        let (bodies, part) = match self.pool.take(&bodies) {
             Some(pooled) => {
                 self.pooled += 1;
                 pooled
             }
             None => {
-                let part = pool::compile(src, &self.params, &mut self.cutter, m, &self.joint_coords, &key)
-                    .map_err(|e| fail(d.time, e))?;
-                (key, part)
+                let part = pool::compile(src, &self.params, &mut self.cutter, m, &self.joint_coords, &bodies);
+                (bodies, part)
             }
         };
         let model = part.model;
@@ -505,6 +502,17 @@ impl Islands {
         for &(l, g) in &part.inputs {
             data.inputs[l] = d.inputs[g];
         }
+        // the candidate pairs' contact elements, by the island's numbering of the shapes
+        let local = |s: usize| part.shapes.binary_search(&s).unwrap_or(usize::MAX);
+        let local_candidates: Vec<Candidate> = candidates
+            .iter()
+            .map(|k| Candidate {
+                pair: k.pair,
+                sphere: local(k.sphere),
+                other: local(k.other),
+            })
+            .collect();
+        set_candidates(&model, &mut data, &local_candidates).map_err(|e| fail(d.time, e))?;
         for (k, &g) in part.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
         }
@@ -524,6 +532,7 @@ impl Islands {
             candidates,
             inputs: part.inputs,
             driven: part.driven,
+            shapes: part.shapes,
             saved,
             saved_log: 0,
         });

@@ -1,14 +1,14 @@
 //! The compiled part of an island (its model and how it maps onto the scene), and the pool
-//! that keeps it when the island ends: an island formed again from the same bodies and
-//! candidate pairs — a sphere alone again after a collision, a pair that meets again — takes
-//! its model from there instead of cutting it from the scene's model anew. A model depends on
-//! nothing else (the scene and the parameter values are the islands' own), so a pooled model
-//! is the one cutting would give, and the results do not depend on the pool.
+//! that keeps it when the island ends: an island formed again from the same bodies — a
+//! sphere alone again after a collision, a pair that meets again, whatever its candidate
+//! pairs — takes its model from there instead of cutting it from the scene's model anew. A
+//! model depends on nothing else (the scene and the parameter values are the islands' own),
+//! so a pooled model is the one cutting would give, and the results do not depend on the
+//! pool.
 
 use super::cut_model::ModelCutter;
 use super::Source;
 use crate::compile::Parameters;
-use crate::model::groups::Candidate;
 use crate::model::{nq_of, nv_of, Model};
 use rustc_hash::FxHashMap as HashMap;
 
@@ -24,12 +24,14 @@ pub(super) struct Compiled {
     pub(super) inputs: Vec<(usize, usize)>,
     /// (island, scene) index pairs of the driven joints' coordinates and rates.
     pub(super) driven: Vec<(usize, usize)>,
+    /// The scene's index of each of the island's group shapes (sorted).
+    pub(super) shapes: Vec<usize>,
 }
 
-/// An island's bodies and candidate pairs (scene numbering): what its model is compiled from.
-pub(super) type Key = (Vec<usize>, Vec<Candidate>);
+/// An island's bodies (scene numbering, sorted): what its model is cut from.
+pub(super) type Key = Vec<usize>;
 
-/// The part of the island of the bodies and candidate pairs `key`: its model cut from the
+/// The part of the island of the bodies `key`: its model cut from the
 /// scene's model `m` (compiled from `src` with the parameter values `params`) by `cutter`,
 /// `joint_coords`: per scene body the first position and velocity index of its joint in the
 /// scene's state.
@@ -40,10 +42,9 @@ pub(super) fn compile(
     m: &Model,
     joint_coords: &[(usize, usize)],
     key: &Key,
-) -> Result<Compiled, String> {
-    let (bodies, candidates) = key;
-    let cut = cutter.cut(src.scene, params, m, bodies, candidates)?;
-    Ok(numbered(m, cut.model, joint_coords, bodies, cut.explicit, &cut.inputs))
+) -> Compiled {
+    let cut = cutter.cut(src.scene, params, m, key);
+    numbered(m, cut.model, joint_coords, key, cut.explicit, &cut.inputs, cut.shapes)
 }
 
 /// The part of an island of `bodies` whose model is `model` (with the scene's declared
@@ -55,6 +56,7 @@ fn numbered(
     bodies: &[usize],
     explicit: Vec<usize>,
     scene_inputs: &[usize],
+    shapes: Vec<usize>,
 ) -> Compiled {
     let mut coords = Vec::with_capacity(model.nq + model.nv);
     for j in &model.joints {
@@ -82,6 +84,7 @@ fn numbered(
         explicit,
         inputs,
         driven,
+        shapes,
     }
 }
 
@@ -96,15 +99,22 @@ pub(super) fn compile_cut_scene(
     joint_coords: &[(usize, usize)],
     key: &Key,
 ) -> Result<Compiled, String> {
-    let (bodies, candidates) = key;
-    let cut = super::cut::cut(src.scene, params, index, bodies, candidates);
-    let mut model = crate::compile::compile_model(&cut.scene, &cut.params, src.origin, Some(&cut.candidates))
+    let cut = super::cut::cut(src.scene, params, index, key, &[]);
+    let mut model = crate::compile::compile_model(&cut.scene, &cut.params, src.origin, Some(&[]))
         .map_err(|e| format!("an island could not be compiled: {e}"))?;
     model.groups.stale_fraction = super::ISLAND_STALE_FRACTION;
-    Ok(numbered(m, model, joint_coords, bodies, cut.explicit, &cut.inputs))
+    Ok(numbered(
+        m,
+        model,
+        joint_coords,
+        key,
+        cut.explicit,
+        &cut.inputs,
+        cut.shapes,
+    ))
 }
 
-/// The compiled parts of islands that ended, by their bodies and candidate pairs.
+/// The compiled parts of islands that ended, by their bodies.
 #[derive(Default)]
 pub(super) struct Pool {
     parts: HashMap<Key, Compiled>,
@@ -161,7 +171,7 @@ pub(super) mod tests {
         );
         assert!(!is.pool.parts.is_empty());
         for (key, part) in &is.pool.parts {
-            let fresh = super::compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, key).unwrap();
+            let fresh = super::compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, key);
             assert_same_part(part, &fresh, key);
         }
     }
@@ -208,10 +218,11 @@ pub(super) mod tests {
     /// through their debug form (which prints every number so that it reads back exactly, the
     /// sign of a zero too) and their numbering against the scene.
     pub(in super::super) fn assert_same_part(a: &Compiled, b: &Compiled, key: &Key) {
-        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {:?}", key.0);
+        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {key:?}");
         assert_eq!(a.coords, b.coords);
         assert_eq!(a.explicit, b.explicit);
         assert_eq!(a.inputs, b.inputs);
         assert_eq!(a.driven, b.driven);
+        assert_eq!(a.shapes, b.shapes);
     }
 }
