@@ -180,8 +180,7 @@ pub(super) fn compile_groups(
     };
     let mut elements = Vec::with_capacity(groups.initial_candidates.len());
     for c in &groups.initial_candidates {
-        let name = groups.element_name(c);
-        let e = candidate_element(&groups, c, name).map_err(|message| {
+        let e = candidate_element(&groups, c, String::new()).map_err(|message| {
             SceneError::new(
                 origin,
                 item_name("contact", &groups.element_name(c)),

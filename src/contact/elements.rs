@@ -8,6 +8,7 @@ use crate::model::contact::{ContactElement, ContactMemory, LawConstants, OtherSi
 use crate::model::groups::{Candidate, Groups};
 use crate::model::{Data, Model};
 use crate::scene::Law;
+use std::borrow::Cow;
 
 /// The contact element `name` of a sphere and the shape it touches, with the law constants
 /// `law`: the stiffness given, or Hertz's from the two materials and the effective radius;
@@ -94,6 +95,16 @@ pub fn candidate_element(groups: &Groups, c: &Candidate, name: String) -> Result
     )
 }
 
+/// The name of contact `i` of the data's list: a declared contact's own, or for a candidate pair
+/// of the contact groups `<group pair>[<sphere>:<other>]` (1-based shape numbers; its element
+/// holds no name, so that listing it allocates none).
+pub fn contact_name<'a>(m: &Model, d: &'a Data, i: usize) -> Cow<'a, str> {
+    match i.checked_sub(m.groups.n_explicit).and_then(|k| d.candidates.get(k)) {
+        Some(c) => Cow::Owned(m.groups.element_name(c)),
+        None => Cow::Borrowed(&d.contacts[i].name),
+    }
+}
+
 /// Makes the data's contact list that of the candidate pairs `found`: the declared contacts,
 /// then one element per pair, their constraint rows, step powers and work buffers. A pair that
 /// was listed before keeps its contact memory; a new one starts apart. On an error (a pair
@@ -103,8 +114,7 @@ pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<()
     let mut contacts = Vec::with_capacity(n + found.len());
     contacts.extend_from_slice(&d.contacts[..n]);
     for c in found {
-        let name = m.groups.element_name(c);
-        let e = candidate_element(&m.groups, c, name)
+        let e = candidate_element(&m.groups, c, String::new())
             .map_err(|message| format!("contact {:?}: {message}", m.groups.element_name(c)))?;
         contacts.push(e);
     }

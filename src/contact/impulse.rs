@@ -25,6 +25,7 @@
 //! (free bodies, or a pendulum struck at its centre of percussion); it may even create energy.
 //! Simultaneous contacts are treated pair by pair.
 
+use super::elements::contact_name;
 use crate::dynamics;
 use crate::kinematics::{self, for_each_path_dof};
 use crate::linalg;
@@ -159,7 +160,7 @@ pub fn resolve_with(
                     (false, false) => {
                         return Err(format!(
                             "contact {:?}: neither side can move along the normal (no impact possible)",
-                            c.name
+                            contact_name(m, d, ci)
                         ))
                     }
                 };
@@ -168,7 +169,7 @@ pub fn resolve_with(
                         return Err(format!(
                             "contact {:?}: the effective mass (17) of its {side} is {mass:.6e} kg (≤ 0: the paper's \
                              approximation ignores rotational inertia and joint reactions); use impulse_method = \"exact\"",
-                            c.name
+                            contact_name(m, d, ci)
                         ));
                     }
                 }
@@ -191,7 +192,7 @@ pub fn resolve_with(
             q[a] = pre + restitution[ra] * rate[ra];
         }
         if !solve_lcp_with(w, q, n, lcp, p) {
-            let names: Vec<&str> = exact.iter().map(|&r| d.contacts[contacts[r]].name.as_str()).collect();
+            let names: Vec<_> = exact.iter().map(|&r| contact_name(m, d, contacts[r])).collect();
             return Err(format!(
                 "simultaneous impact of contacts {names:?}: the impulse problem has no solution"
             ));
@@ -230,7 +231,9 @@ pub fn resolve_with(
                 return Err(format!(
                     "contact {:?}: the effective-mass impulse (17)-(19) leaves the bodies approaching at {:.6e} m/s \
                      (approach {:.6e} m/s); the approximation fails here, use impulse_method = \"exact\"",
-                    c.name, -after, -rate[r]
+                    contact_name(m, d, ci),
+                    -after,
+                    -rate[r]
                 ));
             }
         }

@@ -8,6 +8,7 @@
 //!   impulse-law contacts are settled by [`settle_impulse_contacts`] (rounds of impacts, then
 //!   the resting set).
 
+use crate::contact::elements::contact_name;
 use crate::contact::{
     broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap,
 };
@@ -129,7 +130,9 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
                 "contact {:?}: penetration {:.6e} m reached max_penetration {:.6e} m (the contact is too \
                  soft or the impact too fast for this model, or the step too long: raise max_penetration or \
                  stiffness, or lower solver.max_step)",
-                c.name, gap.delta, c.max_penetration
+                contact_name(m, d, i),
+                gap.delta,
+                c.max_penetration
             ));
         }
         if c.law == Law::Impulse {
@@ -210,7 +213,7 @@ pub fn settle_impulse_contacts(m: &Model, d: &mut Data) -> Result<(), String> {
         }
         rounds += 1;
         if rounds > max_rounds {
-            let names: Vec<&str> = d.impacts.set.iter().map(|&i| d.contacts[i].name.as_str()).collect();
+            let names: Vec<_> = d.impacts.set.iter().map(|&i| contact_name(m, d, i)).collect();
             return Err(format!(
                 "impacts of contacts {names:?} did not come to an end after {max_rounds} rounds"
             ));

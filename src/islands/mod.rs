@@ -32,7 +32,7 @@
 //! a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
-use crate::contact::elements::set_candidates;
+use crate::contact::elements::{contact_name, set_candidates};
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::kinematics::kinematics;
@@ -405,7 +405,7 @@ impl Islands {
                             format!(
                                 "contact {:?} touched before the broad phase listed it: a body moved more than \
                                  half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                island.data.contacts[n + k].name,
+                                contact_name(&island.model, &island.data, n + k),
                                 m.groups.margin
                             ),
                         ));

@@ -103,7 +103,8 @@ pub struct LawConstants {
 /// A compiled contact element.
 #[derive(Debug, Clone)]
 pub struct ContactElement {
-    /// Name.
+    /// Name of a declared contact (empty for a contact group's candidate pair, whose name
+    /// `crate::contact::elements::contact_name` makes when it is needed).
     pub name: String,
     /// Element type.
     pub kind: ContactType,

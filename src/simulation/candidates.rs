@@ -62,7 +62,7 @@ impl Simulation {
                     message: format!(
                         "contact {:?} touched before the broad phase listed it: a body moved more than half the \
                          broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                        d.contacts[n + k].name,
+                        elements::contact_name(m, d, n + k),
                         m.groups.margin
                     ),
                 });

@@ -266,6 +266,12 @@ fn the_broad_phase_keeps_every_pair_within_the_margin() {
             found, dg.candidates,
             "case {case}: the compiled list is the broad phase's"
         );
+        // a candidate's contact is named by its group pair and its two shapes (1-based)
+        for (k, c) in dg.candidates.iter().enumerate() {
+            let name = contact::elements::contact_name(&mg, &dg, mg.groups.n_explicit + k);
+            let pair = &scene.contact_group[c.pair].name;
+            assert_eq!(name, format!("{pair}[{}:{}]", c.sphere + 1, c.other + 1), "case {case}");
+        }
         let reference = mg.groups.find_all_pairs(&|b| contact::groups::pose(&dg, b));
         assert_eq!(
             found, reference,
