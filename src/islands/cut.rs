@@ -204,6 +204,20 @@ pub(super) struct Cut {
     pub(super) shapes: Vec<usize>,
 }
 
+/// The candidate pairs `candidates` (scene numbering) numbered by an island's shapes `shapes`
+/// (their scene indices, sorted).
+pub(super) fn local_candidates(shapes: &[usize], candidates: &[Candidate]) -> Vec<Candidate> {
+    let local = |s: usize| shapes.binary_search(&s).unwrap_or(usize::MAX);
+    candidates
+        .iter()
+        .map(|k| Candidate {
+            pair: k.pair,
+            sphere: local(k.sphere),
+            other: local(k.other),
+        })
+        .collect()
+}
+
 /// The sorted, deduplicated items of `lists` over `bodies`.
 pub(super) fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
     let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
@@ -255,15 +269,7 @@ pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usiz
             .map(|v| p.input_start[v])
             .collect(),
     };
-    let local = |i: usize| shapes.binary_search(&i).unwrap_or(usize::MAX);
-    let candidates = candidates
-        .iter()
-        .map(|k| Candidate {
-            pair: k.pair,
-            sphere: local(k.sphere),
-            other: local(k.other),
-        })
-        .collect();
+    let candidates = local_candidates(&shapes, candidates);
     Cut {
         scene: s,
         params,

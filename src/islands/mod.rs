@@ -503,16 +503,8 @@ impl Islands {
             data.inputs[l] = d.inputs[g];
         }
         // the candidate pairs' contact elements, by the island's numbering of the shapes
-        let local = |s: usize| part.shapes.binary_search(&s).unwrap_or(usize::MAX);
-        let local_candidates: Vec<Candidate> = candidates
-            .iter()
-            .map(|k| Candidate {
-                pair: k.pair,
-                sphere: local(k.sphere),
-                other: local(k.other),
-            })
-            .collect();
-        set_candidates(&model, &mut data, &local_candidates).map_err(|e| fail(d.time, e))?;
+        let local = cut::local_candidates(&part.shapes, &candidates);
+        set_candidates(&model, &mut data, &local).map_err(|e| fail(d.time, e))?;
         for (k, &g) in part.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
         }
