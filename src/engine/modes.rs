@@ -62,6 +62,23 @@ pub fn slip_event_value(d: &Data, i: usize) -> f64 {
     friction::slip_function(&c.friction, friction::slip_velocity(&fs, &fo, &g).norm())
 }
 
+/// The band around a damped law's cut (relative to [`clamp_scale`]) inside which a crossing
+/// of its clamp function is not located. The force is continuous across the cut (zero on
+/// both sides), so the integrator's error control covers a crossing it steps over; where the
+/// contact's state slides along the cut (a ball in a rattling pile whose damping holds its
+/// force at zero), locating every crossing would cut every step short at the next one.
+pub const CLAMP_BAND: f64 = 1e-6;
+
+/// The scale of contact `c`'s clamp function ([`crate::contact::laws::clamp_function`]): 1 for
+/// the hysteresis laws (`1 + D δ̇/δ̇⁻`), the damping force at the touch `c δ̇⁻` for
+/// Kelvin-Voigt's `K δ + c δ̇`.
+fn clamp_scale(c: &ContactElement, impact_velocity: f64) -> f64 {
+    match c.law {
+        Law::KelvinVoigt => c.damping * impact_velocity,
+        _ => 1.0,
+    }
+}
+
 /// True when the crossing of event function `k` (mode functions first, then clamp functions,
 /// then friction functions)
 /// from `g0` to `g1` needs handling (an impulse contact leaving its zone after an impact does
@@ -77,7 +94,11 @@ pub fn relevant_crossing(d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> b
         return d.contact_memory[i].active && d.contacts[i].friction.is_on();
     }
     if k >= n_contacts {
-        return d.contact_memory[k - n_contacts].active;
+        let i = k - n_contacts;
+        let mem = &d.contact_memory[i];
+        // (a crossing that stays within the band around the cut is the force sliding along
+        // it, zero on both sides: locating each would stop every step; see CLAMP_BAND)
+        return mem.active && g0.abs().max(g1.abs()) > CLAMP_BAND * clamp_scale(&d.contacts[i], mem.impact_velocity);
     }
     let c = &d.contacts[k];
     if c.law == Law::Impulse && !d.contact_memory[k].active && g1 <= 0.0 {
