@@ -17,6 +17,9 @@
 //! - Error estimate of order 3 filtered by `(I − hγ₀J)⁻¹` (IV.8.19), refined with one more
 //!   evaluation after a rejected or first step, as RADAU5 does.
 //! - Dense output: the collocation polynomial through `(0, y₀)` and `(cᵢ, Yᵢ)` (order 3).
+//! - Starting values of the stages: the previous step's collocation polynomial, extrapolated;
+//!   after a burst of Newton failures, the state at the step's start for some steps
+//!   ([`super::newton::WarmMemory::start_from_state`]).
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
@@ -205,9 +208,11 @@ impl Radau5 {
     fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
         let core = &mut self.core;
         let n = core.y.len();
-        // starting values: the previous collocation polynomial, extrapolated
+        // starting values: the previous collocation polynomial, extrapolated, or the state at
+        // the step's start after a burst of Newton failures (see `WarmMemory::start_from_state`)
         let h_prev = core.t - core.t_prev;
-        if self.newton.mem.h_acc > 0.0 && h_prev > 0.0 {
+        let mem = &self.newton.mem;
+        if mem.h_acc > 0.0 && h_prev > 0.0 && mem.start_from_state == 0 {
             for (s, cs) in C.iter().enumerate() {
                 let th = 1.0 + cs * h / h_prev;
                 let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
