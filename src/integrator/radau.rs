@@ -18,8 +18,9 @@
 //!   evaluation after a rejected or first step, as RADAU5 does.
 //! - Dense output: the collocation polynomial through `(0, y₀)` and `(cᵢ, Yᵢ)` (order 3).
 //! - Starting values of the stages: the previous step's collocation polynomial, extrapolated;
-//!   after a burst of Newton failures, the state at the step's start for some steps
-//!   ([`super::newton::WarmMemory::start_from_state`]).
+//!   for some steps after a burst of Newton failures with its stiff components replaced by
+//!   those of the stage equations linearised at the step's state
+//!   ([`super::newton::WarmMemory::filtered_start`]).
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
@@ -142,6 +143,8 @@ pub struct Radau5 {
     /// Stage increments Z (3n, stage-major) and Newton correction.
     z: Vec<f64>,
     dz: Vec<f64>,
+    /// Scratch of the filtered starting values.
+    z_start: Vec<f64>,
     /// Stage values and right-hand sides.
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
@@ -178,6 +181,7 @@ impl Radau5 {
             dense: [v(n), v(n), v(n)],
             z: v(3 * n),
             dz: v(3 * n),
+            z_start: v(3 * n),
             stage: v(n),
             fz: [v(n), v(n), v(n)],
             lu_err: Lu::new(n, sparse),
@@ -204,15 +208,47 @@ impl Radau5 {
         l
     }
 
+    /// Filters the extrapolated starting values `Z_ex` in `self.z` for step `h` (no
+    /// evaluation, two solves with the factors in use): with `M = I − hA⊗J` and `Z_lin =
+    /// M⁻¹ h(c⊗f(y₀))`, the solution of the stage equations linearised at the step's state,
+    /// `Z = Z_lin − M⁻¹(Z_lin − Z_ex)`. On a mode of `hA⊗J` with eigenvalue μ the weight of
+    /// `Z_ex` is `1/(1 − μ)`: the non-stiff components (|μ| ≪ 1) keep the extrapolation (to
+    /// O(μ)), the stiff ones (|μ| ≫ 1) are those of `Z_lin`.
+    fn filter_start(&mut self, h: f64) {
+        let n = self.core.y.len();
+        for (s, cs) in C.iter().enumerate() {
+            for m in 0..n {
+                self.dz[s * n + m] = h * cs * self.core.f[m];
+            }
+        }
+        let mut solve = |x: &mut [f64]| {
+            correction(
+                &mut self.lu_big,
+                &mut self.lu_err,
+                &mut self.reduction,
+                &self.basis,
+                (&self.lu_complex, &self.perm_complex, &mut self.work_complex),
+                x,
+            )
+        };
+        solve(&mut self.dz);
+        for ((w, lin), ex) in self.z_start.iter_mut().zip(&self.dz).zip(&self.z) {
+            *w = lin - ex;
+        }
+        solve(&mut self.z_start);
+        for ((z, lin), w) in self.z.iter_mut().zip(&self.dz).zip(&self.z_start) {
+            *z = lin - w;
+        }
+    }
+
     /// Solves the stage equations for step `h`; returns the largest contraction rate.
     fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
         let core = &mut self.core;
         let n = core.y.len();
-        // starting values: the previous collocation polynomial, extrapolated, or the state at
-        // the step's start after a burst of Newton failures (see `WarmMemory::start_from_state`)
+        // starting values: the previous collocation polynomial, extrapolated (filtered after
+        // a burst of Newton failures: `WarmMemory::filtered_start`)
         let h_prev = core.t - core.t_prev;
-        let mem = &self.newton.mem;
-        if mem.h_acc > 0.0 && h_prev > 0.0 && mem.start_from_state == 0 {
+        if self.newton.mem.h_acc > 0.0 && h_prev > 0.0 {
             for (s, cs) in C.iter().enumerate() {
                 let th = 1.0 + cs * h / h_prev;
                 let l = [Self::basis(1, th), Self::basis(2, th), Self::basis(3, th)];
@@ -222,9 +258,13 @@ impl Radau5 {
                     self.z[s * n + m] = u - core.y[m];
                 }
             }
+            if self.newton.mem.filtered_start > 0 {
+                self.filter_start(h);
+            }
         } else {
             self.z.iter_mut().for_each(|x| *x = 0.0);
         }
+        let core = &mut self.core;
         let (z, dz, stage, fz) = (&mut self.z, &mut self.dz, &mut self.stage, &mut self.fz);
         self.newton.iterate(|| {
             for (s, cs) in C.iter().enumerate() {
@@ -241,45 +281,14 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            if let Some(big) = self.lu_big.as_mut() {
-                big.solve(dz);
-            } else {
-                // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the
-                // real system for W₁ and the complex one for W₂ + iW₃ (both scaled so that
-                // their right-hand sides are W itself), then dz = (T⊗I) W
-                let (ti, t) = (&self.basis.t_inv, &self.basis.t);
-                for m in 0..n {
-                    let r = [dz[m], dz[n + m], dz[2 * n + m]];
-                    for (s, row) in ti.iter().enumerate() {
-                        dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
-                    }
-                }
-                let (w1, w23) = dz.split_at_mut(n);
-                let (w2, w3) = w23.split_at_mut(n);
-                match self.reduction.as_deref_mut().filter(|r| r.active) {
-                    Some(r) => {
-                        r.solve_real(w1);
-                        r.solve_complex(w2, w3);
-                    }
-                    None => {
-                        self.lu_err.solve(w1);
-                        linalg::lu_solve_complex(
-                            &self.lu_complex,
-                            n,
-                            &self.perm_complex,
-                            w2,
-                            w3,
-                            &mut self.work_complex,
-                        );
-                    }
-                }
-                for m in 0..n {
-                    let w = [dz[m], dz[n + m], dz[2 * n + m]];
-                    for (s, row) in t.iter().enumerate() {
-                        dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
-                    }
-                }
-            }
+            correction(
+                &mut self.lu_big,
+                &mut self.lu_err,
+                &mut self.reduction,
+                &self.basis,
+                (&self.lu_complex, &self.perm_complex, &mut self.work_complex),
+                dz,
+            );
             let mut sum = 0.0;
             let mut at_roundoff = true;
             for s in 0..3 {
@@ -328,6 +337,52 @@ impl Radau5 {
             e = error_norm(&self.err, &core.y, &self.stage, core.rtol, core.atol);
         }
         e
+    }
+}
+
+/// The simplified Newton correction `(I − hA⊗J)⁻¹ dz` in place, from the factors of
+/// [`Radau5::factor`] (sparse: the 3n × 3n LU; dense: the real and complex systems in the
+/// eigenbasis of `A⁻¹`).
+fn correction(
+    lu_big: &mut Option<Lu>,
+    lu_err: &mut Lu,
+    reduction: &mut Option<Box<Reduction>>,
+    basis: &Eigenbasis,
+    (lu_complex, perm_complex, work_complex): (&[f64], &[usize], &mut [f64]),
+    dz: &mut [f64],
+) {
+    let n = dz.len() / 3;
+    if let Some(big) = lu_big.as_mut() {
+        big.solve(dz);
+    } else {
+        // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the
+        // real system for W₁ and the complex one for W₂ + iW₃ (both scaled so that
+        // their right-hand sides are W itself), then dz = (T⊗I) W
+        let (ti, t) = (&basis.t_inv, &basis.t);
+        for m in 0..n {
+            let r = [dz[m], dz[n + m], dz[2 * n + m]];
+            for (s, row) in ti.iter().enumerate() {
+                dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
+            }
+        }
+        let (w1, w23) = dz.split_at_mut(n);
+        let (w2, w3) = w23.split_at_mut(n);
+        match reduction.as_deref_mut().filter(|r| r.active) {
+            Some(r) => {
+                r.solve_real(w1);
+                r.solve_complex(w2, w3);
+            }
+            None => {
+                lu_err.solve(w1);
+                linalg::lu_solve_complex(lu_complex, n, perm_complex, w2, w3, work_complex);
+            }
+        }
+        for m in 0..n {
+            let w = [dz[m], dz[n + m], dz[2 * n + m]];
+            for (s, row) in t.iter().enumerate() {
+                dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
+            }
+        }
     }
 }
 

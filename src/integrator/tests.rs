@@ -114,19 +114,29 @@ fn warm_state_sizes_and_checks() {
         assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
         assert!(m.set_warm_state(&[]).is_ok());
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]).is_err(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 6.0, 0.0, 1.0])
+                .is_err(),
             "{method:?}: short Jacobian"
         );
         assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
-        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]).is_ok(), "{method:?}");
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5]).is_ok(),
-            "{method:?}: a bound"
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 6.0, 0.0]).is_ok(),
+            "{method:?}"
+        );
+        assert!(
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 2.0, 20.0]).is_ok(),
+            "{method:?}: a bound, a burst"
         );
         for bad in [-1.0, f64::NAN, f64::INFINITY] {
             assert!(
-                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad]).is_err(),
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad, 6.0, 0.0]).is_err(),
                 "{method:?}: step-size bound {bad}"
+            );
+        }
+        for (since, left) in [(7.0, 0.0), (0.5, 0.0), (6.0, 21.0), (6.0, -1.0), (f64::NAN, 0.0)] {
+            assert!(
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, since, left]).is_err(),
+                "{method:?}: burst counters {since} {left}"
             );
         }
     }
@@ -374,7 +384,7 @@ fn saved_len(method: Method, n: usize, with_jac: bool) -> usize {
     match method {
         Method::Dopri5 => 9 + 7 * n,
         Method::Rk4 => 8 + 4 * n,
-        Method::Sdirk | Method::Radau5 => 16 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
+        Method::Sdirk | Method::Radau5 => 18 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
         Method::Auto => unreachable!("auto: the length of its active method's state"),
     }
 }
