@@ -1,7 +1,7 @@
 //! The integrators' common unit tests: no allocation in a step, warm restarts that keep the
 //! Jacobian, and saved states that continue bit for bit or are refused without a change.
 
-use super::newton::WARM_HEADER;
+use super::newton::{FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
 use super::test_problems::*;
 use super::*;
 
@@ -113,27 +113,36 @@ fn warm_state_sizes_and_checks() {
         m.warm_state(&mut w);
         assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
         assert!(m.set_warm_state(&[]).is_ok());
+        // burst counters: since the last failure (at most FAILURE_BURST_STEPS + 1: none) and
+        // filtered steps left (at most FILTERED_START_STEPS)
+        let (none, full) = ((FAILURE_BURST_STEPS + 1) as f64, FILTERED_START_STEPS as f64);
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 6.0, 0.0, 1.0])
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, none, 0.0, 1.0])
                 .is_err(),
             "{method:?}: short Jacobian"
         );
         assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 6.0, 0.0]).is_ok(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, none, 0.0]).is_ok(),
             "{method:?}"
         );
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 2.0, 20.0]).is_ok(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 2.0, full]).is_ok(),
             "{method:?}: a bound, a burst"
         );
         for bad in [-1.0, f64::NAN, f64::INFINITY] {
             assert!(
-                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad, 6.0, 0.0]).is_err(),
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad, none, 0.0]).is_err(),
                 "{method:?}: step-size bound {bad}"
             );
         }
-        for (since, left) in [(7.0, 0.0), (0.5, 0.0), (6.0, 21.0), (6.0, -1.0), (f64::NAN, 0.0)] {
+        for (since, left) in [
+            (none + 1.0, 0.0),
+            (0.5, 0.0),
+            (none, full + 1.0),
+            (none, -1.0),
+            (f64::NAN, 0.0),
+        ] {
             assert!(
                 m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, since, left]).is_err(),
                 "{method:?}: burst counters {since} {left}"
