@@ -1,7 +1,7 @@
 //! The integrators' common unit tests: no allocation in a step, warm restarts that keep the
 //! Jacobian, and saved states that continue bit for bit or are refused without a change.
 
-use super::newton::{FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
+use super::newton::{WarmMemory, FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
 use super::test_problems::*;
 use super::*;
 
@@ -673,4 +673,38 @@ fn a_malformed_state_is_refused_and_changes_nothing() {
             assert_same(a2.as_ref(), ms[1].as_ref(), &what);
         }
     }
+}
+
+#[test]
+fn newton_failures_in_a_burst_filter_the_starting_values() {
+    let mut m = WarmMemory::cold();
+    // a failure and its retries in one step: no burst
+    m.note_newton_failure();
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, 0);
+    // the next failure more than FAILURE_BURST_STEPS steps later: none either
+    for _ in 0..=FAILURE_BURST_STEPS {
+        m.note_accepted_step();
+    }
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, 0);
+    // within them: a burst
+    for _ in 0..FAILURE_BURST_STEPS {
+        m.note_accepted_step();
+    }
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, FILTERED_START_STEPS);
+    // it lasts FILTERED_START_STEPS accepted steps, a failure meanwhile renews it
+    m.note_accepted_step();
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, FILTERED_START_STEPS);
+    for left in (0..FILTERED_START_STEPS).rev() {
+        m.note_accepted_step();
+        assert_eq!(m.filtered_start, left);
+    }
+    // saved and read back as it was
+    let mut v = Vec::new();
+    m.note_newton_failure();
+    m.write(&[], false, &mut v);
+    assert_eq!(WarmMemory::read(&v, &mut [], 0, false), Ok(m));
 }
