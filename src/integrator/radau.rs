@@ -208,19 +208,8 @@ impl Radau5 {
         l
     }
 
-    /// Filters the extrapolated starting values `Z_ex` in `self.z` for step `h` (no
-    /// evaluation, two solves with the factors in use): with `M = I − hA⊗J` and `Z_lin =
-    /// M⁻¹ h(c⊗f(y₀))`, the solution of the stage equations linearised at the step's state,
-    /// `Z = Z_lin − M⁻¹(Z_lin − Z_ex)`. On a mode of `hA⊗J` with eigenvalue μ the weight of
-    /// `Z_ex` is `1/(1 − μ)`: the non-stiff components (|μ| ≪ 1) keep the extrapolation (to
-    /// O(μ)), the stiff ones (|μ| ≫ 1) are those of `Z_lin`.
-    fn filter_start(&mut self, h: f64) {
-        let n = self.core.y.len();
-        for (s, cs) in C.iter().enumerate() {
-            for m in 0..n {
-                self.dz[s * n + m] = h * cs * self.core.f[m];
-            }
-        }
+    /// Solves the stage equations for step `h`; returns the largest contraction rate.
+    fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
         let mut solve = |x: &mut [f64]| {
             correction(
                 &mut self.lu_big,
@@ -231,18 +220,6 @@ impl Radau5 {
                 x,
             )
         };
-        solve(&mut self.dz);
-        for ((w, lin), ex) in self.z_start.iter_mut().zip(&self.dz).zip(&self.z) {
-            *w = lin - ex;
-        }
-        solve(&mut self.z_start);
-        for ((z, lin), w) in self.z.iter_mut().zip(&self.dz).zip(&self.z_start) {
-            *z = lin - w;
-        }
-    }
-
-    /// Solves the stage equations for step `h`; returns the largest contraction rate.
-    fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
         let core = &mut self.core;
         let n = core.y.len();
         // starting values: the previous collocation polynomial, extrapolated (filtered after
@@ -259,7 +236,7 @@ impl Radau5 {
                 }
             }
             if self.newton.mem.filtered_start > 0 {
-                self.filter_start(h);
+                filter_start(&mut solve, h, &core.f, &mut self.z, &mut self.dz, &mut self.z_start);
             }
         } else {
             self.z.iter_mut().for_each(|x| *x = 0.0);
@@ -281,14 +258,7 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            correction(
-                &mut self.lu_big,
-                &mut self.lu_err,
-                &mut self.reduction,
-                &self.basis,
-                (&self.lu_complex, &self.perm_complex, &mut self.work_complex),
-                dz,
-            );
+            solve(dz);
             let mut sum = 0.0;
             let mut at_roundoff = true;
             for s in 0..3 {
@@ -337,6 +307,29 @@ impl Radau5 {
             e = error_norm(&self.err, &core.y, &self.stage, core.rtol, core.atol);
         }
         e
+    }
+}
+
+/// Filters the extrapolated starting values `Z_ex` in `z` for step `h` (no evaluation, two
+/// corrections with the factors in use, `solve`; `f0 = f(y₀)`; `lin` and `w` are scratch):
+/// with `M = I − hA⊗J` and `Z_lin = M⁻¹ h(c⊗f0)`, the solution of the stage equations
+/// linearised at the step's state, `Z = Z_lin − M⁻¹(Z_lin − Z_ex)`. On a mode of `hA⊗J` with
+/// eigenvalue μ the weight of `Z_ex` is `1/(1 − μ)`: the non-stiff components (|μ| ≪ 1) keep
+/// the extrapolation (to O(μ)), the stiff ones (|μ| ≫ 1) are those of `Z_lin`.
+fn filter_start(solve: &mut impl FnMut(&mut [f64]), h: f64, f0: &[f64], z: &mut [f64], lin: &mut [f64], w: &mut [f64]) {
+    let n = f0.len();
+    for (s, cs) in C.iter().enumerate() {
+        for m in 0..n {
+            lin[s * n + m] = h * cs * f0[m];
+        }
+    }
+    solve(lin);
+    for ((w, l), ex) in w.iter_mut().zip(&*lin).zip(&*z) {
+        *w = l - ex;
+    }
+    solve(w);
+    for ((z, l), w) in z.iter_mut().zip(&*lin).zip(&*w) {
+        *z = l - w;
     }
 }
 
