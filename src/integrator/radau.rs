@@ -17,6 +17,10 @@
 //! - Error estimate of order 3 filtered by `(I − hγ₀J)⁻¹` (IV.8.19), refined with one more
 //!   evaluation after a rejected or first step, as RADAU5 does.
 //! - Dense output: the collocation polynomial through `(0, y₀)` and `(cᵢ, Yᵢ)` (order 3).
+//! - Starting values of the stages: the previous step's collocation polynomial, extrapolated;
+//!   for some steps after a burst of Newton failures with its stiff components replaced by
+//!   those of the stage equations linearised at the step's state
+//!   ([`super::newton::WarmMemory::filtered_start`]).
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;
@@ -139,6 +143,8 @@ pub struct Radau5 {
     /// Stage increments Z (3n, stage-major) and Newton correction.
     z: Vec<f64>,
     dz: Vec<f64>,
+    /// Scratch of the filtered starting values.
+    z_start: Vec<f64>,
     /// Stage values and right-hand sides.
     stage: Vec<f64>,
     fz: [Vec<f64>; 3],
@@ -175,6 +181,7 @@ impl Radau5 {
             dense: [v(n), v(n), v(n)],
             z: v(3 * n),
             dz: v(3 * n),
+            z_start: v(3 * n),
             stage: v(n),
             fz: [v(n), v(n), v(n)],
             lu_err: Lu::new(n, sparse),
@@ -203,9 +210,20 @@ impl Radau5 {
 
     /// Solves the stage equations for step `h`; returns the largest contraction rate.
     fn solve_stages(&mut self, sys: &mut dyn OdeSystem, h: f64) -> Option<f64> {
+        let mut solve = |x: &mut [f64]| {
+            correction(
+                &mut self.lu_big,
+                &mut self.lu_err,
+                &mut self.reduction,
+                &self.basis,
+                (&self.lu_complex, &self.perm_complex, &mut self.work_complex),
+                x,
+            )
+        };
         let core = &mut self.core;
         let n = core.y.len();
-        // starting values: the previous collocation polynomial, extrapolated
+        // starting values: the previous collocation polynomial, extrapolated (filtered after
+        // a burst of Newton failures: `WarmMemory::filtered_start`)
         let h_prev = core.t - core.t_prev;
         if self.newton.mem.h_acc > 0.0 && h_prev > 0.0 {
             for (s, cs) in C.iter().enumerate() {
@@ -217,9 +235,13 @@ impl Radau5 {
                     self.z[s * n + m] = u - core.y[m];
                 }
             }
+            if self.newton.mem.filtered_start > 0 {
+                filter_start(&mut solve, h, &core.f, &mut self.z, &mut self.dz, &mut self.z_start);
+            }
         } else {
             self.z.iter_mut().for_each(|x| *x = 0.0);
         }
+        let core = &mut self.core;
         let (z, dz, stage, fz) = (&mut self.z, &mut self.dz, &mut self.stage, &mut self.fz);
         self.newton.iterate(|| {
             for (s, cs) in C.iter().enumerate() {
@@ -236,45 +258,7 @@ impl Radau5 {
                     dz[s * n + m] = hf - z[s * n + m];
                 }
             }
-            if let Some(big) = self.lu_big.as_mut() {
-                big.solve(dz);
-            } else {
-                // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the
-                // real system for W₁ and the complex one for W₂ + iW₃ (both scaled so that
-                // their right-hand sides are W itself), then dz = (T⊗I) W
-                let (ti, t) = (&self.basis.t_inv, &self.basis.t);
-                for m in 0..n {
-                    let r = [dz[m], dz[n + m], dz[2 * n + m]];
-                    for (s, row) in ti.iter().enumerate() {
-                        dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
-                    }
-                }
-                let (w1, w23) = dz.split_at_mut(n);
-                let (w2, w3) = w23.split_at_mut(n);
-                match self.reduction.as_deref_mut().filter(|r| r.active) {
-                    Some(r) => {
-                        r.solve_real(w1);
-                        r.solve_complex(w2, w3);
-                    }
-                    None => {
-                        self.lu_err.solve(w1);
-                        linalg::lu_solve_complex(
-                            &self.lu_complex,
-                            n,
-                            &self.perm_complex,
-                            w2,
-                            w3,
-                            &mut self.work_complex,
-                        );
-                    }
-                }
-                for m in 0..n {
-                    let w = [dz[m], dz[n + m], dz[2 * n + m]];
-                    for (s, row) in t.iter().enumerate() {
-                        dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
-                    }
-                }
-            }
+            solve(dz);
             let mut sum = 0.0;
             let mut at_roundoff = true;
             for s in 0..3 {
@@ -323,6 +307,75 @@ impl Radau5 {
             e = error_norm(&self.err, &core.y, &self.stage, core.rtol, core.atol);
         }
         e
+    }
+}
+
+/// Filters the extrapolated starting values `Z_ex` in `z` for step `h` (no evaluation, two
+/// corrections with the factors in use, `solve`; `f0 = f(y₀)`; `lin` and `w` are scratch):
+/// with `M = I − hA⊗J` and `Z_lin = M⁻¹ h(c⊗f0)`, the solution of the stage equations
+/// linearised at the step's state, `Z = Z_lin − M⁻¹(Z_lin − Z_ex)`. On a mode of `hA⊗J` with
+/// eigenvalue μ the weight of `Z_ex` is `1/(1 − μ)`: the non-stiff components (|μ| ≪ 1) keep
+/// the extrapolation (to O(μ)), the stiff ones (|μ| ≫ 1) are those of `Z_lin`.
+fn filter_start(solve: &mut impl FnMut(&mut [f64]), h: f64, f0: &[f64], z: &mut [f64], lin: &mut [f64], w: &mut [f64]) {
+    let n = f0.len();
+    for (s, cs) in C.iter().enumerate() {
+        for m in 0..n {
+            lin[s * n + m] = h * cs * f0[m];
+        }
+    }
+    solve(lin);
+    for ((w, l), ex) in w.iter_mut().zip(&*lin).zip(&*z) {
+        *w = l - ex;
+    }
+    solve(w);
+    for ((z, l), w) in z.iter_mut().zip(&*lin).zip(&*w) {
+        *z = l - w;
+    }
+}
+
+/// The simplified Newton correction `(I − hA⊗J)⁻¹ dz` in place, from the factors of
+/// [`Radau5::factor`] (sparse: the 3n × 3n LU; dense: the real and complex systems in the
+/// eigenbasis of `A⁻¹`).
+fn correction(
+    lu_big: &mut Option<Lu>,
+    lu_err: &mut Lu,
+    reduction: &mut Option<Box<Reduction>>,
+    basis: &Eigenbasis,
+    (lu_complex, perm_complex, work_complex): (&[f64], &[usize], &mut [f64]),
+    dz: &mut [f64],
+) {
+    let n = dz.len() / 3;
+    if let Some(big) = lu_big.as_mut() {
+        big.solve(dz);
+    } else {
+        // the correction (I − hA⊗J)⁻¹ dz in the eigenbasis: W = (T⁻¹⊗I) dz, then the
+        // real system for W₁ and the complex one for W₂ + iW₃ (both scaled so that
+        // their right-hand sides are W itself), then dz = (T⊗I) W
+        let (ti, t) = (&basis.t_inv, &basis.t);
+        for m in 0..n {
+            let r = [dz[m], dz[n + m], dz[2 * n + m]];
+            for (s, row) in ti.iter().enumerate() {
+                dz[s * n + m] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
+            }
+        }
+        let (w1, w23) = dz.split_at_mut(n);
+        let (w2, w3) = w23.split_at_mut(n);
+        match reduction.as_deref_mut().filter(|r| r.active) {
+            Some(r) => {
+                r.solve_real(w1);
+                r.solve_complex(w2, w3);
+            }
+            None => {
+                lu_err.solve(w1);
+                linalg::lu_solve_complex(lu_complex, n, perm_complex, w2, w3, work_complex);
+            }
+        }
+        for m in 0..n {
+            let w = [dz[m], dz[n + m], dz[2 * n + m]];
+            for (s, row) in t.iter().enumerate() {
+                dz[s * n + m] = row[0] * w[0] + row[1] * w[1] + row[2] * w[2];
+            }
+        }
     }
 }
 

@@ -1,7 +1,7 @@
 //! The integrators' common unit tests: no allocation in a step, warm restarts that keep the
 //! Jacobian, and saved states that continue bit for bit or are refused without a change.
 
-use super::newton::WARM_HEADER;
+use super::newton::{WarmMemory, FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
 use super::test_problems::*;
 use super::*;
 
@@ -113,20 +113,39 @@ fn warm_state_sizes_and_checks() {
         m.warm_state(&mut w);
         assert_eq!(w.len(), WARM_HEADER, "{method:?}: no Jacobian before one is evaluated");
         assert!(m.set_warm_state(&[]).is_ok());
+        // burst counters: since the last failure (at most FAILURE_BURST_STEPS + 1: none) and
+        // filtered steps left (at most FILTERED_START_STEPS)
+        let (none, full) = ((FAILURE_BURST_STEPS + 1) as f64, FILTERED_START_STEPS as f64);
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]).is_err(),
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, none, 0.0, 1.0])
+                .is_err(),
             "{method:?}: short Jacobian"
         );
         assert!(m.set_warm_state(&[0.0; 3]).is_err(), "{method:?}");
-        assert!(m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]).is_ok(), "{method:?}");
         assert!(
-            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5]).is_ok(),
-            "{method:?}: a bound"
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, none, 0.0]).is_ok(),
+            "{method:?}"
+        );
+        assert!(
+            m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 2.0, full]).is_ok(),
+            "{method:?}: a bound, a burst"
         );
         for bad in [-1.0, f64::NAN, f64::INFINITY] {
             assert!(
-                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad]).is_err(),
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, bad, none, 0.0]).is_err(),
                 "{method:?}: step-size bound {bad}"
+            );
+        }
+        for (since, left) in [
+            (none + 1.0, 0.0),
+            (0.5, 0.0),
+            (none, full + 1.0),
+            (none, -1.0),
+            (f64::NAN, 0.0),
+        ] {
+            assert!(
+                m.set_warm_state(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, since, left]).is_err(),
+                "{method:?}: burst counters {since} {left}"
             );
         }
     }
@@ -374,7 +393,7 @@ fn saved_len(method: Method, n: usize, with_jac: bool) -> usize {
     match method {
         Method::Dopri5 => 9 + 7 * n,
         Method::Rk4 => 8 + 4 * n,
-        Method::Sdirk | Method::Radau5 => 16 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
+        Method::Sdirk | Method::Radau5 => 18 + 3 * n + dense_len(method, n) + if with_jac { n * n } else { 0 },
         Method::Auto => unreachable!("auto: the length of its active method's state"),
     }
 }
@@ -654,4 +673,38 @@ fn a_malformed_state_is_refused_and_changes_nothing() {
             assert_same(a2.as_ref(), ms[1].as_ref(), &what);
         }
     }
+}
+
+#[test]
+fn newton_failures_in_a_burst_filter_the_starting_values() {
+    let mut m = WarmMemory::cold();
+    // a failure and its retries in one step: no burst
+    m.note_newton_failure();
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, 0);
+    // the next failure more than FAILURE_BURST_STEPS steps later: none either
+    for _ in 0..=FAILURE_BURST_STEPS {
+        m.note_accepted_step();
+    }
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, 0);
+    // within them: a burst
+    for _ in 0..FAILURE_BURST_STEPS {
+        m.note_accepted_step();
+    }
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, FILTERED_START_STEPS);
+    // it lasts FILTERED_START_STEPS accepted steps, a failure meanwhile renews it
+    m.note_accepted_step();
+    m.note_newton_failure();
+    assert_eq!(m.filtered_start, FILTERED_START_STEPS);
+    for left in (0..FILTERED_START_STEPS).rev() {
+        m.note_accepted_step();
+        assert_eq!(m.filtered_start, left);
+    }
+    // saved and read back as it was
+    let mut v = Vec::new();
+    m.note_newton_failure();
+    m.write(&[], false, &mut v);
+    assert_eq!(WarmMemory::read(&v, &mut [], 0, false), Ok(m));
 }

@@ -129,8 +129,8 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     let snap = a.snapshot(Vec::new());
     let len = snap.state.len();
     // integrator part: started, next step, pending event, length, then sdirk's own state
-    // (tag, 7 + 3n of the step, 3n dense output, 8 Newton numbers, the n² Jacobian)
-    let memory = 1 + 7 + 3 * n + 3 * n + 8 + n * n;
+    // (tag, 7 + 3n of the step, 3n dense output, 10 Newton numbers, the n² Jacobian)
+    let memory = 1 + 7 + 3 * n + 3 * n + 10 + n * n;
     assert_eq!(head + 4 + memory, len, "the integrator part ends the state");
     assert_eq!(
         snap.state[len - memory - 1],
