@@ -133,5 +133,7 @@ pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<()
     d.candidates = found.to_vec();
     d.nc = nc;
     d.fit_contact_work(m);
+    // (the contact outputs were zeroed with the work: they are evaluated again when read)
+    d.outputs_valid = false;
     Ok(())
 }

@@ -34,7 +34,11 @@ pub use geometry::Gap;
 
 /// Evaluates the geometry of contact `i` at the current kinematics.
 pub fn gap(d: &Data, i: usize) -> Gap {
-    let c = &d.contacts[i];
+    gap_of(&d.contacts[i], d)
+}
+
+/// [`gap`] of a contact element `c`, listed in `d` or not, at the kinematics in `d`.
+pub fn gap_of(c: &ContactElement, d: &Data) -> Gap {
     geometry::detect_placed(c, placement(d, c.sphere_body), placement(d, c.body))
 }
 

@@ -101,8 +101,12 @@ pub fn resync_margins(m: &Model, d: &mut Data) {
     }
 }
 
-/// Evaluates `values` at the ends of the method's last step (`d.state` when it has none).
+/// Evaluates `values` at the ends of the method's last step (`d.state` when it has none). The
+/// workspace then holds those evaluations: the outputs and kinematics at the state are
+/// evaluated again when read.
 fn resync_with(m: &Model, d: &mut Data, values: fn(&Model, &mut Data, bool)) {
+    d.outputs_valid = false;
+    d.kinematics_valid = false;
     let step_ends = d
         .solver
         .started

@@ -38,7 +38,7 @@ impl Simulation {
     /// data's contact list theirs (the contact memory of the pairs kept carries over). A pair
     /// that is new to the list and already touches was missed by the bounds on the step: an
     /// error (it cannot happen while no body is accelerated far beyond gravity within one
-    /// step).
+    /// step), raised before the data changes.
     pub(super) fn refresh_candidates(&mut self) -> Result<(), SimError> {
         let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
             return Err(SimError::NotInitialized);
@@ -47,27 +47,28 @@ impl Simulation {
         d.eval_state.copy_from_slice(&d.state);
         crate::kinematics::kinematics(m, d);
         let found = m.groups.find(&|b| groups::pose(d, b));
-        let n = m.groups.n_explicit;
-        let new: Vec<bool> = {
-            let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
-            found.iter().map(|k| !before.contains(k)).collect()
-        };
-        let time = d.time;
-        elements::set_candidates(m, d, &found).map_err(|message| SimError::Step { time, message })?;
-        for (k, _) in new.iter().enumerate().filter(|(_, &is_new)| is_new) {
-            let g = contact::gap(d, n + k);
-            if contact::event_function(&d.contacts[n + k], &g) > 0.0 {
+        // a pair new to the list that touches already: checked before the list changes
+        let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
+        for k in found.iter().filter(|k| !before.contains(k)) {
+            let name = || m.groups.element_name(k);
+            let e = elements::candidate_element(&m.groups, k, String::new()).map_err(|message| SimError::Step {
+                time: d.time,
+                message: format!("contact {:?}: {message}", name()),
+            })?;
+            if contact::event_function(&e, &contact::gap_of(&e, d)) > 0.0 {
                 return Err(SimError::Step {
                     time: d.time,
                     message: format!(
                         "contact {:?} touched before the broad phase listed it: a body moved more than half the \
                          broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                        elements::contact_name(m, d, n + k),
+                        name(),
                         m.groups.margin
                     ),
                 });
             }
         }
+        let time = d.time;
+        elements::set_candidates(m, d, &found).map_err(|message| SimError::Step { time, message })?;
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }

@@ -564,7 +564,9 @@ impl Simulation {
         let params = self.parameters();
         let (scene, origin) = (self.scene.clone(), self.origin.clone());
         let restored = self.ensure_compiled().and_then(|c| {
-            // contact groups: the contact list of the snapshot's candidate pairs
+            // contact groups: the contact list of the snapshot's candidate pairs (the present
+            // one put back if the state is refused)
+            let kept = (c.data.candidates.clone(), c.data.contact_memory.clone());
             if let Some(found) = state::group_candidates(&c.model, &s.state) {
                 if found != c.data.candidates {
                     crate::contact::elements::set_candidates(&c.model, &mut c.data, &found)
@@ -572,7 +574,15 @@ impl Simulation {
                     c.direct_reads.0.clear();
                 }
             }
-            state::set(&c.model, &mut c.data, state::FULL, &s.state).map_err(SimError::Variable)?;
+            if let Err(e) = state::set(&c.model, &mut c.data, state::FULL, &s.state) {
+                if c.data.candidates != kept.0 {
+                    // (the list was made before: it makes again)
+                    let _ = crate::contact::elements::set_candidates(&c.model, &mut c.data, &kept.0);
+                    c.data.contact_memory = kept.1;
+                    engine::resync(&c.model, &mut c.data);
+                }
+                return Err(SimError::Variable(e));
+            }
             engine::resync(&c.model, &mut c.data);
             c.islands = None;
             if !s.islands.is_empty() {

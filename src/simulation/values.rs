@@ -114,7 +114,7 @@ impl Simulation {
         });
         let kept = self.running()?;
         let model = match compiled {
-            Ok((model, _)) if same_layout(&model, &kept.model) => model,
+            Ok((model, _)) if same_layout(&model, &kept.model, &kept.data) => model,
             Ok(_) => {
                 self.values[vr] = old;
                 return Err(SimError::Variable(format!(
@@ -247,17 +247,16 @@ pub(super) fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>
     follows
 }
 
-/// True when data sized for model `b` serves model `a` as well: the same coordinates,
-/// constraint rows and contacts with the same laws (what a tunable parameter may not change).
-pub(super) fn same_layout(a: &Model, b: &Model) -> bool {
+/// True when the data `d` of model `b` serves model `a` as well, `a` compiled for the data's
+/// candidate pairs: the same coordinates, fixed constraint rows, and contacts with the same
+/// laws as the data's list (what a tunable parameter may not change; the data's list, not
+/// `b`'s initial one, which the broad phase left behind).
+pub(super) fn same_layout(a: &Model, b: &Model, d: &Data) -> bool {
     a.nq == b.nq
         && a.nv == b.nv
         && a.fixed_rows() == b.fixed_rows()
-        && a.initial_contacts.len() == b.initial_contacts.len()
-        && a.initial_contacts
-            .iter()
-            .zip(&b.initial_contacts)
-            .all(|(x, y)| x.law == y.law)
+        && a.initial_contacts.len() == d.contacts.len()
+        && a.initial_contacts.iter().zip(&d.contacts).all(|(x, y)| x.law == y.law)
 }
 
 /// Sets input value `i`; the integrator restarts at the next advance (inputs are piecewise

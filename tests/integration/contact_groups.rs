@@ -534,6 +534,49 @@ fn a_saved_state_of_a_scene_with_groups_continues_bit_for_bit() {
     }
 }
 
+/// A saved state that is refused (a damaged contact memory) leaves the simulation as it was,
+/// though its candidate list differs from the present one (the list of the snapshot is made
+/// to check it, then the present one is put back): the run goes on bit for bit as one that
+/// never tried (one system, no islands to repair the list).
+#[test]
+fn a_refused_restore_leaves_the_contact_list_and_the_run_as_they_were() {
+    use contact_fmu::checkpoint::Snapshot;
+    let mut scene = sphere_box_groups(27, 0.2);
+    scene.solver.islands = false;
+    let h = 0.005;
+    let (mut a, mut b) = (start(scene.clone()), start(scene));
+    for k in 1..=4 {
+        a.step_to(k as f64 * h).unwrap();
+        b.step_to(k as f64 * h).unwrap();
+    }
+    let early = a.snapshot(Vec::new());
+    let early_pairs = a.data().unwrap().candidates.clone();
+    let mut k = 4;
+    while a.data().unwrap().candidates == early_pairs {
+        k += 1;
+        assert!(k < 40, "the candidate list never changed");
+        a.step_to(k as f64 * h).unwrap();
+        b.step_to(k as f64 * h).unwrap();
+    }
+    // the first contact's active flag, after time, coordinates, inputs and the group section
+    let (nstate, inputs, bodies) = {
+        let m = a.model().unwrap();
+        (m.nstate(), m.input_values(), m.bodies.len())
+    };
+    let mut damaged: Snapshot = early.clone();
+    damaged.state[1 + nstate + inputs + 1 + 3 * early_pairs.len() + 7 * bodies] = 0.5;
+    let err = a.restore(&damaged).unwrap_err().to_string();
+    assert!(err.contains("active flag"), "{err}");
+    assert_ne!(a.data().unwrap().candidates, early_pairs, "the present list is back");
+    assert_eq!(all_outputs(&mut a), all_outputs(&mut b));
+    for k in k + 1..=k + 10 {
+        let t = k as f64 * h;
+        a.step_to(t).unwrap();
+        b.step_to(t).unwrap();
+        assert_eq!(all_outputs(&mut a), all_outputs(&mut b), "t = {t}");
+    }
+}
+
 #[test]
 fn shapes_without_a_group_pair_touch_nothing() {
     // a ball falling through a floor whose group no [[contact_group]] names

@@ -310,3 +310,31 @@ fn default_settings_and_a_retuned_loaded_contact_do_not_warn() {
     record(&mut s, 147, 1000);
     assert_eq!(s.take_warnings(), Vec::<String>::new());
 }
+
+/// A tunable parameter of a declared contact can be changed after the broad phase made the
+/// contact groups' list anew (the new constants are compiled for the data's list, not the
+/// list the run started with): the pile of balls with a declared probe contact out of reach.
+#[test]
+fn a_tunable_value_changes_after_the_candidate_list_changed() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/pile_of_balls/scene.toml");
+    let mut text = std::fs::read_to_string(path).unwrap();
+    text.push_str(
+        "\n[[contact]]\nname = \"probe\"\ntype = \"sphere_plane\"\nlaw = \"hertz_ln\"\nrestitution = 0.8\n\
+         stiffness = 1.0e9\nsphere_body = \"ball1\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.001\nbody = \"ground\"\n\
+         origin = [0.0, 0.0, -10.0]\nnormal = [0.0, 0.0, 1.0]\nu_axis = [1.0, 0.0, 0.0]\nsize = [1.0, 1.0]\n",
+    );
+    let scene = Scene::from_str(&text, "probe.toml").unwrap();
+    let mut s = Simulation::new(scene, "probe.toml");
+    s.initialize(0.0).unwrap();
+    let n0 = s.contacts().unwrap().len();
+    let mut t = 0.0;
+    while s.contacts().unwrap().len() == n0 {
+        t += 1e-3;
+        assert!(t < 0.4, "the candidate list never changed");
+        s.step_to(t).unwrap();
+    }
+    s.set_by_name("probe.restitution", 0.7).unwrap();
+    let probe = &s.contacts().unwrap()[0];
+    assert_eq!((probe.name.as_str(), probe.restitution), ("probe", 0.7));
+    s.step_to(t + 0.01).unwrap();
+}
