@@ -105,11 +105,10 @@ pub fn contact_name<'a>(m: &Model, d: &'a Data, i: usize) -> Cow<'a, str> {
     }
 }
 
-/// Makes the data's contact list that of the candidate pairs `found`: the declared contacts,
-/// then one element per pair, their constraint rows, step powers and work buffers. A pair that
-/// was listed before keeps its contact memory; a new one starts apart. On an error (a pair
-/// whose law needs a stiffness that neither it nor the materials give) the data is unchanged.
-pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<(), String> {
+/// The contact list of the candidate pairs `found`: the data's declared contacts, then one
+/// element per pair (Err: a pair whose law needs a stiffness that neither it nor the
+/// materials give). The data is not changed; [`set_contact_list`] makes it the data's.
+pub fn contact_list(m: &Model, d: &Data, found: &[Candidate]) -> Result<Vec<ContactElement>, String> {
     let n = m.groups.n_explicit;
     let mut contacts = Vec::with_capacity(n + found.len());
     contacts.extend_from_slice(&d.contacts[..n]);
@@ -118,6 +117,14 @@ pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<()
             .map_err(|message| format!("contact {:?}: {message}", m.groups.element_name(c)))?;
         contacts.push(e);
     }
+    Ok(contacts)
+}
+
+/// Makes `contacts`, the [`contact_list`] of the candidate pairs `found`, the data's: their
+/// constraint rows, step powers and work buffers. A pair that was listed before keeps its
+/// contact memory; a new one starts apart.
+pub fn set_contact_list(m: &Model, d: &mut Data, found: &[Candidate], mut contacts: Vec<ContactElement>) {
+    let n = m.groups.n_explicit;
     let nc = reserve_constraint_rows(&mut contacts, m.fixed_rows());
     let old: rustc_hash::FxHashMap<Candidate, ContactMemory> = d
         .candidates
@@ -135,5 +142,12 @@ pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<()
     d.fit_contact_work(m);
     // (the contact outputs were zeroed with the work: they are evaluated again when read)
     d.outputs_valid = false;
+}
+
+/// Makes the data's contact list that of the candidate pairs `found` ([`contact_list`], then
+/// [`set_contact_list`]); on an error the data is unchanged.
+pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<(), String> {
+    let contacts = contact_list(m, d, found)?;
+    set_contact_list(m, d, found, contacts);
     Ok(())
 }

@@ -47,28 +47,25 @@ impl Simulation {
         d.eval_state.copy_from_slice(&d.state);
         crate::kinematics::kinematics(m, d);
         let found = m.groups.find(&|b| groups::pose(d, b));
+        let time = d.time;
+        let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
         // a pair new to the list that touches already: checked before the list changes
+        let n = m.groups.n_explicit;
         let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
-        for k in found.iter().filter(|k| !before.contains(k)) {
-            let name = || m.groups.element_name(k);
-            let e = elements::candidate_element(&m.groups, k, String::new()).map_err(|message| SimError::Step {
-                time: d.time,
-                message: format!("contact {:?}: {message}", name()),
-            })?;
-            if contact::event_function(&e, &contact::gap_of(&e, d)) > 0.0 {
+        for (k, e) in found.iter().zip(&contacts[n..]).filter(|(k, _)| !before.contains(k)) {
+            if contact::event_function(e, &contact::gap_of(e, d)) > 0.0 {
                 return Err(SimError::Step {
-                    time: d.time,
+                    time,
                     message: format!(
                         "contact {:?} touched before the broad phase listed it: a body moved more than half the \
                          broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                        name(),
+                        m.groups.element_name(k),
                         m.groups.margin
                     ),
                 });
             }
         }
-        let time = d.time;
-        elements::set_candidates(m, d, &found).map_err(|message| SimError::Step { time, message })?;
+        elements::set_contact_list(m, d, &found, contacts);
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }
