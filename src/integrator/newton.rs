@@ -353,11 +353,9 @@ impl NewtonCore {
         let lu_h = r.step_size()?;
         let h_newton = read_bound(r.step_size()?);
         let counter = |r: &mut StateReader, max: u32| -> Result<u32, String> {
-            let x = r.count()?;
-            u32::try_from(x)
-                .ok()
-                .filter(|&c| c <= max)
-                .ok_or_else(|| format!("Newton failure counter {x} in the state exceeds {max}"))
+            let x = r.value()?;
+            burst_counter(x, max)
+                .ok_or_else(|| format!("Newton failure counter {x} in the state is not a count up to {max}"))
         };
         let since_failure = counter(r, FAILURE_BURST_STEPS + 1)?;
         let filtered_start = counter(r, FILTERED_START_STEPS)?;
