@@ -32,7 +32,7 @@ pub struct Snapshot {
 }
 
 const MAGIC: &[u8; 8] = b"CFMUSTAT";
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8;
 const SECTION_HEADER_LEN: usize = 4 + 4 + 8;
 

@@ -24,7 +24,9 @@
 //!   steps in a row the next step switches back.
 //! - **Cost.** Every [`COST_WINDOW`] accepted implicit steps, the evaluations the implicit
 //!   method spent per unit of time since it was switched to (rejected steps, Newton failures
-//!   and Jacobians included) are compared with what Dormand-Prince would spend at its
+//!   and Jacobians included; on the sparse path each factorisation counts as many evaluations
+//!   as the system has states: [`ImplicitMethod::factorisation_evaluations`]) are compared
+//!   with what Dormand-Prince would spend at its
 //!   stability limit, [`DOPRI5_EVALUATIONS`]` · ρ / `[`STABILITY_BOUNDARY`]. Beyond
 //!   [`COST_RATIO`] times that, the implicit method is losing (its Newton iteration keeps
 //!   failing: the rail vehicle at rtol 1e-3, whose wheel slip crosses the regularised friction
@@ -54,7 +56,7 @@ use super::dopri5::Dopri5;
 use super::linear::JacRef;
 use super::newton::ImplicitMethod;
 use super::second_order::SecondOrder;
-use super::{Integrator, IntegratorError, OdeSystem};
+use super::{ExplicitHold, Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 
 /// Hairer's estimate of `h·ρ` from which a Dormand-Prince step's stiffness is checked
@@ -96,10 +98,12 @@ pub const COST_RATIO: f64 = 4.0;
 /// Dormand-Prince steps after a switch back for cost during which the implicit method's
 /// measured cost holds the next switch.
 pub const COST_MEMORY_STEPS: u32 = 500;
+/// Each losing stint in a row doubles the next hold, up to this many times (32,000 steps).
+pub const MAX_HOLD_DOUBLINGS: u32 = 6;
 /// Power iterations for ρ(J).
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
-pub const MEMORY_LEN: usize = 14;
+pub const MEMORY_LEN: usize = 17;
 
 /// Builds the implicit method for a system size with the tolerances and largest step
 /// (`Radau5::new`).
@@ -148,10 +152,21 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     stint_t: f64,
     stint_rhs: u64,
     steps_since_check: u32,
+    /// The stint's factorisations in evaluations ([`ImplicitMethod::factorisation_evaluations`])
+    /// up to `linear_mark`, the implicit method's own count of them (not saved: a loaded
+    /// method counts afresh) when this was last brought up to date.
+    stint_linear: f64,
+    linear_mark: f64,
+    /// Dormand-Prince's evaluations per unit of time in its last step before the stint
+    /// (`6/h`, a step bounded by stability): what the stint is measured against while no
+    /// Jacobian is held (after a reset Newton iterates without one, and ρ is not known).
+    stint_explicit_rate: f64,
     /// The implicit method's evaluations per unit of time when it last switched back for
     /// cost, and the Dormand-Prince steps for which that still holds a switch (0: none).
     implicit_cost: f64,
     cost_hold: u32,
+    /// Stints in a row that switched back for cost (a stint that ends calm clears it).
+    losses: u32,
 }
 
 impl<I: ImplicitMethod + Integrator> Auto<I> {
@@ -198,8 +213,12 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             stint_t: 0.0,
             stint_rhs: 0,
             steps_since_check: 0,
+            stint_linear: 0.0,
+            linear_mark: 0.0,
+            stint_explicit_rate: 0.0,
             implicit_cost: 0.0,
             cost_hold: 0,
+            losses: 0,
         }
     }
 
@@ -225,6 +244,14 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             self.implicit = Some(self.build_with(build));
         }
         self.implicit.as_mut()
+    }
+
+    /// The implicit method is active and its stint was found too costly (the hold is set at
+    /// that check and counts down only on Dormand-Prince): the switch back stands across a
+    /// reset or restart, which drops the switches that stiffness alone asked for (an event
+    /// changes the stiffness; it does not make the stint's spending undone).
+    fn losing(&self) -> bool {
+        self.stiff && self.cost_hold > 0
     }
 
     /// Whether the implicit method is active.
@@ -276,8 +303,22 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             // (the stint starts before the first Jacobian: it is part of the cost)
             self.stint_t = t;
             self.stint_rhs = stats.rhs_evals;
+            // (a hold that a switch overrode ends: in a stint a hold marks a loss)
+            self.cost_hold = 0;
             self.steps_since_check = 0;
+            self.stint_linear = 0.0;
+            self.linear_mark = linear_work(implicit);
+            let h_explicit = explicit.t() - explicit.t_prev();
+            self.stint_explicit_rate = if h_explicit > 0.0 {
+                DOPRI5_EVALUATIONS / h_explicit
+            } else {
+                f64::INFINITY
+            };
         } else {
+            if self.cost_hold == 0 {
+                // (the stint ended calm: it did not lose)
+                self.losses = 0;
+            }
             explicit.set_stats(stats);
             explicit.reset(sys, t, implicit.y(), h);
         }
@@ -294,7 +335,8 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
                     // cheaper than the implicit method measured: no check, no switch
                     return;
                 }
-                self.cost_hold = 0;
+                // (a step that costs more, as near an event, is checked; the hold stays for
+                // the steps after it)
             }
             // (explicit: `since` counts the steps in a row whose estimate is at the trigger)
             self.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
@@ -368,16 +410,29 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         self.steps_since_check += 1;
         if self.steps_since_check >= COST_WINDOW {
             let (t, rhs) = (implicit.t(), implicit.stats().rhs_evals);
-            let cost = (rhs - self.stint_rhs) as f64 / (t - self.stint_t);
-            let explicit_cost = DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY;
-            if jac_valid && cost > COST_RATIO * explicit_cost {
+            let linear = self.stint_linear + (linear_work(implicit) - self.linear_mark);
+            let cost = ((rhs - self.stint_rhs) as f64 + linear) / (t - self.stint_t);
+            let explicit_cost = if jac_valid {
+                DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
+            } else {
+                self.stint_explicit_rate
+            };
+            if cost > COST_RATIO * explicit_cost {
                 self.switch_pending = true;
                 self.implicit_cost = cost;
-                self.cost_hold = COST_MEMORY_STEPS;
+                self.cost_hold = COST_MEMORY_STEPS << self.losses.min(MAX_HOLD_DOUBLINGS);
+                self.losses = self.losses.saturating_add(1);
             }
             self.steps_since_check = 0;
         }
     }
+}
+
+/// The implicit method's factorisations so far, in evaluations (whole multiples of its
+/// [`ImplicitMethod::factorisation_evaluations`]: sums of them are exact, so a stint's cost
+/// is the same number whether or not it was saved and loaded on the way).
+fn linear_work<I: ImplicitMethod>(implicit: &I) -> f64 {
+    implicit.parts().1.factorisations as f64 * implicit.factorisation_evaluations()
 }
 
 /// Spectral radius of the n×n Jacobian `jac` (dense row-major or sparse) by power iteration
@@ -427,12 +482,12 @@ pub fn spectral_radius(jac: JacRef, x: &mut [f64], jx: &mut [f64]) -> f64 {
 
 impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
-        self.switch_pending = false;
+        self.switch_pending = self.losing();
         self.active_mut().reset(sys, t, y, h);
     }
 
     fn restart(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
-        self.switch_pending = false;
+        self.switch_pending = self.losing();
         self.active_mut().restart(sys, t, y, h);
     }
 
@@ -453,6 +508,22 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
 
     fn interpolate_slots(&self, t: f64, slots: &[usize], out: &mut [f64]) -> bool {
         self.active().interpolate_slots(t, slots, out)
+    }
+
+    fn explicit_hold(&self) -> Option<ExplicitHold> {
+        (self.cost_hold > 0).then_some(ExplicitHold {
+            implicit_cost: self.implicit_cost,
+            steps: self.cost_hold,
+            losses: self.losses,
+        })
+    }
+
+    fn hold_explicit(&mut self, hold: ExplicitHold) {
+        if !self.stiff && hold.steps > self.cost_hold {
+            self.implicit_cost = hold.implicit_cost;
+            self.cost_hold = hold.steps;
+            self.losses = self.losses.max(hold.losses);
+        }
     }
 
     fn use_second_order(&mut self, s: &SecondOrder) {
@@ -478,7 +549,8 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     /// Tag, the switching memory (implicit active, switch pending, the two step counts, ρ(J)
     /// and the Jacobian count it is for (−1: none), switches made, the stiffness measured
     /// since and the implicit steps since that measurement, the cost window's start time,
-    /// evaluations and steps, the remembered implicit cost and its hold), then the active method's state
+    /// evaluations and steps, its factorisations in evaluations, Dormand-Prince's rate before
+    /// it, the remembered implicit cost, its hold and the losing stints in a row), then the active method's state
     /// with its own tag.
     fn save_state(&self, out: &mut Vec<f64>) {
         out.push(super::core::state_tag(Method::Auto));
@@ -501,8 +573,15 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             self.stint_t,
             self.stint_rhs as f64,
             self.steps_since_check as f64,
+            self.stint_linear
+                + self
+                    .implicit
+                    .as_ref()
+                    .map_or(0.0, |i| linear_work(i) - self.linear_mark),
+            self.stint_explicit_rate,
             self.implicit_cost,
             self.cost_hold as f64,
+            self.losses as f64,
         ]);
         self.active().save_state(out);
     }
@@ -529,8 +608,11 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         let stint_t = r.value()?;
         let stint_rhs = r.count()?;
         let steps_since_check = r.count()?;
+        let stint_linear = r.value()?;
+        let stint_explicit_rate = r.value()?;
         let implicit_cost = r.value()?;
         let cost_hold = r.count()?;
+        let losses = r.count()?;
         let own = r.take(v.len().saturating_sub(1 + MEMORY_LEN))?;
         r.finish()?;
         let too_big = |c: u64| c > u32::MAX as u64;
@@ -540,9 +622,12 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             || too_big(since)
             || too_big(steps_since_check)
             || too_big(cost_hold)
+            || too_big(losses)
             || bad_rate(rho)
             || bad_rate(rho_now)
             || bad_rate(implicit_cost)
+            || bad_rate(stint_explicit_rate)
+            || !(0.0..9.0e15).contains(&stint_linear)
             || !stint_t.is_finite()
         {
             return Err("the auto integrator state holds an out-of-range switching memory".into());
@@ -564,8 +649,12 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         self.stint_t = stint_t;
         self.stint_rhs = stint_rhs;
         self.steps_since_check = steps_since_check as u32;
+        self.stint_linear = stint_linear;
+        self.stint_explicit_rate = stint_explicit_rate;
+        self.linear_mark = self.implicit.as_ref().map_or(0.0, linear_work);
         self.implicit_cost = implicit_cost;
         self.cost_hold = cost_hold as u32;
+        self.losses = losses as u32;
         // the Jacobian's direction is computed again from the loaded Jacobian when needed
         self.x_for = u64::MAX;
         Ok(())
@@ -696,6 +785,145 @@ mod tests {
         assert!(m.is_stiff());
         let exact = sys.exact(1.0, -1.0);
         assert!(max_diff(m.y(), &exact) < 1e-9, "{:?} vs {exact:?}", m.y());
+    }
+
+    /// `n` copies of a stiff problem whose solution oscillates, `y' = λ(y − sin ωt) + ω cos ωt`
+    /// (`y = sin ωt`), λ = −10⁵, ω = 60: Dormand-Prince sits at its stability limit (3.3/|λ|),
+    /// and Radau IIA's steps, bounded by the accuracy of the oscillation, are some 30 times
+    /// longer, few enough that on the sparse path (n ≥ 200), where each factorisation counts
+    /// n evaluations, a stint on 1,000 states costs more than Dormand-Prince would.
+    struct FastOscillation;
+    const OMEGA: f64 = 60.0;
+    impl OdeSystem for FastOscillation {
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            let (lambda, w) = (-1e5, OMEGA);
+            for (d, v) in dy.iter_mut().zip(y) {
+                *d = lambda * (v - (w * t).sin()) + w * (w * t).cos();
+            }
+        }
+    }
+
+    fn sparse_auto(n: usize) -> Auto<Radau5> {
+        Auto::new(n, 1e-6, 1e-8, f64::INFINITY, Some(Radau5::new))
+    }
+
+    /// On the sparse path the stint's factorisations count toward its cost: the stint on
+    /// [`FastOscillation`] loses, auto switches back and holds Dormand-Prince (the cost it
+    /// remembers includes n evaluations per factorisation), a second loss in a row doubles
+    /// the hold, and a state saved in the middle of a stint continues bit for bit (the
+    /// factorisations before the save still count after the load).
+    #[test]
+    fn a_stint_that_costs_more_than_dormand_prince_switches_back_and_holds() {
+        // (with 400 states the stint costs 1.7× Dormand-Prince, within the ratio: it stays)
+        let n = 1000;
+        let mut m = sparse_auto(n);
+        let mut sys = FastOscillation;
+        m.reset(&mut sys, 0.0, &vec![0.0; n], 0.0);
+        let mut saved: Option<(Vec<f64>, f64)> = None;
+        let mut first_loss = None;
+        let t_end = 0.1;
+        while m.t() < t_end {
+            m.step(&mut sys, t_end).unwrap();
+            if m.stiff && saved.is_none() && m.steps_since_check == COST_WINDOW / 2 {
+                let mut w = Vec::new();
+                m.save_state(&mut w);
+                assert!(w[1 + 12] > 0.0, "the stint's factorisations are saved: {}", w[13]);
+                saved = Some((w, m.t()));
+            }
+            if m.losses == 1 && first_loss.is_none() {
+                let lw = m.implicit.as_ref().map_or(0.0, linear_work);
+                assert!(lw > 0.0);
+                first_loss = Some((m.implicit_cost, m.cost_hold));
+            }
+        }
+        let (cost, hold) = first_loss.expect("the stint lost");
+        assert_eq!(hold, COST_MEMORY_STEPS);
+        // Dormand-Prince at its stability limit: 6 evaluations per 3.3/|λ|
+        let explicit = DOPRI5_EVALUATIONS * 1e5 / STABILITY_BOUNDARY;
+        assert!(
+            cost > COST_RATIO * explicit * 0.9,
+            "remembered cost {cost:e}, Dormand-Prince {explicit:e}"
+        );
+        assert!(m.switches() >= 2, "{}", m.switches());
+        assert!(m.losses >= 1);
+        let err = (m.y()[0] - (OMEGA * m.t()).sin()).abs();
+        assert!(err < 1e-4, "{err:e}");
+
+        // from the state saved in the middle of the first stint: the same run
+        let (w, t_saved) = saved.expect("a stint");
+        let mut again = sparse_auto(n);
+        again.load_state(&w).unwrap();
+        let mut reference = sparse_auto(n);
+        reference.reset(&mut sys, 0.0, &vec![0.0; n], 0.0);
+        while reference.t() < t_saved {
+            reference.step(&mut sys, t_end).unwrap();
+        }
+        assert_eq!(reference.t(), t_saved);
+        while reference.t() < t_end {
+            reference.step(&mut sys, t_end).unwrap();
+            again.step(&mut sys, t_end).unwrap();
+            assert_eq!(
+                (again.t(), again.stiff, again.losses),
+                (reference.t(), reference.stiff, reference.losses)
+            );
+        }
+        assert_eq!(again.y(), reference.y());
+        assert_eq!(again.switches(), m.switches());
+    }
+
+    /// A switch back for cost stands across a reset (an event does not undo the stint's
+    /// spending); a switch asked for by stiffness alone does not. An island formed anew
+    /// takes over the hold of the islands it came from, the longest and costliest of them.
+    #[test]
+    fn a_switch_back_for_cost_stands_across_a_reset_and_its_hold_passes_on() {
+        let mut sys = FadingStiffness;
+        let mut m = auto(1, 1e-7);
+        m.reset(&mut sys, 0.0, &[0.0], 0.0);
+        while !m.stiff {
+            m.step(&mut sys, 1.0).unwrap();
+        }
+        let y = m.y().to_vec();
+        m.switch_pending = true;
+        m.reset(&mut sys, m.t(), &y, 0.0);
+        assert!(!m.switch_pending, "a calm switch is dropped at a reset");
+        m.switch_pending = true;
+        m.cost_hold = COST_MEMORY_STEPS;
+        m.reset(&mut sys, m.t(), &y, 0.0);
+        assert!(m.switch_pending, "a switch for cost stands");
+        m.step(&mut sys, 1.0).unwrap();
+        assert!(!m.stiff);
+        let held = m.explicit_hold().expect("a hold");
+        assert_eq!(held.steps, COST_MEMORY_STEPS - 1);
+
+        let mut fresh = auto(1, 1e-7);
+        assert_eq!(fresh.explicit_hold(), None);
+        let a = ExplicitHold {
+            implicit_cost: 10.0,
+            steps: 100,
+            losses: 1,
+        };
+        let b = ExplicitHold {
+            implicit_cost: 5.0,
+            steps: 300,
+            losses: 2,
+        };
+        let joined = a.join(b);
+        assert_eq!(
+            joined,
+            ExplicitHold {
+                implicit_cost: 10.0,
+                steps: 300,
+                losses: 2
+            }
+        );
+        fresh.hold_explicit(joined);
+        assert_eq!(fresh.explicit_hold(), Some(joined));
+        fresh.hold_explicit(a);
+        assert_eq!(fresh.explicit_hold(), Some(joined), "a shorter hold is not taken");
+        m.stiff = true;
+        m.cost_hold = 0;
+        m.hold_explicit(joined);
+        assert_eq!(m.cost_hold, 0, "an active implicit method takes no hold");
     }
 
     /// A large stiff system (above the dense threshold of [`super::super::linear`]) switches

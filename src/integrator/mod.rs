@@ -135,6 +135,15 @@ pub trait Integrator {
     fn linear_stats(&self) -> Option<linear::LinearStats> {
         None
     }
+    /// `auto`'s memory of implicit stints that lost to Dormand-Prince (None: none, or
+    /// another method). An island formed anew takes it over from the islands its bodies came
+    /// from ([`Integrator::hold_explicit`]).
+    fn explicit_hold(&self) -> Option<ExplicitHold> {
+        None
+    }
+    /// Takes over such a memory (nothing for other methods, or where the method holds a
+    /// longer one already).
+    fn hold_explicit(&mut self, _hold: ExplicitHold) {}
     /// Appends the memory that [`Integrator::restart`] carries over (nothing for explicit
     /// methods; see [`WARM_JACOBIAN_MAX`] for the implicit ones).
     fn warm_state(&self, _out: &mut Vec<f64>) {}
@@ -148,6 +157,30 @@ pub trait Integrator {
                 "the integrator keeps no memory across restarts, the state holds {} numbers",
                 v.len()
             ))
+        }
+    }
+}
+
+/// `auto`'s memory of implicit stints that cost more than Dormand-Prince would have
+/// ([`auto`]'s cost rule).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExplicitHold {
+    /// The last losing stint's evaluations per unit of time.
+    pub implicit_cost: f64,
+    /// Dormand-Prince steps for which a switch still waits for Dormand-Prince to cost more.
+    pub steps: u32,
+    /// Losing stints in a row (each doubles the next hold).
+    pub losses: u32,
+}
+
+impl ExplicitHold {
+    /// The highest cost, the longest hold and the most losses of both (an island formed
+    /// from several holds what its costliest part did).
+    pub fn join(self, other: ExplicitHold) -> ExplicitHold {
+        ExplicitHold {
+            implicit_cost: self.implicit_cost.max(other.implicit_cost),
+            steps: self.steps.max(other.steps),
+            losses: self.losses.max(other.losses),
         }
     }
 }

@@ -256,6 +256,9 @@ pub struct NewtonCore {
     pub jac_fresh: bool,
     /// Step size the iteration matrices were factored for (0: none).
     lu_h: f64,
+    /// Factorisations of the iteration matrices by this instance (not saved: `auto`'s cost
+    /// rule reads differences of it).
+    pub factorisations: u64,
     /// Perturbed state and right-hand sides of the finite differences.
     y_pert: Vec<f64>,
     f0: Vec<f64>,
@@ -274,6 +277,7 @@ impl NewtonCore {
             mem: WarmMemory::cold(),
             jac_fresh: false,
             lu_h: 0.0,
+            factorisations: 0,
             y_pert: vec![0.0; n],
             f0: vec![0.0; n],
             f1: vec![0.0; n],
@@ -472,6 +476,7 @@ impl NewtonCore {
             return true;
         }
         let ok = factor(self.jac_ref());
+        self.factorisations += 1;
         self.lu_h = if ok { h } else { 0.0 };
         ok
     }
@@ -576,6 +581,11 @@ pub trait ImplicitMethod {
     fn factor(&mut self, h: f64) -> bool;
     /// What the linear algebra did (see [`LinearStats`]).
     fn linear_stats(&self) -> LinearStats;
+    /// What one call of [`ImplicitMethod::factor`] that factors costs, in right-hand-side
+    /// evaluations, as `auto`'s cost rule counts it (0: left out; see the method's own).
+    fn factorisation_evaluations(&self) -> f64 {
+        0.0
+    }
     /// See [`Integrator::use_second_order`] (nothing by default).
     fn use_second_order(&mut self, _s: &SecondOrder) {}
 

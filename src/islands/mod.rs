@@ -35,6 +35,7 @@ use crate::compile::Parameters;
 use crate::contact::elements::{contact_name, set_candidates};
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
+use crate::integrator::ExplicitHold;
 use crate::kinematics::kinematics;
 use crate::model::contact::ContactMemory;
 use crate::model::data::FreshIntegrators;
@@ -338,10 +339,16 @@ impl Islands {
         // per body: the step its island would have taken next (a new island starts with the
         // least of its bodies')
         let mut next_h = vec![0.0; m.bodies.len()];
+        // and `auto`'s memory of an implicit stint that lost (the new island holds the
+        // highest cost and the longest hold of its bodies': a stint of the merged island
+        // costs at least what the costliest part's did)
+        let mut held = vec![None; m.bodies.len()];
         for island in &old {
             let h = island.data.solver.pending_step();
+            let hold = island.data.solver.method().and_then(|i| i.explicit_hold());
             for &b in &island.bodies {
                 next_h[b] = h;
+                held[b] = hold;
             }
         }
         let parts = partition(m, candidates);
@@ -390,6 +397,10 @@ impl Islands {
             let mut island = self.compile_island(src, m, d, bodies.to_vec(), cands.to_vec(), memory)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
+            }
+            let hold = bodies.iter().filter_map(|&b| held[b]).reduce(ExplicitHold::join);
+            if let (Some(hold), Some(stepper)) = (hold, island.data.solver.stepper.as_mut()) {
+                stepper.method.hold_explicit(hold);
             }
             self.compiled += 1;
             if !fresh {
