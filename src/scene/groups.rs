@@ -5,16 +5,17 @@
 
 use super::{
     item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
-    Scene, SceneError, Side, GROUND,
+    Scene, SceneError, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 
 /// Kind of a group shape.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeType {
     /// A sphere (`center`, `radius`).
+    #[default]
     Sphere,
     /// A finite rectangle (`origin`, `normal`, `u_axis`, `size`).
     Plane,
@@ -27,7 +28,7 @@ scene_item! {
     [surface_keys]
     /// `[[shape]]`: one contact shape on a body, member of a group. The keys of each type are
     /// those of the `[[contact]]` element that uses it.
-    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
     #[serde(deny_unknown_fields)]
     pub struct ShapeSpec {
         /// Group name (a `[[contact_group]]` refers to it).
@@ -98,20 +99,7 @@ impl ShapeSpec {
             group: group.to_string(),
             kind,
             body: body.to_string(),
-            material: None,
-            center: None,
-            radius: None,
-            origin: None,
-            normal: None,
-            u_axis: None,
-            size: None,
-            axis_point: None,
-            axis: None,
-            cylinder_radius: None,
-            length: None,
-            theta_range: None,
-            ref_axis: None,
-            side: Side::Outside,
+            ..ShapeSpec::default()
         }
     }
 
