@@ -7,6 +7,7 @@ use super::{
     item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
     Scene, SceneError, GROUND,
 };
+use crate::scene_builder::{Cylinder, Plane};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 
@@ -57,40 +58,14 @@ impl ShapeSpec {
         }
     }
 
-    /// A rectangle on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
-    pub fn plane(
-        group: &str,
-        body: &str,
-        origin: [f64; 3],
-        normal: [f64; 3],
-        u_axis: [f64; 3],
-        size: [f64; 2],
-    ) -> ShapeSpec {
-        ShapeSpec {
-            origin: Some(origin),
-            normal: Some(normal),
-            u_axis: Some(u_axis),
-            size: Some(size),
-            ..ShapeSpec::new(group, ShapeType::Plane, body)
-        }
+    /// The rectangle `p` on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
+    pub fn plane(group: &str, body: &str, p: Plane) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Plane, body).plane_keys(p)
     }
 
-    /// A whole cylindrical surface (outside) on `body`, in `group`.
-    pub fn cylinder(
-        group: &str,
-        body: &str,
-        axis_point: [f64; 3],
-        axis: [f64; 3],
-        radius: f64,
-        length: f64,
-    ) -> ShapeSpec {
-        ShapeSpec {
-            axis_point: Some(axis_point),
-            axis: Some(axis),
-            cylinder_radius: Some(radius),
-            length: Some(length),
-            ..ShapeSpec::new(group, ShapeType::Cylinder, body)
-        }
+    /// The whole cylindrical surface `cyl` (outside) on `body`, in `group`.
+    pub fn cylinder(group: &str, body: &str, cyl: Cylinder) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Cylinder, body).cylinder_keys(cyl)
     }
 
     /// The shape with every optional key unset.

@@ -271,7 +271,7 @@ fn stop_time_limits_the_steps() {
 fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
     let _handles = shared();
     let u = Unpacked::new("states");
-    let (sim, outs) = u.simulation_and_outputs();
+    let outs = real_outputs(&u.simulation());
     let a = u.instantiate();
     a.init();
     let h = 1e-3;
