@@ -624,3 +624,25 @@ impl ContactSpec {
         ]
     }
 }
+
+/// Each name's index in `names` (validation keeps names unique).
+fn index_by_name<'a>(names: impl Iterator<Item = &'a String>) -> HashMap<&'a str, usize> {
+    names.enumerate().map(|(i, n)| (n.as_str(), i)).collect()
+}
+
+impl Scene {
+    /// Each body's index by its name.
+    pub(crate) fn body_index(&self) -> HashMap<&str, usize> {
+        index_by_name(self.body.iter().map(|b| &b.name))
+    }
+
+    /// Each joint's index by its name.
+    pub(crate) fn joint_index(&self) -> HashMap<&str, usize> {
+        index_by_name(self.joint.iter().map(|j| &j.name))
+    }
+
+    /// Each material's index by its name.
+    pub(crate) fn material_index(&self) -> HashMap<&str, usize> {
+        index_by_name(self.material.iter().map(|m| &m.name))
+    }
+}

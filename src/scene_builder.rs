@@ -418,30 +418,12 @@ impl ContactSpec {
 
     /// Sphere `s` against the rectangle `p` on `body`.
     pub fn sphere_plane(name: &str, law: Law, s: Sphere, body: &str, p: Plane) -> ContactSpec {
-        let Plane {
-            origin,
-            normal,
-            u_axis,
-            size,
-        } = p;
-        ContactSpec {
-            origin: Some(origin),
-            normal: Some(normal),
-            u_axis: Some(u_axis),
-            size: Some(size),
-            ..ContactSpec::with_sphere(name, ContactType::SpherePlane, law, s, body)
-        }
+        ContactSpec::with_sphere(name, ContactType::SpherePlane, law, s, body).plane_keys(p)
     }
 
     /// Sphere `s` against the cylinder `cyl` on `body`.
     pub fn sphere_cylinder(name: &str, law: Law, s: Sphere, body: &str, cyl: Cylinder) -> ContactSpec {
-        ContactSpec {
-            axis_point: Some(cyl.axis_point),
-            axis: Some(cyl.axis),
-            cylinder_radius: Some(cyl.radius),
-            length: Some(cyl.length),
-            ..ContactSpec::with_sphere(name, ContactType::SphereCylinder, law, s, body)
-        }
+        ContactSpec::with_sphere(name, ContactType::SphereCylinder, law, s, body).cylinder_keys(cyl)
     }
 
     /// `sphere_material` and `material` (of the other shape).
@@ -464,6 +446,39 @@ impl ContactSpec {
         self
     }
 }
+
+/// The chainable setters of the surface keys of a `[[contact]]` and a `[[shape]]`: those of a
+/// rectangle and those of a cylinder.
+macro_rules! surface_key_setters {
+    ($spec:ty) => {
+        impl $spec {
+            /// The plane keys (`origin`, `normal`, `u_axis`, `size`) of the rectangle `p`.
+            pub fn plane_keys(self, p: Plane) -> Self {
+                Self {
+                    origin: Some(p.origin),
+                    normal: Some(p.normal),
+                    u_axis: Some(p.u_axis),
+                    size: Some(p.size),
+                    ..self
+                }
+            }
+
+            /// The cylinder keys (`axis_point`, `axis`, `cylinder_radius`, `length`) of `cyl`.
+            pub fn cylinder_keys(self, cyl: Cylinder) -> Self {
+                Self {
+                    axis_point: Some(cyl.axis_point),
+                    axis: Some(cyl.axis),
+                    cylinder_radius: Some(cyl.radius),
+                    length: Some(cyl.length),
+                    ..self
+                }
+            }
+        }
+    };
+}
+
+surface_key_setters!(ContactSpec);
+surface_key_setters!(ShapeSpec);
 
 /// The chainable setters of the contact-law keys (`restitution`, the optional constants,
 /// `impulse_method`) of a `[[contact]]` and a `[[contact_group]]`.

@@ -279,7 +279,7 @@ pub fn sphere_box_groups(n: usize, stop_time: f64) -> Scene {
     ] {
         scene
             .shape
-            .push(ShapeSpec::plane("walls", GROUND, o, nrm, u, [size, size]));
+            .push(ShapeSpec::plane("walls", GROUND, Plane::new(o, nrm, u, [size, size])));
     }
     scene.contact_group = vec![
         ContactGroupSpec::new("ball_ball", "balls", "balls", Law::HertzLn)

@@ -28,7 +28,6 @@ use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use std::collections::HashMap;
 
 fn to_v(a: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
@@ -88,12 +87,7 @@ pub fn compile_model(
     let nb = scene.body.len();
     // Name → index maps, built once: every lookup below is O(1), so compilation is linear in
     // the size of the scene.
-    let body_index: HashMap<&str, usize> = scene
-        .body
-        .iter()
-        .enumerate()
-        .map(|(i, b)| (b.name.as_str(), i))
-        .collect();
+    let body_index = scene.body_index();
     let body_idx = |name: &str| -> Option<usize> { body_index.get(name).copied() };
     let (pos0, rot0): (Vec<Vector3<f64>>, Vec<UnitQuaternion<f64>>) =
         (0..nb).map(|b| initial_pose(scene, Some(b))).unzip();
@@ -281,12 +275,7 @@ pub fn compile_model(
     }
 
     let to_body = |name: &str| -> Option<usize> { body_idx(name) };
-    let joint_index: HashMap<&str, usize> = scene
-        .joint
-        .iter()
-        .enumerate()
-        .map(|(i, j)| (j.name.as_str(), i))
-        .collect();
+    let joint_index = scene.joint_index();
 
     // Driven joints: one constraint row each, after the loops' rows.
     let (input_value, _) = scene.input_values();
@@ -295,12 +284,7 @@ pub fn compile_model(
         if inp.kind != InputType::JointMotion {
             continue;
         }
-        let ji = inp
-            .joint
-            .as_deref()
-            .and_then(|n| joint_index.get(n))
-            .copied()
-            .unwrap_or(0);
+        let ji = inp.joint_in(&joint_index);
         let Ok(t) = scene_joint[ji] else {
             return Err(SceneError::new(
                 origin,
@@ -340,12 +324,7 @@ pub fn compile_model(
         })
         .collect();
 
-    let material_index: HashMap<&str, usize> = scene
-        .material
-        .iter()
-        .enumerate()
-        .map(|(i, m)| (m.name.as_str(), i))
-        .collect();
+    let material_index = scene.material_index();
     let mut contacts = Vec::with_capacity(scene.contact.len());
     for (c, p) in scene.contact.iter().zip(&params.contacts) {
         contacts.push(contact::compile_contact(

@@ -56,6 +56,26 @@ pub(super) fn empty<'k, V: AsRef<str>>(
     Ok(())
 }
 
+/// Writes the element `<tag>` holding what `each` writes of every item in turn; nothing at all
+/// when there are no items.
+pub(super) fn write_list<T>(
+    w: &mut Writer<Vec<u8>>,
+    tag: &str,
+    items: &[T],
+    each: impl Fn(&mut Writer<Vec<u8>>, &T) -> io::Result<()>,
+) -> io::Result<()> {
+    if items.is_empty() {
+        return Ok(());
+    }
+    w.create_element(tag).write_inner_content(|w| {
+        for item in items {
+            each(w, item)?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
 /// The `initial` attribute: exact for parameters, calculated for calculated parameters and
 /// for outputs without a start value, none for inputs.
 pub(super) fn initial_of(v: &Variable) -> Option<&'static str> {
@@ -136,13 +156,7 @@ pub(super) fn used_enums(table: &VariableTable) -> Vec<EnumType> {
 pub fn output_dependencies(table: &VariableTable, output: usize) -> Vec<usize> {
     let var = &table.vars[output];
     if var.depends_on_inputs {
-        return table
-            .vars
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| v.causality == Causality::Input)
-            .map(|(i, _)| i + 1)
-            .collect();
+        return indices_where(table, |v| v.causality == Causality::Input);
     }
     // a host that sets a driven joint's coordinate or rate moves it at once, and what is
     // joined to it
@@ -151,25 +165,24 @@ pub fn output_dependencies(table: &VariableTable, output: usize) -> Vec<usize> {
 
 /// The 1-based indices of `ModelStructure`: (every output, the initial unknowns).
 pub fn model_structure(table: &VariableTable) -> (Vec<usize>, Vec<usize>) {
-    let outputs = table
-        .vars
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output)
-        .map(|(i, _)| i + 1)
-        .collect();
-    let initial = table
-        .vars
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| match v.causality {
-            Causality::Output => matches!(initial_of(v), Some("calculated") | Some("approx")),
-            Causality::CalculatedParameter => true,
-            _ => false,
-        })
-        .map(|(i, _)| i + 1)
-        .collect();
+    let outputs = indices_where(table, |v| v.causality == Causality::Output);
+    let initial = indices_where(table, |v| match v.causality {
+        Causality::Output => matches!(initial_of(v), Some("calculated") | Some("approx")),
+        Causality::CalculatedParameter => true,
+        _ => false,
+    });
     (outputs, initial)
+}
+
+/// The 1-based indices of the variables `keep` selects, in table order.
+fn indices_where(table: &VariableTable, keep: impl Fn(&Variable) -> bool) -> Vec<usize> {
+    table
+        .vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| keep(v))
+        .map(|(i, _)| i + 1)
+        .collect()
 }
 
 /// The `modelDescription.xml` of a scene (UTF-8, element order of the FMI 2.0 schema) without
@@ -302,32 +315,25 @@ pub(super) fn xml_writer() -> io::Result<Writer<Vec<u8>>> {
 /// `UnitDefinitions` (the same in FMI 2.0 and 3.0): the units the table uses, with their base
 /// units and display units.
 pub(super) fn write_units(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result<()> {
-    let units = used_units(table);
-    if units.is_empty() {
-        return Ok(());
-    }
-    w.create_element("UnitDefinitions").write_inner_content(|w| {
-        for unit in units {
-            let mut base: Vec<(&str, String)> = Vec::new();
-            for (attr, e) in ["kg", "m", "s", "rad"].into_iter().zip(unit.base) {
-                if e != 0 {
-                    base.push((attr, e.to_string()));
-                }
+    write_list(w, "UnitDefinitions", &used_units(table), |w, unit| {
+        let mut base: Vec<(&str, String)> = Vec::new();
+        for (attr, e) in ["kg", "m", "s", "rad"].into_iter().zip(unit.base) {
+            if e != 0 {
+                base.push((attr, e.to_string()));
             }
-            w.create_element("Unit")
-                .with_attributes(attrs([("name", unit.name)]))
-                .write_inner_content(|w| {
-                    empty(w, "BaseUnit", base.iter().map(|(a, v)| (*a, v.as_str())))?;
-                    for (name, factor) in unit.display {
-                        let factor = format_real(*factor);
-                        empty(w, "DisplayUnit", [("name", *name), ("factor", factor.as_str())])?;
-                    }
-                    Ok(())
-                })?;
         }
+        w.create_element("Unit")
+            .with_attributes(attrs([("name", unit.name)]))
+            .write_inner_content(|w| {
+                empty(w, "BaseUnit", base.iter().map(|(a, v)| (*a, v.as_str())))?;
+                for (name, factor) in unit.display {
+                    let factor = format_real(*factor);
+                    empty(w, "DisplayUnit", [("name", *name), ("factor", factor.as_str())])?;
+                }
+                Ok(())
+            })?;
         Ok(())
-    })?;
-    Ok(())
+    })
 }
 
 /// `TypeDefinitions`: the enumerations the table uses, with their items (FMI 2.0:
@@ -337,33 +343,26 @@ pub(super) fn write_type_definitions(
     table: &VariableTable,
     version: Version,
 ) -> io::Result<()> {
-    let enums = used_enums(table);
-    if enums.is_empty() {
-        return Ok(());
-    }
-    w.create_element("TypeDefinitions").write_inner_content(|w| {
-        for e in enums {
-            let items = |w: &mut Writer<Vec<u8>>| -> io::Result<()> {
-                for (name, value) in e.items() {
-                    let value = value.to_string();
-                    empty(w, "Item", [("name", name), ("value", value.as_str())])?;
-                }
-                Ok(())
-            };
-            let tag = match version {
-                Version::Fmi2 => "SimpleType",
-                Version::Fmi3 => "EnumerationType",
-            };
-            w.create_element(tag)
-                .with_attributes(attrs([("name", e.type_name())]))
-                .write_inner_content(|w| match version {
-                    Version::Fmi2 => w.create_element("Enumeration").write_inner_content(items).map(|_| ()),
-                    Version::Fmi3 => items(w),
-                })?;
-        }
-        Ok(())
-    })?;
-    Ok(())
+    write_list(w, "TypeDefinitions", &used_enums(table), |w, e| {
+        let items = |w: &mut Writer<Vec<u8>>| -> io::Result<()> {
+            for (name, value) in e.items() {
+                let value = value.to_string();
+                empty(w, "Item", [("name", name), ("value", value.as_str())])?;
+            }
+            Ok(())
+        };
+        let tag = match version {
+            Version::Fmi2 => "SimpleType",
+            Version::Fmi3 => "EnumerationType",
+        };
+        w.create_element(tag)
+            .with_attributes(attrs([("name", e.type_name())]))
+            .write_inner_content(|w| match version {
+                Version::Fmi2 => w.create_element("Enumeration").write_inner_content(items).map(|_| ()),
+                Version::Fmi3 => items(w),
+            })
+            .map(|_| ())
+    })
 }
 
 /// `LogCategories` and `DefaultExperiment` (the same in FMI 2.0 and 3.0 but for the version
@@ -373,13 +372,10 @@ pub(super) fn write_categories_and_experiment(
     scene: &Scene,
     version: Version,
 ) -> io::Result<()> {
-    w.create_element("LogCategories").write_inner_content(|w| {
-        for (name, description) in LOG_CATEGORIES {
-            let name = name.to_str().unwrap_or_default();
-            let description = description.replace("fmi2", version.prefix());
-            empty(w, "Category", [("name", name), ("description", description.as_str())])?;
-        }
-        Ok(())
+    write_list(w, "LogCategories", &LOG_CATEGORIES, |w, (name, description)| {
+        let name = name.to_str().unwrap_or_default();
+        let description = description.replace("fmi2", version.prefix());
+        empty(w, "Category", [("name", name), ("description", description.as_str())])
     })?;
     let stop = format_real(scene.model.stop_time);
     let tolerance = format_real(scene.solver.rtol);
@@ -482,25 +478,19 @@ fn write_structure(w: &mut Writer<Vec<u8>>, table: &VariableTable) -> io::Result
     let (outputs, initial) = model_structure(table);
     w.create_element("ModelStructure").write_inner_content(|w| {
         for (tag, list) in [("Outputs", &outputs), ("InitialUnknowns", &initial)] {
-            if list.is_empty() {
-                continue;
-            }
-            w.create_element(tag).write_inner_content(|w| {
-                for &i in list {
-                    let index = i.to_string();
-                    let mut a = vec![("index", index)];
-                    // Outputs state their direct dependencies (often none); initial
-                    // unknowns keep FMI's default (they may depend on every parameter).
-                    if tag == "Outputs" {
-                        let deps: Vec<String> = output_dependencies(table, i - 1)
-                            .iter()
-                            .map(|d| d.to_string())
-                            .collect();
-                        a.push(("dependencies", deps.join(" ")));
-                    }
-                    empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))?;
+            write_list(w, tag, list, |w, &i| {
+                let index = i.to_string();
+                let mut a = vec![("index", index)];
+                // Outputs state their direct dependencies (often none); initial
+                // unknowns keep FMI's default (they may depend on every parameter).
+                if tag == "Outputs" {
+                    let deps: Vec<String> = output_dependencies(table, i - 1)
+                        .iter()
+                        .map(|d| d.to_string())
+                        .collect();
+                    a.push(("dependencies", deps.join(" ")));
                 }
-                Ok(())
+                empty(w, "Unknown", a.iter().map(|(k, v)| (*k, v.as_str())))
             })?;
         }
         Ok(())

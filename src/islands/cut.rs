@@ -25,12 +25,7 @@ pub(super) struct SceneIndex {
 impl SceneIndex {
     pub(super) fn of(scene: &Scene) -> SceneIndex {
         let nb = scene.body.len();
-        let body: HashMap<&str, usize> = scene
-            .body
-            .iter()
-            .enumerate()
-            .map(|(i, b)| (b.name.as_str(), i))
-            .collect();
+        let body = scene.body_index();
         let joint_child: HashMap<&str, usize> = scene
             .joint
             .iter()

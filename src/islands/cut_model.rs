@@ -18,7 +18,6 @@ use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
 use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
-use std::collections::HashMap;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
 /// depends on the candidate pairs, so the scene's model may be compiled again for others).
@@ -54,12 +53,7 @@ impl ModelCutter {
             .iter()
             .map(|g| (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]))
             .collect();
-        let joint_index: HashMap<&str, usize> = scene
-            .joint
-            .iter()
-            .enumerate()
-            .map(|(i, j)| (j.name.as_str(), i))
-            .collect();
+        let joint_index = scene.joint_index();
         let drive_joint = scene
             .input
             .iter()
@@ -67,13 +61,7 @@ impl ModelCutter {
                 if inp.kind != crate::scene::InputType::JointMotion {
                     return None;
                 }
-                let ji = inp
-                    .joint
-                    .as_deref()
-                    .and_then(|n| joint_index.get(n))
-                    .copied()
-                    .unwrap_or(0);
-                m.scene_joint.get(ji).and_then(|r| r.ok())
+                m.scene_joint.get(inp.joint_in(&joint_index)).and_then(|r| r.ok())
             })
             .collect();
         ModelCutter {

@@ -5,16 +5,18 @@
 
 use super::{
     item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
-    Scene, SceneError, Side, GROUND,
+    Scene, SceneError, GROUND,
 };
+use crate::scene_builder::{Cylinder, Plane};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 
 /// Kind of a group shape.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeType {
     /// A sphere (`center`, `radius`).
+    #[default]
     Sphere,
     /// A finite rectangle (`origin`, `normal`, `u_axis`, `size`).
     Plane,
@@ -27,7 +29,7 @@ scene_item! {
     [surface_keys]
     /// `[[shape]]`: one contact shape on a body, member of a group. The keys of each type are
     /// those of the `[[contact]]` element that uses it.
-    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
     #[serde(deny_unknown_fields)]
     pub struct ShapeSpec {
         /// Group name (a `[[contact_group]]` refers to it).
@@ -56,40 +58,14 @@ impl ShapeSpec {
         }
     }
 
-    /// A rectangle on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
-    pub fn plane(
-        group: &str,
-        body: &str,
-        origin: [f64; 3],
-        normal: [f64; 3],
-        u_axis: [f64; 3],
-        size: [f64; 2],
-    ) -> ShapeSpec {
-        ShapeSpec {
-            origin: Some(origin),
-            normal: Some(normal),
-            u_axis: Some(u_axis),
-            size: Some(size),
-            ..ShapeSpec::new(group, ShapeType::Plane, body)
-        }
+    /// The rectangle `p` on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
+    pub fn plane(group: &str, body: &str, p: Plane) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Plane, body).plane_keys(p)
     }
 
-    /// A whole cylindrical surface (outside) on `body`, in `group`.
-    pub fn cylinder(
-        group: &str,
-        body: &str,
-        axis_point: [f64; 3],
-        axis: [f64; 3],
-        radius: f64,
-        length: f64,
-    ) -> ShapeSpec {
-        ShapeSpec {
-            axis_point: Some(axis_point),
-            axis: Some(axis),
-            cylinder_radius: Some(radius),
-            length: Some(length),
-            ..ShapeSpec::new(group, ShapeType::Cylinder, body)
-        }
+    /// The whole cylindrical surface `cyl` (outside) on `body`, in `group`.
+    pub fn cylinder(group: &str, body: &str, cyl: Cylinder) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Cylinder, body).cylinder_keys(cyl)
     }
 
     /// The shape with every optional key unset.
@@ -98,20 +74,7 @@ impl ShapeSpec {
             group: group.to_string(),
             kind,
             body: body.to_string(),
-            material: None,
-            center: None,
-            radius: None,
-            origin: None,
-            normal: None,
-            u_axis: None,
-            size: None,
-            axis_point: None,
-            axis: None,
-            cylinder_radius: None,
-            length: None,
-            theta_range: None,
-            ref_axis: None,
-            side: Side::Outside,
+            ..ShapeSpec::default()
         }
     }
 

@@ -28,6 +28,16 @@ impl InputSpec {
             _ => 1,
         }
     }
+
+    /// The scene index of the joint this input names, by `joint_index`
+    /// ([`Scene::joint_index`]); 0 when it names none (validation rejects that).
+    pub(crate) fn joint_in(&self, joint_index: &HashMap<&str, usize>) -> usize {
+        self.joint
+            .as_deref()
+            .and_then(|n| joint_index.get(n))
+            .copied()
+            .unwrap_or(0)
+    }
 }
 
 impl Scene {

@@ -1,6 +1,7 @@
 //! The variables of the contact groups: per group pair its law constants, per body its total
 //! contact force and torque, per group pair its outputs.
 
+use super::table::{enum_param, param, tunable};
 use super::*;
 
 /// The variables of the contact groups, after every other (so that no value reference of a
@@ -10,51 +11,34 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
     if scene.contact_group.is_empty() {
         return;
     }
-    let param = |name: String, start: f64, unit, range: Range, target, tunable: bool, description: &str| Variable {
-        name,
-        vtype: VarType::Real,
-        causality: Causality::Parameter,
-        variability: if tunable {
-            Variability::Tunable
+    let param = |name: String, start: f64, unit, range: Range, target, is_tunable: bool, description: &str| {
+        let var = param(
+            name,
+            start,
+            unit,
+            range,
+            target,
+            &format!("{description} (every contact of the group pair)"),
+        );
+        if is_tunable {
+            tunable(var)
         } else {
-            Variability::Fixed
-        },
-        start: Some(start),
-        unit,
-        display_unit: None,
-        description: format!("{description} (every contact of the group pair)"),
-        range: Some(range),
-        target,
-        depends_on_inputs: false,
+            var
+        }
     };
     let pos = Range::open_above(0.0, true);
     let nonneg = Range::open_above(0.0, false);
-    let unit_interval = Range {
-        min: 0.0,
-        min_exclusive: false,
-        max: 1.0,
-        max_exclusive: false,
-    };
+    let unit_interval = Range::closed([0.0, 1.0]);
     for (p, g) in scene.contact_group.iter().enumerate() {
         let t = |key| VarRef::Group(p, key);
-        v.push(Variable {
-            name: format!("{}.law", g.name),
-            vtype: VarType::Enumeration(EnumType::ContactLaw),
-            causality: Causality::Parameter,
-            variability: Variability::Fixed,
-            start: Some(g.law as i64 as f64),
-            unit: None,
-            display_unit: None,
-            description: "contact force law of every contact of the group pair".into(),
-            range: Some(Range {
-                min: 1.0,
-                min_exclusive: false,
-                max: 6.0,
-                max_exclusive: false,
-            }),
-            target: t(GroupKey::Law),
-            depends_on_inputs: false,
-        });
+        v.push(enum_param(
+            format!("{}.law", g.name),
+            EnumType::ContactLaw,
+            g.law as i64,
+            Law::ALL.len(),
+            t(GroupKey::Law),
+            "contact force law of every contact of the group pair".into(),
+        ));
         v.push(integer_twin(
             format!("{}.law_index", g.name),
             EnumType::ContactLaw,

@@ -103,12 +103,7 @@ pub(super) fn moved_by(scene: &Scene, vars: &[Variable]) -> Vec<Vec<usize>> {
     if drives.is_empty() {
         return out;
     }
-    let body: std::collections::HashMap<&str, usize> = scene
-        .body
-        .iter()
-        .enumerate()
-        .map(|(i, b)| (b.name.as_str(), i))
-        .collect();
+    let body = scene.body_index();
     // the bodies joined by joints (the ground joins nothing)
     let mut sets = UnionFind::new(scene.body.len());
     for j in &scene.joint {

@@ -6,7 +6,7 @@
 use super::*;
 
 /// A Real parameter, fixed after initialisation, checked against `range`.
-fn param(
+pub(super) fn param(
     name: String,
     start: f64,
     unit: Option<&'static str>,
@@ -53,9 +53,34 @@ fn param_triple(
 }
 
 /// `var`, tunable: contact-law constants may change between communication points (docs/fmi.md).
-fn tunable(mut var: Variable) -> Variable {
+pub(super) fn tunable(mut var: Variable) -> Variable {
     var.variability = Variability::Tunable;
     var
+}
+
+/// An enumeration parameter of type `enum_type` (items 1 to `items`), fixed after
+/// initialisation, starting at item `start`.
+pub(super) fn enum_param(
+    name: String,
+    enum_type: EnumType,
+    start: i64,
+    items: usize,
+    target: VarRef,
+    description: String,
+) -> Variable {
+    Variable {
+        name,
+        vtype: VarType::Enumeration(enum_type),
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(start as f64),
+        unit: None,
+        display_unit: None,
+        description,
+        range: Some(Range::closed([1.0, items as f64])),
+        target,
+        depends_on_inputs: false,
+    }
 }
 
 /// An output that no input changes at once.
@@ -107,34 +132,19 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
         ));
     }
     for (i, c) in scene.contact.iter().enumerate() {
-        v.push(Variable {
-            name: format!("{}.law", c.name),
-            vtype: VarType::Enumeration(EnumType::ContactLaw),
-            causality: Causality::Parameter,
-            variability: Variability::Fixed,
-            start: Some(c.law as i64 as f64),
-            unit: None,
-            display_unit: None,
-            description: "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
-            range: Some(Range {
-                min: 1.0,
-                min_exclusive: false,
-                max: 6.0,
-                max_exclusive: false,
-            }),
-            target: VarRef::ContactLaw(i),
-            depends_on_inputs: false,
-        });
+        v.push(enum_param(
+            format!("{}.law", c.name),
+            EnumType::ContactLaw,
+            c.law as i64,
+            Law::ALL.len(),
+            VarRef::ContactLaw(i),
+            "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
+        ));
         v.push(tunable(param(
             format!("{}.restitution", c.name),
             c.restitution,
             None,
-            Range {
-                min: 0.0,
-                min_exclusive: false,
-                max: 1.0,
-                max_exclusive: false,
-            },
+            Range::closed([0.0, 1.0]),
             VarRef::Restitution(i),
             "coefficient of restitution e",
         )));
@@ -208,24 +218,14 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
 /// The solver's settings.
 pub(super) fn solver(scene: &Scene, v: &mut Vec<Variable>) {
     let s = &scene.solver;
-    v.push(Variable {
-        name: "solver.method".into(),
-        vtype: VarType::Enumeration(EnumType::SolverMethod),
-        causality: Causality::Parameter,
-        variability: Variability::Fixed,
-        start: Some(s.method as i64 as f64),
-        unit: None,
-        display_unit: None,
-        description: "integration method: auto (dopri5 while not stiff, radau5 while stiff; the default), dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
-        range: Some(Range {
-            min: 1.0,
-            min_exclusive: false,
-            max: Method::ALL.len() as f64,
-            max_exclusive: false,
-        }),
-        target: VarRef::SolverMethod,
-        depends_on_inputs: false,
-    });
+    v.push(enum_param(
+        "solver.method".into(),
+        EnumType::SolverMethod,
+        s.method as i64,
+        Method::ALL.len(),
+        VarRef::SolverMethod,
+        "integration method: auto (dopri5 while not stiff, radau5 while stiff; the default), dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
+    ));
     v.push(param(
         "solver.rtol".into(),
         s.rtol,

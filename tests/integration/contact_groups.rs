@@ -15,7 +15,7 @@ use contact_fmu::kinematics::frame;
 use contact_fmu::scene::{
     BodySpec, BroadPhaseMethod, ContactGroupSpec, Law, MaterialSpec, Scene, ShapeSpec, Side, GROUND,
 };
-use contact_fmu::scene_builder::SceneBuilder;
+use contact_fmu::scene_builder::{Cylinder, Plane, SceneBuilder};
 use contact_fmu::simulation::Simulation;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -130,10 +130,7 @@ fn random_scene(rng: &mut Rng, method: BroadPhaseMethod) -> Scene {
             shapes.push(ShapeSpec::plane(
                 "w",
                 &name,
-                o,
-                n.into(),
-                u.into(),
-                [rng.range(0.01, 0.2), rng.range(0.01, 0.2)],
+                Plane::new(o, n, u, [rng.range(0.01, 0.2), rng.range(0.01, 0.2)]),
             ));
         }
     }
@@ -145,19 +142,13 @@ fn random_scene(rng: &mut Rng, method: BroadPhaseMethod) -> Scene {
             shapes.push(ShapeSpec::plane(
                 "w",
                 GROUND,
-                o,
-                n.into(),
-                u.into(),
-                [rng.range(0.01, 0.3), rng.range(0.01, 0.3)],
+                Plane::new(o, n, u, [rng.range(0.01, 0.3), rng.range(0.01, 0.3)]),
             ));
         } else {
             let mut cyl = ShapeSpec::cylinder(
                 "w",
                 GROUND,
-                o,
-                rng.unit().into(),
-                rng.range(0.02, 0.1),
-                rng.range(0.01, 0.2),
+                Cylinder::new(o, rng.unit(), rng.range(0.02, 0.1), rng.range(0.01, 0.2)),
             );
             if rng.next() < 0.5 {
                 cyl.side = Side::Inside;
@@ -178,7 +169,11 @@ fn random_scene(rng: &mut Rng, method: BroadPhaseMethod) -> Scene {
             scene.shape.push(ShapeSpec::sphere(g, GROUND, [5.0, 5.0, 5.0], 0.01));
             if g == "w" {
                 let s = scene.shape.last_mut().unwrap();
-                *s = ShapeSpec::plane("w", GROUND, [5.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.1, 0.1]);
+                *s = ShapeSpec::plane(
+                    "w",
+                    GROUND,
+                    Plane::new([5.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.1, 0.1]),
+                );
             }
         }
     }
@@ -329,10 +324,7 @@ fn three_balls(restitution: f64) -> Scene {
     b.shape(ShapeSpec::plane(
         "floor",
         GROUND,
-        [0.0; 3],
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 1.0],
+        Plane::horizontal([0.0; 3], [1.0, 1.0]),
     ))
     .contact_group(ContactGroupSpec::new("ball_floor", "balls", "floor", Law::Impulse).restitution(restitution))
     .contact_group(ContactGroupSpec::new("ball_ball", "balls", "balls", Law::Impulse).restitution(restitution))
@@ -399,9 +391,7 @@ fn body_and_group_pair_outputs() {
         .shape(ShapeSpec::sphere("balls", "ball", [0.0, 0.0, z], BALL_RADIUS).material("steel"))
         .shape(ShapeSpec::sphere("balls", "heavy", [0.1, 0.0, z2], BALL_RADIUS).material("steel"))
         .shape(ShapeSpec::sphere("balls", "far", [0.5, 0.0, 0.3], BALL_RADIUS).material("steel"))
-        .shape(
-            ShapeSpec::plane("floor", GROUND, [0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [2.0, 2.0]).material("steel"),
-        )
+        .shape(ShapeSpec::plane("floor", GROUND, Plane::horizontal([0.0; 3], [2.0, 2.0])).material("steel"))
         .contact_group(ContactGroupSpec::new("ball_floor", "balls", "floor", Law::Hertz))
         .build();
     let mut s = start(scene);

@@ -86,6 +86,22 @@ impl Unpacked {
     fn simulation(&self) -> Simulation {
         Simulation::from_scene_str(&self.text, "scene.toml").unwrap()
     }
+
+    /// The facade simulation and the value references of its real outputs.
+    fn simulation_and_outputs(&self) -> (Simulation, Vec<u32>) {
+        let sim = self.simulation();
+        let outs = real_outputs(&sim);
+        (sim, outs)
+    }
+}
+
+fn real_outputs(sim: &Simulation) -> Vec<u32> {
+    sim.variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output && v.vtype == VarType::Real)
+        .map(|(i, _)| i as u32)
+        .collect()
 }
 
 impl Drop for Unpacked {
@@ -130,21 +146,11 @@ impl Component {
     }
 }
 
-fn real_outputs(sim: &Simulation) -> Vec<u32> {
-    sim.variables()
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.causality == Causality::Output && v.vtype == VarType::Real)
-        .map(|(i, _)| i as u32)
-        .collect()
-}
-
 #[test]
 fn stepping_through_fmi_equals_the_simulation_facade_bit_for_bit() {
     let _handles = shared();
     let u = Unpacked::new("facade");
-    let mut sim = u.simulation();
-    let outs = real_outputs(&sim);
+    let (mut sim, outs) = u.simulation_and_outputs();
     let c = u.instantiate();
     c.init();
     sim.initialize(0.0).unwrap();
@@ -265,8 +271,7 @@ fn stop_time_limits_the_steps() {
 fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
     let _handles = shared();
     let u = Unpacked::new("states");
-    let sim = u.simulation();
-    let outs = real_outputs(&sim);
+    let outs = real_outputs(&u.simulation());
     let a = u.instantiate();
     a.init();
     let h = 1e-3;
@@ -545,8 +550,7 @@ fn freed_and_garbage_fmu_states_are_errors_not_crashes() {
 fn eight_instances_step_in_parallel_on_eight_threads() {
     let _handles = shared();
     let u = Unpacked::new("threads");
-    let mut sim = u.simulation();
-    let outs = real_outputs(&sim);
+    let (mut sim, outs) = u.simulation_and_outputs();
     let h = 1e-3;
     sim.initialize(0.0).unwrap();
     for k in 0..200 {
