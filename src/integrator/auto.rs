@@ -95,6 +95,11 @@ pub const STABILITY_BOUNDARY: f64 = 3.3;
 /// How many times Dormand-Prince's cost at its stability limit the implicit method may spend
 /// per unit of time before it switches back.
 pub const COST_RATIO: f64 = 4.0;
+/// Accepted implicit steps after which a stint on the sparse path is judged by its cost so
+/// far per step at the step size it goes on with (its start is dear there: a probe of n + 1
+/// evaluations and factorisations of n each; where Radau's steps grow far beyond
+/// Dormand-Prince's, they have grown by then).
+pub const EARLY_COST_STEPS: u32 = 3;
 /// Dormand-Prince steps after a switch back for cost during which the implicit method's
 /// measured cost holds the next switch.
 pub const COST_MEMORY_STEPS: u32 = 500;
@@ -103,7 +108,7 @@ pub const MAX_HOLD_DOUBLINGS: u32 = 6;
 /// Power iterations for ρ(J).
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
-pub const MEMORY_LEN: usize = 17;
+pub const MEMORY_LEN: usize = 18;
 
 /// Builds the implicit method for a system size with the tolerances and largest step
 /// (`Radau5::new`).
@@ -152,6 +157,8 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     stint_t: f64,
     stint_rhs: u64,
     steps_since_check: u32,
+    /// The stint's accepted steps.
+    stint_steps: u32,
     /// The stint's factorisations in evaluations ([`ImplicitMethod::factorisation_evaluations`])
     /// up to `linear_mark`, the implicit method's own count of them (not saved: a loaded
     /// method counts afresh) when this was last brought up to date.
@@ -213,6 +220,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             stint_t: 0.0,
             stint_rhs: 0,
             steps_since_check: 0,
+            stint_steps: 0,
             stint_linear: 0.0,
             linear_mark: 0.0,
             stint_explicit_rate: 0.0,
@@ -252,6 +260,15 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// changes the stiffness; it does not make the stint's spending undone).
     fn losing(&self) -> bool {
         self.stiff && self.cost_hold > 0
+    }
+
+    /// The implicit stint lost at `cost` evaluations per unit of time: switch back at the
+    /// next step and hold Dormand-Prince (the hold doubled for each loss in a row before).
+    fn lose(&mut self, cost: f64) {
+        self.switch_pending = true;
+        self.implicit_cost = cost;
+        self.cost_hold = COST_MEMORY_STEPS << self.losses.min(MAX_HOLD_DOUBLINGS);
+        self.losses = self.losses.saturating_add(1);
     }
 
     /// Whether the implicit method is active.
@@ -303,6 +320,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             // (the stint starts before the first Jacobian: it is part of the cost)
             self.stint_t = t;
             self.stint_rhs = stats.rhs_evals;
+            self.stint_steps = 0;
             // (a hold that a switch overrode ends: in a stint a hold marks a loss)
             self.cost_hold = 0;
             self.steps_since_check = 0;
@@ -408,6 +426,23 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             self.switch_pending = true;
         }
         self.steps_since_check += 1;
+        self.stint_steps = self.stint_steps.saturating_add(1);
+        if self.stint_steps == EARLY_COST_STEPS && implicit.factorisation_evaluations() > 0.0 {
+            // the stint's evaluations per step so far, at the step size it goes on with
+            let spent = (implicit.stats().rhs_evals - self.stint_rhs) as f64
+                + self.stint_linear
+                + (linear_work(implicit) - self.linear_mark);
+            let predicted = spent / self.stint_steps as f64 / implicit.next_step();
+            let explicit_cost = if jac_valid {
+                DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
+            } else {
+                self.stint_explicit_rate
+            };
+            if predicted > COST_RATIO * explicit_cost {
+                self.lose(predicted);
+                return;
+            }
+        }
         if self.steps_since_check >= COST_WINDOW {
             let (t, rhs) = (implicit.t(), implicit.stats().rhs_evals);
             let linear = self.stint_linear + (linear_work(implicit) - self.linear_mark);
@@ -418,10 +453,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
                 self.stint_explicit_rate
             };
             if cost > COST_RATIO * explicit_cost {
-                self.switch_pending = true;
-                self.implicit_cost = cost;
-                self.cost_hold = COST_MEMORY_STEPS << self.losses.min(MAX_HOLD_DOUBLINGS);
-                self.losses = self.losses.saturating_add(1);
+                self.lose(cost);
             }
             self.steps_since_check = 0;
         }
@@ -549,7 +581,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     /// Tag, the switching memory (implicit active, switch pending, the two step counts, ρ(J)
     /// and the Jacobian count it is for (−1: none), switches made, the stiffness measured
     /// since and the implicit steps since that measurement, the cost window's start time,
-    /// evaluations and steps, its factorisations in evaluations, Dormand-Prince's rate before
+    /// evaluations and steps, its steps, its factorisations in evaluations, Dormand-Prince's rate before
     /// it, the remembered implicit cost, its hold and the losing stints in a row), then the active method's state
     /// with its own tag.
     fn save_state(&self, out: &mut Vec<f64>) {
@@ -573,6 +605,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             self.stint_t,
             self.stint_rhs as f64,
             self.steps_since_check as f64,
+            self.stint_steps as f64,
             self.stint_linear
                 + self
                     .implicit
@@ -608,6 +641,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         let stint_t = r.value()?;
         let stint_rhs = r.count()?;
         let steps_since_check = r.count()?;
+        let stint_steps = r.count()?;
         let stint_linear = r.value()?;
         let stint_explicit_rate = r.value()?;
         let implicit_cost = r.value()?;
@@ -621,6 +655,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             || too_big(calm)
             || too_big(since)
             || too_big(steps_since_check)
+            || too_big(stint_steps)
             || too_big(cost_hold)
             || too_big(losses)
             || bad_rate(rho)
@@ -649,6 +684,7 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         self.stint_t = stint_t;
         self.stint_rhs = stint_rhs;
         self.steps_since_check = steps_since_check as u32;
+        self.stint_steps = stint_steps as u32;
         self.stint_linear = stint_linear;
         self.stint_explicit_rate = stint_explicit_rate;
         self.linear_mark = self.implicit.as_ref().map_or(0.0, linear_work);
@@ -827,7 +863,7 @@ mod tests {
             if m.stiff && saved.is_none() && m.steps_since_check == COST_WINDOW / 2 {
                 let mut w = Vec::new();
                 m.save_state(&mut w);
-                assert!(w[1 + 12] > 0.0, "the stint's factorisations are saved: {}", w[13]);
+                assert!(w[14] > 0.0, "the stint's factorisations are saved: {}", w[14]);
                 saved = Some((w, m.t()));
             }
             if m.losses == 1 && first_loss.is_none() {
@@ -960,6 +996,10 @@ mod tests {
             was_stiff |= w[1] == 1.0;
         }
         assert!(was_stiff, "{:?}", m.stats());
+        // the stint's start (a probe of n + 1 evaluations) is paid back: it does not lose
+        // at its early check, and the run takes a few dozen steps
+        assert_eq!(m.explicit_hold(), None);
+        assert!(m.stats().steps < 30, "{:?}", m.stats());
         assert!((m.y()[n - 1] - 0.02f64.sin()).abs() < 1e-5);
         let ls = m.linear_stats().expect("an implicit method");
         assert!(ls.sparse, "{ls:?}");
