@@ -427,31 +427,25 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         }
         self.steps_since_check += 1;
         self.stint_steps = self.stint_steps.saturating_add(1);
+        // the stint's evaluations so far, and what Dormand-Prince would spend per unit of time
+        let spent = (implicit.stats().rhs_evals - self.stint_rhs) as f64
+            + self.stint_linear
+            + (linear_work(implicit) - self.linear_mark);
+        let explicit_cost = if jac_valid {
+            DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
+        } else {
+            self.stint_explicit_rate
+        };
         if self.stint_steps == EARLY_COST_STEPS && implicit.factorisation_evaluations() > 0.0 {
-            // the stint's evaluations per step so far, at the step size it goes on with
-            let spent = (implicit.stats().rhs_evals - self.stint_rhs) as f64
-                + self.stint_linear
-                + (linear_work(implicit) - self.linear_mark);
+            // per step so far, at the step size it goes on with
             let predicted = spent / self.stint_steps as f64 / implicit.next_step();
-            let explicit_cost = if jac_valid {
-                DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
-            } else {
-                self.stint_explicit_rate
-            };
             if predicted > COST_RATIO * explicit_cost {
                 self.lose(predicted);
                 return;
             }
         }
         if self.steps_since_check >= COST_WINDOW {
-            let (t, rhs) = (implicit.t(), implicit.stats().rhs_evals);
-            let linear = self.stint_linear + (linear_work(implicit) - self.linear_mark);
-            let cost = ((rhs - self.stint_rhs) as f64 + linear) / (t - self.stint_t);
-            let explicit_cost = if jac_valid {
-                DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
-            } else {
-                self.stint_explicit_rate
-            };
+            let cost = spent / (implicit.t() - self.stint_t);
             if cost > COST_RATIO * explicit_cost {
                 self.lose(cost);
             }
