@@ -75,7 +75,7 @@ const POOL_PER_BODY: usize = 4;
 
 /// The data of up to this many islands that ended are kept for new islands (more end at one
 /// forming only where as many are formed).
-const SPARE_DATA: usize = 256;
+const SPARE_DATA: usize = 4096;
 
 fn fail(time: f64, message: impl Into<String>) -> EngineError {
     EngineError {

@@ -1,12 +1,13 @@
 //! The model and its data, in the manner of MuJoCo's `mjModel`/`mjData`: a [`Model`]
 //! compiled once and read-only afterwards (`compiled`), a [`Data`] holding everything that
 //! changes (`data`), and the declaration of the part of the data that a saved state holds
-//! (`state`). Every function of the engine takes `(&Model, &mut Data)`.
+//! (`state`, and `island_state` for a scene that runs as independent islands). Every function of the engine takes `(&Model, &mut Data)`.
 
 pub mod compiled;
 pub mod contact;
 pub mod data;
 pub mod groups;
+pub mod island_state;
 pub mod state;
 pub mod work;
 
