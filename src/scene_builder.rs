@@ -29,7 +29,7 @@
 
 use crate::scene::{
     BodySpec, ContactGroupSpec, ContactSpec, ContactType, ImpulseMethod, InputSpec, InputType, JointSpec, JointType,
-    Law, MaterialSpec, Method, ModelSection, Scene, ShapeSpec, Side, SolverSection, SpringDamperSpec,
+    Law, MaterialSpec, Method, ModelSection, Scene, ShapeSpec, ShapeType, Side, SolverSection, SpringDamperSpec,
 };
 use nalgebra::UnitQuaternion;
 
@@ -449,6 +449,18 @@ impl ContactSpec {
 
 /// The chainable setters of the surface keys of a `[[contact]]` and a `[[shape]]`: those of a
 /// rectangle and those of a cylinder.
+impl ShapeSpec {
+    /// The rectangle `p` on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
+    pub fn plane(group: &str, body: &str, p: Plane) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Plane, body).plane_keys(p)
+    }
+
+    /// The whole cylindrical surface `cyl` (outside) on `body`, in `group`.
+    pub fn cylinder(group: &str, body: &str, cyl: Cylinder) -> ShapeSpec {
+        ShapeSpec::new(group, ShapeType::Cylinder, body).cylinder_keys(cyl)
+    }
+}
+
 macro_rules! surface_key_setters {
     ($spec:ty) => {
         impl $spec {

@@ -7,7 +7,6 @@ use super::{
     item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
     Scene, SceneError, GROUND,
 };
-use crate::scene_builder::{Cylinder, Plane};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 
@@ -56,16 +55,6 @@ impl ShapeSpec {
             radius: Some(radius),
             ..ShapeSpec::new(group, ShapeType::Sphere, body)
         }
-    }
-
-    /// The rectangle `p` on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
-    pub fn plane(group: &str, body: &str, p: Plane) -> ShapeSpec {
-        ShapeSpec::new(group, ShapeType::Plane, body).plane_keys(p)
-    }
-
-    /// The whole cylindrical surface `cyl` (outside) on `body`, in `group`.
-    pub fn cylinder(group: &str, body: &str, cyl: Cylinder) -> ShapeSpec {
-        ShapeSpec::new(group, ShapeType::Cylinder, body).cylinder_keys(cyl)
     }
 
     /// The shape with every optional key unset.
