@@ -546,6 +546,29 @@ impl NewtonCore {
     }
 }
 
+/// The accessors of [`ImplicitMethod`] for a method whose step state, Newton state and dense
+/// output are its fields `core`, `newton` and `dense`.
+macro_rules! implicit_parts {
+    () => {
+        fn parts(&self) -> (&StepCore, &NewtonCore) {
+            (&self.core, &self.newton)
+        }
+
+        fn parts_mut(&mut self) -> (&mut StepCore, &mut NewtonCore) {
+            (&mut self.core, &mut self.newton)
+        }
+
+        fn dense_coefficients(&self) -> &[Vec<f64>] {
+            &self.dense
+        }
+
+        fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
+            &mut self.dense
+        }
+    };
+}
+pub(crate) use implicit_parts;
+
 /// An implicit Runge-Kutta method on a [`StepCore`] and a [`NewtonCore`]: what differs between
 /// SDIRK4 and Radau IIA. [`Integrator`] is implemented for it below.
 pub trait ImplicitMethod {

@@ -25,7 +25,7 @@
 
 use super::core::StepCore;
 use super::linear::{self, JacRef, LinearStats, Lu};
-use super::newton::{ImplicitMethod, NewtonCore};
+use super::newton::{implicit_parts, ImplicitMethod, NewtonCore};
 use super::second_order::{Reduction, SecondOrder};
 use super::{error_norm, OdeSystem};
 use crate::linalg;
@@ -388,27 +388,13 @@ fn solve_real(lu: &mut Lu, reduction: &mut Option<Box<Reduction>>, x: &mut [f64]
 }
 
 impl ImplicitMethod for Radau5 {
-    fn parts(&self) -> (&StepCore, &NewtonCore) {
-        (&self.core, &self.newton)
-    }
-
-    fn parts_mut(&mut self) -> (&mut StepCore, &mut NewtonCore) {
-        (&mut self.core, &mut self.newton)
-    }
+    implicit_parts!();
 
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
         self.core.first_step(sys, h, 5, &mut self.work, &mut self.fz[1]);
     }
 
     const METHOD: Method = Method::Radau5;
-
-    fn dense_coefficients(&self) -> &[Vec<f64>] {
-        &self.dense
-    }
-
-    fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
-        &mut self.dense
-    }
 
     /// `I − hγ₀J` (real) and `I − h/(α + iβ) J` (complex).
     fn factor(&mut self, h: f64) -> bool {

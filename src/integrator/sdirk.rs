@@ -15,7 +15,7 @@
 
 use super::core::StepCore;
 use super::linear::{self, LinearStats, Lu};
-use super::newton::{ImplicitMethod, NewtonCore};
+use super::newton::{implicit_parts, ImplicitMethod, NewtonCore};
 use super::{error_norm, OdeSystem};
 use crate::scene::Method;
 
@@ -151,27 +151,13 @@ impl Sdirk {
 }
 
 impl ImplicitMethod for Sdirk {
-    fn parts(&self) -> (&StepCore, &NewtonCore) {
-        (&self.core, &self.newton)
-    }
-
-    fn parts_mut(&mut self) -> (&mut StepCore, &mut NewtonCore) {
-        (&mut self.core, &mut self.newton)
-    }
+    implicit_parts!();
 
     fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
         self.core.first_step(sys, h, 4, &mut self.work, &mut self.k[1]);
     }
 
     const METHOD: Method = Method::Sdirk;
-
-    fn dense_coefficients(&self) -> &[Vec<f64>] {
-        &self.dense
-    }
-
-    fn dense_coefficients_mut(&mut self) -> &mut [Vec<f64>] {
-        &mut self.dense
-    }
 
     /// `I − hγJ`.
     fn factor(&mut self, h: f64) -> bool {
