@@ -26,18 +26,24 @@
 //!   method spent per unit of time since it was switched to (rejected steps, Newton failures
 //!   and Jacobians included; on the sparse path each factorisation counts as many evaluations
 //!   as the system has states: [`ImplicitMethod::factorisation_evaluations`]) are compared
-//!   with what Dormand-Prince would spend at its
-//!   stability limit, [`DOPRI5_EVALUATIONS`]` · ρ / `[`STABILITY_BOUNDARY`]. Beyond
-//!   [`COST_RATIO`] times that, the implicit method is losing (its Newton iteration keeps
-//!   failing: the rail vehicle at rtol 1e-3, whose wheel slip crosses the regularised friction
-//!   law's band) and the next step switches back. The cost is that of the whole stint, not of
-//!   the last few steps: a burst of Newton failures where the slip crosses the band edge
-//!   costs 4-10× Dormand-Prince for some ten steps, in a stint that costs an eighth of it
-//!   (measured over the last ten steps, it sent the rail vehicle back to Dormand-Prince for
-//!   seconds at a time: up to 11,887 evaluations at rtol near 1e-3, against 2,215 and 8,326
-//!   with the stint's cost). The cost is remembered, and for the next [`COST_MEMORY_STEPS`]
-//!   Dormand-Prince steps a switch to the implicit method waits until Dormand-Prince's own
-//!   cost per unit of time (`6/h`) exceeds it (no stiffness check runs meanwhile).
+//!   with what Dormand-Prince would spend at its stability limit,
+//!   [`DOPRI5_EVALUATIONS`]` · ρ / `[`STABILITY_BOUNDARY`] (while no Jacobian is held, as after
+//!   a reset: Dormand-Prince's own `6/h` before the stint). On the sparse path the stint is
+//!   also judged after [`EARLY_COST_STEPS`] steps by its evaluations per step so far at the
+//!   step size it goes on with. Beyond [`COST_RATIO`] times that, the implicit method is
+//!   losing (its Newton iteration keeps failing: the rail vehicle at rtol 1e-3, whose wheel
+//!   slip crosses the regularised friction law's band; or its steps are no longer than
+//!   Dormand-Prince's: a rattling pile of balls) and the next step switches back, also across
+//!   a reset or restart (which drop a switch that stiffness alone asked for). The cost is that
+//!   of the whole stint, not of the last few steps: a burst of Newton failures where the slip
+//!   crosses the band edge costs 4-10× Dormand-Prince for some ten steps, in a stint that
+//!   costs an eighth of it (measured over the last ten steps, it sent the rail vehicle back to
+//!   Dormand-Prince for seconds at a time: up to 11,887 evaluations at rtol near 1e-3, against
+//!   2,215 and 8,326 with the stint's cost). The cost is remembered, and for the next
+//!   [`COST_MEMORY_STEPS`] Dormand-Prince steps, doubled for each further loss in a row (up to
+//!   [`MAX_HOLD_DOUBLINGS`] times; a stint that ends calm clears the count), a step whose own
+//!   cost per unit of time (`6/h`) is below it runs no stiffness check; an island formed anew
+//!   takes the hold over from the islands its bodies come from ([`Integrator::hold_explicit`]).
 //! - A switch happens at the start of a step, so the dense output of the last step stays that
 //!   of the method that took it. The counters carry over (one [`Stats`] for the run).
 //! - Resets (after events) and restarts keep the active method and the switching memory.
@@ -160,8 +166,8 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     /// The stint's accepted steps.
     stint_steps: u32,
     /// The stint's factorisations in evaluations ([`ImplicitMethod::factorisation_evaluations`])
-    /// up to `linear_mark`, the implicit method's own count of them (not saved: a loaded
-    /// method counts afresh) when this was last brought up to date.
+    /// up to `linear_mark`, the implicit method's own count of them at the switch or the last
+    /// load (not saved: what the method counts before a load is in the saved `stint_linear`).
     stint_linear: f64,
     linear_mark: f64,
     /// Dormand-Prince's evaluations per unit of time in its last step before the stint
@@ -326,7 +332,9 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             self.steps_since_check = 0;
             self.stint_linear = 0.0;
             self.linear_mark = linear_work(implicit);
-            let h_explicit = explicit.t() - explicit.t_prev();
+            // (the step the controller asked for: the last one may have been cut short to
+            // reach the end of an advance)
+            let h_explicit = (explicit.t() - explicit.t_prev()).max(explicit.next_step());
             self.stint_explicit_rate = if h_explicit > 0.0 {
                 DOPRI5_EVALUATIONS / h_explicit
             } else {
@@ -428,7 +436,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         self.steps_since_check += 1;
         self.stint_steps = self.stint_steps.saturating_add(1);
         // the stint's evaluations so far, and what Dormand-Prince would spend per unit of time
-        let spent = (implicit.stats().rhs_evals - self.stint_rhs) as f64
+        let spent = implicit.stats().rhs_evals.saturating_sub(self.stint_rhs) as f64
             + self.stint_linear
             + (linear_work(implicit) - self.linear_mark);
         let explicit_cost = if jac_valid {
@@ -439,14 +447,14 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         if self.stint_steps == EARLY_COST_STEPS && implicit.factorisation_evaluations() > 0.0 {
             // per step so far, at the step size it goes on with
             let predicted = spent / self.stint_steps as f64 / implicit.next_step();
-            if predicted > COST_RATIO * explicit_cost {
+            if predicted.is_finite() && predicted > COST_RATIO * explicit_cost {
                 self.lose(predicted);
                 return;
             }
         }
         if self.steps_since_check >= COST_WINDOW {
             let cost = spent / (implicit.t() - self.stint_t);
-            if cost > COST_RATIO * explicit_cost {
+            if cost.is_finite() && cost > COST_RATIO * explicit_cost {
                 self.lose(cost);
             }
             self.steps_since_check = 0;
@@ -650,11 +658,13 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
             || too_big(since)
             || too_big(steps_since_check)
             || too_big(stint_steps)
-            || too_big(cost_hold)
+            || cost_hold > (COST_MEMORY_STEPS << MAX_HOLD_DOUBLINGS) as u64
             || too_big(losses)
             || bad_rate(rho)
             || bad_rate(rho_now)
             || bad_rate(implicit_cost)
+            || !implicit_cost.is_finite()
+            || (stiff && cost_hold > 0 && !pending)
             || bad_rate(stint_explicit_rate)
             || !(0.0..9.0e15).contains(&stint_linear)
             || !stint_t.is_finite()

@@ -141,8 +141,8 @@ pub trait Integrator {
     fn explicit_hold(&self) -> Option<ExplicitHold> {
         None
     }
-    /// Takes over such a memory (nothing for other methods, or where the method holds a
-    /// longer one already).
+    /// Takes over such a memory (nothing for other methods, while `auto`'s implicit method is
+    /// active, or where it holds a longer one already).
     fn hold_explicit(&mut self, _hold: ExplicitHold) {}
     /// Appends the memory that [`Integrator::restart`] carries over (nothing for explicit
     /// methods; see [`WARM_JACOBIAN_MAX`] for the implicit ones).

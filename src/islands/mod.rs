@@ -74,7 +74,9 @@ pub const ROUND_FRACTION: f64 = 0.35;
 const POOL_PER_BODY: usize = 4;
 
 /// The data of up to this many islands that ended are kept for new islands (more end at one
-/// forming only where as many are formed).
+/// forming only where as many are formed; 4,096 instead of 256 made 2,696 new data at
+/// N = 1,000 instead of 3,152, forming 8.93 % of the instructions instead of 9.38 %). A kept
+/// data holds no implicit method's workspace.
 const SPARE_DATA: usize = 4096;
 
 fn fail(time: f64, message: impl Into<String>) -> EngineError {
@@ -458,11 +460,13 @@ impl Islands {
         self.pool.put(island.bodies, part, self.params.solver.max_steps, limit);
         if self.n_spare < self.spare_limit {
             self.n_spare += 1;
-            let saved = island.saved;
-            self.spare
-                .entry(island.data.state.len())
-                .or_default()
-                .push((island.data, saved));
+            let (mut data, saved) = (island.data, island.saved);
+            if data.solver.method().is_some_and(|i| i.linear_stats().is_some()) {
+                // (an integrator whose implicit method was built is made anew when the data is
+                // refitted: its workspace, the Jacobian and LU factors, is not kept meanwhile)
+                data.solver.stepper = None;
+            }
+            self.spare.entry(data.state.len()).or_default().push((data, saved));
         }
     }
 

@@ -79,9 +79,10 @@ pub fn get<'a>(
 
 /// Reads and checks an islands' part written by [`get`] for the scene's model `m` at the
 /// state's time `time`: counts are counts, the round does not end before `time`, the
-/// candidate pairs name the model's group pairs and shapes, and every body is in exactly one
-/// island, listed in ascending order. The islands' own states are checked when they are set
-/// into their models.
+/// candidate pairs' numbers are within the model's group pairs and shapes, every island has
+/// bodies and every body is in exactly one island, listed in ascending order. Whether the
+/// candidate pairs are those of the scene's groups, and the islands' own states, are checked
+/// when the islands are built from it and their states set into their models.
 pub fn set<'a>(
     m: &Model,
     time: f64,
@@ -124,6 +125,9 @@ pub fn set<'a>(
     let mut islands = Vec::with_capacity(n);
     for _ in 0..n {
         let len = r.count(nb as u64)? as usize;
+        if len == 0 {
+            return Err("saved islands: an island without bodies".into());
+        }
         let mut bodies = Vec::with_capacity(len);
         for _ in 0..len {
             let b = r.count(nb as u64 - 1)? as usize;
@@ -278,5 +282,12 @@ mod tests {
             out
         };
         refused(&one_island, 0.1, "a body in no island");
+        let with_an_empty_island = {
+            let mut v = v.clone();
+            v[first_island - 1] = 3.0;
+            v.extend([0.0, 0.0]);
+            v
+        };
+        refused(&with_an_empty_island, 0.1, "an island without bodies");
     }
 }

@@ -295,3 +295,32 @@ fn a_large_stiff_system_switches_to_the_sparse_implicit_method() {
     assert!(alone.load_state(&w).is_err());
     assert!(alone.linear_stats().is_none());
 }
+
+/// A saved switching memory that no run makes is refused: a hold in a stint without the
+/// switch back pending, a hold longer than the longest, a remembered cost that is not finite.
+#[test]
+fn a_switching_memory_no_run_makes_is_refused() {
+    let mut sys = FadingStiffness;
+    let mut m = auto(1, 1e-7);
+    m.reset(&mut sys, 0.0, &[0.0], 0.0);
+    while !m.stiff {
+        m.step(&mut sys, 1.0).unwrap();
+    }
+    let mut w = Vec::new();
+    m.save_state(&mut w);
+    // (after the tag: stiff, pending, ..., the remembered cost at 16, the hold at 17)
+    assert_eq!((w[1], w[2], w[17]), (1.0, 0.0, 0.0));
+    let loads = |w: &[f64]| auto(1, 1e-7).load_state(w).is_ok();
+    assert!(loads(&w));
+    let mut bad = w.clone();
+    bad[16] = 1e5;
+    bad[17] = COST_MEMORY_STEPS as f64;
+    assert!(!loads(&bad), "a hold in a stint without the switch back pending");
+    bad[2] = 1.0;
+    assert!(loads(&bad), "with it pending: a stint that lost");
+    bad[17] = (COST_MEMORY_STEPS << MAX_HOLD_DOUBLINGS) as f64 + 1.0;
+    assert!(!loads(&bad), "a hold longer than the longest");
+    bad[17] = COST_MEMORY_STEPS as f64;
+    bad[16] = f64::INFINITY;
+    assert!(!loads(&bad), "a remembered cost that is not finite");
+}
