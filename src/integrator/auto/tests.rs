@@ -183,17 +183,22 @@ fn a_stint_that_costs_more_than_dormand_prince_switches_back_and_holds() {
     assert_eq!(again.switches(), m.switches());
 }
 
+/// auto on [`FadingStiffness`] run until it switched to the implicit method.
+fn stiff_auto() -> Auto<Radau5> {
+    let mut m = auto(1, 1e-7);
+    m.reset(&mut FadingStiffness, 0.0, &[0.0], 0.0);
+    while !m.stiff {
+        m.step(&mut FadingStiffness, 1.0).unwrap();
+    }
+    m
+}
+
 /// A switch back for cost stands across a reset (an event does not undo the stint's
 /// spending); a switch asked for by stiffness alone does not. An island formed anew
 /// takes over the hold of the islands it came from, the longest and costliest of them.
 #[test]
 fn a_switch_back_for_cost_stands_across_a_reset_and_its_hold_passes_on() {
-    let mut sys = FadingStiffness;
-    let mut m = auto(1, 1e-7);
-    m.reset(&mut sys, 0.0, &[0.0], 0.0);
-    while !m.stiff {
-        m.step(&mut sys, 1.0).unwrap();
-    }
+    let (mut sys, mut m) = (FadingStiffness, stiff_auto());
     let y = m.y().to_vec();
     m.switch_pending = true;
     m.reset(&mut sys, m.t(), &y, 0.0);
@@ -300,12 +305,7 @@ fn a_large_stiff_system_switches_to_the_sparse_implicit_method() {
 /// switch back pending, a hold longer than the longest, a remembered cost that is not finite.
 #[test]
 fn a_switching_memory_no_run_makes_is_refused() {
-    let mut sys = FadingStiffness;
-    let mut m = auto(1, 1e-7);
-    m.reset(&mut sys, 0.0, &[0.0], 0.0);
-    while !m.stiff {
-        m.step(&mut sys, 1.0).unwrap();
-    }
+    let m = stiff_auto();
     let mut w = Vec::new();
     m.save_state(&mut w);
     // (after the tag: stiff, pending, ..., the remembered cost at 16, the hold at 17)
