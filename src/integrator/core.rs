@@ -248,15 +248,34 @@ pub struct SavedCore<'a> {
 /// Largest counter value that an `f64` holds exactly (2⁵³).
 const MAX_EXACT_COUNT: f64 = 9_007_199_254_740_992.0;
 
-/// Reads a saved integrator state front to back (see [`super::Integrator::load_state`]), so
-/// that a method checks all of it before it changes anything: the first number is the
-/// method's enumeration value (`solver.method`), then each part takes its numbers in the
-/// order they were written, and [`StateReader::finish`] refuses numbers left over.
+/// What a [`StateReader`] reads, as its messages name it.
+#[derive(Debug, Clone, Copy)]
+pub enum Subject {
+    /// A method's saved state (`the dopri5 integrator state`).
+    Method(Method),
+    /// Another part of a saved state, by its name (`the saved islands`).
+    Part(&'static str),
+}
+
+impl std::fmt::Display for Subject {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Subject::Method(m) => write!(f, "the {} integrator state", m.name()),
+            Subject::Part(name) => f.write_str(name),
+        }
+    }
+}
+
+/// Reads a saved state front to back (see [`super::Integrator::load_state`]; also the other
+/// positional parts of a saved state), so that everything is checked before anything changes:
+/// each part takes its numbers in the order they were written, and [`StateReader::finish`]
+/// refuses numbers left over. A method's state begins with the method's enumeration value
+/// (`solver.method`), checked by [`StateReader::new`].
 #[derive(Debug)]
 pub struct StateReader<'a> {
     v: &'a [f64],
     pos: usize,
-    method: Method,
+    subject: Subject,
 }
 
 impl<'a> StateReader<'a> {
@@ -264,7 +283,11 @@ impl<'a> StateReader<'a> {
     pub fn new(v: &'a [f64], method: Method) -> Result<StateReader<'a>, String> {
         let tag = state_tag(method);
         match v.first() {
-            Some(&x) if x == tag => Ok(StateReader { v, pos: 1, method }),
+            Some(&x) if x == tag => Ok(StateReader {
+                v,
+                pos: 1,
+                subject: Subject::Method(method),
+            }),
             Some(&x) => Err(format!(
                 "the integrator state is not one of {} (it begins with {x}, not {tag})",
                 method.name()
@@ -273,18 +296,33 @@ impl<'a> StateReader<'a> {
         }
     }
 
+    /// Starts reading the part `name` (no tag).
+    pub fn part(v: &'a [f64], name: &'static str) -> StateReader<'a> {
+        StateReader {
+            v,
+            pos: 0,
+            subject: Subject::Part(name),
+        }
+    }
+
     /// The next number, not taken.
     pub fn peek(&self) -> Option<f64> {
         self.v.get(self.pos).copied()
+    }
+
+    /// The numbers not yet taken.
+    pub fn left(&self) -> usize {
+        self.v.len() - self.pos
     }
 
     /// The next `k` numbers.
     pub fn take(&mut self, k: usize) -> Result<&'a [f64], String> {
         let end = self.pos.checked_add(k).filter(|&e| e <= self.v.len()).ok_or_else(|| {
             format!(
-                "the {} integrator state ends early: {} numbers, not a state of this method and model",
-                self.method.name(),
-                self.v.len()
+                "{} ends early: {} numbers, not a state of {}",
+                self.subject,
+                self.v.len(),
+                self.owner()
             )
         })?;
         let s = &self.v[self.pos..end];
@@ -302,11 +340,7 @@ impl<'a> StateReader<'a> {
         match self.value()? {
             0.0 => Ok(false),
             1.0 => Ok(true),
-            x => Err(format!(
-                "the {} integrator state holds {x} at {} where a flag (0 or 1) belongs",
-                self.method.name(),
-                self.pos - 1
-            )),
+            x => Err(self.misplaced(x, "a flag (0 or 1)")),
         }
     }
 
@@ -316,11 +350,17 @@ impl<'a> StateReader<'a> {
         if (0.0..=MAX_EXACT_COUNT).contains(&x) && x.fract() == 0.0 {
             Ok(x as u64)
         } else {
-            Err(format!(
-                "the {} integrator state holds {x} at {} where a counter belongs",
-                self.method.name(),
-                self.pos - 1
-            ))
+            Err(self.misplaced(x, "a counter"))
+        }
+    }
+
+    /// The next number as a count up to `max`.
+    pub fn count_to(&mut self, max: u64) -> Result<u64, String> {
+        let c = self.count()?;
+        if c <= max {
+            Ok(c)
+        } else {
+            Err(self.misplaced(c as f64, &format!("a count up to {max}")))
         }
     }
 
@@ -330,12 +370,21 @@ impl<'a> StateReader<'a> {
         if x.is_finite() && x >= 0.0 {
             Ok(x)
         } else {
-            Err(format!(
-                "the {} integrator state holds {x} at {} where a step size belongs",
-                self.method.name(),
-                self.pos - 1
-            ))
+            Err(self.misplaced(x, "a step size"))
         }
+    }
+
+    /// Whose state it would have been.
+    fn owner(&self) -> &'static str {
+        match self.subject {
+            Subject::Method(_) => "this method and model",
+            Subject::Part(_) => "this model",
+        }
+    }
+
+    /// The message for the number `x` just read where `what` belongs.
+    fn misplaced(&self, x: f64, what: &str) -> String {
+        format!("{} holds {x} at {} where {what} belongs", self.subject, self.pos - 1)
     }
 
     /// Ends reading: the whole state was read.
@@ -344,10 +393,11 @@ impl<'a> StateReader<'a> {
             Ok(())
         } else {
             Err(format!(
-                "the {} integrator state has {} numbers, {} more than a state of this method and model",
-                self.method.name(),
+                "{} has {} numbers, {} more than a state of {}",
+                self.subject,
                 self.v.len(),
-                self.v.len() - self.pos
+                self.v.len() - self.pos,
+                self.owner()
             ))
         }
     }

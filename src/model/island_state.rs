@@ -18,8 +18,8 @@
 //! | per island | its number of bodies b, its bodies (ascending, each body in exactly one island), the length s of its state, its state |
 
 use super::groups::Candidate;
-use super::state::count;
 use super::{Counters, Model};
+use crate::integrator::core::StateReader;
 
 /// The islands' own numbers besides their candidate pairs and their islands.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,10 +88,10 @@ pub fn set<'a>(
     time: f64,
     v: &'a [f64],
 ) -> Result<(IslandsHead, Vec<Candidate>, Vec<SavedIsland<'a>>), String> {
-    let mut r = Reader { v, pos: 0 };
+    let mut r = StateReader::part(v, "saved islands");
     let mut c = [0u64; 5];
     for x in &mut c {
-        *x = r.count(u64::MAX)?;
+        *x = r.count()?;
     }
     let retired = Counters {
         steps: c[0],
@@ -100,50 +100,51 @@ pub fn set<'a>(
         jac_evals: c[3],
         events: c[4],
     };
-    let dissipated_base = r.next()?;
-    let input_work_base = r.next()?;
-    let rebuilds = r.count(u64::MAX)?;
-    let round_end = r.next()?;
+    let dissipated_base = r.value()?;
+    let input_work_base = r.value()?;
+    let rebuilds = r.count()?;
+    let round_end = r.value()?;
     if round_end.is_nan() || round_end < time {
         return Err(format!("saved islands: round end {round_end} before their time {time}"));
     }
     let (np, ns) = (m.groups.pair_names.len() as u64, m.groups.shapes.len() as u64);
-    let nc = r.count(v.len() as u64)? as usize;
+    let nc = r.count_to(r.left() as u64)? as usize;
     if nc > 0 && (np == 0 || ns == 0) {
         return Err("saved islands hold candidate pairs, the scene has no contact groups".into());
     }
     let mut candidates = Vec::with_capacity(nc);
     for _ in 0..nc {
-        let pair = r.count(np.saturating_sub(1))? as usize;
-        let sphere = r.count(ns.saturating_sub(1))? as usize;
-        let other = r.count(ns.saturating_sub(1))? as usize;
+        let pair = r.count_to(np.saturating_sub(1))? as usize;
+        let sphere = r.count_to(ns.saturating_sub(1))? as usize;
+        let other = r.count_to(ns.saturating_sub(1))? as usize;
         candidates.push(Candidate { pair, sphere, other });
     }
     let nb = m.bodies.len();
-    let n = r.count(nb as u64)? as usize;
+    let n = r.count_to(nb as u64)? as usize;
     let mut seen = vec![false; nb];
     let mut islands = Vec::with_capacity(n);
     for _ in 0..n {
-        let len = r.count(nb as u64)? as usize;
+        let len = r.count_to(nb as u64)? as usize;
         if len == 0 {
             return Err("saved islands: an island without bodies".into());
         }
         let mut bodies = Vec::with_capacity(len);
         for _ in 0..len {
-            let b = r.count(nb as u64 - 1)? as usize;
+            let b = r.count_to(nb as u64 - 1)? as usize;
             if seen[b] || bodies.last().is_some_and(|&l| l >= b) {
                 return Err("saved islands: a body is listed twice or out of order".into());
             }
             seen[b] = true;
             bodies.push(b);
         }
-        let len = r.count(v.len() as u64)? as usize;
+        let len = r.count_to(r.left() as u64)? as usize;
         islands.push(SavedIsland {
             bodies,
             state: r.take(len)?,
         });
     }
-    if r.pos != v.len() || seen.iter().any(|s| !s) {
+    r.finish()?;
+    if seen.iter().any(|s| !s) {
         return Err("saved islands: they do not hold every body once".into());
     }
     let head = IslandsHead {
@@ -154,40 +155,6 @@ pub fn set<'a>(
         round_end,
     };
     Ok((head, candidates, islands))
-}
-
-/// Reads numbers with the state's checks.
-struct Reader<'a> {
-    v: &'a [f64],
-    pos: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn next(&mut self) -> Result<f64, String> {
-        let x = *self.v.get(self.pos).ok_or("saved islands are truncated")?;
-        self.pos += 1;
-        Ok(x)
-    }
-
-    /// A whole number in 0..=max.
-    fn count(&mut self, max: u64) -> Result<u64, String> {
-        let x = self.next()?;
-        let c =
-            count(x, "saved islands: a count").map_err(|_| format!("saved islands: {x} is not a count up to {max}"))?;
-        if c > max {
-            return Err(format!("saved islands: {x} is not a count up to {max}"));
-        }
-        Ok(c)
-    }
-
-    fn take(&mut self, n: usize) -> Result<&'a [f64], String> {
-        let s = self
-            .v
-            .get(self.pos..self.pos + n)
-            .ok_or("saved islands are truncated")?;
-        self.pos += n;
-        Ok(s)
-    }
 }
 
 #[cfg(test)]

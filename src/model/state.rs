@@ -154,7 +154,7 @@ pub fn group_candidates(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
 }
 
 /// A count stored as a number: a whole number in range, or an error naming the part.
-pub(crate) fn count(x: f64, what: &str) -> Result<u64, String> {
+fn count(x: f64, what: &str) -> Result<u64, String> {
     if x.fract() == 0.0 && (0.0..9.0e15).contains(&x) {
         Ok(x as u64)
     } else {
