@@ -162,6 +162,7 @@ pub fn evaluate_output_kinematics(m: &Model, d: &mut Data) -> bool {
 /// lean ones (poses and velocities; their motion subspaces, bias accelerations and spatial
 /// inertias are left as they were: code that reads those calls [`kinematics`]).
 pub fn planned_kinematics(m: &Model, d: &mut Data) {
+    d.planned_kinematics = false;
     for &ji in &m.plan.general.joints {
         joint_kinematics(m, d, ji);
     }

@@ -45,6 +45,7 @@ pub fn quat_at(q: &[f64]) -> UnitQuaternion<f64> {
 /// Position and velocity kinematics from the state: body poses, spatial velocities, bias
 /// accelerations (q̈ = 0), motion subspaces and their rates, spatial inertias.
 pub fn kinematics(m: &Model, d: &mut Data) {
+    d.planned_kinematics = false;
     for ji in 0..m.joints.len() {
         joint_kinematics(m, d, ji);
     }
@@ -186,6 +187,7 @@ fn free_joint_motion(
 /// velocities only, where the velocities must be those of [`kinematics`] (the lean
 /// [`free_body_kinematics`] rounds them otherwise).
 pub fn poses_and_velocities(m: &Model, d: &mut Data) {
+    d.planned_kinematics = false;
     for &ji in &m.plan.general.joints {
         joint_kinematics(m, d, ji);
     }

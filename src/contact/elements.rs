@@ -140,6 +140,8 @@ pub fn set_contact_list(m: &Model, d: &mut Data, found: &[Candidate], mut contac
     d.candidates = found.to_vec();
     d.nc = nc;
     d.fit_contact_work(m);
+    // (the kinematics stay, but no contact forces were evaluated for this list)
+    d.planned_kinematics = false;
     // (the contact outputs were zeroed with the work: they are evaluated again when read)
     d.outputs_valid = false;
 }

@@ -208,7 +208,8 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
 }
 
 /// Adds the forces of the active continuous contacts to the bodies (normal force and
-/// friction), updates the contact outputs and returns the dissipated power [W].
+/// friction), updates the contact outputs and their gaps' `d.events.stage_gaps`, and returns
+/// the dissipated power [W].
 pub fn apply_forces(d: &mut Data) -> f64 {
     let mut power = 0.0;
     for i in 0..d.contacts.len() {
@@ -219,6 +220,7 @@ pub fn apply_forces(d: &mut Data) -> f64 {
             continue;
         }
         let g = gap(d, i);
+        d.events.stage_gaps[i] = (g.delta, g.delta_dot, g.margin);
         let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
         power += (f.total - f.elastic) * g.delta_dot;
         let mut force = g.normal * f.total;

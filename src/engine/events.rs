@@ -44,9 +44,17 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     } else {
         kinematics_of(m, d);
     }
+    // (the active continuous contacts' gaps are the right-hand side's when it evaluated these
+    // kinematics: `d.planned_kinematics` still holds after `kinematics_of`)
+    let stage_gaps = d.planned_kinematics;
     let n_contacts = d.contacts.len();
     for i in 0..n_contacts {
-        let (mode, clamp_value, a) = modes::contact_event_values(d, i, d.clamp_events);
+        let (mode, clamp_value, a) =
+            if stage_gaps && d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
+                modes::stage_event_values(d, i, d.clamp_events)
+            } else {
+                modes::contact_event_values(d, i, d.clamp_events)
+            };
         let (g, aux) = if at_step_end {
             (&mut d.events.g_new, &mut d.events.aux_new)
         } else {

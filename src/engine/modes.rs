@@ -10,12 +10,14 @@
 
 use crate::contact::elements::contact_name;
 use crate::contact::{
-    broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, Gap,
+    broad_phase, event_function, friction, gap, geometry, impulse, laws, resting_force, ContactElement, ContactMemory,
+    Gap,
 };
 use crate::forward::{evaluate, evaluate_current};
 use crate::kinematics::{frame, kinematics};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
+use nalgebra::Vector3;
 
 /// Mode function, clamp function and (δ, δ̇) of contact `i` at the evaluated kinematics
 /// (`clamp`: evaluate the clamp function, else 1).
@@ -30,13 +32,37 @@ pub fn contact_event_values(d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64,
     if let Some((v, closing)) = broad_phase(c, d) {
         return (v, 1.0, (v, closing));
     }
-    let g = gap(d, i);
+    gap_event_values(c, mem, &gap(d, i), clamp)
+}
+
+/// [`contact_event_values`] of a continuous-law contact that is active (in contact) from its
+/// exact gap as the right-hand side's evaluation at the same kinematics computed it
+/// (`d.events.stage_gaps`: the same numbers as [`gap`], not computed again).
+pub fn stage_event_values(d: &Data, i: usize, clamp: bool) -> (f64, f64, (f64, f64)) {
+    let c = &d.contacts[i];
+    if let Some((v, closing)) = broad_phase(c, d) {
+        return (v, 1.0, (v, closing));
+    }
+    let (delta, delta_dot, margin) = d.events.stage_gaps[i];
+    let g = Gap {
+        delta,
+        delta_dot,
+        margin,
+        normal: Vector3::zeros(),
+        point: Vector3::zeros(),
+    };
+    gap_event_values(c, d.contact_memory[i], &g, clamp)
+}
+
+/// Mode function, clamp function and (δ, δ̇) of contact `c` (memory `mem`) at its exact gap
+/// `g` (its δ, δ̇ and margin).
+fn gap_event_values(c: &ContactElement, mem: ContactMemory, g: &Gap, clamp: bool) -> (f64, f64, (f64, f64)) {
     let clamp_value = if clamp && mem.active && c.law != Law::Impulse && laws::can_clamp(c) {
         laws::clamp_function(c, g.delta.max(0.0), g.delta_dot, mem.impact_velocity)
     } else {
         1.0
     };
-    let mut mode = event_function(c, &g);
+    let mut mode = event_function(c, g);
     if c.law == Law::Impulse && g.delta_dot < 0.0 {
         // An impulse contact that separates is apart whatever its (tiny) overlap: the
         // state right after an impact (located a hair past δ = 0) must not count as in

@@ -233,6 +233,11 @@ pub struct EventWork {
     /// The continuous contacts whose mode the last event's handling changed (touch,
     /// separation), in the order it changed them (capacity: the number of contacts).
     pub changed: Vec<usize>,
+    /// Per contact (δ, δ̇, margin) of the exact gap at the last evaluation of the contact
+    /// forces, written for the active continuous contacts (those whose forces it computes):
+    /// while `Data::planned_kinematics` holds, those of the right-hand side's evaluation at
+    /// `eval_state`, which the event values at a step's end take instead of detecting again.
+    pub stage_gaps: Vec<(f64, f64, f64)>,
 }
 
 /// Preallocated buffers of the impulse law's mode changes, sized at compilation by the
@@ -296,9 +301,11 @@ pub struct Data {
     // --- workspace ---
     /// The state at which the kinematics and dynamics below were evaluated.
     pub eval_state: Vec<f64>,
-    /// True when the kinematics below are the plan's at `eval_state` (set by the right-hand
-    /// side's lean path, cleared by a probe's kinematics of two bodies): the event check at a
-    /// step's end then takes them as they are.
+    /// True when the kinematics below are the plan's at `eval_state` and the contact forces
+    /// were evaluated on them (set by the right-hand side's lean path; cleared by every other
+    /// kinematics: the full one, the plan's alone, a probe's of two bodies, and by a new
+    /// contact list): the event check at a step's end then takes them, and the active
+    /// contacts' gaps (`EventWork::stage_gaps`), as they are.
     pub planned_kinematics: bool,
     /// True when `state` awaits the method's dense output at `time` (a communication point
     /// inside the method's step whose state nothing has read yet: `engine::settle` takes it;
@@ -628,12 +635,14 @@ impl Data {
             aux,
             aux_new,
             changed,
+            stage_gaps,
         } = &mut self.events;
         filled(g, 3 * ncontacts, 0.0);
         filled(g_new, 3 * ncontacts, 0.0);
         filled(aux, ncontacts + 1, (0.0, 0.0));
         filled(aux_new, ncontacts + 1, (0.0, 0.0));
         emptied(changed, ncontacts);
+        filled(stage_gaps, ncontacts, (0.0, 0.0, 0.0));
         let ImpactWork {
             solve,
             set,
