@@ -361,8 +361,9 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     let mut t_first = t1;
     let mut any = false;
     for k in 0..2 * n_contacts {
-        let (g0, g1, delta1) = (d.events.g[k], d.events.g_new[k], d.events.aux_new[k % n_contacts].0);
-        if modes::relevant_crossing(d, k, g0, g1, delta1) {
+        let (g0, g1) = (d.events.g[k], d.events.g_new[k]);
+        // (the sign change first: most functions keep their sign)
+        if modes::crossed(g0, g1) && modes::relevant_crossing(d, k, g0, g1, d.events.aux_new[k % n_contacts].0) {
             let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t_first);
             any = true;
             t_first = t_first.min(t);
@@ -422,7 +423,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     for i in 0..n_contacts {
         let k = 2 * n_contacts + i;
         let (g0, g1) = (d.events.g[k], d.events.g_new[k]);
-        if !modes::relevant_crossing(d, k, g0, g1, d.events.aux_new[i].0) {
+        if !(modes::crossed(g0, g1) && modes::relevant_crossing(d, k, g0, g1, d.events.aux_new[i].0)) {
             continue;
         }
         let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t1);

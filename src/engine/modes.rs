@@ -76,12 +76,18 @@ fn gap_event_values(c: &ContactElement, mem: ContactMemory, g: &Gap, clamp: bool
 /// stiction velocity for an active contact with friction (continuous law in contact, or
 /// impulse law resting) (its sign change is
 /// a stick or slip transition, where the regularised law changes its formula), else 1.
+#[inline]
 pub fn slip_event_value(d: &Data, i: usize) -> f64 {
     let c = &d.contacts[i];
     // active: in contact under a continuous law, resting under the impulse law
     if !c.friction.is_on() || !d.contact_memory[i].active {
         return 1.0;
     }
+    slip_function_value(d, c)
+}
+
+/// [`slip_event_value`] of an active contact `c` with friction.
+fn slip_function_value(d: &Data, c: &ContactElement) -> f64 {
     let fs = frame(d, c.sphere_body);
     let fo = frame(d, c.body);
     let g = geometry::detect(c, &fs, &fo);
@@ -110,8 +116,7 @@ fn clamp_scale(c: &ContactElement, impact_velocity: f64) -> f64 {
 /// from `g0` to `g1` needs handling (an impulse contact leaving its zone after an impact does
 /// not; a cut of the force only matters while the contact is active).
 pub fn relevant_crossing(d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> bool {
-    let crossed = (g0 <= 0.0) != (g1 <= 0.0);
-    if !crossed {
+    if !crossed(g0, g1) {
         return false;
     }
     let n_contacts = d.contacts.len();
@@ -132,6 +137,13 @@ pub fn relevant_crossing(d: &Data, k: usize, g0: f64, g1: f64, delta1: f64) -> b
         return delta1 >= 0.5 * c.max_penetration;
     }
     true
+}
+
+/// True when an event function changed its sign from `g0` to `g1` (positive against not
+/// positive): the test [`relevant_crossing`] starts with.
+#[inline]
+pub fn crossed(g0: f64, g1: f64) -> bool {
+    (g0 <= 0.0) != (g1 <= 0.0)
 }
 
 /// True when a resting contact's normal force does not push or it left its patch (evaluates
