@@ -14,7 +14,7 @@ use crate::contact::{
     Gap,
 };
 use crate::forward::{evaluate, evaluate_current};
-use crate::kinematics::{frame, kinematics};
+use crate::kinematics::frame;
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 use nalgebra::Vector3;
@@ -159,27 +159,31 @@ pub fn resting_violated(m: &Model, d: &mut Data) -> bool {
 /// touch and separation of continuous contacts (logged), cuts of their force (logged), and
 /// the impulse-law contacts settled. An error when a contact reached `max_penetration`.
 ///
-/// Without impulse-law contacts the modes change by the gaps alone, and the kinematics at
-/// the event state is all that is evaluated (the force a cut logs is the law's, as the
-/// right-hand side computes it); the integrator's restart evaluates the rest there. With
-/// them, the whole evaluation (their resting forces are multipliers of the constrained
-/// solve, and their impacts read the mass matrix).
+/// The caller evaluated the event values at the event state `d.state`
+/// ([`crate::engine::events::event_values`], which leaves the full kinematics there).
+/// Without impulse-law contacts the modes change by the gaps alone, read on those kinematics
+/// (the force a cut logs is the law's, as the right-hand side computes it), and only the
+/// contacts whose mode or clamp function changed its sign are looked at; the integrator's
+/// restart evaluates the rest there. With them, the whole evaluation (their resting forces
+/// are multipliers of the constrained solve, and their impacts read the mass matrix).
 pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
     let impulse_law = d.contacts.iter().any(|c| c.law == Law::Impulse);
     if impulse_law {
         evaluate_current(m, d);
-    } else {
-        d.eval_state.copy_from_slice(&d.state);
-        kinematics(m, d);
     }
+    debug_assert!(d.eval_state == d.state, "the event values were evaluated at the event state");
     let n_contacts = d.contacts.len();
     let mut impulse_work = false;
     d.events.changed.clear();
     for i in 0..n_contacts {
+        let (before, now) = (d.events.g[i], d.events.g_new[i]);
+        if !crossed(before, now) && !crossed(d.events.g[n_contacts + i], d.events.g_new[n_contacts + i]) {
+            // (neither crossing can be relevant: nothing changes or is logged)
+            continue;
+        }
         let c = &d.contacts[i];
         let gap = gap(d, i);
         let mem = d.contact_memory[i];
-        let (before, now) = (d.events.g[i], d.events.g_new[i]);
         let crossed = relevant_crossing(d, i, before, now, gap.delta);
         // Reaching δ_max in contact is an error. (A continuous contact that is not active
         // there is a sphere passing behind a plate: not a contact at all.)
