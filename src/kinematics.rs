@@ -264,19 +264,35 @@ pub fn position_derivative(m: &Model, state: &[f64], qpos_dot: &mut [f64]) {
             JointType::Fixed => {}
             JointType::Spherical => quat_rate(&state[a..a + 4], &qvel[v..v + 3], &mut qpos_dot[a..a + 4]),
             JointType::Free => {
-                qpos_dot[a..a + 3].copy_from_slice(&qvel[v..v + 3]);
-                quat_rate(&state[a + 3..a + 7], &qvel[v + 3..v + 6], &mut qpos_dot[a + 3..a + 7]);
+                // (as arrays: the indices below need no bounds checks)
+                let q: &[f64; 7] = state[a..a + 7].try_into().expect("a free joint has 7 coordinates");
+                let w: &[f64; 6] = qvel[v..v + 6].try_into().expect("a free joint has 6 rates");
+                let out: &mut [f64; 7] = (&mut qpos_dot[a..a + 7])
+                    .try_into()
+                    .expect("a free joint has 7 coordinates");
+                let [_, _, _, qw, qx, qy, qz] = *q;
+                let [vx, vy, vz, wx, wy, wz] = *w;
+                let [rw, rx, ry, rz] = quat_rate_of([qw, qx, qy, qz], [wx, wy, wz]);
+                *out = [vx, vy, vz, rw, rx, ry, rz];
             }
         }
     }
 }
 
+/// The quaternion rate `½ Q ⊗ (0, w)` of `Q` = (w, x, y, z) at the body-frame angular
+/// velocity `w`.
+#[inline]
+fn quat_rate_of([qw, qx, qy, qz]: [f64; 4], w: [f64; 3]) -> [f64; 4] {
+    [
+        0.5 * (-qx * w[0] - qy * w[1] - qz * w[2]),
+        0.5 * (qw * w[0] + qy * w[2] - qz * w[1]),
+        0.5 * (qw * w[1] + qz * w[0] - qx * w[2]),
+        0.5 * (qw * w[2] + qx * w[1] - qy * w[0]),
+    ]
+}
+
 fn quat_rate(q: &[f64], w: &[f64], out: &mut [f64]) {
-    let (qw, qx, qy, qz) = (q[0], q[1], q[2], q[3]);
-    out[0] = 0.5 * (-qx * w[0] - qy * w[1] - qz * w[2]);
-    out[1] = 0.5 * (qw * w[0] + qy * w[2] - qz * w[1]);
-    out[2] = 0.5 * (qw * w[1] + qz * w[0] - qx * w[2]);
-    out[3] = 0.5 * (qw * w[2] + qx * w[1] - qy * w[0]);
+    out[..4].copy_from_slice(&quat_rate_of([q[0], q[1], q[2], q[3]], [w[0], w[1], w[2]]));
 }
 
 /// Calls `f(k)` for every degree of freedom on the path from `body` to the ground.
