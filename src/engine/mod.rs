@@ -21,7 +21,7 @@ pub mod modes;
 use crate::contact;
 use crate::dynamics;
 use crate::forward::{any_resting, evaluate, Rhs};
-use crate::kinematics::kinematics;
+use crate::kinematics::{kinematics, poses_and_velocities};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
 use crate::scene::Law;
@@ -432,8 +432,11 @@ fn restart(m: &Model, d: &mut Data, h: f64, warm: bool) -> Result<(), EngineErro
 }
 
 /// [`restart`] after an event (nothing kept) whose event values at the current state are in
-/// `d.events.g` and `aux` already: the kinematics there evaluated again (so that the data
-/// hold what `restart` leaves), not the event functions.
+/// `d.events.g` and `aux` already, evaluated there on the full kinematics: the poses and
+/// velocities there evaluated again (so that the data hold what `restart` leaves: the
+/// method's evaluations at the start overwrite the free bodies' poses and velocities with
+/// the plan's, and only those; their other kinematics are still those of the event values),
+/// not the event functions.
 fn restart_with_values(m: &Model, d: &mut Data, h: f64) -> Result<(), EngineError> {
     let t = d.time;
     with_stepper(m, d, |s, rhs| {
@@ -441,7 +444,7 @@ fn restart_with_values(m: &Model, d: &mut Data, h: f64) -> Result<(), EngineErro
         s.method.reset(rhs, t, &s.start, h);
     })?;
     d.eval_state.copy_from_slice(&d.state);
-    kinematics(m, d);
+    poses_and_velocities(m, d);
     d.solver.started = true;
     Ok(())
 }
