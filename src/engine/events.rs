@@ -49,12 +49,11 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     let stage_gaps = d.planned_kinematics;
     let n_contacts = d.contacts.len();
     for i in 0..n_contacts {
-        let (mode, clamp_value, a) =
-            if stage_gaps && d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
-                modes::stage_event_values(d, i, d.clamp_events)
-            } else {
-                modes::contact_event_values(d, i, d.clamp_events)
-            };
+        let (mode, clamp_value, a) = if stage_gaps && d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
+            modes::stage_event_values(d, i, d.clamp_events)
+        } else {
+            modes::contact_event_values(d, i, d.clamp_events)
+        };
         let (g, aux) = if at_step_end {
             (&mut d.events.g_new, &mut d.events.aux_new)
         } else {
