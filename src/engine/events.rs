@@ -139,20 +139,60 @@ fn interpolate(d: &mut Data, t: f64) {
     }
 }
 
+/// The most coordinates [`interpolate_contact`] interpolates: two free bodies' poses and
+/// velocities.
+const CONTACT_SLOTS: usize = 26;
+
+/// Puts the dense output at `t` into the coordinates of `d.eval_state` that contact `i`'s
+/// [`contact_kinematics`] reads when its bodies are free bodies (or the ground): their poses
+/// and velocities alone (the same numbers as [`interpolate`]'s); the whole state when a body
+/// is on a joint or the method does not interpolate single components. The other
+/// coordinates are left as they were: whatever follows a probe and evaluates more than its
+/// contact puts its own state into `d.eval_state` first (every other evaluation does).
+fn interpolate_contact(m: &Model, d: &mut Data, i: usize, t: f64) {
+    let c = &d.contacts[i];
+    let mut slots = [0usize; CONTACT_SLOTS];
+    let mut n = 0;
+    for body in [c.sphere_body, c.body].into_iter().flatten() {
+        let Some(fb) = m.plan.free_body(body) else {
+            interpolate(d, t);
+            return;
+        };
+        for k in 0..7 {
+            slots[n + k] = fb.qpos + k;
+        }
+        for k in 0..6 {
+            slots[n + 7 + k] = m.nq + fb.qvel + k;
+        }
+        n += 13;
+    }
+    let Some(method) = d.solver.method() else { return };
+    let mut values = [0.0; CONTACT_SLOTS];
+    if method.interpolate_slots(t, &slots[..n], &mut values[..n]) {
+        for (&slot, &value) in slots[..n].iter().zip(&values[..n]) {
+            d.eval_state[slot] = value;
+        }
+    } else {
+        method.interpolate(t, &mut d.eval_state);
+    }
+}
+
 /// Evaluates `probe` on the dense output at `t` (leaves the interpolated state in
-/// `d.eval_state` and the data evaluated there).
+/// `d.eval_state` and the data evaluated there: for a probe of one contact's kinematics, the
+/// coordinates of its bodies only, [`interpolate_contact`]).
 fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
-    interpolate(d, t);
     let n_contacts = d.contacts.len();
     let needs_dynamics = matches!(probe, Probe::Event(k) if k < n_contacts
         && d.contacts[k].law == Law::Impulse && d.contact_memory[k].active);
     if needs_dynamics {
+        interpolate(d, t);
         evaluate(m, d);
     } else {
         let i = match probe {
             Probe::Event(k) => k % n_contacts,
             Probe::Delta(i) | Probe::Rate(i) => i,
         };
+        interpolate_contact(m, d, i, t);
         contact_kinematics(m, d, i);
     }
     match probe {
@@ -375,7 +415,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if d.contact_memory[i].active || !(d0 <= 0.0 && d1 > 0.0) || d.events.g_new[i] > 0.0 {
             continue;
         }
-        interpolate(d, t0);
+        interpolate_contact(m, d, i, t0);
         contact_kinematics(m, d, i);
         let d0_exact = contact::gap(d, i).delta;
         if d0_exact > 0.0 {
@@ -427,7 +467,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         }
         let t = locate(m, d, Probe::Event(k), t0, t1, g0, g1, t1);
         if t <= t_first {
-            interpolate(d, t);
+            interpolate_contact(m, d, i, t);
             contact_kinematics(m, d, i);
             let g = contact::gap(d, i);
             let kind = if g1 <= 0.0 {
@@ -451,7 +491,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if r0 > 0.0 && r1 <= 0.0 {
             let t = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t1);
             if t <= t_first {
-                interpolate(d, t);
+                interpolate_contact(m, d, i, t);
                 contact_kinematics(m, d, i);
                 let g = contact::gap(d, i);
                 let mem = d.contact_memory[i];
