@@ -379,6 +379,28 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x.to_bits() ^ y.to_bits())) == 0
 }
 
+/// False when no contact passes the first test of any check of [`first_event`] over the
+/// step whose start and end values are in `d.events` (`g`, `aux`; `g_new`, `aux_new`): no
+/// event function changed its sign, no contact apart crossed δ = 0 or turned from closing to
+/// opening with its event function not positive, and no active one passed a peak (when peaks
+/// are logged). The common step: one pass instead of the checks' several.
+fn anything_to_check(d: &Data) -> bool {
+    let n = d.contacts.len();
+    let ev = &d.events;
+    let (g, g_new) = (&ev.g[..3 * n], &ev.g_new[..3 * n]);
+    let (aux, aux_new) = (&ev.aux[..n], &ev.aux_new[..n]);
+    (0..n).any(|i| {
+        let ((d0, r0), (d1, r1)) = (aux[i], aux_new[i]);
+        let active = d.contact_memory[i].active;
+        modes::crossed(g[i], g_new[i])
+            || modes::crossed(g[n + i], g_new[n + i])
+            || modes::crossed(g[2 * n + i], g_new[2 * n + i])
+            || (!active && d0 <= 0.0 && d1 > 0.0)
+            || (!active && r0 > 0.0 && r1 < 0.0)
+            || (d.log_peaks && active && r0 > 0.0 && r1 <= 0.0)
+    })
+}
+
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
 /// its end go to `d.events.g_new`, and the earliest relevant event inside it is returned
 /// (None: the step can be accepted whole). Peaks of continuous contacts before that event
@@ -401,6 +423,9 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     } else {
         d.eval_state.copy_from_slice(method.y());
         event_values_after(m, d, true, planned_kinematics);
+    }
+    if !anything_to_check(d) {
+        return None;
     }
     // Earliest relevant crossing.
     let mut t_first = t1;
