@@ -376,7 +376,11 @@ fn touch_step(m: &Model, d: &Data, i: usize, speed: f64, rtol_power: f64) -> Opt
 /// True when `a` and `b` hold the same numbers bit for bit (a test without an early exit,
 /// which the compiler vectorises: the states compared are equal at nearly every step).
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x.to_bits() ^ y.to_bits())) == 0
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .fold(0, |differ, (x, y)| differ | (x.to_bits() ^ y.to_bits()))
+            == 0
 }
 
 /// False when no contact passes the first test of any check of [`first_event`] over the

@@ -171,7 +171,10 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
     if impulse_law {
         evaluate_current(m, d);
     }
-    debug_assert!(d.eval_state == d.state, "the event values were evaluated at the event state");
+    debug_assert!(
+        d.eval_state == d.state,
+        "the event values were evaluated at the event state"
+    );
     let n_contacts = d.contacts.len();
     let mut impulse_work = false;
     d.events.changed.clear();
