@@ -49,7 +49,11 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
     }
     let mut power = dynamics::applied_forces(m, d);
     if !d.contacts.is_empty() {
-        power += contact::apply_forces(d);
+        power += if rotors {
+            lean_contact_forces(d)
+        } else {
+            contact::apply_forces(d)
+        };
     }
     d.dissipation = power;
     dynamics::mass_and_bias(m, d);
@@ -177,9 +181,19 @@ fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
     planned_kinematics(m, d);
     let mut power = dynamics::applied_forces(m, d);
     if !d.contacts.is_empty() {
-        power += contact::apply_forces(d);
+        power += lean_contact_forces(d);
     }
     d.dissipation = power;
+}
+
+/// [`contact::apply_forces`] for the right-hand side's lean path: over the contacts the
+/// engine listed for the integrator's step when it did (the same numbers), else over all.
+fn lean_contact_forces(d: &mut Data) -> f64 {
+    if d.force_contacts_listed {
+        contact::apply_listed_forces(d)
+    } else {
+        contact::apply_forces(d)
+    }
 }
 
 /// [`evaluate`] at the current state `d.state`.

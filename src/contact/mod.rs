@@ -219,35 +219,70 @@ pub fn apply_forces(d: &mut Data) -> f64 {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        let g = gap(d, i);
-        d.events.stage_gaps[i] = (g.delta, g.delta_dot, g.margin);
-        let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
-        power += (f.total - f.elastic) * g.delta_dot;
-        let mut force = g.normal * f.total;
-        let mut out = ContactOutput {
-            delta: g.delta.max(0.0),
-            delta_dot: g.delta_dot,
-            force: f.total,
-            elastic_energy: f.energy,
-            ..ContactOutput::default()
-        };
-        if c.friction.is_on() {
-            let slip = friction::slip_velocity(&frame(d, c.sphere_body), &frame(d, c.body), &g);
-            let ft = friction::force(&c.friction, f.total, &slip);
-            power -= ft.dot(&slip);
-            force += ft;
-            out.friction_force = ft;
-            out.slip_speed = slip.norm();
-        }
-        if let Some(b) = c.sphere_body {
-            d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&force, &g.point));
-        }
-        if let Some(b) = c.body {
-            d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-force), &g.point));
-        }
-        d.contact_out[i] = out;
+        apply_force(d, i, mem, &mut power);
     }
     power
+}
+
+/// Lists the contacts whose forces [`apply_forces`] computes (the active continuous ones) in
+/// `d.force_contacts`, in their order, and zeroes the outputs of the others, as
+/// [`apply_forces`] does: while the modes and the contact list stay as they are (one
+/// integrator step), [`apply_listed_forces`] then gives what [`apply_forces`] gives.
+pub fn list_force_contacts(d: &mut Data) {
+    d.force_contacts.clear();
+    for i in 0..d.contacts.len() {
+        if d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
+            // (within the capacity of the contact list's length: no allocation)
+            d.force_contacts.push(i);
+        } else {
+            d.contact_out[i] = ContactOutput::default();
+        }
+    }
+}
+
+/// [`apply_forces`] over the contacts [`list_force_contacts`] listed (the others' outputs are
+/// zero already): the same numbers, without a look at the contacts apart.
+pub fn apply_listed_forces(d: &mut Data) -> f64 {
+    let mut power = 0.0;
+    for k in 0..d.force_contacts.len() {
+        let i = d.force_contacts[k];
+        let mem = d.contact_memory[i];
+        apply_force(d, i, mem, &mut power);
+    }
+    power
+}
+
+/// The force of active continuous contact `i` (memory `mem`) on its bodies, its outputs and
+/// `d.events.stage_gaps` entry; its dissipated power added to `power`.
+fn apply_force(d: &mut Data, i: usize, mem: ContactMemory, power: &mut f64) {
+    let c = &d.contacts[i];
+    let g = gap(d, i);
+    d.events.stage_gaps[i] = (g.delta, g.delta_dot, g.margin);
+    let f = laws::force(c, g.delta, g.delta_dot, mem.impact_velocity);
+    *power += (f.total - f.elastic) * g.delta_dot;
+    let mut force = g.normal * f.total;
+    let mut out = ContactOutput {
+        delta: g.delta.max(0.0),
+        delta_dot: g.delta_dot,
+        force: f.total,
+        elastic_energy: f.energy,
+        ..ContactOutput::default()
+    };
+    if c.friction.is_on() {
+        let slip = friction::slip_velocity(&frame(d, c.sphere_body), &frame(d, c.body), &g);
+        let ft = friction::force(&c.friction, f.total, &slip);
+        *power -= ft.dot(&slip);
+        force += ft;
+        out.friction_force = ft;
+        out.slip_speed = slip.norm();
+    }
+    if let Some(b) = c.sphere_body {
+        d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&force, &g.point));
+    }
+    if let Some(b) = c.body {
+        d.body_force[b] = d.body_force[b].add(&Spatial::force_at(&(-force), &g.point));
+    }
+    d.contact_out[i] = out;
 }
 
 /// Coefficient vectors (sphere body, other body) whose pairing with the bodies' spatial

@@ -325,7 +325,13 @@ fn with_stepper<R>(m: &Model, d: &mut Data, f: impl FnOnce(&mut Stepper, &mut Rh
 
 /// Takes one integrator step toward `t_end` (the data's state is unchanged).
 fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
-    if let Err(e) = with_stepper(m, d, |s, rhs| s.method.step(rhs, t_end))? {
+    // (the modes stay through the step: the right-hand side reads the list of the contacts
+    // whose forces it computes)
+    contact::list_force_contacts(d);
+    d.force_contacts_listed = true;
+    let stepped = with_stepper(m, d, |s, rhs| s.method.step(rhs, t_end));
+    d.force_contacts_listed = false;
+    if let Err(e) = stepped? {
         stop_after_failure(d);
         return Err(fail(d, e.to_string()));
     }

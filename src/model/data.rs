@@ -388,6 +388,13 @@ pub struct Data {
     pub input_power: f64,
     /// Per-contact outputs of the last evaluation.
     pub contact_out: Vec<ContactOutput>,
+    /// The contacts whose forces the right-hand side computes (the active continuous ones),
+    /// listed by the engine for one integrator step (`contact::list_force_contacts`);
+    /// capacity: the number of contacts.
+    pub force_contacts: Vec<usize>,
+    /// True while `force_contacts` holds the list for the present modes (during an
+    /// integrator step): the right-hand side's lean path then reads it.
+    pub force_contacts_listed: bool,
     /// Contact groups: per body, the pose (centre of mass, orientation) where the candidate
     /// pairs were found.
     pub broad_reference: Vec<(Vector3<f64>, UnitQuaternion<f64>)>,
@@ -474,6 +481,8 @@ impl Data {
             dissipation: 0.0,
             input_power: 0.0,
             contact_out: Vec::new(),
+            force_contacts: Vec::new(),
+            force_contacts_listed: false,
             broad_reference: Vec::new(),
             body_contact: Vec::new(),
             group_out: Vec::new(),
@@ -543,6 +552,8 @@ impl Data {
             dissipation,
             input_power,
             contact_out: _,
+            force_contacts: _,
+            force_contacts_listed: _,
             broad_reference,
             body_contact,
             group_out,
@@ -669,6 +680,8 @@ impl Data {
         filled(&mut self.work, nv.max(nc), 0.0);
         filled(&mut self.friction_dlambda, nc, 0.0);
         filled(&mut self.contact_out, ncontacts, ContactOutput::default());
+        emptied(&mut self.force_contacts, ncontacts);
+        self.force_contacts_listed = false;
     }
 
     /// Takes the model's contact list (its contact elements, candidate pairs, step powers and
