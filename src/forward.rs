@@ -101,7 +101,8 @@ fn constrained_accelerations(m: &Model, d: &mut Data) {
 pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
     let plan = &m.plan;
     d.planned_kinematics = false;
-    if any_resting(d) {
+    // (nothing rests when the engine listed the contacts' forces for the step)
+    if !d.force_contacts_listed && any_resting(d) {
         return evaluate(m, d);
     }
     if plan.free.is_empty() {

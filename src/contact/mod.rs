@@ -227,9 +227,19 @@ pub fn apply_forces(d: &mut Data) -> f64 {
 /// Lists the contacts whose forces [`apply_forces`] computes (the active continuous ones) in
 /// `d.force_contacts`, in their order, and zeroes the outputs of the others, as
 /// [`apply_forces`] does: while the modes and the contact list stay as they are (one
-/// integrator step), [`apply_listed_forces`] then gives what [`apply_forces`] gives.
-pub fn list_force_contacts(d: &mut Data) {
+/// integrator step), [`apply_listed_forces`] then gives what [`apply_forces`] gives. False
+/// (and nothing listed) while an impulse-law contact rests: the right-hand side then takes
+/// the full evaluation.
+pub fn list_force_contacts(d: &mut Data) -> bool {
     d.force_contacts.clear();
+    let resting = d
+        .contacts
+        .iter()
+        .zip(&d.contact_memory)
+        .any(|(c, mem)| mem.active && c.law == Law::Impulse);
+    if resting {
+        return false;
+    }
     for i in 0..d.contacts.len() {
         if d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
             // (within the capacity of the contact list's length: no allocation)
@@ -238,6 +248,7 @@ pub fn list_force_contacts(d: &mut Data) {
             d.contact_out[i] = ContactOutput::default();
         }
     }
+    true
 }
 
 /// [`apply_forces`] over the contacts [`list_force_contacts`] listed (the others' outputs are

@@ -327,8 +327,7 @@ fn with_stepper<R>(m: &Model, d: &mut Data, f: impl FnOnce(&mut Stepper, &mut Rh
 fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     // (the modes stay through the step: the right-hand side reads the list of the contacts
     // whose forces it computes)
-    contact::list_force_contacts(d);
-    d.force_contacts_listed = true;
+    d.force_contacts_listed = contact::list_force_contacts(d);
     let stepped = with_stepper(m, d, |s, rhs| s.method.step(rhs, t_end));
     d.force_contacts_listed = false;
     if let Err(e) = stepped? {

@@ -393,7 +393,8 @@ pub struct Data {
     /// capacity: the number of contacts.
     pub force_contacts: Vec<usize>,
     /// True while `force_contacts` holds the list for the present modes (during an
-    /// integrator step): the right-hand side's lean path then reads it.
+    /// integrator step, when no impulse-law contact rests): the right-hand side's lean path
+    /// then reads it.
     pub force_contacts_listed: bool,
     /// Contact groups: per body, the pose (centre of mass, orientation) where the candidate
     /// pairs were found.
