@@ -1,7 +1,7 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
 use super::core::{restore_blocks, save_blocks, state_tag, StateReader, StepCore};
-use super::{error_norm, Integrator, IntegratorError, OdeSystem};
+use super::{error_scale, rms, Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 use std::cell::{Cell, Ref, RefCell};
 
@@ -231,13 +231,23 @@ impl Integrator for Dopri5 {
             }
             sys.rhs(t_new, y_new, k7);
             core.stats.rhs_evals += 6;
+            // The error estimate and its norm ([`error_norm`]), and the stiffness estimate's
+            // sums (Hairer's: k6 and k7 are f at the stage state `tmp` and at y_new, both at
+            // t_new, weighted as the error), in one pass; the sums in the order of
+            // [`error_norm`]'s.
+            let (mut sum, mut num, mut den) = (0.0, 0.0, 0.0);
             {
                 let k7 = &k7[..n];
                 for i in 0..n {
                     e[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+                    let sc = error_scale(y[i], y_new[i], core.rtol, core.atol);
+                    sum += (e[i] / sc) * (e[i] / sc);
+                    let w = 1.0 / sc;
+                    num += (w * (k7[i] - k6[i])).powi(2);
+                    den += (w * (y_new[i] - tmp[i])).powi(2);
                 }
             }
-            let err = error_norm(e, y, y_new, core.rtol, core.atol);
+            let err = rms(sum, n);
             if !err.is_finite() {
                 core.stats.rejected += 1;
                 core.h = h * 0.1;
@@ -253,15 +263,6 @@ impl Integrator for Dopri5 {
             let h_new = if rejected_before { (h / fac).min(h) } else { h / fac };
             if err <= 1.0 {
                 self.err_old = err.max(1e-4);
-                let k7s = &k7[..n];
-                // stiffness estimate: k6 and k7 are f at the stage state `tmp` and at y_new,
-                // both at t_new
-                let (mut num, mut den) = (0.0, 0.0);
-                for i in 0..n {
-                    let w = 1.0 / (core.atol + core.rtol * y[i].abs().max(y_new[i].abs()));
-                    num += (w * (k7s[i] - k6[i])).powi(2);
-                    den += (w * (y_new[i] - tmp[i])).powi(2);
-                }
                 self.stiffness = if den > 0.0 { h * (num / den).sqrt() } else { 0.0 };
                 // the stages stay for the dense output: k₇ becomes the next step's k₁ and
                 // this step's k₁ takes its place; the next step writes the other set

@@ -192,16 +192,28 @@ pub const WARM_JACOBIAN_MAX: usize = 40_000;
 
 /// Weighted RMS norm of an error estimate (Hairer's): `sqrt(mean((err/(atol+rtol·max|y|))²))`.
 pub fn error_norm(err: &[f64], y0: &[f64], y1: &[f64], rtol: f64, atol: f64) -> f64 {
-    let n = err.len().max(1) as f64;
     let s: f64 = err
         .iter()
         .zip(y0.iter().zip(y1))
         .map(|(e, (a, b))| {
-            let sc = atol + rtol * a.abs().max(b.abs());
+            let sc = error_scale(*a, *b, rtol, atol);
             (e / sc) * (e / sc)
         })
         .sum();
-    (s / n).sqrt()
+    rms(s, err.len())
+}
+
+/// The scale of a component's error in [`error_norm`]: `atol + rtol·max(|y₀|, |y₁|)`.
+#[inline]
+pub fn error_scale(y0: f64, y1: f64, rtol: f64, atol: f64) -> f64 {
+    atol + rtol * y0.abs().max(y1.abs())
+}
+
+/// The root mean square of `n` numbers whose squares sum to `sum_of_squares` (of one number
+/// when there are none), as [`error_norm`] takes it.
+#[inline]
+pub fn rms(sum_of_squares: f64, n: usize) -> f64 {
+    (sum_of_squares / n.max(1) as f64).sqrt()
 }
 
 /// Creates the integrator named by the solver settings for a system of size `n`.
