@@ -354,7 +354,9 @@ fn runaway(m: &Model, y: &[f64]) -> Option<String> {
     // (first passes without an early exit, which the compiler vectorises: nearly every state
     // is sound)
     let not_finite = y.iter().fold(false, |any, v| any | !v.is_finite());
-    let too_fast = y[nq..nq + nv].iter().fold(false, |any, v| any | (v.abs() > RUNAWAY_SPEED));
+    let too_fast = y[nq..nq + nv]
+        .iter()
+        .fold(false, |any, v| any | (v.abs() > RUNAWAY_SPEED));
     if !(not_finite || too_fast) {
         return None;
     }
