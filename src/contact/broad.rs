@@ -146,7 +146,9 @@ impl Groups {
                 }
             }
         }
-        entries.sort_unstable();
+        // (by the cell only: the order within a cell changes only the order in which its pairs
+        // are listed, and the list is sorted)
+        entries.sort_unstable_by_key(|e| e.0);
         let mut out = Vec::new();
         let mut start = 0;
         while start < entries.len() {
