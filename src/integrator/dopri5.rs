@@ -1,6 +1,6 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::core::{restore_blocks, save_blocks, state_tag, StateReader, StepCore};
+use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, StateReader, StepCore};
 use super::{error_norm, Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 use std::cell::{Cell, Ref, RefCell};
@@ -167,13 +167,7 @@ impl Dopri5 {
 }
 
 impl Integrator for Dopri5 {
-    fn core(&self) -> &StepCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut StepCore {
-        &mut self.core
-    }
+    core_accessors!();
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);
