@@ -17,6 +17,9 @@
 // `// SAFETY:` comment saying why it holds.
 #![deny(unsafe_op_in_unsafe_fn)]
 
+#[macro_use]
+mod named_enum;
+
 pub mod bench;
 pub mod checkpoint;
 pub mod compile;

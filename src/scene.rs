@@ -160,39 +160,29 @@ fn default_interval() -> f64 {
     1e-3
 }
 
-/// Integration methods, by their scene-file name. The numbers are the FMU enumeration values
-/// of `solver.method`.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Method {
-    /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location.
-    Dopri5 = 1,
-    /// Adaptive implicit SDIRK4 (L-stable, order 4) for stiff problems.
-    Sdirk = 2,
-    /// Classical fixed-step Runge-Kutta 4 (step = `max_step`), a baseline.
-    Rk4 = 3,
-    /// Adaptive implicit Radau IIA of order 5 (stage order 3) for stiff problems with a smooth
-    /// slow solution.
-    Radau5 = 4,
-    /// Dormand-Prince while the problem is not stiff, Radau IIA while it is, switched by a
-    /// stiffness estimate (default).
-    #[default]
-    Auto = 5,
+named_enum! {
+    /// Integration methods, by their scene-file name. The numbers are the FMU enumeration values
+    /// of `solver.method`.
+    #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Method {
+        /// Adaptive explicit Dormand-Prince 5(4) with dense output and event location.
+        Dopri5 = 1 => "dopri5",
+        /// Adaptive implicit SDIRK4 (L-stable, order 4) for stiff problems.
+        Sdirk = 2 => "sdirk",
+        /// Classical fixed-step Runge-Kutta 4 (step = `max_step`), a baseline.
+        Rk4 = 3 => "rk4",
+        /// Adaptive implicit Radau IIA of order 5 (stage order 3) for stiff problems with a smooth
+        /// slow solution.
+        Radau5 = 4 => "radau5",
+        /// Dormand-Prince while the problem is not stiff, Radau IIA while it is, switched by a
+        /// stiffness estimate (default).
+        #[default]
+        Auto = 5 => "auto",
+    }
 }
 
 impl Method {
-    /// All methods, in enumeration order.
-    pub const ALL: [Method; 5] = [Method::Dopri5, Method::Sdirk, Method::Rk4, Method::Radau5, Method::Auto];
-    /// Scene-file name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Dopri5 => "dopri5",
-            Method::Sdirk => "sdirk",
-            Method::Rk4 => "rk4",
-            Method::Radau5 => "radau5",
-            Method::Auto => "auto",
-        }
-    }
     /// From the FMU enumeration value.
     pub fn from_index(i: i64) -> Option<Method> {
         Method::ALL.iter().copied().find(|m| *m as i64 == i)
@@ -388,45 +378,28 @@ pub enum ContactType {
     SphereCylinder,
 }
 
-/// Contact laws. The numbers are the FMU enumeration values of `<contact>.law`.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Law {
-    /// F = K δ + c δ̇ (20)
-    KelvinVoigt = 1,
-    /// F = K δ^n (21)
-    Hertz = 2,
-    /// Hertz with Lankarani-Nikravesh hysteresis damping (24)-(26)
-    HertzLn = 3,
-    /// Hunt-Crossley: F = K δ^n (1 + α δ̇), α = 3(1-e)/(2 δ̇⁻)
-    HuntCrossley = 4,
-    /// Flores et al. (2011): F = K δ^n [1 + 8(1-e)/(5e) δ̇/δ̇⁻]
-    Flores = 5,
-    /// Piecewise analysis: instantaneous impact with restitution.
-    Impulse = 6,
+named_enum! {
+    /// Contact laws, by their scene-file name. The numbers are the FMU enumeration values of
+    /// `<contact>.law`.
+    #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Law {
+        /// F = K δ + c δ̇ (20)
+        KelvinVoigt = 1 => "kelvin_voigt",
+        /// F = K δ^n (21)
+        Hertz = 2 => "hertz",
+        /// Hertz with Lankarani-Nikravesh hysteresis damping (24)-(26)
+        HertzLn = 3 => "hertz_ln",
+        /// Hunt-Crossley: F = K δ^n (1 + α δ̇), α = 3(1-e)/(2 δ̇⁻)
+        HuntCrossley = 4 => "hunt_crossley",
+        /// Flores et al. (2011): F = K δ^n [1 + 8(1-e)/(5e) δ̇/δ̇⁻]
+        Flores = 5 => "flores",
+        /// Piecewise analysis: instantaneous impact with restitution.
+        Impulse = 6 => "impulse",
+    }
 }
 
 impl Law {
-    /// All laws, in enumeration order.
-    pub const ALL: [Law; 6] = [
-        Law::KelvinVoigt,
-        Law::Hertz,
-        Law::HertzLn,
-        Law::HuntCrossley,
-        Law::Flores,
-        Law::Impulse,
-    ];
-    /// Scene-file name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Law::KelvinVoigt => "kelvin_voigt",
-            Law::Hertz => "hertz",
-            Law::HertzLn => "hertz_ln",
-            Law::HuntCrossley => "hunt_crossley",
-            Law::Flores => "flores",
-            Law::Impulse => "impulse",
-        }
-    }
     /// From the FMU enumeration value.
     pub fn from_index(i: i64) -> Option<Law> {
         Law::ALL.iter().copied().find(|m| *m as i64 == i)

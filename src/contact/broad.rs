@@ -111,8 +111,8 @@ impl Groups {
         out
     }
 
-    /// Uniform grid: cells of the size of the largest box of a ball bound (at least the
-    /// margin). Each box is entered into the cells it covers (one sorted list of (cell, box)),
+    /// Uniform grid: cells of twice the size of the largest box of a ball bound (at least
+    /// the margin). Each box is entered into the cells it covers (one sorted list of (cell, box)),
     /// and a pair is reported by the first cell the two share; a box that would cover more
     /// than [`GRID_LARGE`] cells (a wall much larger than the spheres) is tested against every
     /// other box instead.
@@ -123,6 +123,10 @@ impl Groups {
                 cell = cell.max((b[1] - b[0]).max());
             }
         }
+        // (a box as large as its cell covers two cells along each axis, eight in all; one of
+        // half its cell covers 1.5³ ≈ 3.4 on average: a shorter list to sort for more pairs
+        // tested per cell; the list of pairs is the same at any size)
+        cell *= GRID_CELL_FACTOR;
         let lo: Vector3<f64> = boxes.iter().fold(Vector3::repeat(f64::INFINITY), |a, b| a.inf(&b[0]));
         let index = |x: &Vector3<f64>| -> [u64; 3] {
             let r = (x - lo) / cell;
@@ -146,7 +150,9 @@ impl Groups {
                 }
             }
         }
-        entries.sort_unstable();
+        // (by the cell only: the order within a cell changes only the order in which its pairs
+        // are listed, and the list is sorted)
+        entries.sort_unstable_by_key(|e| e.0);
         let mut out = Vec::new();
         let mut start = 0;
         while start < entries.len() {
@@ -208,6 +214,11 @@ impl Groups {
         out
     }
 }
+
+/// The grid's cell over the largest sphere box. On 1,000 spheres in a box (`bench islands
+/// --n 1000`, callgrind) the broad phase took 334 M instructions with 1, 254 M with 1.5,
+/// 210 M with 2 and 195 M with 3; 2 keeps the cells small for dense piles.
+const GRID_CELL_FACTOR: f64 = 2.0;
 
 /// Most grid cells a box may cover before the grid tests it against every box instead.
 const GRID_LARGE: u64 = 64;

@@ -58,27 +58,30 @@ impl Version {
     }
 }
 
-/// The states an instance can be in. (`StepInProgress` does not occur: `fmi2DoStep` is
-/// synchronous.)
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u32)]
-pub enum LifeState {
-    /// After `fmi2Instantiate` or `fmi2Reset`.
-    Instantiated = 1 << 0,
-    /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
-    InitializationMode = 1 << 1,
-    /// Ready for `fmi2DoStep`.
-    StepComplete = 1 << 2,
-    /// A step returned `fmi2Discard` (not produced by this library, restorable from a state).
-    StepFailed = 1 << 3,
-    /// A step was canceled (not produced by this library).
-    StepCanceled = 1 << 4,
-    /// After `fmi2Terminate`.
-    Terminated = 1 << 5,
-    /// A call returned `fmi2Error`: only free, reset, get values or restore a state.
-    Error = 1 << 6,
-    /// A call returned `fmi2Fatal`.
-    Fatal = 1 << 7,
+named_enum! {
+    /// The states an instance can be in, by the names log messages give them (FMI 2.0's;
+    /// [`LifeState::name_in`] for either). (`StepInProgress` does not occur: `fmi2DoStep` is
+    /// synchronous.)
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    #[repr(u32)]
+    pub enum LifeState {
+        /// After `fmi2Instantiate` or `fmi2Reset`.
+        Instantiated = 1 << 0 => "instantiated",
+        /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
+        InitializationMode = 1 << 1 => "initialization mode",
+        /// Ready for `fmi2DoStep`.
+        StepComplete = 1 << 2 => "step complete",
+        /// A step returned `fmi2Discard` (not produced by this library, restorable from a state).
+        StepFailed = 1 << 3 => "step failed",
+        /// A step was canceled (not produced by this library).
+        StepCanceled = 1 << 4 => "step canceled",
+        /// After `fmi2Terminate`.
+        Terminated = 1 << 5 => "terminated",
+        /// A call returned `fmi2Error`: only free, reset, get values or restore a state.
+        Error = 1 << 6 => "error",
+        /// A call returned `fmi2Fatal`.
+        Fatal = 1 << 7 => "fatal",
+    }
 }
 
 impl LifeState {
@@ -94,33 +97,7 @@ impl LifeState {
 
     /// Inverse of [`LifeState::code`].
     pub fn from_code(code: u32) -> Option<LifeState> {
-        use LifeState::*;
-        [
-            Instantiated,
-            InitializationMode,
-            StepComplete,
-            StepFailed,
-            StepCanceled,
-            Terminated,
-            Error,
-            Fatal,
-        ]
-        .into_iter()
-        .find(|s| s.code() == code)
-    }
-
-    /// The name used in log messages (FMI 2.0's; [`LifeState::name_in`] for either).
-    pub fn name(self) -> &'static str {
-        match self {
-            LifeState::Instantiated => "instantiated",
-            LifeState::InitializationMode => "initialization mode",
-            LifeState::StepComplete => "step complete",
-            LifeState::StepFailed => "step failed",
-            LifeState::StepCanceled => "step canceled",
-            LifeState::Terminated => "terminated",
-            LifeState::Error => "error",
-            LifeState::Fatal => "fatal",
-        }
+        LifeState::ALL.into_iter().find(|s| s.code() == code)
     }
 
     /// The name in the given version of FMI.

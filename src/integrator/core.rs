@@ -32,6 +32,22 @@ pub struct StepCore {
     pub stats: Stats,
 }
 
+/// The accessors [`Integrator::core`](super::Integrator::core) and
+/// [`Integrator::core_mut`](super::Integrator::core_mut) for a method whose step state is its
+/// field `core`.
+macro_rules! core_accessors {
+    () => {
+        fn core(&self) -> &StepCore {
+            &self.core
+        }
+
+        fn core_mut(&mut self) -> &mut StepCore {
+            &mut self.core
+        }
+    };
+}
+pub(crate) use core_accessors;
+
 impl StepCore {
     /// The state of a method for systems of size `n`, before any start.
     pub fn new(n: usize, rtol: f64, atol: f64, hmax: f64) -> StepCore {

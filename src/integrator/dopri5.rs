@@ -1,46 +1,40 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::core::{restore_blocks, save_blocks, state_tag, StateReader, StepCore};
+use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, StateReader, StepCore};
 use super::{error_scale, rms, Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 use std::cell::{Cell, Ref, RefCell};
 
+// The tableau (Dormand and Prince 1980; Hairer, Nørsett and Wanner, Table II.5.2), stage s
+// in the constants numbered s; a coefficient k of a row multiplies the stage k + 1.
+
+/// Nodes c₂ … c₅ (c₆ = c₇ = 1).
 const C2: f64 = 1.0 / 5.0;
 const C3: f64 = 3.0 / 10.0;
 const C4: f64 = 4.0 / 5.0;
 const C5: f64 = 8.0 / 9.0;
-const A21: f64 = 1.0 / 5.0;
-const A31: f64 = 3.0 / 40.0;
-const A32: f64 = 9.0 / 40.0;
-const A41: f64 = 44.0 / 45.0;
-const A42: f64 = -56.0 / 15.0;
-const A43: f64 = 32.0 / 9.0;
-const A51: f64 = 19372.0 / 6561.0;
-const A52: f64 = -25360.0 / 2187.0;
-const A53: f64 = 64448.0 / 6561.0;
-const A54: f64 = -212.0 / 729.0;
-const A61: f64 = 9017.0 / 3168.0;
-const A62: f64 = -355.0 / 33.0;
-const A63: f64 = 46732.0 / 5247.0;
-const A64: f64 = 49.0 / 176.0;
-const A65: f64 = -5103.0 / 18656.0;
-const A71: f64 = 35.0 / 384.0;
-const A73: f64 = 500.0 / 1113.0;
-const A74: f64 = 125.0 / 192.0;
-const A75: f64 = -2187.0 / 6784.0;
-const A76: f64 = 11.0 / 84.0;
-const E1: f64 = 71.0 / 57600.0;
-const E3: f64 = -71.0 / 16695.0;
-const E4: f64 = 71.0 / 1920.0;
-const E5: f64 = -17253.0 / 339200.0;
-const E6: f64 = 22.0 / 525.0;
-const E7: f64 = -1.0 / 40.0;
-const D1: f64 = -12715105075.0 / 11282082432.0;
-const D3: f64 = 87487479700.0 / 32700410799.0;
-const D4: f64 = -10690763975.0 / 1880347072.0;
-const D5: f64 = 701980252875.0 / 199316789632.0;
-const D6: f64 = -1453857185.0 / 822651844.0;
-const D7: f64 = 69997945.0 / 29380423.0;
+/// Rows 2 … 6 of the Butcher matrix: stage s's coefficients of k₁ … k₍ₛ₋₁₎.
+const A2: [f64; 1] = [1.0 / 5.0];
+const A3: [f64; 2] = [3.0 / 40.0, 9.0 / 40.0];
+const A4: [f64; 3] = [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0];
+const A5: [f64; 4] = [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0];
+#[rustfmt::skip]
+const A6: [f64; 5] = [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0];
+/// Weights of the order-5 solution, also row 7 (the stage at the step's end, the next
+/// step's k₁: FSAL); b₂ = 0.
+#[rustfmt::skip]
+const B: [f64; 6] = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0];
+/// Weights of the error estimate (order-5 minus order-4 solution) of k₁ … k₇; e₂ = 0.
+#[rustfmt::skip]
+const E: [f64; 7] = [
+    71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0,
+];
+/// Hairer's coefficients dᵢ of the dense output's 4th-order term, of k₁ … k₇; d₂ = 0.
+#[rustfmt::skip]
+const D: [f64; 7] = [
+    -12715105075.0 / 11282082432.0, 0.0, 87487479700.0 / 32700410799.0, -10690763975.0 / 1880347072.0,
+    701980252875.0 / 199316789632.0, -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0,
+];
 
 /// The Dormand-Prince 5(4) method.
 pub struct Dopri5 {
@@ -158,7 +152,7 @@ impl Dopri5 {
                 c0[i] = dy;
                 c1[i] = bspl;
                 c2[i] = dy - h * k7[i] - bspl;
-                c3[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+                c3[i] = h * (D[0] * k1[i] + D[2] * k3[i] + D[3] * k4[i] + D[4] * k5[i] + D[5] * k6[i] + D[6] * k7[i]);
             }
             self.cont_ready.set(true);
         }
@@ -167,13 +161,7 @@ impl Dopri5 {
 }
 
 impl Integrator for Dopri5 {
-    fn core(&self) -> &StepCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut StepCore {
-        &mut self.core
-    }
+    core_accessors!();
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);
@@ -202,32 +190,32 @@ impl Integrator for Dopri5 {
             let (y, k1) = (&core.y[..n], &core.f[..n]);
             let (tmp, y_new, e) = (&mut self.tmp[..n], &mut self.y_new[..n], &mut self.err[..n]);
             for i in 0..n {
-                tmp[i] = y[i] + h * A21 * k1[i];
+                tmp[i] = y[i] + h * A2[0] * k1[i];
             }
             sys.rhs(t + C2 * h, tmp, k2);
             let k2 = &k2[..n];
             for i in 0..n {
-                tmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
+                tmp[i] = y[i] + h * (A3[0] * k1[i] + A3[1] * k2[i]);
             }
             sys.rhs(t + C3 * h, tmp, k3);
             let k3 = &k3[..n];
             for i in 0..n {
-                tmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
+                tmp[i] = y[i] + h * (A4[0] * k1[i] + A4[1] * k2[i] + A4[2] * k3[i]);
             }
             sys.rhs(t + C4 * h, tmp, k4);
             let k4 = &k4[..n];
             for i in 0..n {
-                tmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
+                tmp[i] = y[i] + h * (A5[0] * k1[i] + A5[1] * k2[i] + A5[2] * k3[i] + A5[3] * k4[i]);
             }
             sys.rhs(t + C5 * h, tmp, k5);
             let k5 = &k5[..n];
             for i in 0..n {
-                tmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+                tmp[i] = y[i] + h * (A6[0] * k1[i] + A6[1] * k2[i] + A6[2] * k3[i] + A6[3] * k4[i] + A6[4] * k5[i]);
             }
             sys.rhs(t_new, tmp, k6);
             let k6 = &k6[..n];
             for i in 0..n {
-                y_new[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+                y_new[i] = y[i] + h * (B[0] * k1[i] + B[2] * k3[i] + B[3] * k4[i] + B[4] * k5[i] + B[5] * k6[i]);
             }
             sys.rhs(t_new, y_new, k7);
             core.stats.rhs_evals += 6;
@@ -239,7 +227,8 @@ impl Integrator for Dopri5 {
             {
                 let k7 = &k7[..n];
                 for i in 0..n {
-                    e[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+                    e[i] =
+                        h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
                     let sc = error_scale(y[i], y_new[i], core.rtol, core.atol);
                     sum += (e[i] / sc) * (e[i] / sc);
                     let w = 1.0 / sc;
@@ -354,6 +343,36 @@ mod tests {
     /// Tolerances so loose that every step of `h` is accepted: the formula alone.
     fn fixed(n: usize, h: f64) -> Dopri5 {
         Dopri5::new(n, 1e6, 1e6, h)
+    }
+
+    #[test]
+    fn tableau_satisfies_the_order_conditions() {
+        // rows by stage (row 7 the weights b, with b₇ = 0) and the nodes
+        let rows: [&[f64]; 7] = [&[], &A2, &A3, &A4, &A5, &A6, &B];
+        let c = [0.0, C2, C3, C4, C5, 1.0, 1.0];
+        let b = |i: usize| B.get(i).copied().unwrap_or(0.0);
+        for (s, row) in rows.iter().enumerate() {
+            assert!(
+                (row.iter().sum::<f64>() - c[s]).abs() < 1e-14,
+                "row {} sums to c",
+                s + 1
+            );
+        }
+        // quadrature: Σ bᵢ cᵢ^{k−1} = 1/k up to k = 5; the order-4 solution's weights b − e
+        // up to k = 4, so Σ eᵢ cᵢ^{k−1} = 0 there
+        for k in 1..=5 {
+            let bc: f64 = (0..7).map(|i| b(i) * c[i].powi(k - 1)).sum();
+            assert!((bc - 1.0 / k as f64).abs() < 1e-14, "Σ b c^{}: {bc}", k - 1);
+        }
+        for k in 1..=4 {
+            let ec: f64 = (0..7).map(|i| E[i] * c[i].powi(k - 1)).sum();
+            assert!(ec.abs() < 1e-14, "Σ e c^{}: {ec}", k - 1);
+        }
+        // D(1): Σᵢ bᵢ aᵢⱼ = bⱼ (1 − cⱼ)
+        for j in 0..6 {
+            let ba: f64 = (j + 1..7).map(|i| b(i) * rows[i][j]).sum();
+            assert!((ba - b(j) * (1.0 - c[j])).abs() < 1e-14, "D(1) column {}", j + 1);
+        }
     }
 
     #[test]

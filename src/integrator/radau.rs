@@ -513,16 +513,6 @@ mod tests {
     use super::super::Integrator;
     use super::*;
 
-    /// One step of exactly `h` (tight Newton, fresh Jacobian, no error control).
-    fn fixed_step(m: &mut Radau5, sys: &mut dyn OdeSystem, h: f64) -> f64 {
-        m.newton.max_newton = 40;
-        m.jacobian(sys);
-        let (err, _) = m.attempt(sys, h, false).expect("Newton failed");
-        let t_new = m.core.t + h;
-        m.accept(sys, h, t_new);
-        err
-    }
-
     #[test]
     fn tableau_is_radau_iia() {
         // B(5): Σ bᵢ cᵢ^{k−1} = 1/k; C(3): Σⱼ aᵢⱼ cⱼ^{k−1} = cᵢᵏ/k
@@ -549,29 +539,13 @@ mod tests {
 
     #[test]
     fn converges_with_order_five() {
-        let y0 = Smooth::exact(0.0);
-        let err = |steps: usize| {
-            let h = 2.0 / steps as f64;
-            let mut m = Radau5::new(3, 1e-13, 1e-13, f64::INFINITY);
-            m.reset(&mut Smooth, 0.0, &y0, h);
-            for _ in 0..steps {
-                fixed_step(&mut m, &mut Smooth, h);
-            }
-            max_diff(m.y(), &Smooth::exact(2.0))
-        };
-        assert_order("radau5", 5.0, [err(10), err(20), err(40)]);
+        assert_fixed_step_order("radau5", Radau5::new, 5.0);
     }
 
     #[test]
     fn dense_output_and_error_estimate_have_the_expected_local_orders() {
         // collocation polynomial: O(h⁴) over the step; error estimate of an order-3 method: O(h⁴)
-        let y0 = Smooth::exact(1.0);
-        let run = |h: f64| {
-            let mut m = Radau5::new(3, 1e-13, 1e-13, f64::INFINITY);
-            m.reset(&mut Smooth, 1.0, &y0, h);
-            let est = fixed_step(&mut m, &mut Smooth, h);
-            (dense_error(&m, |t| Smooth::exact(t).to_vec()), est)
-        };
+        let run = |h: f64| smooth_one_step(Radau5::new, 1.0, h);
         let ((d1, s1), (d2, s2), (d3, s3)) = (run(0.1), run(0.05), run(0.025));
         assert_order("dense output", 4.0, [d1, d2, d3]);
         assert_order("error estimate", 4.0, [s1, s2, s3]);

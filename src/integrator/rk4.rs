@@ -1,7 +1,7 @@
 //! Classical fixed-step Runge-Kutta 4, a baseline. Dense output is the cubic Hermite
 //! interpolant through both ends of the step.
 
-use super::core::{state_tag, StateReader, StepCore};
+use super::core::{core_accessors, state_tag, StateReader, StepCore};
 use super::{Integrator, IntegratorError, OdeSystem};
 use crate::scene::Method;
 
@@ -32,13 +32,7 @@ impl Rk4 {
 }
 
 impl Integrator for Rk4 {
-    fn core(&self) -> &StepCore {
-        &self.core
-    }
-
-    fn core_mut(&mut self) -> &mut StepCore {
-        &mut self.core
-    }
+    core_accessors!();
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], _h: f64) {
         self.core.start(sys, t, y);

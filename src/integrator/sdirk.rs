@@ -228,25 +228,6 @@ mod tests {
     use super::super::Integrator;
     use super::*;
 
-    /// Takes one step of exactly `h` (tight Newton tolerance, fresh Jacobian, no error
-    /// control), to measure the order of the formula itself.
-    fn fixed_step(m: &mut Sdirk, sys: &mut dyn OdeSystem, h: f64) {
-        m.newton.max_newton = 40;
-        m.jacobian(sys);
-        m.attempt(sys, h, false).expect("Newton failed");
-        let t_new = m.core.t + h;
-        m.accept(sys, h, t_new);
-    }
-
-    fn fixed_run(sys: &mut dyn OdeSystem, y0: &[f64], h: f64, steps: usize) -> Sdirk {
-        let mut m = Sdirk::new(y0.len(), 1e-13, 1e-13, f64::INFINITY);
-        m.reset(sys, 0.0, y0, h);
-        for _ in 0..steps {
-            fixed_step(&mut m, sys, h);
-        }
-        m
-    }
-
     #[test]
     fn tableau_satisfies_the_order_conditions() {
         let ac: Vec<f64> = (0..S)
@@ -308,24 +289,13 @@ mod tests {
 
     #[test]
     fn converges_with_order_four() {
-        let y0 = Smooth::exact(0.0);
-        let err = |n: usize| {
-            let m = fixed_run(&mut Smooth, &y0, 2.0 / n as f64, n);
-            max_diff(m.y(), &Smooth::exact(2.0))
-        };
-        assert_order("sdirk", 4.0, [err(10), err(20), err(40)]);
+        assert_fixed_step_order("sdirk", Sdirk::new, 4.0);
     }
 
     #[test]
     fn dense_output_has_local_order_four() {
         // one step from the exact state: the order-3 interpolant errs by O(h⁴)
-        let y0 = Smooth::exact(0.3);
-        let err = |h: f64| {
-            let mut m = Sdirk::new(3, 1e-13, 1e-13, f64::INFINITY);
-            m.reset(&mut Smooth, 0.3, &y0, h);
-            fixed_step(&mut m, &mut Smooth, h);
-            dense_error(&m, |t| Smooth::exact(t).to_vec())
-        };
+        let err = |h: f64| smooth_one_step(Sdirk::new, 0.3, h).0;
         assert_order("sdirk", 4.0, [err(0.2), err(0.1), err(0.05)]);
     }
 

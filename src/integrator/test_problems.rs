@@ -1,6 +1,7 @@
 //! Test problems with closed-form solutions, shared by the integrators' unit tests, and the
 //! helpers that run and measure them.
 
+use super::newton::ImplicitMethod;
 use super::{Integrator, OdeSystem};
 
 /// `y₀' = y₀, y₁' = y₂, y₂' = −y₁` from `(1, 0, 1)`: `(eᵗ, sin t, cos t)`.
@@ -105,6 +106,52 @@ pub fn run_from(m: &mut dyn Integrator, sys: &mut dyn OdeSystem, t0: f64, y0: &[
         m.step(sys, t_end).expect("step failed");
     }
     m.y().to_vec()
+}
+
+/// One step of an implicit method of exactly `h` (tight Newton, fresh Jacobian, no error
+/// control), to measure the order of the formula itself; returns the step's error estimate.
+pub fn implicit_fixed_step<M: ImplicitMethod>(m: &mut M, sys: &mut dyn OdeSystem, h: f64) -> f64 {
+    m.parts_mut().1.max_newton = 40;
+    m.jacobian(sys);
+    let (err, _) = m.attempt(sys, h, false).expect("Newton failed");
+    let t_new = m.parts().0.t + h;
+    m.accept(sys, h, t_new);
+    err
+}
+
+/// The method that `new` makes for [`Smooth`] with tolerances of 1e-13 (its Newton iterations
+/// converge to rounding), started at the exact state at `t0`, after `steps` steps of exactly
+/// `h` ([`implicit_fixed_step`]); and the last step's error estimate.
+pub fn smooth_fixed_steps<M: ImplicitMethod>(
+    new: fn(usize, f64, f64, f64) -> M,
+    t0: f64,
+    h: f64,
+    steps: usize,
+) -> (M, f64) {
+    let mut m = new(3, 1e-13, 1e-13, f64::INFINITY);
+    m.reset(&mut Smooth, t0, &Smooth::exact(t0), h);
+    let mut estimate = 0.0;
+    for _ in 0..steps {
+        estimate = implicit_fixed_step(&mut m, &mut Smooth, h);
+    }
+    (m, estimate)
+}
+
+/// Asserts that the implicit method `new` makes converges with order `p` at fixed steps: its
+/// errors at t = 2 after 10, 20 and 40 steps from the exact state of [`Smooth`] at 0.
+pub fn assert_fixed_step_order<M: ImplicitMethod>(name: &str, new: fn(usize, f64, f64, f64) -> M, p: f64) {
+    let err = |steps: usize| {
+        let (m, _) = smooth_fixed_steps(new, 0.0, 2.0 / steps as f64, steps);
+        max_diff(m.y(), &Smooth::exact(2.0))
+    };
+    assert_order(name, p, [err(10), err(20), err(40)]);
+}
+
+/// One step of exactly `h` from the exact state of [`Smooth`] at `t0` ([`smooth_fixed_steps`]):
+/// the largest error of its dense output and its error estimate.
+pub fn smooth_one_step<M: ImplicitMethod>(new: fn(usize, f64, f64, f64) -> M, t0: f64, h: f64) -> (f64, f64) {
+    let (m, estimate) = smooth_fixed_steps(new, t0, h, 1);
+    (dense_error(&m, |t| Smooth::exact(t).to_vec()), estimate)
 }
 
 /// Largest absolute difference.

@@ -269,106 +269,31 @@ struct Case {
     seed: u64,
 }
 
+/// The cases, one a line: name, system, start, rtol, atol, max_step, implicit methods only,
+/// seed.
+#[rustfmt::skip]
 fn cases() -> Vec<Case> {
     let case = |name, sys: Box<dyn OdeSystem>, y0: &[f64], rtol, atol, max_step, implicit_only, seed| Case {
         name,
         sys,
         y0: y0.to_vec(),
-        s: SolverSection {
-            method: Method::Dopri5,
-            rtol,
-            atol,
-            max_step,
-            ..SolverSection::default()
-        },
+        s: SolverSection { method: Method::Dopri5, rtol, atol, max_step, ..SolverSection::default() },
         implicit_only,
         seed,
     };
     vec![
-        case(
-            "growth",
-            Box::new(Growth),
-            &Growth::exact(0.0),
-            1e-6,
-            1e-8,
-            0.05,
-            false,
-            1,
-        ),
-        case(
-            "smooth",
-            Box::new(Smooth),
-            &Smooth::exact(0.0),
-            1e-9,
-            1e-10,
-            0.1,
-            false,
-            2,
-        ),
-        case(
-            "soft spring",
-            Box::new(SpringDamper { omega: 10.0, g: 9.81 }),
-            &[0.0, -1.0],
-            1e-7,
-            1e-9,
-            1e-2,
-            false,
-            3,
-        ),
+        case("growth", Box::new(Growth), &Growth::exact(0.0), 1e-6, 1e-8, 0.05, false, 1),
+        case("smooth", Box::new(Smooth), &Smooth::exact(0.0), 1e-9, 1e-10, 0.1, false, 2),
+        case("soft spring", Box::new(SpringDamper { omega: 10.0, g: 9.81 }), &[0.0, -1.0], 1e-7, 1e-9, 1e-2, false, 3),
         // stiff: dopri5 sits at its stability limit (rejections); the implicit methods
         // keep one Jacobian
-        case(
-            "prothero-robinson",
-            Box::new(ProtheroRobinson { lambda: -1e5 }),
-            &[0.0],
-            1e-6,
-            1e-6,
-            0.5,
-            true,
-            4,
-        ),
-        case(
-            "stiff spring",
-            Box::new(SpringDamper { omega: 1e4, g: 9.81 }),
-            &[0.0, -1.0],
-            1e-8,
-            1e-10,
-            1e-2,
-            true,
-            5,
-        ),
+        case("prothero-robinson", Box::new(ProtheroRobinson { lambda: -1e5 }), &[0.0], 1e-6, 1e-6, 0.5, true, 4),
+        case("stiff spring", Box::new(SpringDamper { omega: 1e4, g: 9.81 }), &[0.0, -1.0], 1e-8, 1e-10, 1e-2, true, 5),
         // stiff and nonlinear: stale Jacobians, refreshes, Newton failures, rejections
-        case(
-            "van der pol",
-            Box::new(VanDerPol { eps: 1e-3 }),
-            &[2.0, -0.66],
-            1e-6,
-            1e-6,
-            0.1,
-            true,
-            6,
-        ),
-        case(
-            "stiff cubic",
-            Box::new(StiffCubic { lambda: 1e4 }),
-            &[0.0],
-            1e-5,
-            1e-7,
-            0.5,
-            true,
-            7,
-        ),
+        case("van der pol", Box::new(VanDerPol { eps: 1e-3 }), &[2.0, -0.66], 1e-6, 1e-6, 0.1, true, 6),
+        case("stiff cubic", Box::new(StiffCubic { lambda: 1e4 }), &[0.0], 1e-5, 1e-7, 0.5, true, 7),
         // loose: Newton converges slowly yet accepts, so the Jacobian goes stale
-        case(
-            "cubic, loose",
-            Box::new(StiffCubic { lambda: 1e2 }),
-            &[0.0],
-            1e-3,
-            1e-5,
-            0.05,
-            true,
-            8,
-        ),
+        case("cubic, loose", Box::new(StiffCubic { lambda: 1e2 }), &[0.0], 1e-3, 1e-5, 0.05, true, 8),
     ]
 }
 

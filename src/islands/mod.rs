@@ -36,7 +36,7 @@ use crate::contact::elements::{contact_name, set_candidates};
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
-use crate::kinematics::kinematics;
+use crate::kinematics::poses_and_velocities;
 use crate::model::contact::ContactMemory;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
@@ -570,6 +570,9 @@ impl Islands {
         let t_close = 16.0 * f64::EPSILON * t_end.abs().max(1e-300);
         let grouped = m.groups.is_active();
         let mut rounds = 0u64;
+        // the scene's poses and velocities in `d` are those of its state (evaluated at the
+        // last round's end, where nothing changed the state since)
+        let mut poses_fresh = false;
         // solver.max_steps bounds each island's steps per advance, and the steps of all islands
         // together to that many per island there is (counted at each round): a scene of many
         // independent bodies gets a budget that grows with them, a pile whose islands merged
@@ -593,8 +596,12 @@ impl Islands {
             // (the rounds do not depend on the communication points: a round planned from the
             // state at its start goes on across them)
             if grouped && !self.round_end.is_finite() {
+                if !poses_fresh {
+                    scene_poses(m, d);
+                }
                 self.round_end = self.time + round_length(m, d);
             }
+            poses_fresh = false;
             let mut t_round = t_end;
             let mut ends_round = false;
             if self.round_end < t_end - t_close {
@@ -664,8 +671,8 @@ impl Islands {
             let stale = t_met < t_round && !at_event;
             if grouped && ((ends_round && t_met >= t_round) || stale) {
                 self.round_end = f64::INFINITY;
-                d.eval_state.copy_from_slice(&d.state);
-                kinematics(m, d);
+                scene_poses(m, d);
+                poses_fresh = true;
                 let moved = (0..m.bodies.len())
                     .filter(|&b| m.groups.has_shape[b])
                     .map(|b| groups::displacement(m, d, b))
@@ -748,13 +755,18 @@ fn restore(island: &mut Island) {
     island.data.event_log.truncate(island.saved_log);
 }
 
-/// The time in which no body's group shapes can move [`ROUND_FRACTION`] of the margin from
-/// the reference poses at their present speed under gravity (the scene's data `d` evaluated
-/// at the islands' coordinates).
-fn round_length(m: &Model, d: &mut Data) -> f64 {
-    let g = &m.groups;
+/// The poses and velocities of the scene's bodies at its state (the islands' coordinates),
+/// bit for bit those of the whole kinematics, which nothing here reads otherwise.
+fn scene_poses(m: &Model, d: &mut Data) {
     d.eval_state.copy_from_slice(&d.state);
-    kinematics(m, d);
+    poses_and_velocities(m, d);
+}
+
+/// The time in which no body's group shapes can move [`ROUND_FRACTION`] of the margin from
+/// the reference poses at their present speed under gravity (from the poses and velocities
+/// in the scene's data `d`, [`scene_poses`]).
+fn round_length(m: &Model, d: &Data) -> f64 {
+    let g = &m.groups;
     let a = m.gravity.norm();
     let mut time = f64::INFINITY;
     for b in 0..m.bodies.len() {

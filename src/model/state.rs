@@ -12,50 +12,30 @@ use crate::integrator::Stats;
 use crate::model::groups::Candidate;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
-/// One part of the state (a bit of a mask).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u32)]
-pub enum StatePart {
-    /// `Data::time`: 1 number.
-    Time = 1,
-    /// `Data::state`: positions, velocities, dissipated energy (`Model::nstate` numbers).
-    Coordinates = 2,
-    /// `Data::inputs`: one number per input.
-    Inputs = 4,
-    /// `Data::contact_memory`: active flag, δ̇⁻, impact count per contact. With contact
-    /// groups, first the candidate pairs behind the group contacts (their number, then pair,
-    /// sphere and other shape of each) and the reference poses where they were found (per
-    /// body: position, quaternion w, x, y, z).
-    ContactMemory = 8,
-    /// `Data::counters`: steps, rejected, RHS and Jacobian evaluations, events.
-    Counters = 16,
-    /// The integrator: whether it continues its last step (0/1), the step size to try at a
-    /// restart, the pending event time (infinite: none), then the length of the method's own
-    /// state and that state (`Integrator::save_state`: its last step, dense output,
-    /// controller and Newton memory, counters; length 0: none, the method restarts cold).
-    Solver = 32,
-}
-
-impl StatePart {
-    /// Every part, in the order of their bits (the order of the numbers).
-    pub const ALL: [StatePart; 6] = [
-        StatePart::Time,
-        StatePart::Coordinates,
-        StatePart::Inputs,
-        StatePart::ContactMemory,
-        StatePart::Counters,
-        StatePart::Solver,
-    ];
-
-    fn name(self) -> &'static str {
-        match self {
-            StatePart::Time => "time",
-            StatePart::Coordinates => "coordinates",
-            StatePart::Inputs => "inputs",
-            StatePart::ContactMemory => "contact memory",
-            StatePart::Counters => "counters",
-            StatePart::Solver => "integrator",
-        }
+named_enum! {
+    /// One part of the state (a bit of a mask), by the name its messages give it; declared in
+    /// the order of their bits, which `ALL` keeps: the order of the numbers.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    #[repr(u32)]
+    pub enum StatePart {
+        /// `Data::time`: 1 number.
+        Time = 1 => "time",
+        /// `Data::state`: positions, velocities, dissipated energy (`Model::nstate` numbers).
+        Coordinates = 2 => "coordinates",
+        /// `Data::inputs`: one number per input.
+        Inputs = 4 => "inputs",
+        /// `Data::contact_memory`: active flag, δ̇⁻, impact count per contact. With contact
+        /// groups, first the candidate pairs behind the group contacts (their number, then pair,
+        /// sphere and other shape of each) and the reference poses where they were found (per
+        /// body: position, quaternion w, x, y, z).
+        ContactMemory = 8 => "contact memory",
+        /// `Data::counters`: steps, rejected, RHS and Jacobian evaluations, events.
+        Counters = 16 => "counters",
+        /// The integrator: whether it continues its last step (0/1), the step size to try at a
+        /// restart, the pending event time (infinite: none), then the length of the method's own
+        /// state and that state (`Integrator::save_state`: its last step, dense output,
+        /// controller and Newton memory, counters; length 0: none, the method restarts cold).
+        Solver = 32 => "integrator",
     }
 }
 

@@ -46,54 +46,34 @@ impl EnumType {
     }
 }
 
-/// FMI causality.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    /// Set by the user before initialisation.
-    Parameter,
-    /// Computed from parameters at initialisation.
-    CalculatedParameter,
-    /// Set by the host at any communication point.
-    Input,
-    /// Computed.
-    Output,
-}
-
-/// FMI variability.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    /// Fixed after initialisation.
-    Fixed,
-    /// A parameter that may also change between communication points after initialisation
-    /// (it takes effect from the next step on).
-    Tunable,
-    /// Changes at events only (Integer/Boolean outputs).
-    Discrete,
-    /// Real inputs and outputs.
-    Continuous,
-}
-
-impl Causality {
-    /// The name FMI gives it (`causality` attribute).
-    pub fn name(self) -> &'static str {
-        match self {
-            Causality::Parameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-        }
+named_enum! {
+    /// FMI causality, by the name FMI gives it (`causality` attribute).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum Causality {
+        /// Set by the user before initialisation.
+        Parameter => "parameter",
+        /// Computed from parameters at initialisation.
+        CalculatedParameter => "calculatedParameter",
+        /// Set by the host at any communication point.
+        Input => "input",
+        /// Computed.
+        Output => "output",
     }
 }
 
-impl Variability {
-    /// The name FMI gives it (`variability` attribute).
-    pub fn name(self) -> &'static str {
-        match self {
-            Variability::Fixed => "fixed",
-            Variability::Tunable => "tunable",
-            Variability::Discrete => "discrete",
-            Variability::Continuous => "continuous",
-        }
+named_enum! {
+    /// FMI variability, by the name FMI gives it (`variability` attribute).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum Variability {
+        /// Fixed after initialisation.
+        Fixed => "fixed",
+        /// A parameter that may also change between communication points after initialisation
+        /// (it takes effect from the next step on).
+        Tunable => "tunable",
+        /// Changes at events only (Integer/Boolean outputs).
+        Discrete => "discrete",
+        /// Real inputs and outputs.
+        Continuous => "continuous",
     }
 }
 
