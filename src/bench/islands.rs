@@ -64,9 +64,10 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         "former_seconds_per_simulated_second",
         "one_integrator_seconds_per_simulated_second",
         "speedup_over_former",
+        "speedup_over_one_integrator",
     ]);
     println!(
-        "{:>6} {:>12} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>8}",
+        "{:>6} {:>12} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>11} {:>9}",
         "N",
         "s per sim s",
         "steps",
@@ -79,7 +80,8 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         "compiled",
         "former",
         "one integr.",
-        "speedup"
+        "over former",
+        "over one"
     );
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for &n in ns {
@@ -117,9 +119,10 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             (None, None)
         };
         let speedup = former.map(|x| x / per_sim);
+        let over_one = one.map(|x| x / per_sim);
         let opt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.3}"));
         println!(
-            "{:>6} {:>12.3} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>8}",
+            "{:>6} {:>12.3} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>11} {:>9}",
             n,
             per_sim,
             c.steps,
@@ -132,7 +135,8 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             compiled,
             opt(former),
             opt(one),
-            speedup.map_or("-".to_string(), |v| format!("{v:.1}x"))
+            speedup.map_or("-".to_string(), |v| format!("{v:.1}x")),
+            over_one.map_or("-".to_string(), |v| format!("{v:.1}x"))
         );
         let optf = |x: Option<f64>| x.map_or(String::new(), f);
         csv.push(vec![
@@ -149,6 +153,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             optf(former),
             optf(one),
             optf(speedup),
+            optf(over_one),
         ]);
         if n >= 100 {
             xs.push(n as f64);
