@@ -20,6 +20,7 @@ pub mod radau;
 pub mod rk4;
 pub mod sdirk;
 pub mod second_order;
+pub mod warm;
 
 #[cfg(test)]
 pub(crate) mod alloc_counter;

@@ -1,8 +1,8 @@
 //! The integrators' common unit tests: no allocation in a step, warm restarts that keep the
 //! Jacobian, and saved states that continue bit for bit or are refused without a change.
 
-use super::newton::{WarmMemory, FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
 use super::test_problems::*;
+use super::warm::{WarmMemory, FAILURE_BURST_STEPS, FILTERED_START_STEPS, WARM_HEADER};
 use super::*;
 
 /// Solver settings for `method` with largest step 0.01.
