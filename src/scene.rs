@@ -182,13 +182,6 @@ named_enum! {
     }
 }
 
-impl Method {
-    /// From the FMU enumeration value.
-    pub fn from_index(i: i64) -> Option<Method> {
-        Method::ALL.iter().copied().find(|m| *m as i64 == i)
-    }
-}
-
 /// `[solver]`: every key is also an FMU parameter `solver.<key>`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -396,13 +389,6 @@ named_enum! {
         Flores = 5 => "flores",
         /// Piecewise analysis: instantaneous impact with restitution.
         Impulse = 6 => "impulse",
-    }
-}
-
-impl Law {
-    /// From the FMU enumeration value.
-    pub fn from_index(i: i64) -> Option<Law> {
-        Law::ALL.iter().copied().find(|m| *m as i64 == i)
     }
 }
 

@@ -447,8 +447,7 @@ impl ContactSpec {
     }
 }
 
-/// The chainable setters of the surface keys of a `[[contact]]` and a `[[shape]]`: those of a
-/// rectangle and those of a cylinder.
+/// Group shapes of a rectangle or a cylinder, their surface keys set by the setters below.
 impl ShapeSpec {
     /// The rectangle `p` on `body`, in `group` (see `[[contact]]`'s sphere_plane keys).
     pub fn plane(group: &str, body: &str, p: Plane) -> ShapeSpec {
@@ -461,6 +460,8 @@ impl ShapeSpec {
     }
 }
 
+/// The chainable setters of the surface keys of a `[[contact]]` and a `[[shape]]`: those of a
+/// rectangle and those of a cylinder.
 macro_rules! surface_key_setters {
     ($spec:ty) => {
         impl $spec {

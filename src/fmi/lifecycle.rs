@@ -97,7 +97,7 @@ impl LifeState {
 
     /// Inverse of [`LifeState::code`].
     pub fn from_code(code: u32) -> Option<LifeState> {
-        LifeState::ALL.into_iter().find(|s| s.code() == code)
+        LifeState::from_value(code.into())
     }
 
     /// The name in the given version of FMI.

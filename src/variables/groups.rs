@@ -35,7 +35,6 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
             format!("{}.law", g.name),
             EnumType::ContactLaw,
             g.law as i64,
-            Law::ALL.len(),
             t(GroupKey::Law),
             "contact force law of every contact of the group pair".into(),
         ));

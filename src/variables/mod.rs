@@ -491,12 +491,7 @@ fn integer_twin(name: String, e: EnumType, enum_name: &str, target: VarRef) -> V
             "{enum_name} as a plain Integer, for hosts without Enumeration variables: 0 = as {enum_name}; {} (overrides {enum_name})",
             items.join(", ")
         ),
-        range: Some(Range {
-            min: 0.0,
-            min_exclusive: false,
-            max: e.items().len() as f64,
-            max_exclusive: false,
-        }),
+        range: Some(Range::closed([0.0, e.items().len() as f64])),
         target,
         depends_on_inputs: false,
     }
@@ -513,7 +508,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::Mass(i) => params.masses[i] = x,
         VarRef::Inertia(b, k) => params.inertias[b][k] = x,
         VarRef::ContactLaw(i) => {
-            if let Some(l) = Law::from_index(x as i64) {
+            if let Some(l) = Law::from_value(x as i64) {
                 params.contacts[i].law = l;
             }
         }
@@ -534,7 +529,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::CylinderRadius(i) => params.contacts[i].cylinder_radius = x,
         VarRef::CylinderLength(i) => params.contacts[i].length = x,
         VarRef::SolverMethod => {
-            if let Some(m) = Method::from_index(x as i64) {
+            if let Some(m) = Method::from_value(x as i64) {
                 params.solver.method = m;
             }
         }
@@ -552,7 +547,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
             let g = &mut params.groups[p];
             match key {
                 GroupKey::Law => {
-                    if let Some(l) = Law::from_index(x as i64) {
+                    if let Some(l) = Law::from_value(x as i64) {
                         g.law = l;
                     }
                 }

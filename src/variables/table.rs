@@ -58,13 +58,12 @@ pub(super) fn tunable(mut var: Variable) -> Variable {
     var
 }
 
-/// An enumeration parameter of type `enum_type` (items 1 to `items`), fixed after
+/// An enumeration parameter of type `enum_type` (its items numbered from 1), fixed after
 /// initialisation, starting at item `start`.
 pub(super) fn enum_param(
     name: String,
     enum_type: EnumType,
     start: i64,
-    items: usize,
     target: VarRef,
     description: String,
 ) -> Variable {
@@ -77,7 +76,7 @@ pub(super) fn enum_param(
         unit: None,
         display_unit: None,
         description,
-        range: Some(Range::closed([1.0, items as f64])),
+        range: Some(Range::closed([1.0, enum_type.items().len() as f64])),
         target,
         depends_on_inputs: false,
     }
@@ -136,7 +135,6 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             format!("{}.law", c.name),
             EnumType::ContactLaw,
             c.law as i64,
-            Law::ALL.len(),
             VarRef::ContactLaw(i),
             "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
         ));
@@ -222,7 +220,6 @@ pub(super) fn solver(scene: &Scene, v: &mut Vec<Variable>) {
         "solver.method".into(),
         EnumType::SolverMethod,
         s.method as i64,
-        Method::ALL.len(),
         VarRef::SolverMethod,
         "integration method: auto (dopri5 while not stiff, radau5 while stiff; the default), dopri5 (adaptive explicit), sdirk, radau5 (adaptive implicit), rk4 (fixed step = solver.max_step)".into(),
     ));
