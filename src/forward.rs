@@ -20,12 +20,11 @@
 //! projection) always takes the general path over the whole model, so that everything in
 //! [`Data`] is filled.
 
-use crate::contact;
+use crate::contact::{self, any_resting};
 use crate::dynamics;
 use crate::integrator::OdeSystem;
 use crate::kinematics::{free_body_kinematics, joint_kinematics, kinematics, position_derivative, rotor_kinematics};
 use crate::model::{Data, Model};
-use crate::scene::Law;
 
 /// Evaluates everything at `d.eval_state`: kinematics, forces, accelerations (`d.qacc`), the
 /// dissipated power (`d.dissipation`) and the contact outputs. Returns false when the mass
@@ -49,11 +48,7 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
     }
     let mut power = dynamics::applied_forces(m, d);
     if !d.contacts.is_empty() {
-        power += if rotors {
-            lean_contact_forces(d)
-        } else {
-            contact::apply_forces(d)
-        };
+        power += lean_contact_forces(d);
     }
     d.dissipation = power;
     dynamics::mass_and_bias(m, d);
@@ -213,14 +208,6 @@ pub fn state_derivative(m: &Model, d: &Data, dy: &mut [f64]) {
     if let Some(i) = m.input_work_index() {
         dy[i] = d.input_power;
     }
-}
-
-/// True when some impulse-law contact is resting (its constraint row is on).
-pub fn any_resting(d: &Data) -> bool {
-    d.contacts
-        .iter()
-        .zip(&d.contact_memory)
-        .any(|(c, mem)| mem.active && c.law == Law::Impulse)
 }
 
 /// The right-hand side of a model as an [`OdeSystem`] for the integrators.

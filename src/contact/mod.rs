@@ -224,6 +224,14 @@ pub fn apply_forces(d: &mut Data) -> f64 {
     power
 }
 
+/// True when some impulse-law contact is resting (its constraint row is on).
+pub fn any_resting(d: &Data) -> bool {
+    d.contacts
+        .iter()
+        .zip(&d.contact_memory)
+        .any(|(c, mem)| mem.active && c.law == Law::Impulse)
+}
+
 /// Lists the contacts whose forces [`apply_forces`] computes (the active continuous ones) in
 /// `d.force_contacts`, in their order, and zeroes the outputs of the others, as
 /// [`apply_forces`] does: while the modes and the contact list stay as they are (one
@@ -232,12 +240,7 @@ pub fn apply_forces(d: &mut Data) -> f64 {
 /// the full evaluation.
 pub fn list_force_contacts(d: &mut Data) -> bool {
     d.force_contacts.clear();
-    let resting = d
-        .contacts
-        .iter()
-        .zip(&d.contact_memory)
-        .any(|(c, mem)| mem.active && c.law == Law::Impulse);
-    if resting {
+    if any_resting(d) {
         return false;
     }
     for i in 0..d.contacts.len() {

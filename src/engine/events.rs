@@ -9,7 +9,8 @@
 
 use super::modes;
 use crate::contact;
-use crate::forward::{any_resting, evaluate, planned_kinematics};
+use crate::contact::any_resting;
+use crate::forward::{evaluate, planned_kinematics};
 use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;

@@ -19,8 +19,9 @@ pub mod events;
 pub mod modes;
 
 use crate::contact;
+use crate::contact::any_resting;
 use crate::dynamics;
-use crate::forward::{any_resting, evaluate, Rhs};
+use crate::forward::{evaluate, Rhs};
 use crate::kinematics::{kinematics, poses_and_velocities};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
