@@ -393,17 +393,31 @@ fn anything_to_check(d: &Data) -> bool {
     let n = d.contacts.len();
     let ev = &d.events;
     let (g, g_new) = (&ev.g[..3 * n], &ev.g_new[..3 * n]);
-    let (aux, aux_new) = (&ev.aux[..n], &ev.aux_new[..n]);
     (0..n).any(|i| {
-        let ((d0, r0), (d1, r1)) = (aux[i], aux_new[i]);
         let active = d.contact_memory[i].active;
         modes::crossed(g[i], g_new[i])
             || modes::crossed(g[n + i], g_new[n + i])
             || modes::crossed(g[2 * n + i], g_new[2 * n + i])
-            || (!active && d0 <= 0.0 && d1 > 0.0)
-            || (!active && r0 > 0.0 && r1 < 0.0)
-            || (d.log_peaks && active && r0 > 0.0 && r1 <= 0.0)
+            || (!active && (may_tunnel(d, i) || may_visit(d, i)))
+            || (d.log_peaks && active && passed_peak(d, i))
     })
+}
+
+/// The first test of the tunnelling check: contact `i`'s δ crossed zero over the step.
+fn may_tunnel(d: &Data, i: usize) -> bool {
+    d.events.aux[i].0 <= 0.0 && d.events.aux_new[i].0 > 0.0
+}
+
+/// The first test of the visit check: contact `i` closed at the step's start and opens at
+/// its end.
+fn may_visit(d: &Data, i: usize) -> bool {
+    d.events.aux[i].1 > 0.0 && d.events.aux_new[i].1 < 0.0
+}
+
+/// The first test of the peak log: contact `i` closed at the step's start and no longer at
+/// its end.
+fn passed_peak(d: &Data, i: usize) -> bool {
+    d.events.aux[i].1 > 0.0 && d.events.aux_new[i].1 <= 0.0
 }
 
 /// Checks the step the integrator just took (from `t_prev` to `t`): the event functions at
@@ -447,10 +461,10 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     // Tunnelling: δ of a contact that is not in contact crossed zero without its event
     // function turning positive at the end of the step (it passed δ_max or the patch).
     for i in 0..n_contacts {
-        let (d0, d1) = (d.events.aux[i].0, d.events.aux_new[i].0);
-        if d.contact_memory[i].active || !(d0 <= 0.0 && d1 > 0.0) || d.events.g_new[i] > 0.0 {
+        if d.contact_memory[i].active || !may_tunnel(d, i) || d.events.g_new[i] > 0.0 {
             continue;
         }
+        let d1 = d.events.aux_new[i].0;
         interpolate_contact(m, d, i, t0);
         contact_kinematics(m, d, i);
         let d0_exact = contact::gap(d, i).delta;
@@ -468,9 +482,8 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
     // (δ̇ = 0); if the contact holds there, it touched and left within the step: locate the
     // touch between the start and that instant.
     for i in 0..n_contacts {
-        let (r0, r1) = (d.events.aux[i].1, d.events.aux_new[i].1);
         let (g0, g1) = (d.events.g[i], d.events.g_new[i]);
-        if d.contact_memory[i].active || !(r0 > 0.0 && r1 < 0.0) || g0 > 0.0 || g1 > 0.0 {
+        if d.contact_memory[i].active || !may_visit(d, i) || g0 > 0.0 || g1 > 0.0 {
             continue;
         }
         // the exact rates (the broad phase's are those of the bounding spheres)
@@ -524,7 +537,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
             continue;
         }
         let (r0, r1) = (d.events.aux[i].1, d.events.aux_new[i].1);
-        if r0 > 0.0 && r1 <= 0.0 {
+        if passed_peak(d, i) {
             let t = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t1);
             if t <= t_first {
                 interpolate_contact(m, d, i, t);
