@@ -11,7 +11,8 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
     if scene.contact_group.is_empty() {
         return;
     }
-    let param = |name: String, start: f64, unit, range: Range, target, is_tunable: bool, description: &str| {
+    // (a group pair's law constant: `table::param` described for every contact of the pair)
+    let group_param = |name: String, start: f64, unit, range: Range, target, is_tunable: bool, description: &str| {
         let var = param(
             name,
             start,
@@ -129,7 +130,7 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
                 "regularisation velocity of the continuous friction law",
             ),
         ] {
-            v.push(param(
+            v.push(group_param(
                 format!("{}.{key}", g.name),
                 value,
                 unit,
@@ -140,7 +141,7 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
             ));
         }
         if let Some(d) = g.max_penetration {
-            v.push(param(
+            v.push(group_param(
                 format!("{}.max_penetration", g.name),
                 d,
                 Some("m"),
@@ -151,7 +152,7 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
             ));
         }
         if let Some(k) = g.stiffness {
-            v.push(param(
+            v.push(group_param(
                 format!("{}.stiffness", g.name),
                 k,
                 None,
