@@ -196,6 +196,23 @@ impl Island {
         engine::resync(&self.model, dl);
     }
 
+    /// Sets a new island's coordinates from the scene's state with only the poses and
+    /// velocities evaluated there (what forming reads: the gaps of its candidate pairs). Its
+    /// integrator starts at the next advance, which evaluates the event values there: what
+    /// [`Island::take_coordinates`] would evaluate now would be overwritten unread.
+    fn take_new_coordinates(&mut self, d: &Data) {
+        let dl = &mut self.data;
+        for &(l, g) in &self.coords {
+            dl.state[l] = d.state[g];
+        }
+        dl.time = d.time;
+        dl.solver.started = false;
+        dl.outputs_valid = false;
+        dl.kinematics_valid = false;
+        dl.eval_state.copy_from_slice(&dl.state);
+        poses_and_velocities(&self.model, dl);
+    }
+
     /// Copies the island's coordinates into the scene's state.
     fn put_coordinates(&self, state: &mut [f64]) {
         for &(l, g) in &self.coords {
@@ -543,7 +560,7 @@ impl Islands {
             saved,
             saved_log: 0,
         });
-        island.take_coordinates(d);
+        island.take_new_coordinates(d);
         Ok(island)
     }
 
