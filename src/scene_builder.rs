@@ -67,6 +67,25 @@ macro_rules! optional_keys {
     };
 }
 
+/// Constructors `kind(name, parent, child, anchor, axis)` of [`JointSpec`]s of the joint types
+/// that have an axis.
+macro_rules! axis_joints {
+    ($($(#[$doc:meta])* $kind:ident: $joint_type:expr),* $(,)?) => {
+        $(
+            $(#[$doc])*
+            pub fn $kind(
+                name: &str,
+                parent: &str,
+                child: &str,
+                anchor: impl Into<[f64; 3]>,
+                axis: impl Into<[f64; 3]>,
+            ) -> JointSpec {
+                JointSpec::new(name, $joint_type, parent, child).anchor(anchor).axis(axis)
+            }
+        )*
+    };
+}
+
 /// Builds a [`Scene`] table by table; tables keep the order in which they are added.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneBuilder {
@@ -230,34 +249,11 @@ impl JointSpec {
         }
     }
 
-    /// A revolute joint about `axis` through `anchor`.
-    pub fn revolute(
-        name: &str,
-        parent: &str,
-        child: &str,
-        anchor: impl Into<[f64; 3]>,
-        axis: impl Into<[f64; 3]>,
-    ) -> JointSpec {
-        JointSpec::new(name, JointType::Revolute, parent, child)
-            .anchor(anchor)
-            .axis(axis)
-    }
-
-    /// A prismatic joint along `axis` through `anchor`.
-    pub fn prismatic(
-        name: &str,
-        parent: &str,
-        child: &str,
-        anchor: impl Into<[f64; 3]>,
-        axis: impl Into<[f64; 3]>,
-    ) -> JointSpec {
-        JointSpec::revolute(name, parent, child, anchor, axis).kind(JointType::Prismatic)
-    }
-
-    /// The same joint with another type.
-    fn kind(mut self, kind: JointType) -> JointSpec {
-        self.kind = kind;
-        self
+    axis_joints! {
+        /// A revolute joint about `axis` through `anchor`.
+        revolute: JointType::Revolute,
+        /// A prismatic joint along `axis` through `anchor`.
+        prismatic: JointType::Prismatic,
     }
 
     /// A spherical joint about `anchor`.

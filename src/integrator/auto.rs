@@ -131,6 +131,27 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     stiff: bool,
     /// Switch to the other method at the start of the next step.
     switch_pending: bool,
+    /// The rest of the switching memory.
+    memory: Memory,
+    /// Power-iteration vectors (`x`: J's dominant direction once `x_for` is `rho_jac`).
+    x: Vec<f64>,
+    jx: Vec<f64>,
+    x_for: u64,
+    /// Scratch of the directional differences.
+    v: Vec<f64>,
+    y_pert: Vec<f64>,
+    jv: Vec<f64>,
+    /// The system's second-order structure, handed to the implicit method when it is built.
+    second_order: Option<SecondOrder>,
+    /// The implicit method's own count of its factorisations in evaluations at the switch or
+    /// the last load, up to which the stint's are in [`Memory::stint_linear`] (not saved: what
+    /// the method counts before a load is in the saved `stint_linear`).
+    linear_mark: f64,
+}
+
+/// The switching memory after its two flags, in the order of saved states.
+#[derive(Debug, Clone, Copy)]
+struct Memory {
     /// Explicit: stability-limited steps counted toward a switch; implicit: non-stiff steps in
     /// a row.
     count: u32,
@@ -140,24 +161,14 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     /// (u64::MAX: none).
     rho: f64,
     rho_jac: u64,
+    /// Switches made (both directions).
+    switches: u64,
     /// The stiffness the implicit steps are measured against: ρ(J) when the Jacobian is new,
     /// then the rate along its dominant direction every [`RECHECK_STEPS`] steps.
     rho_now: f64,
     /// Implicit: steps since `rho_now` was measured; explicit: steps in a row whose estimate
     /// reached [`CHECK_TRIGGER`].
     since: u32,
-    /// Power-iteration vectors (`x`: J's dominant direction once `x_for` is `rho_jac`).
-    x: Vec<f64>,
-    jx: Vec<f64>,
-    x_for: u64,
-    /// Scratch of the directional differences.
-    v: Vec<f64>,
-    y_pert: Vec<f64>,
-    jv: Vec<f64>,
-    /// Switches made (both directions).
-    switches: u64,
-    /// The system's second-order structure, handed to the implicit method when it is built.
-    second_order: Option<SecondOrder>,
     /// Start of the implicit method's stint (its last switch): time and evaluations so far;
     /// and its accepted steps since the cost was last checked.
     stint_t: f64,
@@ -166,10 +177,8 @@ pub struct Auto<I: ImplicitMethod + Integrator> {
     /// The stint's accepted steps.
     stint_steps: u32,
     /// The stint's factorisations in evaluations ([`ImplicitMethod::factorisation_evaluations`])
-    /// up to `linear_mark`, the implicit method's own count of them at the switch or the last
-    /// load (not saved: what the method counts before a load is in the saved `stint_linear`).
+    /// up to [`Auto::linear_mark`].
     stint_linear: f64,
-    linear_mark: f64,
     /// Dormand-Prince's evaluations per unit of time in its last step before the stint
     /// (`6/h`, a step bounded by stability): what the stint is measured against while no
     /// Jacobian is held (after a reset Newton iterates without one, and ρ is not known).
@@ -209,30 +218,32 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             implicit: None,
             stiff: false,
             switch_pending: false,
-            count: 0,
-            calm: 0,
-            rho: 0.0,
-            rho_jac: u64::MAX,
-            rho_now: 0.0,
-            since: 0,
+            memory: Memory {
+                count: 0,
+                calm: 0,
+                rho: 0.0,
+                rho_jac: u64::MAX,
+                switches: 0,
+                rho_now: 0.0,
+                since: 0,
+                stint_t: 0.0,
+                stint_rhs: 0,
+                steps_since_check: 0,
+                stint_steps: 0,
+                stint_linear: 0.0,
+                stint_explicit_rate: 0.0,
+                implicit_cost: 0.0,
+                cost_hold: 0,
+                losses: 0,
+            },
             x: vec![0.0; n],
             jx: vec![0.0; n],
             x_for: u64::MAX,
             v: vec![0.0; n],
             y_pert: vec![0.0; n],
             jv: vec![0.0; n],
-            switches: 0,
             second_order: None,
-            stint_t: 0.0,
-            stint_rhs: 0,
-            steps_since_check: 0,
-            stint_steps: 0,
-            stint_linear: 0.0,
             linear_mark: 0.0,
-            stint_explicit_rate: 0.0,
-            implicit_cost: 0.0,
-            cost_hold: 0,
-            losses: 0,
         }
     }
 
@@ -265,16 +276,16 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// reset or restart, which drops the switches that stiffness alone asked for (an event
     /// changes the stiffness; it does not make the stint's spending undone).
     fn losing(&self) -> bool {
-        self.stiff && self.cost_hold > 0
+        self.stiff && self.memory.cost_hold > 0
     }
 
     /// The implicit stint lost at `cost` evaluations per unit of time: switch back at the
     /// next step and hold Dormand-Prince (the hold doubled for each loss in a row before).
     fn lose(&mut self, cost: f64) {
         self.switch_pending = true;
-        self.implicit_cost = cost;
-        self.cost_hold = COST_MEMORY_STEPS << self.losses.min(MAX_HOLD_DOUBLINGS);
-        self.losses = self.losses.saturating_add(1);
+        self.memory.implicit_cost = cost;
+        self.memory.cost_hold = COST_MEMORY_STEPS << self.memory.losses.min(MAX_HOLD_DOUBLINGS);
+        self.memory.losses = self.memory.losses.saturating_add(1);
     }
 
     /// Whether the implicit method is active.
@@ -284,7 +295,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
 
     /// Switches made since construction.
     pub fn switches(&self) -> u64 {
-        self.switches
+        self.memory.switches
     }
 
     fn active(&self) -> &dyn Integrator {
@@ -311,10 +322,10 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         }
         self.stiff = !self.stiff;
         self.switch_pending = false;
-        self.count = 0;
-        self.calm = 0;
-        self.since = 0;
-        self.switches += 1;
+        self.memory.count = 0;
+        self.memory.calm = 0;
+        self.memory.since = 0;
+        self.memory.switches += 1;
         let Auto { explicit, implicit, .. } = self;
         let Some(implicit) = implicit else {
             return;
@@ -324,26 +335,26 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             implicit.reset(sys, t, explicit.y(), h);
             implicit.jacobian(sys);
             // (the stint starts before the first Jacobian: it is part of the cost)
-            self.stint_t = t;
-            self.stint_rhs = stats.rhs_evals;
-            self.stint_steps = 0;
+            self.memory.stint_t = t;
+            self.memory.stint_rhs = stats.rhs_evals;
+            self.memory.stint_steps = 0;
             // (a hold that a switch overrode ends: in a stint a hold marks a loss)
-            self.cost_hold = 0;
-            self.steps_since_check = 0;
-            self.stint_linear = 0.0;
+            self.memory.cost_hold = 0;
+            self.memory.steps_since_check = 0;
+            self.memory.stint_linear = 0.0;
             self.linear_mark = linear_work(implicit);
             // (the step the controller asked for: the last one may have been cut short to
             // reach the end of an advance)
             let h_explicit = (explicit.t() - explicit.t_prev()).max(explicit.next_step());
-            self.stint_explicit_rate = if h_explicit > 0.0 {
+            self.memory.stint_explicit_rate = if h_explicit > 0.0 {
                 DOPRI5_EVALUATIONS / h_explicit
             } else {
                 f64::INFINITY
             };
         } else {
-            if self.cost_hold == 0 {
+            if self.memory.cost_hold == 0 {
                 // (the stint ended calm: it did not lose)
-                self.losses = 0;
+                self.memory.losses = 0;
             }
             explicit.set_stats(stats);
             explicit.reset(sys, t, implicit.y(), h);
@@ -354,10 +365,10 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// explicit method's stiffness check evaluates `sys`).
     fn observe(&mut self, sys: &mut dyn OdeSystem) {
         if !self.stiff {
-            if self.cost_hold > 0 {
-                self.cost_hold -= 1;
+            if self.memory.cost_hold > 0 {
+                self.memory.cost_hold -= 1;
                 let h = self.explicit.t() - self.explicit.t_prev();
-                if DOPRI5_EVALUATIONS / h <= self.implicit_cost {
+                if DOPRI5_EVALUATIONS / h <= self.memory.implicit_cost {
                     // cheaper than the implicit method measured: no check, no switch
                     return;
                 }
@@ -365,12 +376,12 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
                 // the steps after it)
             }
             // (explicit: `since` counts the steps in a row whose estimate is at the trigger)
-            self.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
-                (self.since + 1).min(CHECK_AFTER)
+            self.memory.since = if self.explicit.stiffness() >= CHECK_TRIGGER {
+                (self.memory.since + 1).min(CHECK_AFTER)
             } else {
                 0
             };
-            let h_rho = if self.since >= CHECK_AFTER {
+            let h_rho = if self.memory.since >= CHECK_AFTER {
                 self.explicit.stiffness_check(sys)
             } else {
                 0.0
@@ -378,15 +389,15 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             // (the counts saturate: without an implicit method they would grow forever)
             if h_rho >= STIFF_LIMIT {
                 let weight = if h_rho >= UNSTABLE_LIMIT { UNSTABLE_WEIGHT } else { 1 };
-                self.count = (self.count + weight).min(STIFF_STEPS);
-                self.calm = 0;
+                self.memory.count = (self.memory.count + weight).min(STIFF_STEPS);
+                self.memory.calm = 0;
             } else {
-                self.calm = (self.calm + 1).min(CALM_STEPS);
-                if self.calm >= CALM_STEPS {
-                    self.count = 0;
+                self.memory.calm = (self.memory.calm + 1).min(CALM_STEPS);
+                if self.memory.calm >= CALM_STEPS {
+                    self.memory.count = 0;
                 }
             }
-            if self.count >= STIFF_STEPS && self.build.is_some() {
+            if self.memory.count >= STIFF_STEPS && self.build.is_some() {
                 self.switch_pending = true;
             }
             return;
@@ -404,60 +415,60 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             true
         } else {
             let jac_evals = implicit.stats().jac_evals;
-            if self.rho_jac != jac_evals || self.x_for != jac_evals {
+            if self.memory.rho_jac != jac_evals || self.x_for != jac_evals {
                 // a new Jacobian (or its direction not known since a load: the same numbers)
-                self.rho = spectral_radius(newton.jac_ref(), &mut self.x, &mut self.jx);
+                self.memory.rho = spectral_radius(newton.jac_ref(), &mut self.x, &mut self.jx);
                 self.x_for = jac_evals;
-                if self.rho_jac != jac_evals {
-                    self.rho_jac = jac_evals;
-                    self.rho_now = self.rho;
-                    self.since = 0;
+                if self.memory.rho_jac != jac_evals {
+                    self.memory.rho_jac = jac_evals;
+                    self.memory.rho_now = self.memory.rho;
+                    self.memory.since = 0;
                 }
             }
-            self.since += 1;
-            if self.since >= RECHECK_STEPS {
-                self.since = 0;
+            self.memory.since += 1;
+            if self.memory.since >= RECHECK_STEPS {
+                self.memory.since = 0;
                 self.v.copy_from_slice(&self.x);
                 let core = implicit.parts_mut().0;
                 if let Some(r) = core.directional_rate(sys, &mut self.v, &mut self.y_pert, &mut self.jv) {
-                    self.rho_now = r;
+                    self.memory.rho_now = r;
                 }
             }
-            implicit.next_step() * self.rho_now < CALM_LIMIT
+            implicit.next_step() * self.memory.rho_now < CALM_LIMIT
         };
-        self.count = if calm {
-            (self.count + 1).min(CALM_STEPS_IMPLICIT)
+        self.memory.count = if calm {
+            (self.memory.count + 1).min(CALM_STEPS_IMPLICIT)
         } else {
             0
         };
-        if self.count >= CALM_STEPS_IMPLICIT {
+        if self.memory.count >= CALM_STEPS_IMPLICIT {
             self.switch_pending = true;
         }
-        self.steps_since_check += 1;
-        self.stint_steps = self.stint_steps.saturating_add(1);
+        self.memory.steps_since_check += 1;
+        self.memory.stint_steps = self.memory.stint_steps.saturating_add(1);
         // the stint's evaluations so far, and what Dormand-Prince would spend per unit of time
-        let spent = implicit.stats().rhs_evals.saturating_sub(self.stint_rhs) as f64
-            + self.stint_linear
+        let spent = implicit.stats().rhs_evals.saturating_sub(self.memory.stint_rhs) as f64
+            + self.memory.stint_linear
             + (linear_work(implicit) - self.linear_mark);
         let explicit_cost = if jac_valid {
-            DOPRI5_EVALUATIONS * self.rho_now / STABILITY_BOUNDARY
+            DOPRI5_EVALUATIONS * self.memory.rho_now / STABILITY_BOUNDARY
         } else {
-            self.stint_explicit_rate
+            self.memory.stint_explicit_rate
         };
-        if self.stint_steps == EARLY_COST_STEPS && implicit.factorisation_evaluations() > 0.0 {
+        if self.memory.stint_steps == EARLY_COST_STEPS && implicit.factorisation_evaluations() > 0.0 {
             // per step so far, at the step size it goes on with
-            let predicted = spent / self.stint_steps as f64 / implicit.next_step();
+            let predicted = spent / self.memory.stint_steps as f64 / implicit.next_step();
             if predicted.is_finite() && predicted > COST_RATIO * explicit_cost {
                 self.lose(predicted);
                 return;
             }
         }
-        if self.steps_since_check >= COST_WINDOW {
-            let cost = spent / (implicit.t() - self.stint_t);
+        if self.memory.steps_since_check >= COST_WINDOW {
+            let cost = spent / (implicit.t() - self.memory.stint_t);
             if cost.is_finite() && cost > COST_RATIO * explicit_cost {
                 self.lose(cost);
             }
-            self.steps_since_check = 0;
+            self.memory.steps_since_check = 0;
         }
     }
 }
@@ -545,18 +556,18 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     }
 
     fn explicit_hold(&self) -> Option<ExplicitHold> {
-        (self.cost_hold > 0).then_some(ExplicitHold {
-            implicit_cost: self.implicit_cost,
-            steps: self.cost_hold,
-            losses: self.losses,
+        (self.memory.cost_hold > 0).then_some(ExplicitHold {
+            implicit_cost: self.memory.implicit_cost,
+            steps: self.memory.cost_hold,
+            losses: self.memory.losses,
         })
     }
 
     fn hold_explicit(&mut self, hold: ExplicitHold) {
-        if !self.stiff && hold.steps > self.cost_hold {
-            self.implicit_cost = hold.implicit_cost;
-            self.cost_hold = hold.steps;
-            self.losses = self.losses.max(hold.losses);
+        if !self.stiff && hold.steps > self.memory.cost_hold {
+            self.memory.implicit_cost = hold.implicit_cost;
+            self.memory.cost_hold = hold.steps;
+            self.memory.losses = self.memory.losses.max(hold.losses);
         }
     }
 
@@ -589,34 +600,31 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
     fn save_state(&self, out: &mut Vec<f64>) {
         out.push(super::core::state_tag(Method::Auto));
         let flag = |b: bool| b as u8 as f64;
-        let rho_jac = if self.rho_jac == u64::MAX {
-            -1.0
-        } else {
-            self.rho_jac as f64
-        };
+        let m = &self.memory;
+        let rho_jac = if m.rho_jac == u64::MAX { -1.0 } else { m.rho_jac as f64 };
         out.extend_from_slice(&[
             flag(self.stiff),
             flag(self.switch_pending),
-            self.count as f64,
-            self.calm as f64,
-            self.rho,
+            m.count as f64,
+            m.calm as f64,
+            m.rho,
             rho_jac,
-            self.switches as f64,
-            self.rho_now,
-            self.since as f64,
-            self.stint_t,
-            self.stint_rhs as f64,
-            self.steps_since_check as f64,
-            self.stint_steps as f64,
-            self.stint_linear
+            m.switches as f64,
+            m.rho_now,
+            m.since as f64,
+            m.stint_t,
+            m.stint_rhs as f64,
+            m.steps_since_check as f64,
+            m.stint_steps as f64,
+            m.stint_linear
                 + self
                     .implicit
                     .as_ref()
                     .map_or(0.0, |i| linear_work(i) - self.linear_mark),
-            self.stint_explicit_rate,
-            self.implicit_cost,
-            self.cost_hold as f64,
-            self.losses as f64,
+            m.stint_explicit_rate,
+            m.implicit_cost,
+            m.cost_hold as f64,
+            m.losses as f64,
         ]);
         self.active().save_state(out);
     }
@@ -625,49 +633,44 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         let mut r = StateReader::new(v, Method::Auto)?;
         let stiff = r.flag()?;
         let pending = r.flag()?;
-        let count = r.count()?;
-        let calm = r.count()?;
-        let rho = r.value()?;
-        let rho_jac = match r.value()? {
-            -1.0 => u64::MAX,
-            x if x >= 0.0 && x.fract() == 0.0 && x < 9.0e15 => x as u64,
-            x => {
-                return Err(format!(
-                    "the auto integrator state holds {x} where a Jacobian count belongs"
-                ))
-            }
+        let max_u32 = u32::MAX as u64;
+        let m = Memory {
+            count: r.count_to(max_u32)? as u32,
+            calm: r.count_to(max_u32)? as u32,
+            rho: r.value()?,
+            rho_jac: match r.value()? {
+                -1.0 => u64::MAX,
+                x if x >= 0.0 && x.fract() == 0.0 && x < 9.0e15 => x as u64,
+                x => {
+                    return Err(format!(
+                        "the auto integrator state holds {x} where a Jacobian count belongs"
+                    ))
+                }
+            },
+            switches: r.count()?,
+            rho_now: r.value()?,
+            since: r.count_to(max_u32)? as u32,
+            stint_t: r.value()?,
+            stint_rhs: r.count()?,
+            steps_since_check: r.count_to(max_u32)? as u32,
+            stint_steps: r.count_to(max_u32)? as u32,
+            stint_linear: r.value()?,
+            stint_explicit_rate: r.value()?,
+            implicit_cost: r.value()?,
+            cost_hold: r.count_to((COST_MEMORY_STEPS << MAX_HOLD_DOUBLINGS) as u64)? as u32,
+            losses: r.count_to(max_u32)? as u32,
         };
-        let switches = r.count()?;
-        let rho_now = r.value()?;
-        let since = r.count()?;
-        let stint_t = r.value()?;
-        let stint_rhs = r.count()?;
-        let steps_since_check = r.count()?;
-        let stint_steps = r.count()?;
-        let stint_linear = r.value()?;
-        let stint_explicit_rate = r.value()?;
-        let implicit_cost = r.value()?;
-        let cost_hold = r.count()?;
-        let losses = r.count()?;
         let own = r.take(v.len().saturating_sub(1 + MEMORY_LEN))?;
         r.finish()?;
-        let too_big = |c: u64| c > u32::MAX as u64;
         let bad_rate = |x: f64| x.is_nan() || x < 0.0;
-        if too_big(count)
-            || too_big(calm)
-            || too_big(since)
-            || too_big(steps_since_check)
-            || too_big(stint_steps)
-            || cost_hold > (COST_MEMORY_STEPS << MAX_HOLD_DOUBLINGS) as u64
-            || too_big(losses)
-            || bad_rate(rho)
-            || bad_rate(rho_now)
-            || bad_rate(implicit_cost)
-            || !implicit_cost.is_finite()
-            || (stiff && cost_hold > 0 && !pending)
-            || bad_rate(stint_explicit_rate)
-            || !(0.0..9.0e15).contains(&stint_linear)
-            || !stint_t.is_finite()
+        if bad_rate(m.rho)
+            || bad_rate(m.rho_now)
+            || bad_rate(m.implicit_cost)
+            || !m.implicit_cost.is_finite()
+            || (stiff && m.cost_hold > 0 && !pending)
+            || bad_rate(m.stint_explicit_rate)
+            || !(0.0..9.0e15).contains(&m.stint_linear)
+            || !m.stint_t.is_finite()
         {
             return Err("the auto integrator state holds an out-of-range switching memory".into());
         }
@@ -678,23 +681,8 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         }
         self.stiff = stiff;
         self.switch_pending = pending;
-        self.count = count as u32;
-        self.calm = calm as u32;
-        self.rho = rho;
-        self.rho_jac = rho_jac;
-        self.switches = switches;
-        self.rho_now = rho_now;
-        self.since = since as u32;
-        self.stint_t = stint_t;
-        self.stint_rhs = stint_rhs;
-        self.steps_since_check = steps_since_check as u32;
-        self.stint_steps = stint_steps as u32;
-        self.stint_linear = stint_linear;
-        self.stint_explicit_rate = stint_explicit_rate;
+        self.memory = m;
         self.linear_mark = self.implicit.as_ref().map_or(0.0, linear_work);
-        self.implicit_cost = implicit_cost;
-        self.cost_hold = cost_hold as u32;
-        self.losses = losses as u32;
         // the Jacobian's direction is computed again from the loaded Jacobian when needed
         self.x_for = u64::MAX;
         Ok(())

@@ -376,9 +376,18 @@ impl NewtonCore {
 }
 
 /// The accessors of [`ImplicitMethod`] for a method whose step state, Newton state and dense
-/// output are its fields `core`, `newton` and `dense`.
+/// output are its fields `core`, `newton` and `dense`, with its `METHOD` and its
+/// `first_step` for a method of order `order`, which takes `work` and row 1 of its field
+/// `scratch` as the estimate's scratch.
 macro_rules! implicit_parts {
-    () => {
+    ($method:expr, order $order:expr, scratch $scratch:ident) => {
+        const METHOD: Method = $method;
+
+        fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
+            self.core
+                .first_step(sys, h, $order, &mut self.work, &mut self.$scratch[1]);
+        }
+
         fn parts(&self) -> (&StepCore, &NewtonCore) {
             (&self.core, &self.newton)
         }

@@ -388,13 +388,7 @@ fn solve_real(lu: &mut Lu, reduction: &mut Option<Box<Reduction>>, x: &mut [f64]
 }
 
 impl ImplicitMethod for Radau5 {
-    implicit_parts!();
-
-    fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
-        self.core.first_step(sys, h, 5, &mut self.work, &mut self.fz[1]);
-    }
-
-    const METHOD: Method = Method::Radau5;
+    implicit_parts!(Method::Radau5, order 5, scratch fz);
 
     /// `I − hγ₀J` (real) and `I − h/(α + iβ) J` (complex).
     fn factor(&mut self, h: f64) -> bool {

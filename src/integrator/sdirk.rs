@@ -151,13 +151,7 @@ impl Sdirk {
 }
 
 impl ImplicitMethod for Sdirk {
-    implicit_parts!();
-
-    fn first_step(&mut self, sys: &mut dyn OdeSystem, h: f64) {
-        self.core.first_step(sys, h, 4, &mut self.work, &mut self.k[1]);
-    }
-
-    const METHOD: Method = Method::Sdirk;
+    implicit_parts!(Method::Sdirk, order 4, scratch k);
 
     /// `I − hγJ`.
     fn factor(&mut self, h: f64) -> bool {

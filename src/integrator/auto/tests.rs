@@ -136,16 +136,16 @@ fn a_stint_that_costs_more_than_dormand_prince_switches_back_and_holds() {
     let t_end = 0.1;
     while m.t() < t_end {
         m.step(&mut sys, t_end).unwrap();
-        if m.stiff && saved.is_none() && m.steps_since_check == COST_WINDOW / 2 {
+        if m.stiff && saved.is_none() && m.memory.steps_since_check == COST_WINDOW / 2 {
             let mut w = Vec::new();
             m.save_state(&mut w);
             assert!(w[14] > 0.0, "the stint's factorisations are saved: {}", w[14]);
             saved = Some((w, m.t()));
         }
-        if m.losses == 1 && first_loss.is_none() {
+        if m.memory.losses == 1 && first_loss.is_none() {
             let lw = m.implicit.as_ref().map_or(0.0, linear_work);
             assert!(lw > 0.0);
-            first_loss = Some((m.implicit_cost, m.cost_hold));
+            first_loss = Some((m.memory.implicit_cost, m.memory.cost_hold));
         }
     }
     let (cost, hold) = first_loss.expect("the stint lost");
@@ -157,7 +157,7 @@ fn a_stint_that_costs_more_than_dormand_prince_switches_back_and_holds() {
         "remembered cost {cost:e}, Dormand-Prince {explicit:e}"
     );
     assert!(m.switches() >= 2, "{}", m.switches());
-    assert!(m.losses >= 1);
+    assert!(m.memory.losses >= 1);
     let err = (m.y()[0] - (OMEGA * m.t()).sin()).abs();
     assert!(err < 1e-4, "{err:e}");
 
@@ -175,8 +175,8 @@ fn a_stint_that_costs_more_than_dormand_prince_switches_back_and_holds() {
         reference.step(&mut sys, t_end).unwrap();
         again.step(&mut sys, t_end).unwrap();
         assert_eq!(
-            (again.t(), again.stiff, again.losses),
-            (reference.t(), reference.stiff, reference.losses)
+            (again.t(), again.stiff, again.memory.losses),
+            (reference.t(), reference.stiff, reference.memory.losses)
         );
     }
     assert_eq!(again.y(), reference.y());
@@ -204,7 +204,7 @@ fn a_switch_back_for_cost_stands_across_a_reset_and_its_hold_passes_on() {
     m.reset(&mut sys, m.t(), &y, 0.0);
     assert!(!m.switch_pending, "a calm switch is dropped at a reset");
     m.switch_pending = true;
-    m.cost_hold = COST_MEMORY_STEPS;
+    m.memory.cost_hold = COST_MEMORY_STEPS;
     m.reset(&mut sys, m.t(), &y, 0.0);
     assert!(m.switch_pending, "a switch for cost stands");
     m.step(&mut sys, 1.0).unwrap();
@@ -238,9 +238,9 @@ fn a_switch_back_for_cost_stands_across_a_reset_and_its_hold_passes_on() {
     fresh.hold_explicit(a);
     assert_eq!(fresh.explicit_hold(), Some(joined), "a shorter hold is not taken");
     m.stiff = true;
-    m.cost_hold = 0;
+    m.memory.cost_hold = 0;
     m.hold_explicit(joined);
-    assert_eq!(m.cost_hold, 0, "an active implicit method takes no hold");
+    assert_eq!(m.memory.cost_hold, 0, "an active implicit method takes no hold");
 }
 
 /// A large stiff system (above the dense threshold of [`super::super::linear`]) switches
