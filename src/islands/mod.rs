@@ -184,29 +184,30 @@ struct Memory {
 }
 
 impl Island {
-    /// Sets the island's coordinates from the scene's state and evaluates its event values
-    /// there (its integrator restarts at the next advance).
-    fn take_coordinates(&mut self, d: &Data) {
+    /// Sets the island's coordinates and time from the scene's state; its integrator restarts
+    /// at the next advance.
+    fn copy_coordinates(&mut self, d: &Data) {
         let dl = &mut self.data;
         for &(l, g) in &self.coords {
             dl.state[l] = d.state[g];
         }
         dl.time = d.time;
         dl.solver.started = false;
-        engine::resync(&self.model, dl);
     }
 
-    /// Sets a new island's coordinates from the scene's state with only the poses and
-    /// velocities evaluated there (what forming reads: the gaps of its candidate pairs). Its
-    /// integrator starts at the next advance, which evaluates the event values there: what
+    /// [`Island::copy_coordinates`], and evaluates its event values there.
+    fn take_coordinates(&mut self, d: &Data) {
+        self.copy_coordinates(d);
+        engine::resync(&self.model, &mut self.data);
+    }
+
+    /// [`Island::copy_coordinates`] for a new island, with only the poses and velocities
+    /// evaluated there (what forming reads: the gaps of its candidate pairs). The advance that
+    /// starts its integrator evaluates the event values there: what
     /// [`Island::take_coordinates`] would evaluate now would be overwritten unread.
     fn take_new_coordinates(&mut self, d: &Data) {
+        self.copy_coordinates(d);
         let dl = &mut self.data;
-        for &(l, g) in &self.coords {
-            dl.state[l] = d.state[g];
-        }
-        dl.time = d.time;
-        dl.solver.started = false;
         dl.outputs_valid = false;
         dl.kinematics_valid = false;
         dl.eval_state.copy_from_slice(&dl.state);
