@@ -160,6 +160,18 @@ pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -
     advance_deferring(m, d, t_end, stop_at_events, false)
 }
 
+/// Whether an advance to `t_end` takes no step: the method continues its last step, which
+/// reaches past `t_end` before any pending event. The advance then takes the state at `t_end`
+/// from the dense output, and changes nothing but the time, the state (its coordinates) and
+/// the flags of what the workspace holds.
+pub fn interpolates_to(m: &Model, d: &Data, t_end: f64) -> bool {
+    t_end >= d.time
+        && d.solver.method().is_some_and(|i| i.t() > t_end)
+        && m.solver.continuation
+        && d.solver.started
+        && d.solver.pending_event > t_end
+}
+
 /// [`advance_with`]; `defer`: a communication point inside the method's step leaves the state
 /// to its dense output ([`Data::dense_pending`], taken by [`settle`]) in a model without loops
 /// (whose projection at the point changes only joint quaternions).
@@ -174,8 +186,7 @@ pub fn advance_deferring(
     // A communication point inside the method's last step, before its pending event (most
     // points of a fine grid): the state from the dense output, as the loop of
     // `advance_steps` gives it.
-    let inside = t_end >= d.time && d.solver.method().is_some_and(|i| i.t() > t_end);
-    if inside && m.solver.continuation && d.solver.started && d.solver.pending_event > t_end {
+    if interpolates_to(m, d, t_end) {
         d.outputs_valid = false;
         d.kinematics_valid = false;
         if defer && m.loop_rows() == 0 {

@@ -40,7 +40,7 @@ use crate::kinematics::poses_and_velocities;
 use crate::model::contact::ContactMemory;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
-use crate::model::{state, ContactEvent, Counters, Data, Model};
+use crate::model::{ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
@@ -48,12 +48,16 @@ use std::sync::Arc;
 mod cut;
 mod cut_model;
 mod gather;
+mod island;
 mod pool;
 mod saved;
+#[cfg(test)]
+mod tests;
 
 use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
+pub use island::Island;
 use pool::{Compiled, Pool};
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
@@ -87,32 +91,6 @@ fn fail(time: f64, message: impl Into<String>) -> EngineError {
     }
 }
 
-/// One island: a model cut from the scene's, and its data.
-pub struct Island {
-    /// The island's model.
-    pub model: Model,
-    /// The island's data.
-    pub data: Data,
-    /// The scene's index of each of the island's bodies (its own order, sorted).
-    pub bodies: Vec<usize>,
-    /// (island, scene) index pairs of the position and velocity coordinates.
-    coords: Vec<(usize, usize)>,
-    /// The scene's index of each of the island's declared contacts.
-    explicit: Vec<usize>,
-    /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
-    candidates: Vec<Candidate>,
-    /// (island, scene) index pairs of the input values.
-    inputs: Vec<(usize, usize)>,
-    /// (island, scene) index pairs of the driven joints' coordinates and rates.
-    driven: Vec<(usize, usize)>,
-    /// The scene's index of each of its group shapes (sorted).
-    shapes: Vec<usize>,
-    /// Its whole state at the start of the round.
-    saved: Vec<f64>,
-    /// The length of its event log then.
-    saved_log: usize,
-}
-
 /// The islands of a scene, and what they do not hold.
 pub struct Islands {
     /// The islands, ordered by their first body.
@@ -139,6 +117,9 @@ pub struct Islands {
     pub pooled: u64,
     /// Rounds (a diagnostic).
     pub rounds: u64,
+    /// Islands taken back to a round's start that had saved their time and coordinates alone
+    /// (a diagnostic).
+    pub light_takebacks: u64,
 
     /// The time of the islands [s].
     time: f64,
@@ -161,6 +142,9 @@ pub struct Islands {
     spare: HashMap<usize, Vec<(Data, Vec<f64>)>>,
     n_spare: usize,
     spare_limit: usize,
+    /// Whether an island that only interpolates in a round saves its time and coordinates
+    /// alone ([`Island::save_round_start`]; off: the whole state, for the tests).
+    light_saves: bool,
     /// Of the islands formed anew, those whose data was an ended island's (a diagnostic).
     pub reused: u64,
     /// Makes the spare data's integrators fresh.
@@ -181,83 +165,6 @@ pub struct Source<'a> {
 struct Memory {
     explicit: Vec<ContactMemory>,
     candidates: HashMap<Candidate, ContactMemory>,
-}
-
-impl Island {
-    /// Sets the island's coordinates and time from the scene's state; its integrator restarts
-    /// at the next advance.
-    fn copy_coordinates(&mut self, d: &Data) {
-        let dl = &mut self.data;
-        for &(l, g) in &self.coords {
-            dl.state[l] = d.state[g];
-        }
-        dl.time = d.time;
-        dl.solver.started = false;
-    }
-
-    /// [`Island::copy_coordinates`], and evaluates its event values there.
-    fn take_coordinates(&mut self, d: &Data) {
-        self.copy_coordinates(d);
-        engine::resync(&self.model, &mut self.data);
-    }
-
-    /// [`Island::copy_coordinates`] for a new island, with only the poses and velocities
-    /// evaluated there (what forming reads: the gaps of its candidate pairs). The advance that
-    /// starts its integrator evaluates the event values there: what
-    /// [`Island::take_coordinates`] would evaluate now would be overwritten unread.
-    fn take_new_coordinates(&mut self, d: &Data) {
-        self.copy_coordinates(d);
-        let dl = &mut self.data;
-        dl.outputs_valid = false;
-        dl.kinematics_valid = false;
-        dl.eval_state.copy_from_slice(&dl.state);
-        poses_and_velocities(&self.model, dl);
-    }
-
-    /// Copies the island's coordinates into the scene's state.
-    fn put_coordinates(&self, state: &mut [f64]) {
-        for &(l, g) in &self.coords {
-            state[g] = self.data.state[l];
-        }
-    }
-
-    /// Takes the scene's input values, and its coordinates when a host moved a driven joint;
-    /// a change restarts the integrator.
-    fn take_inputs(&mut self, d: &Data) {
-        for &(l, g) in &self.inputs {
-            if self.data.inputs[l] != d.inputs[g] {
-                self.data.inputs[l] = d.inputs[g];
-                self.data.solver.started = false;
-            }
-        }
-        // a host moved a driven joint (and the rest of the scene's state followed it onto the
-        // loops): the island takes all its coordinates
-        if self.driven.iter().any(|&(l, g)| self.data.state[l] != d.state[g]) {
-            self.take_coordinates(d);
-        }
-    }
-
-    /// The island's dissipated energy [J].
-    pub fn dissipated(&self) -> f64 {
-        self.data.state[self.model.dissipated_index()]
-    }
-
-    /// The work of the island's inputs [J].
-    pub fn input_work(&self) -> f64 {
-        self.model.input_work(&self.data.state)
-    }
-
-    /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
-    /// index of a candidate pair.
-    fn scene_contact(&self, k: usize, n_explicit: usize, candidate_index: &HashMap<Candidate, usize>) -> Option<usize> {
-        match self.explicit.get(k) {
-            Some(&g) => Some(g),
-            None => {
-                let c = self.candidates.get(k - self.explicit.len())?;
-                candidate_index.get(c).map(|i| n_explicit + i)
-            }
-        }
-    }
 }
 
 impl Islands {
@@ -289,6 +196,7 @@ impl Islands {
             compiled: 0,
             pooled: 0,
             rounds: 0,
+            light_takebacks: 0,
             time: d.time,
             round_end: f64::INFINITY,
             joint_coords,
@@ -300,6 +208,7 @@ impl Islands {
             spare: HashMap::default(),
             n_spare: 0,
             spare_limit: SPARE_DATA,
+            light_saves: true,
             reused: 0,
             fresh: FreshIntegrators::default(),
         }
@@ -559,6 +468,7 @@ impl Islands {
             driven: part.driven,
             shapes: part.shapes,
             saved,
+            saved_light: false,
             saved_log: 0,
         });
         island.take_new_coordinates(d);
@@ -629,9 +539,7 @@ impl Islands {
                 ends_round = true;
             }
             for island in &mut self.parts {
-                island.saved.clear();
-                state::get(&island.model, &island.data, state::FULL, &mut island.saved);
-                island.saved_log = island.data.event_log.len();
+                island.save_round_start(t_round, self.light_saves);
             }
             let mut t_met = t_round;
             // the earliest contact event an island stopped at
@@ -672,7 +580,10 @@ impl Islands {
                     if island.data.time <= t_met {
                         continue;
                     }
-                    restore(island);
+                    if island.saved_light {
+                        self.light_takebacks += 1;
+                    }
+                    island.restore();
                     // (the same steps again, counted once)
                     island.model.solver.max_steps = m.solver.max_steps;
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
@@ -723,7 +634,7 @@ impl Islands {
     fn take_back(&mut self, src: &Source, k: usize, e: EngineError) -> EngineError {
         let name = self.island_name(src, k);
         for island in &mut self.parts {
-            restore(island);
+            island.restore();
         }
         EngineError {
             time: self.time,
@@ -762,15 +673,6 @@ impl Islands {
             }
         }
     }
-}
-
-/// Island `island` back to its state at the start of the round.
-fn restore(island: &mut Island) {
-    // (a state the island saved itself always fits)
-    if state::set(&island.model, &mut island.data, state::FULL, &island.saved).is_ok() {
-        engine::resync(&island.model, &mut island.data);
-    }
-    island.data.event_log.truncate(island.saved_log);
 }
 
 /// The poses and velocities of the scene's bodies at its state (the islands' coordinates),

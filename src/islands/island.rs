@@ -1,0 +1,155 @@
+//! One island: its model cut from the scene's and its data, how its coordinates, inputs,
+//! contacts and shapes map onto the scene's, and the state it saves at a round's start to be
+//! taken back to.
+
+use crate::engine;
+use crate::kinematics::poses_and_velocities;
+use crate::model::groups::Candidate;
+use crate::model::{state, Data, Model};
+use rustc_hash::FxHashMap as HashMap;
+
+/// One island: a model cut from the scene's, and its data.
+pub struct Island {
+    /// The island's model.
+    pub model: Model,
+    /// The island's data.
+    pub data: Data,
+    /// The scene's index of each of the island's bodies (its own order, sorted).
+    pub bodies: Vec<usize>,
+    /// (island, scene) index pairs of the position and velocity coordinates.
+    pub(super) coords: Vec<(usize, usize)>,
+    /// The scene's index of each of the island's declared contacts.
+    pub(super) explicit: Vec<usize>,
+    /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
+    pub(super) candidates: Vec<Candidate>,
+    /// (island, scene) index pairs of the input values.
+    pub(super) inputs: Vec<(usize, usize)>,
+    /// (island, scene) index pairs of the driven joints' coordinates and rates.
+    pub(super) driven: Vec<(usize, usize)>,
+    /// The scene's index of each of its group shapes (sorted).
+    pub(super) shapes: Vec<usize>,
+    /// Its state at the start of the round: the whole state, or (`saved_light`) its time and
+    /// coordinates ([`Island::save_round_start`]).
+    pub(super) saved: Vec<f64>,
+    pub(super) saved_light: bool,
+    /// The length of its event log then.
+    pub(super) saved_log: usize,
+}
+
+impl Island {
+    /// Sets the island's coordinates and time from the scene's state; its integrator restarts
+    /// at the next advance.
+    pub(super) fn copy_coordinates(&mut self, d: &Data) {
+        let dl = &mut self.data;
+        for &(l, g) in &self.coords {
+            dl.state[l] = d.state[g];
+        }
+        dl.time = d.time;
+        dl.solver.started = false;
+    }
+
+    /// [`Island::copy_coordinates`], and evaluates its event values there.
+    pub(super) fn take_coordinates(&mut self, d: &Data) {
+        self.copy_coordinates(d);
+        engine::resync(&self.model, &mut self.data);
+    }
+
+    /// [`Island::copy_coordinates`] for a new island, with only the poses and velocities
+    /// evaluated there (what forming reads: the gaps of its candidate pairs). The advance that
+    /// starts its integrator evaluates the event values there: what
+    /// [`Island::take_coordinates`] would evaluate now would be overwritten unread.
+    pub(super) fn take_new_coordinates(&mut self, d: &Data) {
+        self.copy_coordinates(d);
+        let dl = &mut self.data;
+        dl.outputs_valid = false;
+        dl.kinematics_valid = false;
+        dl.eval_state.copy_from_slice(&dl.state);
+        poses_and_velocities(&self.model, dl);
+    }
+
+    /// Saves the island's state at the start of a round that ends at `t_round`, to take it
+    /// back to ([`Island::restore`]): the whole state; with `light`, when its advance to `t_round`
+    /// takes no step ([`engine::interpolates_to`]: it only interpolates its method's last step)
+    /// and it has no loops (whose projection after the interpolation evaluates kinematics),
+    /// only its time and coordinates, which are all that advance changes. (Half the islands'
+    /// saves on 1,000 spheres were of such islands.)
+    pub(super) fn save_round_start(&mut self, t_round: f64, light: bool) {
+        self.saved.clear();
+        self.saved_log = self.data.event_log.len();
+        self.saved_light =
+            light && self.model.loop_rows() == 0 && engine::interpolates_to(&self.model, &self.data, t_round);
+        if self.saved_light {
+            self.saved.push(self.data.time);
+            self.saved.extend_from_slice(&self.data.state);
+        } else {
+            state::get(&self.model, &self.data, state::FULL, &mut self.saved);
+        }
+    }
+
+    /// Copies the island's coordinates into the scene's state.
+    pub(super) fn put_coordinates(&self, state: &mut [f64]) {
+        for &(l, g) in &self.coords {
+            state[g] = self.data.state[l];
+        }
+    }
+
+    /// Takes the scene's input values, and its coordinates when a host moved a driven joint;
+    /// a change restarts the integrator.
+    pub(super) fn take_inputs(&mut self, d: &Data) {
+        for &(l, g) in &self.inputs {
+            if self.data.inputs[l] != d.inputs[g] {
+                self.data.inputs[l] = d.inputs[g];
+                self.data.solver.started = false;
+            }
+        }
+        // a host moved a driven joint (and the rest of the scene's state followed it onto the
+        // loops): the island takes all its coordinates
+        if self.driven.iter().any(|&(l, g)| self.data.state[l] != d.state[g]) {
+            self.take_coordinates(d);
+        }
+    }
+
+    /// The island's dissipated energy [J].
+    pub fn dissipated(&self) -> f64 {
+        self.data.state[self.model.dissipated_index()]
+    }
+
+    /// The work of the island's inputs [J].
+    pub fn input_work(&self) -> f64 {
+        self.model.input_work(&self.data.state)
+    }
+
+    /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
+    /// index of a candidate pair.
+    pub(super) fn scene_contact(
+        &self,
+        k: usize,
+        n_explicit: usize,
+        candidate_index: &HashMap<Candidate, usize>,
+    ) -> Option<usize> {
+        match self.explicit.get(k) {
+            Some(&g) => Some(g),
+            None => {
+                let c = self.candidates.get(k - self.explicit.len())?;
+                candidate_index.get(c).map(|i| n_explicit + i)
+            }
+        }
+    }
+
+    /// Takes the island back to its state at the start of the round.
+    pub(super) fn restore(&mut self) {
+        if self.saved_light {
+            // (its method, modes, counters and event values are those of the round's start)
+            let d = &mut self.data;
+            d.time = self.saved[0];
+            d.state.copy_from_slice(&self.saved[1..]);
+            d.dense_pending = false;
+            d.outputs_valid = false;
+            d.kinematics_valid = false;
+        } else if state::set(&self.model, &mut self.data, state::FULL, &self.saved).is_ok() {
+            // (a state the island saved itself always fits)
+            engine::resync(&self.model, &mut self.data);
+        }
+        self.data.event_log.truncate(self.saved_log);
+    }
+}

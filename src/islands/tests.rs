@@ -1,0 +1,64 @@
+//! Tests of the rounds: islands taken back to a round's start.
+
+use super::{Islands, Source};
+use crate::bench::islands::grouped;
+use crate::compile::{compile, Parameters};
+use crate::model::{state, Counters, Data, Model};
+
+/// Every island's bodies and whole state, the scene's state (bits) and counters, after
+/// gathering the islands into the scene's data `d`.
+type Snapshot = (Vec<(Vec<usize>, Vec<u64>)>, Vec<u64>, Counters);
+
+fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
+    is.gather(m, d);
+    let islands = is
+        .parts
+        .iter()
+        .map(|island| {
+            let mut v = Vec::new();
+            state::get(&island.model, &island.data, state::FULL, &mut v);
+            (island.bodies.clone(), v.iter().map(|x| x.to_bits()).collect())
+        })
+        .collect();
+    (islands, d.state.iter().map(|x| x.to_bits()).collect(), d.counters)
+}
+
+/// Islands taken back to a round's start from their time and coordinates alone (those that
+/// only interpolated in the round) go on as those taken back from their whole state: 64
+/// grouped spheres advanced from contact event to contact event (at each, the islands that
+/// went further are taken back), then on without stops. Every island's whole state, the
+/// scene's state and the counters are the same bit for bit at every stop and at the end.
+#[test]
+fn light_takebacks_go_on_as_whole_state_takebacks() {
+    let scene = grouped(64, 0.02, 0.0015, true);
+    let origin = "take-back test";
+    let run = |light: bool| {
+        let (m, mut d) = compile(&scene, origin).unwrap();
+        let src = Source { scene: &scene, origin };
+        let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
+        is.light_saves = light;
+        let mut snapshots = Vec::new();
+        let mut stops = 0;
+        while is.advance(&src, &m, &mut d, 0.01, true).unwrap() {
+            stops += 1;
+            assert!(stops < 100_000, "no end of the stops at events");
+            snapshots.push(snapshot(&mut is, &m, &mut d));
+        }
+        is.advance(&src, &m, &mut d, 0.02, false).unwrap();
+        snapshots.push(snapshot(&mut is, &m, &mut d));
+        (snapshots, stops, is.light_takebacks)
+    };
+    let (light, whole) = (run(true), run(false));
+    assert!(light.1 > 10, "stops at events: {}", light.1);
+    assert!(
+        light.2 > 0,
+        "islands taken back from their time and coordinates alone: {}",
+        light.2
+    );
+    assert_eq!(whole.2, 0);
+    assert_eq!(light.1, whole.1, "the stops at events");
+    for (k, (a, b)) in light.0.iter().zip(&whole.0).enumerate() {
+        assert_eq!(a, b, "after stop {k}");
+    }
+    assert_eq!(light.0.len(), whole.0.len());
+}
