@@ -146,10 +146,8 @@ impl Pool {
 
 #[cfg(test)]
 pub(super) mod tests {
-    use super::super::{Islands, Source};
+    use super::super::tests::{on_64_spheres, snapshot};
     use super::{Compiled, Key};
-    use crate::bench::islands::grouped;
-    use crate::compile::{compile, Parameters};
 
     /// Every model the pool holds after islands merged and split is the one compilation
     /// gives for its bodies and candidate pairs (compared field by field through their
@@ -157,23 +155,20 @@ pub(super) mod tests {
     /// numbering against the scene.
     #[test]
     fn pooled_parts_are_those_compilation_gives() {
-        let scene = grouped(64, 0.02, 0.0015, true);
-        let origin = "pool test";
-        let (m, mut d) = compile(&scene, origin).unwrap();
-        let src = Source { scene: &scene, origin };
-        let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
-        is.advance(&src, &m, &mut d, 0.02, false).unwrap();
-        assert!(
-            is.rebuilds > 0 && is.pooled > 0,
-            "rebuilds {}, pooled {}",
-            is.rebuilds,
-            is.pooled
-        );
-        assert!(!is.pool.parts.is_empty());
-        for (key, part) in &is.pool.parts {
-            let fresh = super::compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, key);
-            assert_same_part(part, &fresh, key);
-        }
+        on_64_spheres("pool test", |src, m, d, is| {
+            is.advance(src, m, d, 0.02, false).unwrap();
+            assert!(
+                is.rebuilds > 0 && is.pooled > 0,
+                "rebuilds {}, pooled {}",
+                is.rebuilds,
+                is.pooled
+            );
+            assert!(!is.pool.parts.is_empty());
+            for (key, part) in &is.pool.parts {
+                let fresh = super::compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, key);
+                assert_same_part(part, &fresh, key);
+            }
+        });
     }
 
     /// Islands formed with the data (and integrators) of islands that ended take the same
@@ -182,23 +177,13 @@ pub(super) mod tests {
     /// energy are the same bit for bit.
     #[test]
     fn reused_data_gives_the_trajectories_of_new_data() {
-        let scene = grouped(64, 0.02, 0.0015, true);
-        let origin = "reuse test";
         let run = |spare_limit: usize| {
-            let (m, mut d) = compile(&scene, origin).unwrap();
-            let src = Source { scene: &scene, origin };
-            let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
-            is.spare_limit = spare_limit;
-            is.advance(&src, &m, &mut d, 0.02, false).unwrap();
-            is.gather(&m, &mut d);
-            let mut states = Vec::new();
-            for island in &is.parts {
-                let mut v = Vec::new();
-                crate::model::state::get(&island.model, &island.data, crate::model::state::FULL, &mut v);
-                states.push((island.bodies.clone(), v.iter().map(|x| x.to_bits()).collect::<Vec<_>>()));
-            }
-            let scene_state: Vec<u64> = d.state.iter().map(|x| x.to_bits()).collect();
-            (states, scene_state, d.counters, is.compiled, is.reused)
+            on_64_spheres("reuse test", |src, m, d, is| {
+                is.spare_limit = spare_limit;
+                is.advance(src, m, d, 0.02, false).unwrap();
+                let (states, scene_state, counters) = snapshot(is, m, d);
+                (states, scene_state, counters, is.compiled, is.reused)
+            })
         };
         let (with, without) = (run(super::super::SPARE_DATA), run(0));
         assert!(

@@ -9,7 +9,7 @@ use crate::model::{state, Counters, Data, Model};
 /// gathering the islands into the scene's data `d`.
 type Snapshot = (Vec<(Vec<usize>, Vec<u64>)>, Vec<u64>, Counters);
 
-fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
+pub(super) fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
     is.gather(m, d);
     let islands = is
         .parts
@@ -23,6 +23,16 @@ fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
     (islands, d.state.iter().map(|x| x.to_bits()).collect(), d.counters)
 }
 
+/// `f` of 64 grouped spheres that collide within 0.02 s (broad-phase margin 1.5 mm): their
+/// scene and file name `origin`, model, data and islands at the start.
+pub(super) fn on_64_spheres<R>(origin: &str, f: impl FnOnce(&Source, &Model, &mut Data, &mut Islands) -> R) -> R {
+    let scene = grouped(64, 0.02, 0.0015, true);
+    let (m, mut d) = compile(&scene, origin).unwrap();
+    let src = Source { scene: &scene, origin };
+    let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
+    f(&src, &m, &mut d, &mut is)
+}
+
 /// Islands taken back to a round's start from their time and coordinates alone (those that
 /// only interpolated in the round) go on as those taken back from their whole state: 64
 /// grouped spheres advanced from contact event to contact event (at each, the islands that
@@ -30,23 +40,20 @@ fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
 /// scene's state and the counters are the same bit for bit at every stop and at the end.
 #[test]
 fn light_takebacks_go_on_as_whole_state_takebacks() {
-    let scene = grouped(64, 0.02, 0.0015, true);
-    let origin = "take-back test";
     let run = |light: bool| {
-        let (m, mut d) = compile(&scene, origin).unwrap();
-        let src = Source { scene: &scene, origin };
-        let mut is = Islands::new(&src, Parameters::of_scene(&scene), &m, &d).unwrap();
-        is.light_saves = light;
-        let mut snapshots = Vec::new();
-        let mut stops = 0;
-        while is.advance(&src, &m, &mut d, 0.01, true).unwrap() {
-            stops += 1;
-            assert!(stops < 100_000, "no end of the stops at events");
-            snapshots.push(snapshot(&mut is, &m, &mut d));
-        }
-        is.advance(&src, &m, &mut d, 0.02, false).unwrap();
-        snapshots.push(snapshot(&mut is, &m, &mut d));
-        (snapshots, stops, is.light_takebacks)
+        on_64_spheres("take-back test", |src, m, d, is| {
+            is.light_saves = light;
+            let mut snapshots = Vec::new();
+            let mut stops = 0;
+            while is.advance(src, m, d, 0.01, true).unwrap() {
+                stops += 1;
+                assert!(stops < 100_000, "no end of the stops at events");
+                snapshots.push(snapshot(is, m, d));
+            }
+            is.advance(src, m, d, 0.02, false).unwrap();
+            snapshots.push(snapshot(is, m, d));
+            (snapshots, stops, is.light_takebacks)
+        })
     };
     let (light, whole) = (run(true), run(false));
     assert!(light.1 > 10, "stops at events: {}", light.1);
