@@ -48,7 +48,10 @@ pub fn detect_placed(c: &ContactElement, fs: Option<Placement>, fo: Option<Place
             v,
             half,
         } => {
-            let (_, n, d, h) = along(fo, origin, normal, center);
+            let o = Placement::point(fo, origin);
+            let n = Placement::direction(fo, normal);
+            let d = center - o;
+            let h = d.dot(&n);
             let su = d.dot(&Placement::direction(fo, u));
             let sv = d.dot(&Placement::direction(fo, v));
             let margin = (half[0] - su.abs()).min(half[1] - sv.abs());
@@ -63,7 +66,10 @@ pub fn detect_placed(c: &ContactElement, fs: Option<Placement>, fo: Option<Place
             theta_range,
             inside,
         } => {
-            let (a0, k, d, s) = along(fo, point, axis, center);
+            let a0 = Placement::point(fo, point);
+            let k = Placement::direction(fo, axis);
+            let d = center - a0;
+            let s = d.dot(&k);
             let radial = d - k * s;
             let dist = radial.norm();
             let er = if dist > 0.0 {
@@ -94,21 +100,6 @@ pub fn detect_placed(c: &ContactElement, fs: Option<Placement>, fo: Option<Place
         point,
         margin,
     }
-}
-
-/// The world point `p` and direction `n` of the body-frame `point` and `direction` on the
-/// placement `at`, the offset `d = x − p` of the world point `x` and its component `d·n`
-/// along the direction.
-fn along(
-    at: Option<Placement>,
-    point: &Vector3<f64>,
-    direction: &Vector3<f64>,
-    x: Vector3<f64>,
-) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>, f64) {
-    let p = Placement::point(at, point);
-    let n = Placement::direction(at, direction);
-    let d = x - p;
-    (p, n, d, d.dot(&n))
 }
 
 /// Signed angular margin [rad] of the angle `theta` inside the arc `[lo, hi]` (measured
