@@ -102,6 +102,7 @@ pub fn values_after_mode_changes(d: &mut Data) {
 fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
     let (moved, time) = contact::groups::margin_values(m, d);
     let aux = if at_step_end {
+        d.events.margin_pending = false;
         &mut d.events.aux_new
     } else {
         &mut d.events.aux

@@ -85,21 +85,34 @@ pub fn resync(m: &Model, d: &mut Data) {
 /// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
 /// method's last step reaches past the data's time, the contacts' entries are those of the
 /// step's ends already (they do not depend on the reference poses) and only the contact
-/// groups' entry at the step's end is evaluated again (the next advance accepts the step,
-/// or stops at an event inside it and evaluates everything there, before it reads one);
-/// otherwise everything is.
+/// groups' entry at the step's end is to be evaluated again: when the step is accepted
+/// ([`EventWork::margin_pending`](crate::model::data::EventWork::margin_pending); the next
+/// advance accepts the step, or stops at an event inside it and evaluates everything there,
+/// before it reads the entry, and a step may span several of these changes); otherwise
+/// everything is evaluated now.
 pub fn resync_margins(m: &Model, d: &mut Data) {
-    match d.solver.method() {
-        Some(i) if d.solver.ahead_of(d.time) => {
-            d.eval_state.copy_from_slice(i.y());
-            // (what `events::margin_event_values` computes, without the kinematics that the
-            // margin values do not read)
-            crate::kinematics::poses_and_velocities(m, d);
-            let (moved, time) = contact::groups::margin_values(m, d);
-            d.events.aux_new[d.contacts.len()] = (time, moved);
-        }
-        _ => resync(m, d),
+    if d.solver.method().is_some() && d.solver.ahead_of(d.time) {
+        d.events.margin_pending = true;
+    } else {
+        resync(m, d);
     }
+}
+
+/// The contact groups' entry of the event values at the end of the method's last step, with
+/// the present reference poses, when [`resync_margins`] left it pending.
+fn settle_margins(m: &Model, d: &mut Data) {
+    if !d.events.margin_pending {
+        return;
+    }
+    if let Some(i) = d.solver.method() {
+        d.eval_state.copy_from_slice(i.y());
+        // (what `events::margin_event_values` computes, without the kinematics that the
+        // margin values do not read)
+        crate::kinematics::poses_and_velocities(m, d);
+        let (moved, time) = contact::groups::margin_values(m, d);
+        d.events.aux_new[d.contacts.len()] = (time, moved);
+    }
+    d.events.margin_pending = false;
 }
 
 /// Evaluates `values` at the ends of the method's last step (`d.state` when it has none). The
@@ -162,8 +175,9 @@ pub fn advance_with(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -
 
 /// Whether an advance to `t_end` takes no step: the method continues its last step, which
 /// reaches past `t_end` before any pending event. The advance then takes the state at `t_end`
-/// from the dense output, and changes nothing but the time, the state (its coordinates) and
-/// the flags of what the workspace holds.
+/// from the dense output and, in a model without loops, changes nothing but the time, the
+/// state (its coordinates) and the flags of what the workspace holds (with loops, the
+/// projection onto them also evaluates kinematics and constraint work).
 pub fn interpolates_to(m: &Model, d: &Data, t_end: f64) -> bool {
     t_end >= d.time
         && d.solver.method().is_some_and(|i| i.t() > t_end)
@@ -407,6 +421,7 @@ fn accept_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
         d.state.copy_from_slice(method.y());
         d.time = method.t();
     }
+    settle_margins(m, d);
     std::mem::swap(&mut d.events.g, &mut d.events.g_new);
     std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
     project_after_step(m, d)

@@ -238,6 +238,11 @@ pub struct EventWork {
     /// while `Data::planned_kinematics` holds, those of the right-hand side's evaluation at
     /// `eval_state`, which the event values at a step's end take instead of detecting again.
     pub stage_gaps: Vec<(f64, f64, f64)>,
+    /// The contact groups' entry of `aux_new` is not yet that of the present reference poses:
+    /// they changed while the method's last step reached past the data's time, and the entry
+    /// is evaluated at the step's end when the step is accepted
+    /// ([`crate::engine::resync_margins`]); whatever writes the entry clears it.
+    pub margin_pending: bool,
 }
 
 /// Preallocated buffers of the impulse law's mode changes, sized at compilation by the
@@ -648,6 +653,7 @@ impl Data {
             aux_new,
             changed,
             stage_gaps,
+            margin_pending,
         } = &mut self.events;
         filled(g, 3 * ncontacts, 0.0);
         filled(g_new, 3 * ncontacts, 0.0);
@@ -655,6 +661,7 @@ impl Data {
         filled(aux_new, ncontacts + 1, (0.0, 0.0));
         emptied(changed, ncontacts);
         filled(stage_gaps, ncontacts, (0.0, 0.0, 0.0));
+        *margin_pending = false;
         let ImpactWork {
             solve,
             set,
