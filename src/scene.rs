@@ -214,6 +214,11 @@ pub struct SolverSection {
     /// points (default), instead of the whole scene with one integrator (scene key only).
     #[serde(default = "default_islands")]
     pub islands: bool,
+    /// Threads that advance the islands of a round side by side (scene key only): 1 (the
+    /// default) advances them one after the other, 0 takes as many as the machine has. The
+    /// islands are independent within a round, so the results do not depend on it.
+    #[serde(default = "default_threads", skip_serializing_if = "is_default_threads")]
+    pub threads: usize,
 }
 
 fn default_rtol() -> f64 {
@@ -231,6 +236,12 @@ fn default_islands() -> bool {
 fn default_max_steps() -> u64 {
     5_000
 }
+fn default_threads() -> usize {
+    1
+}
+fn is_default_threads(n: &usize) -> bool {
+    *n == default_threads()
+}
 
 impl Default for SolverSection {
     fn default() -> Self {
@@ -242,6 +253,7 @@ impl Default for SolverSection {
             max_steps: default_max_steps(),
             continuation: default_continuation(),
             islands: default_islands(),
+            threads: default_threads(),
         }
     }
 }

@@ -43,7 +43,7 @@ use crate::model::groups::Candidate;
 use crate::model::{ContactEvent, Counters, Data, Model};
 use crate::scene::Scene;
 use rustc_hash::FxHashMap as HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
 mod cut;
 mod cut_model;
@@ -546,12 +546,26 @@ impl Islands {
             let mut t_event = f64::INFINITY;
             let mut used = self.total_steps() - steps_start;
             let budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
+            // side by side, each island may take the steps left of the budget at the round's
+            // start; one after the other, those left when its turn comes
+            let threads = side_by_side(m.solver.threads, self.parts.len());
+            let mut outcomes = if threads > 1 {
+                let limit = per_island.min(budget.saturating_sub(used));
+                advance_side_by_side(&mut self.parts, threads, limit, t_round, stop_at_events)
+            } else {
+                Vec::new()
+            };
             for k in 0..self.parts.len() {
-                let island = &mut self.parts[k];
-                island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
-                let before = island.data.counters.steps;
-                let result = engine::advance_with(&island.model, &mut island.data, t_round, stop_at_events);
-                used += island.data.counters.steps - before;
+                let (result, steps) = match outcomes.get_mut(k).and_then(Option::take) {
+                    Some(outcome) => outcome,
+                    None => {
+                        let island = &mut self.parts[k];
+                        island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
+                        advance_island(island, t_round, stop_at_events)
+                    }
+                };
+                used += steps;
+                let island = &self.parts[k];
                 if let Ok(true) = result {
                     t_event = t_event.min(island.data.time);
                 }
@@ -673,6 +687,66 @@ impl Islands {
             }
         }
     }
+}
+
+/// The outcome of one island's advance to `t_round` ([`engine::advance_with`]) and the steps
+/// it took.
+type Outcome = (Result<bool, EngineError>, u64);
+
+/// Advances `island` to `t_round` ([`engine::advance_with`]).
+fn advance_island(island: &mut Island, t_round: f64, stop_at_events: bool) -> Outcome {
+    let before = island.data.counters.steps;
+    let result = engine::advance_with(&island.model, &mut island.data, t_round, stop_at_events);
+    (result, island.data.counters.steps - before)
+}
+
+/// The threads that advance `islands` islands side by side for the scene key `threads` (0:
+/// as many as the machine has): at most one per island.
+fn side_by_side(threads: usize, islands: usize) -> usize {
+    let threads = match threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    threads.min(islands)
+}
+
+/// Advances every island of `parts` to `t_round` on `threads` threads (this one and
+/// `threads − 1` more, each taking the next island not yet taken), each island with the step
+/// limit `limit`: the outcome of each, in their order. An island's advance reads and writes its
+/// own model and data alone, so each outcome is the one of advancing the islands one after
+/// the other. The threads end before it returns.
+fn advance_side_by_side(
+    parts: &mut [Box<Island>],
+    threads: usize,
+    limit: u64,
+    t_round: f64,
+    stop_at_events: bool,
+) -> Vec<Option<Outcome>> {
+    let mut outcomes: Vec<Option<Outcome>> = (0..parts.len()).map(|_| None).collect();
+    let queue = Mutex::new(parts.iter_mut().enumerate());
+    let work = || {
+        let mut done = Vec::new();
+        loop {
+            // (a thread that panicked holding the lock leaves the queue as it was)
+            let next = queue.lock().unwrap_or_else(PoisonError::into_inner).next();
+            let Some((k, island)) = next else {
+                return done;
+            };
+            island.model.solver.max_steps = limit;
+            done.push((k, advance_island(island, t_round, stop_at_events)));
+        }
+    };
+    std::thread::scope(|scope| {
+        let others: Vec<_> = (1..threads).map(|_| scope.spawn(work)).collect();
+        let mut all = vec![work()];
+        for other in others {
+            all.push(other.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+        }
+        for (k, outcome) in all.into_iter().flatten() {
+            outcomes[k] = Some(outcome);
+        }
+    });
+    outcomes
 }
 
 /// The poses and velocities of the scene's bodies at its state (the islands' coordinates),

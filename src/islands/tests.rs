@@ -38,6 +38,18 @@ fn on_scene<R>(scene: &Scene, origin: &str, f: impl FnOnce(&Source, &Model, &mut
     f(&src, &m, &mut d, &mut is)
 }
 
+/// 64 grouped spheres that collide within 0.02 s, spinning (a free body's lean kinematics,
+/// which the steps use, and the whole kinematics, which a restore evaluates, round its
+/// velocity differently then).
+fn spinning_spheres() -> Scene {
+    let mut scene = grouped(64, 0.02, 0.0015, true);
+    for (k, b) in scene.body.iter_mut().enumerate() {
+        let k = k as f64;
+        b.angular_velocity = [30.0 * (0.7 * k).sin(), 30.0 * (1.3 * k).cos(), 20.0 - 0.5 * k];
+    }
+    scene
+}
+
 /// Islands taken back to a round's start from their time and coordinates alone (those that
 /// only interpolated in the round) go on as those taken back from their whole state: 64
 /// grouped spheres advanced from contact event to contact event (at each, the islands that
@@ -77,17 +89,11 @@ fn light_takebacks_go_on_as_whole_state_takebacks() {
 
 /// Islands that stop at every contact event before the end of an advance (the islands that
 /// went further taken back to it, from either kind of save) go on as islands that do not stop:
-/// 64 grouped spheres, spinning (a free body's lean kinematics, which the steps use, and the
-/// whole kinematics, which a restore evaluates, round its velocity differently then), advanced
-/// to 0.01 s from event to event and on to 0.02 s, against the same without stops. Every
+/// [`spinning_spheres`] advanced to 0.01 s from event to event and on to 0.02 s, against the same without stops. Every
 /// island's whole state, the scene's state and the counters are the same bit for bit at the end.
 #[test]
 fn stops_at_events_leave_the_islands_trajectories_as_they_are() {
-    let mut scene = grouped(64, 0.02, 0.0015, true);
-    for (k, b) in scene.body.iter_mut().enumerate() {
-        let k = k as f64;
-        b.angular_velocity = [30.0 * (0.7 * k).sin(), 30.0 * (1.3 * k).cos(), 20.0 - 0.5 * k];
-    }
+    let scene = spinning_spheres();
     let run = |stops: bool, light: bool| {
         on_scene(&scene, "stop test", |src, m, d, is| {
             is.light_saves = light;
@@ -107,5 +113,32 @@ fn stops_at_events_leave_the_islands_trajectories_as_they_are() {
         assert!(stopped.1 > 10, "stops at events: {}", stopped.1);
         assert_eq!(light, stopped.2 > 0, "light take-backs: {}", stopped.2);
         assert_eq!(stopped.0, through.0, "light saves {light}");
+    }
+}
+
+/// Islands advanced side by side on three threads go as when advanced one after the other:
+/// 64 grouped spinning spheres to 0.02 s, straight through and stopping at every contact
+/// event. Every island's whole state, the scene's state and the counters are the same bit for
+/// bit.
+#[test]
+fn islands_side_by_side_go_as_one_after_the_other() {
+    let run = |threads: usize, stops: bool| {
+        let mut scene = spinning_spheres();
+        scene.solver.threads = threads;
+        on_scene(&scene, "threads test", |src, m, d, is| {
+            let mut n = 0;
+            while is.advance(src, m, d, 0.01, stops).unwrap() {
+                n += 1;
+                assert!(n < 100_000, "no end of the stops at events");
+            }
+            is.advance(src, m, d, 0.02, false).unwrap();
+            (snapshot(is, m, d), n)
+        })
+    };
+    for stops in [false, true] {
+        let (one, side) = (run(1, stops), run(3, stops));
+        assert_eq!(one.1, side.1, "stops at events");
+        assert!(!stops || one.1 > 10, "stops at events: {}", one.1);
+        assert_eq!(one.0, side.0, "stopping at events: {stops}");
     }
 }

@@ -84,6 +84,16 @@ impl Scene {
         if let Err((field, msg)) = check_max_step(s) {
             return Err(err("[solver]".into(), field, msg));
         }
+        if s.threads > MAX_THREADS {
+            return Err(err(
+                "[solver]".into(),
+                "threads",
+                format!(
+                    "must be at most {MAX_THREADS} (got {}; 0 takes as many as the machine has)",
+                    s.threads
+                ),
+            ));
+        }
         // every name is valid and unique across the scene
         let mut names: HashSet<&str> = HashSet::new();
         let mut unique = |item: &str, name| -> Result<(), SceneError> {
@@ -483,6 +493,9 @@ pub(super) fn validate_law_keys(origin: &str, item: &str, c: &ContactSpec, mater
         Ok(())
     }
 }
+
+/// `solver.threads` is at most this many.
+pub const MAX_THREADS: usize = 256;
 
 /// `solver.rtol` must lie in this range (closed): looser tolerances give results without
 /// meaning (at 3e-2 the bundled bouncing ball gains 19× its energy, at 0.5 5.5×), tighter
