@@ -26,6 +26,8 @@ pub struct Settings {
     pub compare_time: f64,
     /// Broad-phase margin [m].
     pub margin: f64,
+    /// Threads that advance the islands side by side (`[solver] threads`).
+    pub threads: usize,
 }
 
 /// The groups scene of `n` spheres with the default method (`islands`: as islands).
@@ -65,7 +67,11 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         "one_integrator_seconds_per_simulated_second",
         "speedup_over_former",
         "speedup_over_one_integrator",
+        "threads",
     ]);
+    if s.threads != 1 {
+        println!("(the islands on {} threads; 0: as many as the machine has)", s.threads);
+    }
     println!(
         "{:>6} {:>12} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>11} {:>9}",
         "N",
@@ -86,7 +92,8 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for &n in ns {
         let origin = format!("sphere_box_groups_{n}");
-        let scene = grouped(n, s.time, s.margin, true);
+        let mut scene = grouped(n, s.time, s.margin, true);
+        scene.solver.threads = s.threads;
         let spec = RunSpec::new(scene.clone(), &origin, s.time, s.time / 10.0);
         let (wall, _cpu, c, failure) = time_runs(&spec, s.repeats)?;
         if let Some(e) = failure {
@@ -154,6 +161,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             optf(one),
             optf(speedup),
             optf(over_one),
+            s.threads.to_string(),
         ]);
         if n >= 100 {
             xs.push(n as f64);

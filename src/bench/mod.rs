@@ -164,6 +164,10 @@ pub enum BenchCommand {
         /// Broad-phase margin [m].
         #[arg(long, default_value_t = 0.0015)]
         margin: f64,
+        /// Threads that advance the islands side by side (`[solver] threads`; 0: as many as
+        /// the machine has); the former way and one integrator run on one.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
         /// Output CSV.
         #[arg(long, default_value = "docs/islands.csv")]
         csv: PathBuf,
@@ -317,6 +321,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             compare_max,
             compare_time,
             margin,
+            threads,
             csv,
             write_scene: None,
         } => islands::run(
@@ -327,6 +332,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
                 compare_max,
                 compare_time,
                 margin,
+                threads,
             },
             &csv,
         ),

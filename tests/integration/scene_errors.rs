@@ -197,6 +197,7 @@ const ADDED_ITEMS: &[(&str, &[&str])] = &[
     ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = []\n", &["input \"u\"", "joint", "required"]),
     ("[[spring_damper]]\nname = \"s\"\nbody_a = \"arm\"\npoint_a = [0.0, 0.0, 0.0]\nbody_b = \"nobody\"\npoint_b = [0.0, 0.0, 1.0]\nstiffness = 1.0\n", &["spring_damper \"s\"", "body_b", "unknown body"]),
     ("[solver]\nrtol = 0.0\n", &["[solver]", "rtol"]),
+    ("[solver]\nthreads = 1000\n", &["[solver]", "threads", "at most 256"]),
 ];
 
 #[test]
