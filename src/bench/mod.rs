@@ -397,9 +397,9 @@ pub struct RunSpec {
     pub origin: String,
     /// `NAME=VALUE` parameter settings.
     pub set: Vec<(String, f64)>,
-    /// Stop time [s].
+    /// Stop time \[s\].
     pub stop_time: f64,
-    /// Communication interval [s].
+    /// Communication interval \[s\].
     pub interval: f64,
     /// Outputs read at every communication point in the timed runs too (as a host that
     /// records the trajectory does): their names, or `all`; none when empty.
@@ -470,11 +470,11 @@ pub struct Outcome {
     pub energy_error: f64,
     /// Largest ratio penetration / max_penetration over all contacts and points.
     pub penetration_ratio: f64,
-    /// Largest penetration seen [m].
+    /// Largest penetration seen \[m\].
     pub max_penetration: f64,
     /// Largest loop-constraint residual |Φ| seen.
     pub constraint_residual: f64,
-    /// Wall time of the run [s].
+    /// Wall time of the run \[s\].
     pub seconds: f64,
 }
 
@@ -517,7 +517,7 @@ pub fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&
     }
 }
 
-/// Times `repeats` runs (setup excluded). Returns (median wall [s], median thread CPU [s],
+/// Times `repeats` runs (setup excluded). Returns (median wall \[s\], median thread CPU \[s\],
 /// counters of the last run, failure of the last run).
 pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, Option<String>), String> {
     let mut wall = Vec::new();
