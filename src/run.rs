@@ -14,10 +14,10 @@ use std::time::Instant;
 /// (the command-line arguments shared by `simulate` and `bench run`).
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct Experiment {
-    /// Stop time [s] (default: the scene's stop_time).
+    /// Stop time (s; default: the scene's stop_time).
     #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication interval [s] (default: the scene's interval).
+    /// Communication interval (s; default: the scene's interval).
     #[arg(long)]
     pub interval: Option<f64>,
     /// Set a parameter or input: NAME=VALUE (repeatable).

@@ -55,7 +55,7 @@ pub struct SweepArgs {
     /// Timed runs per point (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
-    /// Stop refining a method once one run takes longer than this [s].
+    /// Stop refining a method once one run takes longer than this (s).
     #[arg(long, default_value_t = 4.0)]
     pub budget: f64,
 }
@@ -114,7 +114,7 @@ pub enum BenchCommand {
     },
     /// Stability stress cases: each finishes or fails with a clear error.
     Stress {
-        /// Simulated duration of the long resting-contact cases [s].
+        /// Simulated duration of the long resting-contact cases (s).
         #[arg(long, default_value_t = 1000.0)]
         resting_time: f64,
         /// Output CSV.
@@ -129,7 +129,7 @@ pub enum BenchCommand {
         /// Sphere counts.
         #[arg(long, value_delimiter = ',', default_value = "10,30,100,300,1000,3000,10000")]
         n: Vec<usize>,
-        /// Simulated time per run [s].
+        /// Simulated time per run (s).
         #[arg(long, default_value_t = 0.05)]
         time: f64,
         /// Timed runs per point.
@@ -149,7 +149,7 @@ pub enum BenchCommand {
         /// Sphere counts.
         #[arg(long, value_delimiter = ',', default_value = "100,300,1000,3000")]
         n: Vec<usize>,
-        /// Simulated time per run [s].
+        /// Simulated time per run (s).
         #[arg(long, default_value_t = 0.05)]
         time: f64,
         /// Timed runs per point.
@@ -158,10 +158,10 @@ pub enum BenchCommand {
         /// The former way and one integrator are timed up to this N.
         #[arg(long, default_value_t = 1000)]
         compare_max: usize,
-        /// Their simulated time [s].
+        /// Their simulated time (s).
         #[arg(long, default_value_t = 0.05)]
         compare_time: f64,
-        /// Broad-phase margin [m].
+        /// Broad-phase margin (m).
         #[arg(long, default_value_t = 0.0015)]
         margin: f64,
         /// Output CSV.
@@ -181,7 +181,7 @@ pub enum BenchCommand {
         /// Timed batches per point.
         #[arg(long, default_value_t = 5)]
         repeats: usize,
-        /// Also run each scene for this simulated time [s] (N ≤ 1,000; 0: no run).
+        /// Also run each scene for this simulated time (s; N ≤ 1,000; 0: no run).
         #[arg(long, default_value_t = 0.0)]
         run_time: f64,
         /// Output CSV.
@@ -241,10 +241,10 @@ pub enum BenchCommand {
         /// Instead: N spheres in a box (these N) with sdirk and radau5, dense against sparse.
         #[arg(long, value_delimiter = ',')]
         scenes: Vec<usize>,
-        /// Simulated time of the scene runs [s].
+        /// Simulated time of the scene runs (s).
         #[arg(long, default_value_t = 0.01)]
         time: f64,
-        /// Skip a dense scene run whose estimated factorisation time exceeds this [s].
+        /// Skip a dense scene run whose estimated factorisation time exceeds this (s).
         #[arg(long, default_value_t = 30.0)]
         dense_budget: f64,
     },
