@@ -23,7 +23,7 @@ use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 pub type ConstraintRows = fn(&Model, &mut Data);
 
 /// Applied forces: gravity, spring-dampers, inputs (contacts are added by the contact
-/// module). Returns the dissipated power of the dampers [W].
+/// module). Returns the dissipated power of the dampers \[W\].
 pub fn applied_forces(m: &Model, d: &mut Data) -> f64 {
     for (b, body) in m.bodies.iter().enumerate() {
         d.body_force[b] = Spatial::force_at(&(m.gravity * body.mass), &d.body_pos[b]);
@@ -85,7 +85,7 @@ pub fn drive_force(m: &Model, d: &Data, k: usize) -> f64 {
     -d.lambda[m.drives[k].row]
 }
 
-/// The power of the drives at the last constrained solve [W]: their forces times their rates.
+/// The power of the drives at the last constrained solve \[W\]: their forces times their rates.
 pub fn drive_power(m: &Model, d: &Data) -> f64 {
     (0..m.drives.len())
         .map(|k| drive_force(m, d, k) * d.eval_state[m.nq + m.drives[k].qvel])
@@ -467,7 +467,7 @@ pub fn factor_schur(m: &Model, d: &mut Data) {
 pub const PROJECTION_TOL: f64 = 1e-10;
 
 /// The velocity residual `|Φ_q q̇|` that also triggers a projection, per unit of the position
-/// tolerance [1/s]: 100 × 1e-10 = 1e-8 m/s or rad/s. Baumgarte stabilisation holds
+/// tolerance \[1/s\]: 100 × 1e-10 = 1e-8 m/s or rad/s. Baumgarte stabilisation holds
 /// `|Φ_q q̇| ≈ α |Φ|` (α = 20/s), so a tighter trigger would project after nearly every step
 /// without making the positions any better.
 pub const RATE_TOL_PER_SECOND: f64 = 100.0;
@@ -614,7 +614,7 @@ fn project_loops(m: &Model, d: &mut Data, tol: f64, extra_rows: ConstraintRows) 
     true
 }
 
-/// Kinetic energy ½ Σ Vᵀ I V [J] at the evaluated kinematics; the free bodies' part from their
+/// Kinetic energy ½ Σ Vᵀ I V \[J\] at the evaluated kinematics; the free bodies' part from their
 /// centre-of-mass velocity and body-frame inertia (their spatial inertias are not computed on
 /// the lean path).
 pub fn kinetic_energy(m: &Model, d: &Data) -> f64 {
@@ -639,7 +639,7 @@ pub fn kinetic_energy(m: &Model, d: &Data) -> f64 {
     general + free
 }
 
-/// Potential energy of gravity and springs [J].
+/// Potential energy of gravity and springs \[J\].
 pub fn potential_energy(m: &Model, d: &Data) -> f64 {
     let mut e: f64 = m
         .bodies
@@ -657,8 +657,8 @@ pub fn potential_energy(m: &Model, d: &Data) -> f64 {
 }
 
 /// Coordinate and rate of a loop-closing 1-DOF joint, measured from the body poses:
-/// revolute: the rotation of b relative to a about the axis [rad]; prismatic: the
-/// displacement of b's joint point along a's axis [m]. Zero at the initial configuration.
+/// revolute: the rotation of b relative to a about the axis \[rad\]; prismatic: the
+/// displacement of b's joint point along a's axis \[m\]. Zero at the initial configuration.
 pub fn loop_joint_coordinate(m: &Model, d: &Data, li: usize) -> (f64, f64) {
     let lc = &m.loops[li];
     let fa = frame(d, lc.body_a);

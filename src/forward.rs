@@ -1,7 +1,7 @@
 //! Forward dynamics: the right-hand side `y' = f(t, y)` of the equations of motion, one
 //! pipeline from the state to the accelerations (in the manner of MuJoCo's `mj_forward`):
 //!
-//! 1. [`kinematics`](crate::kinematics::kinematics): body poses, velocities, motion subspaces;
+//! 1. [`kinematics`]: body poses, velocities, motion subspaces;
 //! 2. [`applied_forces`](dynamics::applied_forces): gravity, springs, inputs;
 //! 3. [`contact::apply_forces`]: the continuous contact laws of the active contacts;
 //! 4. [`mass_and_bias`](dynamics::mass_and_bias) and [`factor_mass`](dynamics::factor_mass):

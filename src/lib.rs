@@ -10,7 +10,7 @@
 //!   [`islands`] (independent parts of a scene, each with its own engine);
 //! - [`outputs`], [`checkpoint`], [`variables`], [`simulation`]: the facade that the FMI
 //!   layer, the command line, the benchmarks and the tests all drive;
-//! - [`fmi`], [`export`], [`run`], [`bench`]: the hosts.
+//! - [`fmi`], [`export`], [`run`], [`mod@bench`]: the hosts.
 //! - [`guid`]: a scene's GUID and model hash, shared by the exporter and the FMI runtime.
 
 // An unsafe operation inside an `unsafe fn` needs its own `unsafe {}` block, with a

@@ -113,7 +113,7 @@ pub struct ConstantLeaves {
     /// The leaves' nonzero entries of L below the diagonal: (row, column, L[row][column]).
     pub factor: Vec<(usize, usize, f64)>,
     /// What their elimination subtracts from the lower entries of the other rows: (row,
-    /// column, Σ D L[k][row] L[k][column]).
+    /// column, Σ D L\[k\]\[row\] L\[k\]\[column\]).
     pub update: Vec<(usize, usize, f64)>,
 }
 

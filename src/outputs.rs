@@ -13,7 +13,7 @@ use crate::model::{Data, Model};
 use crate::variables::VarRef;
 use nalgebra::Vector3;
 
-/// The energies of the energy balance [J]: `total() + dissipated` stays at its initial value.
+/// The energies of the energy balance \[J\]: `total() + dissipated` stays at its initial value.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Energies {
     /// Kinetic energy.

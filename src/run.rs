@@ -14,10 +14,10 @@ use std::time::Instant;
 /// (the command-line arguments shared by `simulate` and `bench run`).
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct Experiment {
-    /// Stop time [s] (default: the scene's stop_time).
+    /// Stop time (s; default: the scene's stop_time).
     #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication interval [s] (default: the scene's interval).
+    /// Communication interval (s; default: the scene's interval).
     #[arg(long)]
     pub interval: Option<f64>,
     /// Set a parameter or input: NAME=VALUE (repeatable).
@@ -64,7 +64,7 @@ pub struct VariablesOptions {
 pub struct RunSummary {
     /// Scene name.
     pub name: String,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub simulated: f64,
     /// Accepted steps.
     pub steps: u64,
@@ -73,9 +73,9 @@ pub struct RunSummary {
     /// True when the energy balance drifted by more than 1 % during the run (a warning was
     /// given: the run is inaccurate).
     pub energy_drifted: bool,
-    /// Wall-clock run time [s].
+    /// Wall-clock run time \[s\].
     pub seconds: f64,
-    /// CPU time of the run [s] (the calling thread's; the wall-clock time where the platform
+    /// CPU time of the run \[s\] (the calling thread's; the wall-clock time where the platform
     /// has no thread CPU clock).
     pub cpu_seconds: f64,
     /// Relative energy-balance error at the end: |Δ(E_total + E_dissipated − W_inputs)| / E_scale, with
@@ -510,7 +510,7 @@ fn ensure_libraries() -> Result<Vec<(String, PathBuf)>, String> {
         .collect()
 }
 
-/// CPU time of the calling thread [s] (immune to other processes on a busy machine).
+/// CPU time of the calling thread \[s\] (immune to other processes on a busy machine).
 ///
 /// Only the command line and the benchmarks call it; the FMU functions read no clock, so the shared library an
 /// FMU ships imports no clock function (`tests/python/test_distribution.py` checks its
@@ -527,7 +527,7 @@ pub fn thread_cpu_seconds() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
-/// CPU time of the calling thread [s]: see the Unix version; here the wall-clock time since
+/// CPU time of the calling thread \[s\]: see the Unix version; here the wall-clock time since
 /// the first call.
 #[cfg(not(unix))]
 pub fn thread_cpu_seconds() -> f64 {

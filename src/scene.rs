@@ -95,13 +95,13 @@ pub struct ModelSection {
     /// Free text.
     #[serde(default)]
     pub description: String,
-    /// Gravity vector [m/s^2].
+    /// Gravity vector \[m/s^2\].
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 3],
-    /// Default experiment stop time [s].
+    /// Default experiment stop time \[s\].
     #[serde(default = "default_stop_time")]
     pub stop_time: f64,
-    /// Default communication step [s].
+    /// Default communication step \[s\].
     #[serde(default = "default_interval")]
     pub interval: f64,
     /// Metadata of the FMU: `version` of the model description.
@@ -195,7 +195,7 @@ pub struct SolverSection {
     /// Absolute tolerance.
     #[serde(default = "default_atol")]
     pub atol: f64,
-    /// Largest internal step [s] (the fixed step of `rk4`); 0 (the default): none, the steps
+    /// Largest internal step \[s\] (the fixed step of `rk4`); 0 (the default): none, the steps
     /// of the adaptive methods are bounded only by their error control and by the time to
     /// contact of the approaching contacts.
     #[serde(default)]
@@ -264,7 +264,7 @@ impl Default for SolverSection {
 pub struct MaterialSpec {
     /// Name, referred to by contacts.
     pub name: String,
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub youngs_modulus: f64,
     /// Poisson's ratio ν (0 ≤ ν < 0.5).
     pub poisson_ratio: f64,
@@ -276,19 +276,19 @@ pub struct MaterialSpec {
 pub struct BodySpec {
     /// Name; "ground" is reserved for the fixed world.
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
-    /// Principal moments of inertia about the centre of mass [kg m^2].
+    /// Principal moments of inertia about the centre of mass \[kg m^2\].
     pub inertia: [f64; 3],
-    /// Centre of mass, world frame [m].
+    /// Centre of mass, world frame \[m\].
     pub position: [f64; 3],
     /// Orientation quaternion (w, x, y, z) of the principal axes.
     #[serde(default = "identity_quaternion")]
     pub orientation: [f64; 4],
-    /// Centre-of-mass velocity, world frame [m/s].
+    /// Centre-of-mass velocity, world frame \[m/s\].
     #[serde(default)]
     pub velocity: [f64; 3],
-    /// Angular velocity, world frame [rad/s].
+    /// Angular velocity, world frame \[rad/s\].
     #[serde(default)]
     pub angular_velocity: [f64; 3],
 }
@@ -342,7 +342,7 @@ pub struct JointSpec {
     pub parent: String,
     /// Child body name.
     pub child: String,
-    /// Joint point, world frame [m]. Default: the child's centre of mass.
+    /// Joint point, world frame \[m\]. Default: the child's centre of mass.
     pub anchor: Option<[f64; 3]>,
     /// Joint axis, world frame (revolute and prismatic).
     pub axis: Option<[f64; 3]>,
@@ -356,18 +356,18 @@ pub struct SpringDamperSpec {
     pub name: String,
     /// First body.
     pub body_a: String,
-    /// Attachment point on body_a, world frame [m].
+    /// Attachment point on body_a, world frame \[m\].
     pub point_a: [f64; 3],
     /// Second body.
     pub body_b: String,
-    /// Attachment point on body_b, world frame [m].
+    /// Attachment point on body_b, world frame \[m\].
     pub point_b: [f64; 3],
-    /// Stiffness [N/m].
+    /// Stiffness \[N/m\].
     pub stiffness: f64,
-    /// Damping [N s/m].
+    /// Damping \[N s/m\].
     #[serde(default)]
     pub damping: f64,
-    /// Free length [m]; default the initial distance.
+    /// Free length \[m\]; default the initial distance.
     pub free_length: Option<f64>,
 }
 
@@ -446,9 +446,9 @@ scene_item! {
         pub restitution: f64,
         /// Body that carries the sphere.
         pub sphere_body: String,
-        /// Sphere centre, world frame [m].
+        /// Sphere centre, world frame \[m\].
         pub center: [f64; 3],
-        /// Sphere radius [m].
+        /// Sphere radius \[m\].
         pub radius: f64,
         /// Sphere material.
         pub sphere_material: Option<String>,
@@ -456,9 +456,9 @@ scene_item! {
         pub body: String,
         /// Material of the other shape.
         pub material: Option<String>,
-        /// sphere_sphere: centre of the other sphere, world frame [m].
+        /// sphere_sphere: centre of the other sphere, world frame \[m\].
         pub other_center: Option<[f64; 3]>,
-        /// sphere_sphere: radius of the other sphere [m].
+        /// sphere_sphere: radius of the other sphere \[m\].
         pub other_radius: Option<f64>,
     }
 }
@@ -551,13 +551,13 @@ pub fn check_law(
     }
 }
 
-/// Default floor on the remembered impact velocity [m/s] (`min_impact_velocity`).
+/// Default floor on the remembered impact velocity \[m/s\] (`min_impact_velocity`).
 pub const DEFAULT_MIN_IMPACT_VELOCITY: f64 = 1e-3;
 
-/// Default Stribeck velocity [m/s] (`stribeck_velocity`).
+/// Default Stribeck velocity \[m/s\] (`stribeck_velocity`).
 pub const DEFAULT_STRIBECK_VELOCITY: f64 = 1e-2;
 
-/// Default regularisation velocity of the continuous friction law [m/s]
+/// Default regularisation velocity of the continuous friction law \[m/s\]
 /// (`stiction_velocity`; docs/friction.md gives the measurements behind it).
 pub const DEFAULT_STICTION_VELOCITY: f64 = 1e-4;
 

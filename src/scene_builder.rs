@@ -119,13 +119,13 @@ impl SceneBuilder {
         self
     }
 
-    /// `model.gravity` [m/s^2].
+    /// `model.gravity` \[m/s^2\].
     pub fn gravity(mut self, g: impl Into<[f64; 3]>) -> SceneBuilder {
         self.scene.model.gravity = g.into();
         self
     }
 
-    /// The default experiment: `model.stop_time` and `model.interval` [s].
+    /// The default experiment: `model.stop_time` and `model.interval` \[s\].
     pub fn experiment(mut self, stop_time: f64, interval: f64) -> SceneBuilder {
         self.scene.model.stop_time = stop_time;
         self.scene.model.interval = interval;
@@ -150,7 +150,7 @@ impl SceneBuilder {
         self
     }
 
-    /// `solver.max_step` [s].
+    /// `solver.max_step` \[s\].
     pub fn max_step(mut self, max_step: f64) -> SceneBuilder {
         self.scene.solver.max_step = max_step;
         self
@@ -194,7 +194,7 @@ impl Scene {
 }
 
 impl MaterialSpec {
-    /// A `[[material]]`: Young's modulus [Pa] and Poisson's ratio.
+    /// A `[[material]]`: Young's modulus \[Pa\] and Poisson's ratio.
     pub fn new(name: &str, youngs_modulus: f64, poisson_ratio: f64) -> MaterialSpec {
         MaterialSpec {
             name: name.to_string(),
@@ -222,13 +222,13 @@ impl BodySpec {
         self
     }
 
-    /// `velocity` of the centre of mass [m/s].
+    /// `velocity` of the centre of mass \[m/s\].
     pub fn velocity(mut self, v: impl Into<[f64; 3]>) -> BodySpec {
         self.velocity = v.into();
         self
     }
 
-    /// `angular_velocity` [rad/s].
+    /// `angular_velocity` \[rad/s\].
     pub fn angular_velocity(mut self, w: impl Into<[f64; 3]>) -> BodySpec {
         self.angular_velocity = w.into();
         self
@@ -261,7 +261,7 @@ impl JointSpec {
         JointSpec::new(name, JointType::Spherical, parent, child).anchor(anchor)
     }
 
-    /// `anchor` [m].
+    /// `anchor` \[m\].
     pub fn anchor(mut self, anchor: impl Into<[f64; 3]>) -> JointSpec {
         self.anchor = Some(anchor.into());
         self
@@ -297,13 +297,13 @@ impl SpringDamperSpec {
         }
     }
 
-    /// `damping` [N s/m].
+    /// `damping` \[N s/m\].
     pub fn damping(mut self, c: f64) -> SpringDamperSpec {
         self.damping = c;
         self
     }
 
-    /// `free_length` [m].
+    /// `free_length` \[m\].
     pub fn free_length(mut self, l: f64) -> SpringDamperSpec {
         self.free_length = Some(l);
         self
@@ -315,9 +315,9 @@ impl SpringDamperSpec {
 pub struct Sphere {
     /// The body that carries it.
     pub body: String,
-    /// Centre, world frame [m].
+    /// Centre, world frame \[m\].
     pub center: [f64; 3],
-    /// Radius [m].
+    /// Radius \[m\].
     pub radius: f64,
 }
 
@@ -340,13 +340,13 @@ impl Sphere {
 /// The rectangle of a sphere-plane contact.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plane {
-    /// Centre of the rectangle [m].
+    /// Centre of the rectangle \[m\].
     pub origin: [f64; 3],
     /// Outward normal.
     pub normal: [f64; 3],
     /// First in-plane axis.
     pub u_axis: [f64; 3],
-    /// Side lengths along `u_axis` and along `normal × u_axis` [m].
+    /// Side lengths along `u_axis` and along `normal × u_axis` \[m\].
     pub size: [f64; 2],
 }
 
@@ -376,13 +376,13 @@ impl Plane {
 /// [`ContactSpec::side`] says otherwise).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cylinder {
-    /// A point on the axis, the middle of the patch's length [m].
+    /// A point on the axis, the middle of the patch's length \[m\].
     pub axis_point: [f64; 3],
     /// Axis direction.
     pub axis: [f64; 3],
-    /// Cylinder radius [m].
+    /// Cylinder radius \[m\].
     pub radius: f64,
-    /// Length along the axis [m].
+    /// Length along the axis \[m\].
     pub length: f64,
 }
 
@@ -435,7 +435,7 @@ impl ContactSpec {
         self
     }
 
-    /// `theta_range` [rad] of a cylinder patch, measured from `ref_axis`.
+    /// `theta_range` \[rad\] of a cylinder patch, measured from `ref_axis`.
     pub fn theta_range(mut self, range: [f64; 2], ref_axis: impl Into<[f64; 3]>) -> ContactSpec {
         self.theta_range = Some(range);
         self.ref_axis = Some(ref_axis.into());
@@ -501,25 +501,25 @@ macro_rules! law_key_setters {
             }
 
             optional_keys! {
-                /// `stiffness` K [N/m^n].
+                /// `stiffness` K \[N/m^n\].
                 stiffness: f64,
-                /// `damping` c [N s/m] (Kelvin-Voigt).
+                /// `damping` c \[N s/m\] (Kelvin-Voigt).
                 damping: f64,
                 /// `exponent` n of the force law.
                 exponent: f64,
-                /// `max_penetration` [m].
+                /// `max_penetration` \[m\].
                 max_penetration: f64,
-                /// `min_impact_velocity` [m/s].
+                /// `min_impact_velocity` \[m/s\].
                 min_impact_velocity: f64,
                 /// `friction`: Coulomb coefficient μ.
                 friction: f64,
                 /// `static_friction` μ_s.
                 static_friction: f64,
-                /// `stribeck_velocity` [m/s].
+                /// `stribeck_velocity` \[m/s\].
                 stribeck_velocity: f64,
-                /// `viscous_friction` σ [s/m].
+                /// `viscous_friction` σ \[s/m\].
                 viscous_friction: f64,
-                /// `stiction_velocity` v_s [m/s] (regularisation).
+                /// `stiction_velocity` v_s \[m/s\] (regularisation).
                 stiction_velocity: f64,
             }
 
@@ -554,17 +554,17 @@ impl InputSpec {
         }
     }
 
-    /// A force on the centre of mass of `body` along `direction` [N].
+    /// A force on the centre of mass of `body` along `direction` \[N\].
     pub fn force(name: &str, body: &str, direction: impl Into<[f64; 3]>) -> InputSpec {
         InputSpec::on(name, InputType::Force, Some(body), None, Some(direction.into()))
     }
 
-    /// A torque on `body` about `direction` [N m].
+    /// A torque on `body` about `direction` \[N m\].
     pub fn torque(name: &str, body: &str, direction: impl Into<[f64; 3]>) -> InputSpec {
         InputSpec::on(name, InputType::Torque, Some(body), None, Some(direction.into()))
     }
 
-    /// A generalised force on the 1-DOF `joint` [N or N m].
+    /// A generalised force on the 1-DOF `joint` \[N or N m\].
     pub fn joint_force(name: &str, joint: &str) -> InputSpec {
         InputSpec::on(name, InputType::JointForce, None, Some(joint), None)
     }
@@ -574,7 +574,7 @@ impl InputSpec {
         InputSpec::on(name, InputType::JointMotion, None, Some(joint), None)
     }
 
-    /// The same generalised force on each of the 1-DOF `joints` [N or N m].
+    /// The same generalised force on each of the 1-DOF `joints` \[N or N m\].
     pub fn joint_forces(name: &str, joints: &[&str]) -> InputSpec {
         InputSpec {
             joints: Some(joints.iter().map(|j| j.to_string()).collect()),

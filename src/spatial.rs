@@ -99,11 +99,11 @@ pub fn point_acceleration(a: &Spatial, v: &Spatial, p: &Vector3<f64>) -> Vector3
 /// mass, first moment `m c` and rotational inertia about the origin.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Inertia {
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
-    /// First moment of mass about the origin, `m c` [kg m].
+    /// First moment of mass about the origin, `m c` \[kg m\].
     pub h: Vector3<f64>,
-    /// Rotational inertia about the origin [kg m^2].
+    /// Rotational inertia about the origin \[kg m^2\].
     pub i_o: Matrix3<f64>,
 }
 

@@ -24,9 +24,9 @@ use std::path::Path;
 
 /// Error at which the methods are compared (relative to the range of motion).
 pub const TARGET_ERROR: f64 = 1e-6;
-/// The rail vehicle's CPU goal for 5 s within [`TARGET_ERROR`] [s].
+/// The rail vehicle's CPU goal for 5 s within [`TARGET_ERROR`] \[s\].
 pub const RAIL_GOAL: f64 = 5e-3;
-/// Fixed steps of the rk4 sweep [s].
+/// Fixed steps of the rk4 sweep \[s\].
 const STEPS: [f64; 8] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7];
 
 /// A CSV row: part, scene, setting, tolerance (empty: none), error, CPU and wall time,

@@ -14,7 +14,7 @@ use crate::scene::{BroadPhaseMethod, Scene};
 use std::path::Path;
 use std::time::Instant;
 
-/// Median time of one call of `body` [s] over `repeats` batches of about 50 ms.
+/// Median time of one call of `body` \[s\] over `repeats` batches of about 50 ms.
 fn timed(repeats: usize, mut body: impl FnMut()) -> f64 {
     let t0 = Instant::now();
     body();
@@ -32,7 +32,7 @@ fn timed(repeats: usize, mut body: impl FnMut()) -> f64 {
 }
 
 /// One RHS at the initial state with the contacts as they start and with every contact
-/// active [s].
+/// active \[s\].
 fn rhs_costs(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64) {
     let state = d.state.clone();
     let mut dy = vec![0.0; state.len()];
@@ -50,7 +50,7 @@ fn rhs_costs(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64) {
     (cost[0], cost[1])
 }
 
-/// Parses and compiles `scene` from its text [s].
+/// Parses and compiles `scene` from its text \[s\].
 fn compiled(scene: &Scene, origin: &str) -> Result<(Model, Data, f64), String> {
     let text = scene.to_toml();
     let t0 = Instant::now();

@@ -16,15 +16,15 @@ use std::time::Instant;
 
 /// Settings of a run.
 pub struct Settings {
-    /// Simulated time of the islands' runs [s].
+    /// Simulated time of the islands' runs \[s\].
     pub time: f64,
     /// Timed runs per point.
     pub repeats: usize,
     /// The former way and one integrator are timed up to this N.
     pub compare_max: usize,
-    /// Their simulated time [s] (short: they are slow).
+    /// Their simulated time \[s\] (short: they are slow).
     pub compare_time: f64,
-    /// Broad-phase margin [m].
+    /// Broad-phase margin \[m\].
     pub margin: f64,
     /// Threads that advance the islands side by side (`[solver] threads`).
     pub threads: usize,

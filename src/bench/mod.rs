@@ -55,7 +55,7 @@ pub struct SweepArgs {
     /// Timed runs per point (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
-    /// Stop refining a method once one run takes longer than this [s].
+    /// Stop refining a method once one run takes longer than this (s).
     #[arg(long, default_value_t = 4.0)]
     pub budget: f64,
 }
@@ -114,7 +114,7 @@ pub enum BenchCommand {
     },
     /// Stability stress cases: each finishes or fails with a clear error.
     Stress {
-        /// Simulated duration of the long resting-contact cases [s].
+        /// Simulated duration of the long resting-contact cases (s).
         #[arg(long, default_value_t = 1000.0)]
         resting_time: f64,
         /// Output CSV.
@@ -129,7 +129,7 @@ pub enum BenchCommand {
         /// Sphere counts.
         #[arg(long, value_delimiter = ',', default_value = "10,30,100,300,1000,3000,10000")]
         n: Vec<usize>,
-        /// Simulated time per run [s].
+        /// Simulated time per run (s).
         #[arg(long, default_value_t = 0.05)]
         time: f64,
         /// Timed runs per point.
@@ -149,7 +149,7 @@ pub enum BenchCommand {
         /// Sphere counts.
         #[arg(long, value_delimiter = ',', default_value = "100,300,1000,3000")]
         n: Vec<usize>,
-        /// Simulated time per run [s].
+        /// Simulated time per run (s).
         #[arg(long, default_value_t = 0.05)]
         time: f64,
         /// Timed runs per point.
@@ -158,10 +158,10 @@ pub enum BenchCommand {
         /// The former way and one integrator are timed up to this N.
         #[arg(long, default_value_t = 1000)]
         compare_max: usize,
-        /// Their simulated time [s].
+        /// Their simulated time (s).
         #[arg(long, default_value_t = 0.05)]
         compare_time: f64,
-        /// Broad-phase margin [m].
+        /// Broad-phase margin (m).
         #[arg(long, default_value_t = 0.0015)]
         margin: f64,
         /// Threads that advance the islands side by side (`[solver] threads`; 0: as many as
@@ -185,7 +185,7 @@ pub enum BenchCommand {
         /// Timed batches per point.
         #[arg(long, default_value_t = 5)]
         repeats: usize,
-        /// Also run each scene for this simulated time [s] (N ≤ 1,000; 0: no run).
+        /// Also run each scene for this simulated time (s; N ≤ 1,000; 0: no run).
         #[arg(long, default_value_t = 0.0)]
         run_time: f64,
         /// Output CSV.
@@ -245,10 +245,10 @@ pub enum BenchCommand {
         /// Instead: N spheres in a box (these N) with sdirk and radau5, dense against sparse.
         #[arg(long, value_delimiter = ',')]
         scenes: Vec<usize>,
-        /// Simulated time of the scene runs [s].
+        /// Simulated time of the scene runs (s).
         #[arg(long, default_value_t = 0.01)]
         time: f64,
-        /// Skip a dense scene run whose estimated factorisation time exceeds this [s].
+        /// Skip a dense scene run whose estimated factorisation time exceeds this (s).
         #[arg(long, default_value_t = 30.0)]
         dense_budget: f64,
     },
@@ -403,9 +403,9 @@ pub struct RunSpec {
     pub origin: String,
     /// `NAME=VALUE` parameter settings.
     pub set: Vec<(String, f64)>,
-    /// Stop time [s].
+    /// Stop time \[s\].
     pub stop_time: f64,
-    /// Communication interval [s].
+    /// Communication interval \[s\].
     pub interval: f64,
     /// Outputs read at every communication point in the timed runs too (as a host that
     /// records the trajectory does): their names, or `all`; none when empty.
@@ -476,11 +476,11 @@ pub struct Outcome {
     pub energy_error: f64,
     /// Largest ratio penetration / max_penetration over all contacts and points.
     pub penetration_ratio: f64,
-    /// Largest penetration seen [m].
+    /// Largest penetration seen \[m\].
     pub max_penetration: f64,
     /// Largest loop-constraint residual |Φ| seen.
     pub constraint_residual: f64,
-    /// Wall time of the run [s].
+    /// Wall time of the run \[s\].
     pub seconds: f64,
 }
 
@@ -523,7 +523,7 @@ pub fn step_through(sim: &mut Simulation, spec: &RunSpec, mut each: impl FnMut(&
     }
 }
 
-/// Times `repeats` runs (setup excluded). Returns (median wall [s], median thread CPU [s],
+/// Times `repeats` runs (setup excluded). Returns (median wall \[s\], median thread CPU \[s\],
 /// counters of the last run, failure of the last run).
 pub fn time_runs(spec: &RunSpec, repeats: usize) -> Result<(f64, f64, Counters, Option<String>), String> {
     let mut wall = Vec::new();

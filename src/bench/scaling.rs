@@ -15,7 +15,7 @@ use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
-/// Median CPU time of one call of `body` [s] (the thread's CPU clock, which other load on
+/// Median CPU time of one call of `body` \[s\] (the thread's CPU clock, which other load on
 /// the machine does not inflate), from `repeats` batches of `iters` calls.
 pub fn time_per_call(repeats: usize, iters: usize, mut body: impl FnMut()) -> f64 {
     let mut v = Vec::new();
@@ -30,7 +30,7 @@ pub fn time_per_call(repeats: usize, iters: usize, mut body: impl FnMut()) -> f6
 }
 
 /// Median cost of one RHS evaluation and of one evaluation of all event functions at the
-/// initial state of a compiled model [s].
+/// initial state of a compiled model \[s\].
 pub fn rhs_and_event_cost(m: &Model, d: &mut Data, repeats: usize) -> (f64, f64) {
     let state = d.state.clone();
     let mut dy = vec![0.0; state.len()];

@@ -4,9 +4,9 @@
 use crate::scene::{BodySpec, ContactGroupSpec, ContactSpec, JointSpec, Law, Method, Scene, ShapeSpec, GROUND};
 use crate::scene_builder::{Plane, SceneBuilder, Sphere};
 
-/// Radius of the benchmark's steel balls [m].
+/// Radius of the benchmark's steel balls \[m\].
 pub const BALL_RADIUS: f64 = 0.01;
-/// Mass of the benchmark's steel balls [kg].
+/// Mass of the benchmark's steel balls \[kg\].
 pub const BALL_MASS: f64 = 0.0329;
 
 /// A steel ball (R = 10 mm, m = 0.0329 kg) centred at `position`.
@@ -14,8 +14,8 @@ fn steel_ball(name: &str, position: [f64; 3]) -> BodySpec {
     BodySpec::sphere(name, BALL_MASS, BALL_RADIUS, position)
 }
 
-/// A steel ball (R = 10 mm, m = 0.0329 kg) moving toward a steel plane at `speed` [m/s]
-/// along −z, starting `gap` [m] above it. With `gravity` false the flight is uniform. The
+/// A steel ball (R = 10 mm, m = 0.0329 kg) moving toward a steel plane at `speed` \[m/s\]
+/// along −z, starting `gap` \[m\] above it. With `gravity` false the flight is uniform. The
 /// contact, `floor`, is `contact[0]`: set more of its keys there.
 #[allow(clippy::too_many_arguments)]
 pub fn ball_plane(
@@ -50,14 +50,14 @@ pub fn ball_plane(
 }
 
 /// Hertz stiffness of the 10 mm steel ball of [`ball_plane`] on its steel plane (E = 210 GPa,
-/// ν = 0.3) [N/m^1.5].
+/// ν = 0.3) \[N/m^1.5\].
 pub fn steel_ball_plane_stiffness() -> f64 {
     crate::contact::laws::hertz_stiffness(210e9, 0.3, 210e9, 0.3, 0.01)
 }
 
 /// The steel ball of [`ball_plane`] resting on the plane at its static Hertz penetration
-/// under gravity (`hertz_ln`, e = 0.8), launched sliding along x at `speed` [m/s] without
-/// spin, with friction `mu` (stiction velocity `stiction_velocity` [m/s]): it rolls from
+/// under gravity (`hertz_ln`, e = 0.8), launched sliding along x at `speed` \[m/s\] without
+/// spin, with friction `mu` (stiction velocity `stiction_velocity` \[m/s\]): it rolls from
 /// t = 2 v0/(7 μ g) at 5/7 of `speed`.
 pub fn sliding_ball(speed: f64, mu: f64, stiction_velocity: f64, stop_time: f64, interval: f64) -> Scene {
     let k = steel_ball_plane_stiffness();
@@ -71,17 +71,17 @@ pub fn sliding_ball(speed: f64, mu: f64, stiction_velocity: f64, stop_time: f64,
     scene
 }
 
-/// The ball of [`ball_plane`] (`hertz_ln`, e = 0.8) touching the plane at `speed` [m/s] from
+/// The ball of [`ball_plane`] (`hertz_ln`, e = 0.8) touching the plane at `speed` \[m/s\] from
 /// a gap of `speed` × 0.1 ms, under gravity, for 0.1 s in 1 ms steps; δ̇⁻ floored at
-/// `min_impact_velocity` [m/s].
+/// `min_impact_velocity` \[m/s\].
 pub fn slow_touch(speed: f64, min_impact_velocity: f64) -> Scene {
     let mut scene = ball_plane("slow", Law::HertzLn, 0.8, speed, speed * 1e-4, true, 0.1, 1e-3);
     scene.contact[0].min_impact_velocity = Some(min_impact_velocity);
     scene
 }
 
-/// Newton's cradle: `n` free steel balls (R = 10 mm) in a row along x, `gap` [m] apart,
-/// no gravity; the first moves at `speed` [m/s] toward the others. Contacts between
+/// Newton's cradle: `n` free steel balls (R = 10 mm) in a row along x, `gap` \[m\] apart,
+/// no gravity; the first moves at `speed` \[m/s\] toward the others. Contacts between
 /// neighbours only.
 pub fn newtons_cradle(n: usize, speed: f64, gap: f64, law: Law, restitution: f64, stop_time: f64) -> Scene {
     let balls: Vec<BodySpec> = (0..n)

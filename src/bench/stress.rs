@@ -7,12 +7,12 @@ use super::scenes::{self, steel_ball_plane_stiffness, BALL_MASS};
 use super::{f, record, Csv, Outcome, RunSpec};
 use crate::scene::{Law, Method, Scene};
 use std::path::Path;
-/// Largest penetration of an undamped Hertz impact `(5 m v² / (4 K))^(2/5)` [m].
+/// Largest penetration of an undamped Hertz impact `(5 m v² / (4 K))^(2/5)` \[m\].
 pub fn hertz_max_penetration(m: f64, v: f64, k: f64) -> f64 {
     (5.0 * m * v * v / (4.0 * k)).powf(0.4)
 }
 
-/// Hertz contact duration `2.94328 δ_max / v` [s].
+/// Hertz contact duration `2.94328 δ_max / v` \[s\].
 pub fn hertz_duration(m: f64, v: f64, k: f64) -> f64 {
     2.94328 * hertz_max_penetration(m, v, k) / v
 }
@@ -43,7 +43,7 @@ fn last(out: &Outcome, name: &str) -> f64 {
     out.last(name).unwrap_or(f64::NAN)
 }
 
-/// Records the ball's height only; returns the run and the final height [m].
+/// Records the ball's height only; returns the run and the final height \[m\].
 fn height_run(spec: &RunSpec) -> Result<(Outcome, f64), String> {
     let out = record(spec, &["ball.r[3]"])?;
     let z = last(&out, "ball.r[3]");

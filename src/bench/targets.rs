@@ -8,11 +8,11 @@ use crate::compile::compile;
 use crate::scene::{Method, Scene};
 use std::path::Path;
 
-/// Target CPU time of the rail vehicle's 5 s [s].
+/// Target CPU time of the rail vehicle's 5 s \[s\].
 pub const RAIL_CPU_TARGET: f64 = 0.05;
 /// Target relative error in car-body height.
 pub const RAIL_ERROR_TARGET: f64 = 1e-6;
-/// Target cost of one RHS evaluation of the rail vehicle [s].
+/// Target cost of one RHS evaluation of the rail vehicle \[s\].
 pub const RAIL_RHS_TARGET: f64 = 5e-6;
 
 /// Runs the targets and writes the CSV.

@@ -12,7 +12,7 @@ use std::path::Path;
 pub(crate) const RTOLS: [f64; 9] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
 /// `auto` may cost this much more than the best fixed method at the error of any point.
 pub const AUTO_MARGIN: f64 = 1.3;
-/// Fixed steps of the rk4 sweep [s].
+/// Fixed steps of the rk4 sweep \[s\].
 const STEPS: [f64; 9] = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7];
 /// Tolerance of the reference run (100× tighter than the tightest of the sweep).
 const RTOL_REF: f64 = 1e-13;
@@ -25,7 +25,7 @@ const SAMPLE_SPAN: f64 = 1.25;
 const SPREAD_LIMIT: f64 = 2.0;
 
 /// The factors on a point's tolerance of its `k` samples: evenly spaced on a log scale from
-/// 1/[`SAMPLE_SPAN`] to [`SAMPLE_SPAN`], 1 among them when `k` is odd (`[1]` for k ≤ 1).
+/// 1/`SAMPLE_SPAN` to `SAMPLE_SPAN`, 1 among them when `k` is odd (`[1]` for k ≤ 1).
 ///
 /// Why more than one: where a scene's motion is not resolved at a loose tolerance (the rail
 /// vehicle at rtol 1e-3, whose error weight on the car's 22 m/s, 2.2 cm/s, exceeds the

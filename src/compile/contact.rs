@@ -81,13 +81,13 @@ fn to_v(a: [f64; 3]) -> Vector3<f64> {
 
 /// The sizes of the other shape (parameters a host may set).
 pub(super) struct Dimensions {
-    /// sphere_sphere: radius of the other sphere [m].
+    /// sphere_sphere: radius of the other sphere \[m\].
     pub other_radius: f64,
-    /// sphere_plane: side lengths of the rectangle [m].
+    /// sphere_plane: side lengths of the rectangle \[m\].
     pub size: [f64; 2],
-    /// sphere_cylinder: cylinder radius [m].
+    /// sphere_cylinder: cylinder radius \[m\].
     pub cylinder_radius: f64,
-    /// sphere_cylinder: length of the patch [m].
+    /// sphere_cylinder: length of the patch \[m\].
     pub length: f64,
 }
 

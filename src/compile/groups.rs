@@ -26,7 +26,7 @@ pub(crate) fn group_numbering(scene: &Scene) -> HashMap<&str, usize> {
 
 /// Builds the groups and the contact elements of `candidates` (None: the broad phase's pairs
 /// at the initial configuration). `pose0` gives a body's initial pose, the other closures are
-/// those of [`compile_contact`].
+/// those of [`compile_contact`](super::contact::compile_contact).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn compile_groups(
     scene: &Scene,

@@ -14,7 +14,7 @@ use crate::scene::{
 /// Elastic constants of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MaterialValues {
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub youngs_modulus: f64,
     /// Poisson's ratio ν.
     pub poisson_ratio: f64,
@@ -29,36 +29,36 @@ pub struct ContactValues {
     pub restitution: f64,
     /// Exponent n.
     pub exponent: f64,
-    /// Kelvin-Voigt damping [N s/m].
+    /// Kelvin-Voigt damping \[N s/m\].
     pub damping: f64,
-    /// Largest admissible penetration [m].
+    /// Largest admissible penetration \[m\].
     pub max_penetration: f64,
-    /// Floor on δ̇⁻ [m/s].
+    /// Floor on δ̇⁻ \[m/s\].
     pub min_impact_velocity: f64,
     /// Stiffness, when the scene gives one (else derived from the materials).
     pub stiffness: Option<f64>,
     /// Friction constants.
     pub friction: Friction,
-    /// Sphere radius [m].
+    /// Sphere radius \[m\].
     pub radius: f64,
-    /// sphere_sphere: radius of the other sphere [m].
+    /// sphere_sphere: radius of the other sphere \[m\].
     pub other_radius: f64,
-    /// sphere_plane: side lengths of the rectangle [m].
+    /// sphere_plane: side lengths of the rectangle \[m\].
     pub size: [f64; 2],
-    /// sphere_cylinder: cylinder radius [m].
+    /// sphere_cylinder: cylinder radius \[m\].
     pub cylinder_radius: f64,
-    /// sphere_cylinder: length of the patch [m].
+    /// sphere_cylinder: length of the patch \[m\].
     pub length: f64,
 }
 
 /// The settable constants of a spring-damper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringValues {
-    /// Stiffness [N/m].
+    /// Stiffness \[N/m\].
     pub stiffness: f64,
-    /// Damping [N s/m].
+    /// Damping \[N s/m\].
     pub damping: f64,
-    /// Free length [m].
+    /// Free length \[m\].
     pub free_length: f64,
 }
 
@@ -67,13 +67,13 @@ pub struct SpringValues {
 pub struct Parameters {
     /// Per material.
     pub materials: Vec<MaterialValues>,
-    /// Per body: mass [kg].
+    /// Per body: mass \[kg\].
     pub masses: Vec<f64>,
-    /// Per body: principal moments of inertia about the centre of mass [kg m²].
+    /// Per body: principal moments of inertia about the centre of mass \[kg m²\].
     pub inertias: Vec<[f64; 3]>,
-    /// Per body: initial centre-of-mass velocity, world frame [m/s].
+    /// Per body: initial centre-of-mass velocity, world frame \[m/s\].
     pub velocities: Vec<[f64; 3]>,
-    /// Per body: initial angular velocity, world frame [rad/s].
+    /// Per body: initial angular velocity, world frame \[rad/s\].
     pub angular_velocities: Vec<[f64; 3]>,
     /// Per spring-damper.
     pub springs: Vec<SpringValues>,

@@ -29,7 +29,7 @@ use nalgebra::Vector3;
 
 /// Slip velocity at gap `g` (sphere on frame `fs`, the other shape on `fo`): the tangential
 /// velocity of the sphere's material point at the contact point relative to the other body's
-/// [m/s].
+/// \[m/s\].
 pub fn slip_velocity(fs: &Frame, fo: &Frame, g: &Gap) -> Vector3<f64> {
     let u = fs.vel.point_velocity(&g.point) - fo.vel.point_velocity(&g.point);
     u - g.normal * u.dot(&g.normal)
@@ -76,7 +76,7 @@ pub fn coefficient(f: &Friction, s: f64) -> f64 {
     dry_coefficient(f, s) * regularisation(s / f.stiction_velocity) + f.viscous * s
 }
 
-/// Friction force on the sphere [N] for normal force `normal_force` ≥ 0 and slip velocity
+/// Friction force on the sphere \[N\] for normal force `normal_force` ≥ 0 and slip velocity
 /// `slip`; zero without slip.
 pub fn force(f: &Friction, normal_force: f64, slip: &Vector3<f64>) -> Vector3<f64> {
     let s = slip.norm();

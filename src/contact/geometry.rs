@@ -8,16 +8,16 @@ use nalgebra::Vector3;
 /// Result of detection.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gap {
-    /// Penetration δ (negative when apart) [m].
+    /// Penetration δ (negative when apart) \[m\].
     pub delta: f64,
-    /// Penetration rate δ̇ [m/s].
+    /// Penetration rate δ̇ \[m/s\].
     pub delta_dot: f64,
     /// Unit normal from the other shape toward the sphere.
     pub normal: Vector3<f64>,
-    /// Contact point (world) [m].
+    /// Contact point (world) \[m\].
     pub point: Vector3<f64>,
     /// Signed distance of the sphere centre's projection inside the patch (positive
-    /// inside; infinite for shapes without edges) [m].
+    /// inside; infinite for shapes without edges) \[m\].
     pub margin: f64,
 }
 
@@ -102,7 +102,7 @@ pub fn detect_placed(c: &ContactElement, fs: Option<Placement>, fo: Option<Place
     }
 }
 
-/// Signed angular margin [rad] of the angle `theta` inside the arc `[lo, hi]` (measured
+/// Signed angular margin \[rad\] of the angle `theta` inside the arc `[lo, hi]` (measured
 /// counter-clockwise about the axis): half the arc minus the angular distance from its middle,
 /// wrapped to `[0, π]`. Continuous in θ everywhere (no jump at ±π), positive strictly inside.
 /// An arc of 2π or more has no edge (infinite margin).

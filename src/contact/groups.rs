@@ -13,7 +13,7 @@ pub fn pose(d: &Data, b: Option<usize>) -> (Vector3<f64>, Matrix3<f64>) {
 }
 
 /// How far a point of body `b`'s group shapes can have moved since the reference poses, at
-/// the kinematics in `d` [m]: the displacement of the centre of mass plus the rotation angle
+/// the kinematics in `d` \[m\]: the displacement of the centre of mass plus the rotation angle
 /// times the reach.
 pub fn displacement(m: &Model, d: &Data, b: usize) -> f64 {
     let (p0, q0): &(Vector3<f64>, UnitQuaternion<f64>) = &d.broad_reference[b];

@@ -269,7 +269,7 @@ pub fn resolve_with(
     })
 }
 
-/// What a round of impacts did to the energy balance [J].
+/// What a round of impacts did to the energy balance \[J\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImpactEnergy {
     /// The energy the impacts dissipated (the kinetic energy lost, without drives).
@@ -543,7 +543,7 @@ pub fn solve_lcp_with(w: &[f64], q: &[f64], n: usize, work: &mut LcpWork, p_out:
     false
 }
 
-/// Restitution to use for contact `c` hit at approach speed `approach` [m/s]: its
+/// Restitution to use for contact `c` hit at approach speed `approach` \[m/s\]: its
 /// coefficient, or 0 (a plastic impact that ends in resting contact) below
 /// `min_impact_velocity`.
 pub fn restitution_for(c: &ContactElement, approach: f64) -> f64 {

@@ -14,13 +14,13 @@ use crate::scene::Law;
 /// Force at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Force {
-    /// Total normal force, ≥ 0 [N].
+    /// Total normal force, ≥ 0 \[N\].
     pub total: f64,
-    /// The law's value before the cut at zero (negative: the law would pull) [N].
+    /// The law's value before the cut at zero (negative: the law would pull) \[N\].
     pub unclamped: f64,
-    /// Elastic part [N].
+    /// Elastic part \[N\].
     pub elastic: f64,
-    /// Elastic energy stored [J].
+    /// Elastic energy stored \[J\].
     pub energy: f64,
 }
 
@@ -43,8 +43,8 @@ pub fn hysteresis_factor(law: Law, e: f64) -> f64 {
     }
 }
 
-/// Normal force of contact `c` at penetration `delta` [m], rate `delta_dot` [m/s] and
-/// remembered impact velocity `impact_velocity` (δ̇⁻, already floored) [m/s]. A negative
+/// Normal force of contact `c` at penetration `delta` \[m\], rate `delta_dot` \[m/s\] and
+/// remembered impact velocity `impact_velocity` (δ̇⁻, already floored) \[m/s\]. A negative
 /// `delta` (an active contact evaluated past its separation, inside the step that crosses
 /// it): Kelvin-Voigt's elastic part continues linearly through δ = 0 (its total force is cut
 /// to zero there already), so that the right-hand side stays smooth up to the separation

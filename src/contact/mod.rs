@@ -51,8 +51,8 @@ pub fn event_function(c: &ContactElement, g: &Gap) -> f64 {
 /// Broad phase: when the sphere centre is farther from the other shape's bounding sphere than
 /// `radius + max_penetration`, no part of the admissible region can be reached (δ < 0, or the
 /// projection is off the patch, or δ > δ_max) and the exact detection is skipped. Returns
-/// then a negative stand-in for the event function (minus the clearance [m]) and the rate at
-/// which the clearance closes [m/s] (the stand-in for δ̇); `None` when the exact detection is
+/// then a negative stand-in for the event function (minus the clearance \[m\]) and the rate at
+/// which the clearance closes \[m/s\] (the stand-in for δ̇); `None` when the exact detection is
 /// needed.
 pub fn broad_phase(c: &ContactElement, d: &Data) -> Option<(f64, f64)> {
     if !c.bound_radius.is_finite() {
@@ -111,7 +111,7 @@ pub fn resting_rows(m: &Model, d: &mut Data) {
     }
 }
 
-/// Normal force [N] carried by resting contact `i` after a constrained solve (the multiplier
+/// Normal force \[N\] carried by resting contact `i` after a constrained solve (the multiplier
 /// of its row with the sign of a push); 0 when it does not rest.
 pub fn resting_force(d: &Data, i: usize) -> f64 {
     match d.contacts[i].constraint_row {
@@ -145,7 +145,7 @@ const RESTING_FRICTION_ITERATIONS: usize = 50;
 /// fixed-point iteration: the generalised friction force is applied through the constrained
 /// response `G` (accelerations and multipliers updated), and recomputed from the new normal
 /// forces, until its change is at rounding level (a sphere on a plane: two rounds, its
-/// normal force does not depend on friction). Returns the dissipated power [W]; 0 and
+/// normal force does not depend on friction). Returns the dissipated power \[W\]; 0 and
 /// nothing done when no resting contact has friction.
 pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
     let any = d
@@ -209,7 +209,7 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
 
 /// Adds the forces of the active continuous contacts to the bodies (normal force and
 /// friction), updates the contact outputs and their gaps' `d.events.stage_gaps`, and returns
-/// the dissipated power [W].
+/// the dissipated power \[W\].
 pub fn apply_forces(d: &mut Data) -> f64 {
     let mut power = 0.0;
     for i in 0..d.contacts.len() {

@@ -272,7 +272,7 @@ fn time_to_separation(delta: f64, rate: f64, rate_before: f64, last_step: f64) -
     quadratic.min(linear)
 }
 
-/// Largest step [s] from the current state before an inactive contact could close its gap and
+/// Largest step \[s\] from the current state before an inactive contact could close its gap and
 /// one sphere radius more (and, for active contacts that close, the time to penetrate half of
 /// `max_penetration` further): per contact the time `t` in which `v t + a t²/2 = gap + R`, with
 /// `v` the closing speed (0 when it opens), `a` the magnitude of gravity (the acceleration
@@ -330,7 +330,7 @@ pub fn time_to_contact(m: &Model, d: &Data) -> f64 {
     bound.min(contact::groups::time_to_margin(m, d))
 }
 
-/// The first step [s] after a touch: for each continuous-law contact that has just touched
+/// The first step \[s\] after a touch: for each continuous-law contact that has just touched
 /// (active, closing, its penetration still below 1e-6 of `max_penetration`, from
 /// `d.events.aux_new` at the event), `0.5 rtol^p` of the time `δ_max / v` it takes to
 /// reach the penetration `δ_max` at which the law `F = K δⁿ` stores the kinetic energy of the

@@ -31,7 +31,7 @@ use crate::scene::Law;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("at t = {time}: {message}")]
 pub struct EngineError {
-    /// Last time reached with a valid state [s].
+    /// Last time reached with a valid state \[s\].
     pub time: f64,
     /// What went wrong.
     pub message: String,

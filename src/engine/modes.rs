@@ -94,7 +94,7 @@ fn slip_function_value(d: &Data, c: &ContactElement) -> f64 {
     friction::slip_function(&c.friction, friction::slip_velocity(&fs, &fo, &g).norm())
 }
 
-/// The band around a damped law's cut (relative to [`clamp_scale`]) inside which a crossing
+/// The band around a damped law's cut (relative to `clamp_scale`) inside which a crossing
 /// of its clamp function is not located. The force is continuous across the cut (zero on
 /// both sides), so the integrator's error control covers a crossing it steps over; where the
 /// contact's state slides along the cut (a ball in a rattling pile whose damping holds its
@@ -355,7 +355,7 @@ fn touching(c: &ContactElement, g: &Gap, resting: bool) -> bool {
 }
 
 /// Normal speeds below this count as zero for the impulse law (neither approach nor
-/// separation) [m/s].
+/// separation) \[m/s\].
 fn velocity_tolerance(c: &ContactElement) -> f64 {
     (1e-6 * c.min_impact_velocity).max(1e-12)
 }

@@ -127,7 +127,7 @@ pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResul
     }
 }
 
-/// A mutable slice from a C array (see [`slice`]).
+/// A mutable slice from a C array (see [`fn@slice`]).
 ///
 /// # Safety
 /// When not NULL, `p` points to `n` valid, writable elements that nothing else accesses

@@ -124,7 +124,7 @@ pub enum Access {
     /// `fmi3Int64`: FMI 3.0's enumerations
     Int64,
     /// `fmi2Boolean`, `fmi3Boolean` (String variables this model has none of:
-    /// [`crate::fmi::glue::none_of`])
+    /// `crate::fmi::glue::none_of`)
     Boolean,
 }
 
@@ -399,7 +399,7 @@ impl Instance {
 
     /// `fmi2ExitInitializationMode`: checks every parameter and compiles the model; then
     /// every output and calculated parameter at the initial state must be a finite number
-    /// (see [`Instance::finite`]).
+    /// (see `Instance::finite`).
     pub fn exit_initialization_mode(&mut self) -> FmiResult {
         self.sim.initialize(self.start_time)?;
         for vr in 0..self.sim.variables().len() {

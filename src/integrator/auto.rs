@@ -45,7 +45,7 @@
 //!   cost per unit of time (`6/h`) is below it runs no stiffness check; an island formed anew
 //!   takes the hold over from the islands its bodies come from ([`Integrator::hold_explicit`]).
 //! - A switch happens at the start of a step, so the dense output of the last step stays that
-//!   of the method that took it. The counters carry over (one [`Stats`] for the run).
+//!   of the method that took it. The counters carry over (one [`Stats`](super::Stats) for the run).
 //! - Resets (after events) and restarts keep the active method and the switching memory.
 //! - The implicit method is built at the first switch (its workspace: Jacobian, iteration
 //!   matrices, LU factors), so a problem that is never stiff never allocates one, and kept
@@ -481,7 +481,7 @@ fn linear_work<I: ImplicitMethod>(implicit: &I) -> f64 {
 }
 
 /// Spectral radius of the n×n Jacobian `jac` (dense row-major or sparse) by power iteration
-/// from a fixed start (deterministic): `sqrt(‖J²x‖/‖x‖)` after [`POWER_ITERATIONS`]
+/// from a fixed start (deterministic): `sqrt(‖J²x‖/‖x‖)` after `POWER_ITERATIONS`
 /// iterations, which is exact for a dominant real eigenvalue and for a dominant complex pair
 /// `±iω` of an oscillation.
 pub fn spectral_radius(jac: JacRef, x: &mut [f64], jx: &mut [f64]) -> f64 {

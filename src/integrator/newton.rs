@@ -119,7 +119,7 @@ impl NewtonCore {
     }
 
     /// Whether the Jacobian is kept across warm restarts (and written into warm states): a
-    /// dense one of at most [`WARM_JACOBIAN_MAX`] numbers.
+    /// dense one of at most [`WARM_JACOBIAN_MAX`](super::WARM_JACOBIAN_MAX) numbers.
     pub fn keeps_jacobian(&self) -> bool {
         self.sparse.is_none() && WarmMemory::keeps_jacobian(self.n())
     }
@@ -293,7 +293,7 @@ impl NewtonCore {
     }
 
     /// Factors the iteration matrices for step `h` with `factor(jac)` unless they are
-    /// factored for the current Jacobian and a step size within [`LU_KEEP`] of `h`. False if
+    /// factored for the current Jacobian and a step size within `LU_KEEP` of `h`. False if
     /// singular.
     pub fn factor(&mut self, h: f64, factor: impl FnOnce(JacRef) -> bool) -> bool {
         if self.lu_h == h {
@@ -310,7 +310,7 @@ impl NewtonCore {
         ok
     }
 
-    /// Drops iteration matrices factored for a step size other than `h` (within [`LU_KEEP`],
+    /// Drops iteration matrices factored for a step size other than `h` (within `LU_KEEP`,
     /// so that they were used as they were); true if there were such.
     pub fn drop_approximate_factors(&mut self, h: f64) -> bool {
         let approximate = self.lu_h != 0.0 && self.lu_h != h;

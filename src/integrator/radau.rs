@@ -20,7 +20,7 @@
 //! - Starting values of the stages: the previous step's collocation polynomial, extrapolated;
 //!   for some steps after a burst of Newton failures with its stiff components replaced by
 //!   those of the stage equations linearised at the step's state
-//!   ([`super::newton::WarmMemory::filtered_start`]).
+//!   ([`super::warm::WarmMemory::filtered_start`]).
 //! - Nothing is allocated after construction.
 
 use super::core::StepCore;

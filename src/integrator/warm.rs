@@ -39,7 +39,7 @@ pub(crate) fn read_bound(x: f64) -> f64 {
     }
 }
 
-/// Memory an implicit method carries across a warm restart (see [`Integrator::restart`]).
+/// Memory an implicit method carries across a warm restart (see [`Integrator::restart`](super::Integrator::restart)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WarmMemory {
     /// Step size and error norm of the last accepted step (0: none).
@@ -83,7 +83,7 @@ impl WarmMemory {
     }
 
     /// Writes the memory and, when present and kept (`keep`: see
-    /// [`NewtonCore::keeps_jacobian`]), the row-major Jacobian `jac`.
+    /// [`NewtonCore::keeps_jacobian`](super::newton::NewtonCore::keeps_jacobian)), the row-major Jacobian `jac`.
     pub fn write(&self, jac: &[f64], keep: bool, out: &mut Vec<f64>) {
         let with_jac = self.jac_valid && keep;
         out.extend_from_slice(&[

@@ -87,7 +87,7 @@ impl Islands {
     }
 
     /// Adds work of the inputs done outside the islands' integration (a host moving a driven
-    /// joint) [J].
+    /// joint) \[J\].
     pub fn add_input_work(&mut self, work: f64) {
         self.input_work_base += work;
     }

@@ -109,12 +109,12 @@ impl Island {
         }
     }
 
-    /// The island's dissipated energy [J].
+    /// The island's dissipated energy \[J\].
     pub fn dissipated(&self) -> f64 {
         self.data.state[self.model.dissipated_index()]
     }
 
-    /// The work of the island's inputs [J].
+    /// The work of the island's inputs \[J\].
     pub fn input_work(&self) -> f64 {
         self.model.input_work(&self.data.state)
     }

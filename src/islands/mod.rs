@@ -97,9 +97,9 @@ pub struct Islands {
     pub parts: Vec<Box<Island>>,
     /// The counters of the scene before the islands, and of islands that no longer exist.
     retired: Counters,
-    /// Dissipated energy not held by a present island [J].
+    /// Dissipated energy not held by a present island \[J\].
     dissipated_base: f64,
-    /// Input work not held by a present island [J].
+    /// Input work not held by a present island \[J\].
     input_work_base: f64,
     /// The candidate pairs of the whole scene (its shape numbering), as the broad phase
     /// found them last (sorted).
@@ -121,9 +121,9 @@ pub struct Islands {
     /// (a diagnostic).
     pub light_takebacks: u64,
 
-    /// The time of the islands [s].
+    /// The time of the islands \[s\].
     time: f64,
-    /// The end of the present round [s] (infinite: none planned yet).
+    /// The end of the present round \[s\] (infinite: none planned yet).
     round_end: f64,
     /// Per scene body: (first position, first velocity) index of its joint in the scene's state.
     joint_coords: Vec<(usize, usize)>,

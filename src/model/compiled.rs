@@ -19,9 +19,9 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 pub struct Body {
     /// Name.
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
-    /// Principal moments of inertia [kg m^2].
+    /// Principal moments of inertia \[kg m^2\].
     pub inertia: Vector3<f64>,
     /// Index of its tree joint.
     pub joint: usize,
@@ -162,11 +162,11 @@ pub struct SpringDamper {
     pub body_b: Option<usize>,
     /// Attachment in b's frame.
     pub point_b: Vector3<f64>,
-    /// Stiffness [N/m].
+    /// Stiffness \[N/m\].
     pub stiffness: f64,
-    /// Damping [N s/m].
+    /// Damping \[N s/m\].
     pub damping: f64,
-    /// Free length [m].
+    /// Free length \[m\].
     pub free_length: f64,
 }
 
@@ -226,11 +226,11 @@ pub struct FreeBody {
     pub qpos: usize,
     /// First velocity coordinate.
     pub qvel: usize,
-    /// 1 / mass [1/kg].
+    /// 1 / mass \[1/kg\].
     pub inv_mass: f64,
-    /// Principal moments of inertia [kg m^2].
+    /// Principal moments of inertia \[kg m^2\].
     pub inertia: Vector3<f64>,
-    /// Their reciprocals [1/(kg m^2)].
+    /// Their reciprocals \[1/(kg m^2)\].
     pub inv_inertia: Vector3<f64>,
 }
 
@@ -513,7 +513,7 @@ impl Plan {
 pub struct Model {
     /// Name.
     pub name: String,
-    /// Gravity [m/s^2].
+    /// Gravity \[m/s^2\].
     pub gravity: Vector3<f64>,
     /// Bodies, in scene order.
     pub bodies: Vec<Body>,
@@ -562,7 +562,7 @@ pub struct Model {
     pub plan: Plan,
     /// Solver settings.
     pub solver: crate::scene::SolverSection,
-    /// Baumgarte stabilisation frequency for loop constraints [1/s].
+    /// Baumgarte stabilisation frequency for loop constraints \[1/s\].
     pub baumgarte: f64,
     /// Warnings produced during compilation (inconsistent initial velocities, ...).
     pub warnings: Vec<String>,
@@ -604,7 +604,7 @@ impl Model {
         (!self.inputs.is_empty()).then_some(self.nq + self.nv + 1)
     }
 
-    /// The inputs' work on the system since initialisation, from a state vector [J].
+    /// The inputs' work on the system since initialisation, from a state vector \[J\].
     pub fn input_work(&self, state: &[f64]) -> f64 {
         self.input_work_index().map_or(0.0, |i| state[i])
     }

@@ -13,7 +13,7 @@ pub enum Shape {
     Sphere {
         /// Centre.
         center: Vector3<f64>,
-        /// Radius [m].
+        /// Radius \[m\].
         radius: f64,
     },
     /// A finite rectangle: centre, outward normal, in-plane axes u and v, half side lengths.
@@ -26,7 +26,7 @@ pub enum Shape {
         u: Vector3<f64>,
         /// Second in-plane axis (normal × u).
         v: Vector3<f64>,
-        /// Half side lengths along u and v [m].
+        /// Half side lengths along u and v \[m\].
         half: [f64; 2],
     },
     /// A cylindrical surface patch.
@@ -37,11 +37,11 @@ pub enum Shape {
         axis: Vector3<f64>,
         /// Unit direction perpendicular to the axis where θ = 0.
         reference: Vector3<f64>,
-        /// Cylinder radius ρ [m].
+        /// Cylinder radius ρ \[m\].
         radius: f64,
-        /// Half length along the axis [m].
+        /// Half length along the axis \[m\].
         half_length: f64,
-        /// Angular range [min, max] [rad] (None: the whole circumference).
+        /// Angular range [min, max] \[rad\] (None: the whole circumference).
         theta_range: Option<[f64; 2]>,
         /// Sphere inside (concave) rather than outside (convex).
         inside: bool,
@@ -55,7 +55,7 @@ pub struct SphereSide {
     pub body: Option<usize>,
     /// Centre in that body's frame.
     pub center: Vector3<f64>,
-    /// Radius [m].
+    /// Radius \[m\].
     pub radius: f64,
     /// Young's modulus and Poisson's ratio of its material (None: no material).
     pub material: Option<[f64; 2]>,
@@ -86,11 +86,11 @@ pub struct LawConstants {
     pub restitution: f64,
     /// Exponent n.
     pub exponent: f64,
-    /// Kelvin-Voigt damping c [N s/m].
+    /// Kelvin-Voigt damping c \[N s/m\].
     pub damping: f64,
-    /// Largest admissible penetration [m] (None: the sphere's radius).
+    /// Largest admissible penetration \[m\] (None: the sphere's radius).
     pub max_penetration: Option<f64>,
-    /// Floor on δ̇⁻ [m/s].
+    /// Floor on δ̇⁻ \[m/s\].
     pub min_impact_velocity: f64,
     /// Stiffness K (None: Hertz's, from the materials).
     pub stiffness: Option<f64>,
@@ -116,23 +116,23 @@ pub struct ContactElement {
     pub sphere_body: Option<usize>,
     /// Sphere centre in that body's frame.
     pub center: Vector3<f64>,
-    /// Sphere radius [m].
+    /// Sphere radius \[m\].
     pub radius: f64,
     /// Body carrying the other shape (None = ground).
     pub body: Option<usize>,
     /// The other shape, in its body's frame.
     pub shape: Shape,
-    /// Stiffness K [N/m^n].
+    /// Stiffness K \[N/m^n\].
     pub stiffness: f64,
     /// True when K was derived from the materials (a calculated parameter).
     pub stiffness_derived: bool,
     /// Exponent n.
     pub exponent: f64,
-    /// Kelvin-Voigt damping c [N s/m].
+    /// Kelvin-Voigt damping c \[N s/m\].
     pub damping: f64,
-    /// Largest admissible penetration [m].
+    /// Largest admissible penetration \[m\].
     pub max_penetration: f64,
-    /// Floor on δ̇⁻ [m/s]; for the impulse law, approach speeds below it come to rest.
+    /// Floor on δ̇⁻ \[m/s\]; for the impulse law, approach speeds below it come to rest.
     pub min_impact_velocity: f64,
     /// Radius of a bounding sphere of the other shape around its reference point (broad
     /// phase); infinite for unbounded shapes.
@@ -179,11 +179,11 @@ pub struct Friction {
     pub mu: f64,
     /// Static coefficient μ_s (peak of the Stribeck curve at zero slip).
     pub mu_static: f64,
-    /// Stribeck velocity [m/s].
+    /// Stribeck velocity \[m/s\].
     pub stribeck_velocity: f64,
-    /// Viscous coefficient σ [s/m]: the coefficient grows by σ·|slip|.
+    /// Viscous coefficient σ \[s/m\]: the coefficient grows by σ·|slip|.
     pub viscous: f64,
-    /// Regularisation (stiction) velocity v_s [m/s] of the continuous law.
+    /// Regularisation (stiction) velocity v_s \[m/s\] of the continuous law.
     pub stiction_velocity: f64,
 }
 
@@ -211,7 +211,7 @@ impl Friction {
 pub struct ContactMemory {
     /// In contact (the force law acts, or a resting impulse contact holds).
     pub active: bool,
-    /// Penetration rate at the first instant of this contact, floored (δ̇⁻) [m/s].
+    /// Penetration rate at the first instant of this contact, floored (δ̇⁻) \[m/s\].
     pub impact_velocity: f64,
     /// Impacts resolved so far (impulse law).
     pub impacts: u64,
@@ -220,16 +220,16 @@ pub struct ContactMemory {
 /// Per-contact results of the last evaluation (outputs).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ContactOutput {
-    /// Penetration (0 when apart) [m].
+    /// Penetration (0 when apart) \[m\].
     pub delta: f64,
-    /// Penetration rate [m/s].
+    /// Penetration rate \[m/s\].
     pub delta_dot: f64,
-    /// Normal force [N].
+    /// Normal force \[N\].
     pub force: f64,
-    /// Elastic energy stored [J].
+    /// Elastic energy stored \[J\].
     pub elastic_energy: f64,
-    /// Friction force on the sphere, world frame [N].
+    /// Friction force on the sphere, world frame \[N\].
     pub friction_force: Vector3<f64>,
-    /// Slip speed at the contact point (tangential relative velocity magnitude) [m/s].
+    /// Slip speed at the contact point (tangential relative velocity magnitude) \[m/s\].
     pub slip_speed: f64,
 }

@@ -83,18 +83,18 @@ impl ContactEventKind {
 /// ([`Data::event_log`]); not part of the saved state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactEvent {
-    /// Time [s].
+    /// Time \[s\].
     pub time: f64,
     /// Contact index (scene order).
     pub contact: usize,
     /// What happened.
     pub kind: ContactEventKind,
-    /// Penetration δ [m] (signed).
+    /// Penetration δ \[m\] (signed).
     pub delta: f64,
-    /// Penetration rate δ̇ [m/s] (for an impact: before it).
+    /// Penetration rate δ̇ \[m/s\] (for an impact: before it).
     pub delta_dot: f64,
-    /// Normal force [N] (continuous laws; resting contacts: the constraint force); for an
-    /// impact, the normal impulse [N s].
+    /// Normal force \[N\] (continuous laws; resting contacts: the constraint force); for an
+    /// impact, the normal impulse \[N s\].
     pub force: f64,
 }
 
@@ -270,7 +270,7 @@ pub struct ImpactWork {
 #[derive(Debug)]
 pub struct Data {
     // --- the state (see `state::StatePart`) ---
-    /// Time [s]: the one clock of the simulation.
+    /// Time \[s\]: the one clock of the simulation.
     pub time: f64,
     /// State: `[qpos (nq), qvel (nv), dissipated energy]`.
     pub state: Vec<f64>,
@@ -327,7 +327,7 @@ pub struct Data {
     /// Impulse-law mode changes.
     pub impacts: ImpactWork,
     // --- kinematics (per body, scene order) ---
-    /// Centre-of-mass positions [m].
+    /// Centre-of-mass positions \[m\].
     pub body_pos: Vec<Vector3<f64>>,
     /// Rotation matrices body → world.
     pub body_rot: Vec<Matrix3<f64>>,
@@ -386,9 +386,9 @@ pub struct Data {
     pub friction_applied: Vec<f64>,
     pub friction_step: Vec<f64>,
     pub friction_dlambda: Vec<f64>,
-    /// Dissipated power at the last RHS evaluation [W].
+    /// Dissipated power at the last RHS evaluation \[W\].
     pub dissipation: f64,
-    /// The power of the inputs on the system at the last evaluation [W] (forces, torques,
+    /// The power of the inputs on the system at the last evaluation \[W\] (forces, torques,
     /// joint forces, drives): the rate of the input-work state.
     pub input_power: f64,
     /// Per-contact outputs of the last evaluation.

@@ -58,7 +58,7 @@ pub struct Groups {
     /// The candidate pairs at the initial configuration (found by the broad phase there, or
     /// given), in the order of their contact elements.
     pub initial_candidates: Vec<Candidate>,
-    /// Broad-phase margin [m].
+    /// Broad-phase margin \[m\].
     pub margin: f64,
     /// Algorithm.
     pub method: BroadPhaseMethod,

@@ -31,6 +31,8 @@ impl Projection {
 }
 
 /// Work arrays of [`solve_lcp_with`] for problems of up to `n` contacts.
+///
+/// [`solve_lcp_with`]: crate::contact::impulse::solve_lcp_with
 #[derive(Debug, Clone, Default)]
 pub struct LcpWork {
     pub(crate) n: usize,
@@ -112,6 +114,8 @@ impl FrictionWork {
 /// Preallocated work arrays of the impulse law: everything [`resolve_with`] needs for rounds
 /// of up to `k` simultaneous impacts of a model with `nv` velocities (and its loop rows), so
 /// that resolving an impact allocates nothing. Sized when the engine is compiled.
+///
+/// [`resolve_with`]: crate::contact::impulse::resolve_with
 #[derive(Debug, Clone, Default)]
 pub struct ImpulseWork {
     pub(crate) k: usize,
@@ -176,13 +180,15 @@ impl ImpulseWork {
     }
 
     /// Normal impulse of each contact of the last [`resolve_with`] round, in the order given
-    /// [N s].
+    /// \[N s\].
+    ///
+    /// [`resolve_with`]: crate::contact::impulse::resolve_with
     pub fn impulses(&self) -> &[f64] {
         &self.impulses[..self.last]
     }
 
     /// Tangential (friction) impulse of each contact of the last round, along its two tangent
-    /// directions (the contact module's friction tangents of the normal) [N s]; zero for a
+    /// directions (the contact module's friction tangents of the normal) \[N s\]; zero for a
     /// contact without friction.
     pub fn friction_impulse(&self, k: usize) -> [f64; 2] {
         let f = &self.friction;

@@ -40,9 +40,9 @@ scene_item! {
         pub body: String,
         /// Material (for the Hertz stiffness).
         pub material: Option<String>,
-        /// sphere: centre, world frame [m] (default: the body's centre of mass).
+        /// sphere: centre, world frame \[m\] (default: the body's centre of mass).
         pub center: Option<[f64; 3]>,
-        /// sphere: radius [m].
+        /// sphere: radius \[m\].
         pub radius: Option<f64>,
     }
 }
@@ -133,7 +133,7 @@ pub enum BroadPhaseMethod {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BroadPhaseSection {
-    /// Distance [m] within which two shapes become a candidate pair (default: the largest
+    /// Distance \[m\] within which two shapes become a candidate pair (default: the largest
     /// sphere radius of the groups).
     pub margin: Option<f64>,
     /// Algorithm.

@@ -6,11 +6,11 @@ use super::*;
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum InputType {
-    /// Force on a body's centre of mass along a world direction [N].
+    /// Force on a body's centre of mass along a world direction \[N\].
     Force,
-    /// Torque on a body about a world direction [N m].
+    /// Torque on a body about a world direction \[N m\].
     Torque,
-    /// Generalised force on a 1-DOF joint [N or N m].
+    /// Generalised force on a 1-DOF joint \[N or N m\].
     JointForce,
     /// Prescribed motion of a 1-DOF tree joint: three inputs `<name>.q`, `<name>.qd`,
     /// `<name>.qdd` (coordinate, rate and acceleration at the start of the communication step;

@@ -20,23 +20,23 @@ macro_rules! surface_keys {
     ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
             $($fields)*
-            /// Plane: centre of the rectangle [m].
+            /// Plane: centre of the rectangle \[m\].
             pub origin: Option<[f64; 3]>,
             /// Plane: outward normal.
             pub normal: Option<[f64; 3]>,
             /// Plane: first in-plane axis.
             pub u_axis: Option<[f64; 3]>,
-            /// Plane: side lengths [lu, lv] [m].
+            /// Plane: side lengths [lu, lv] \[m\].
             pub size: Option<[f64; 2]>,
-            /// Cylinder: a point on the axis (the middle of the patch's length) [m].
+            /// Cylinder: a point on the axis (the middle of the patch's length) \[m\].
             pub axis_point: Option<[f64; 3]>,
             /// Cylinder: axis direction.
             pub axis: Option<[f64; 3]>,
-            /// Cylinder: radius ρ [m].
+            /// Cylinder: radius ρ \[m\].
             pub cylinder_radius: Option<f64>,
-            /// Cylinder: length of the patch along the axis [m].
+            /// Cylinder: length of the patch along the axis \[m\].
             pub length: Option<f64>,
-            /// Cylinder: angular range [min, max] from `ref_axis` [rad].
+            /// Cylinder: angular range [min, max] from `ref_axis` \[rad\].
             pub theta_range: Option<[f64; 2]>,
             /// Cylinder: direction (perpendicular to the axis) where θ = 0.
             pub ref_axis: Option<[f64; 3]>,
@@ -61,7 +61,7 @@ pub struct Surface {
     pub axis_point: Option<[f64; 3]>,
     /// Cylinder: axis direction.
     pub axis: Option<[f64; 3]>,
-    /// Cylinder: angular range [rad].
+    /// Cylinder: angular range \[rad\].
     pub theta_range: Option<[f64; 2]>,
     /// Cylinder: direction where θ = 0.
     pub ref_axis: Option<[f64; 3]>,
@@ -159,16 +159,16 @@ macro_rules! law_keys {
     ([$($rest:ident),*] $(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
             $($fields)*
-            /// Contact stiffness K [N/m^n]; when absent, the Hertz family derives it from the
+            /// Contact stiffness K \[N/m^n\]; when absent, the Hertz family derives it from the
             /// two materials (for a group pair, per pair of shapes).
             pub stiffness: Option<f64>,
-            /// Kelvin-Voigt damping c [N s/m].
+            /// Kelvin-Voigt damping c \[N s/m\].
             pub damping: Option<f64>,
             /// Exponent n (default 1.5).
             pub exponent: Option<f64>,
-            /// Largest admissible penetration [m] (default: the sphere radius).
+            /// Largest admissible penetration \[m\] (default: the sphere radius).
             pub max_penetration: Option<f64>,
-            /// Floor on the remembered impact velocity δ̇⁻ [m/s]; for the impulse law, approach
+            /// Floor on the remembered impact velocity δ̇⁻ \[m/s\]; for the impulse law, approach
             /// speeds below it end in a resting contact.
             pub min_impact_velocity: Option<f64>,
             /// Impulse law only: `exact` (default) or `effective_mass` (paper (17)-(19)).
@@ -178,11 +178,11 @@ macro_rules! law_keys {
             pub friction: Option<f64>,
             /// Static friction coefficient μ_s, the peak of the Stribeck curve (default μ).
             pub static_friction: Option<f64>,
-            /// Stribeck velocity [m/s]: how fast μ_s decays to μ with the slip speed.
+            /// Stribeck velocity \[m/s\]: how fast μ_s decays to μ with the slip speed.
             pub stribeck_velocity: Option<f64>,
-            /// Viscous friction coefficient σ [s/m] (friction coefficient grows by σ·|slip|).
+            /// Viscous friction coefficient σ \[s/m\] (friction coefficient grows by σ·|slip|).
             pub viscous_friction: Option<f64>,
-            /// Regularisation velocity v_s [m/s] of the continuous friction law.
+            /// Regularisation velocity v_s \[m/s\] of the continuous friction law.
             pub stiction_velocity: Option<f64>,
         }}
     };

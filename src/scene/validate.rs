@@ -525,16 +525,16 @@ pub fn check_max_step(s: &SolverSection) -> Result<(), (&'static str, String)> {
     Ok(())
 }
 
-/// The fixed step of `rk4` [s] when `solver.max_step` is 0 (none).
+/// The fixed step of `rk4` \[s\] when `solver.max_step` is 0 (none).
 pub const RK4_DEFAULT_STEP: f64 = 1e-3;
 
-/// Smallest `solver.max_step` [s]: the step of `rk4`, and a cap on every method's step;
+/// Smallest `solver.max_step` \[s\]: the step of `rk4`, and a cap on every method's step;
 /// a smaller one makes any simulation practically endless (and below the rounding of the
 /// time, truly endless). The FMU parameter has the same lower bound.
 pub const MIN_MAX_STEP: f64 = 1e-9;
 
-/// Largest magnitude of a coordinate [m], a length [m], a vector component (directions,
-/// velocities, gravity) or an angle [rad] in a scene: the model forms squares and products
+/// Largest magnitude of a coordinate \[m\], a length \[m\], a vector component (directions,
+/// velocities, gravity) or an angle \[rad\] in a scene: the model forms squares and products
 /// of them, which overflow or lose all precision beyond this.
 pub const MAX_MAGNITUDE: f64 = 1e12;
 
@@ -765,7 +765,7 @@ pub(super) fn nonnegative(origin: &str, item: &str, field: &str, x: f64) -> Resu
     Err(SceneError::new(origin, item, field, msg))
 }
 
-/// A length [m]: finite, > 0, at most [`MAX_MAGNITUDE`].
+/// A length \[m\]: finite, > 0, at most [`MAX_MAGNITUDE`].
 pub(super) fn length(origin: &str, item: &str, field: &str, x: f64) -> Result<(), SceneError> {
     positive(origin, item, field, x)?;
     magnitude(origin, item, field, x)

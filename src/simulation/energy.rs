@@ -13,9 +13,9 @@ use crate::engine;
 pub(super) struct EnergyWatch {
     /// The reference was taken.
     pub(super) started: bool,
-    /// The balance at the start [J].
+    /// The balance at the start \[J\].
     pub(super) reference: f64,
-    /// The scale of the relative drift [J].
+    /// The scale of the relative drift \[J\].
     pub(super) scale: f64,
     /// RHS evaluations (since initialisation) at the last check.
     pub(super) checked_at: u64,
@@ -26,15 +26,15 @@ pub(super) struct EnergyWatch {
 /// The energy balance found drifted at a communication point.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Drift {
-    /// Time [s].
+    /// Time \[s\].
     time: f64,
-    /// `energy.total + energy.dissipated − energy.input_work` then [J].
+    /// `energy.total + energy.dissipated − energy.input_work` then \[J\].
     balance: f64,
-    /// Its reference [J].
+    /// Its reference \[J\].
     reference: f64,
     /// The drift relative to `scale`.
     drift: f64,
-    /// The scale [J].
+    /// The scale \[J\].
     scale: f64,
 }
 

@@ -33,7 +33,7 @@ pub enum SimError {
     /// The integration failed at `time`; the state is the last good one.
     #[error("at t = {time}: {message}")]
     Step {
-        /// Last time successfully reached [s].
+        /// Last time successfully reached \[s\].
         time: f64,
         /// What went wrong.
         message: String,
@@ -42,7 +42,7 @@ pub enum SimError {
     /// is valid and the simulation can go on from it.
     #[error("at t = {time}: {message}")]
     StepLimit {
-        /// Time reached [s].
+        /// Time reached \[s\].
         time: f64,
         /// What happened.
         message: String,
@@ -254,7 +254,7 @@ impl Simulation {
         self.initialized
     }
 
-    /// Current simulation time [s] (0 before initialisation).
+    /// Current simulation time \[s\] (0 before initialisation).
     pub fn time(&self) -> f64 {
         match (&self.compiled, self.initialized) {
             (Some(c), true) => c.data.time,
@@ -748,7 +748,7 @@ pub struct IslandReport {
     pub counters: Counters,
     /// Its energies (its dissipated energy: since it was formed).
     pub energies: Energies,
-    /// Its time [s].
+    /// Its time \[s\].
     pub time: f64,
 }
 

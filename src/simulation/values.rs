@@ -15,7 +15,7 @@ impl Simulation {
     /// Sets a parameter (before initialisation; a tunable one also after it) or an input (at
     /// any time). The range of a parameter set before initialisation is checked by
     /// [`Simulation::initialize`], so that a host may set values in any order; a tunable one
-    /// set after it is checked at once (see [`Simulation::retune`]).
+    /// set after it is checked at once (see `Simulation::retune`).
     pub fn set(&mut self, vr: usize, value: f64) -> Result<(), SimError> {
         let var = variable(&self.table, vr)?;
         match var.causality {
