@@ -10,13 +10,15 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-echo "== cargo fmt --check, cargo clippy -D warnings"
+echo "== cargo fmt --check, cargo clippy -D warnings, cargo doc -D warnings"
 if cargo fmt --version >/dev/null 2>&1; then cargo fmt --check; else echo "(rustfmt not installed: skipped)"; fi
 if cargo clippy --version >/dev/null 2>&1; then
     cargo clippy --release --all-targets --quiet -- -D warnings
 else
     echo "(clippy not installed: skipped)"
 fi
+# the API docs without a broken link (units in doc comments are written \[s\])
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --quiet
 
 echo "== tools for the win64 library and its tests: the Rust target, MinGW-w64, wine"
 # The FMUs carry a win64 library beside the linux64 one (scripts/build_fmu_library.sh), and
