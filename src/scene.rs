@@ -182,7 +182,8 @@ named_enum! {
     }
 }
 
-/// `[solver]`: every key is also an FMU parameter `solver.<key>`.
+/// `[solver]`: every key but `continuation`, `islands` and `threads` (scene keys only) is also
+/// an FMU parameter `solver.<key>`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSection {

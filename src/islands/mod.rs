@@ -142,6 +142,9 @@ pub struct Islands {
     spare: HashMap<usize, Vec<(Data, Vec<f64>)>>,
     n_spare: usize,
     spare_limit: usize,
+    /// Threads that advance the islands of a round side by side (`[solver] threads`, 0
+    /// resolved to the machine's).
+    threads: usize,
     /// Whether an island that only interpolates in a round saves its time and coordinates
     /// alone ([`Island::save_round_start`]; off: the whole state, for the tests).
     light_saves: bool,
@@ -209,6 +212,7 @@ impl Islands {
             n_spare: 0,
             spare_limit: SPARE_DATA,
             light_saves: true,
+            threads: side_by_side(m.solver.threads),
             reused: 0,
             fresh: FreshIntegrators::default(),
         }
@@ -546,11 +550,11 @@ impl Islands {
             let mut t_event = f64::INFINITY;
             let mut used = self.total_steps() - steps_start;
             let budget = per_island.saturating_mul(self.parts.len().max(1) as u64);
-            // side by side, each island may take the steps left of the budget at the round's
-            // start; one after the other, those left when its turn comes
-            let threads = side_by_side(m.solver.threads, self.parts.len());
+            // each island may take the steps left of the budget at the round's start (the same
+            // limit whichever thread advances it, and in whatever order)
+            let limit = per_island.min(budget.saturating_sub(used));
+            let threads = self.threads.min(self.parts.len());
             let mut outcomes = if threads > 1 {
-                let limit = per_island.min(budget.saturating_sub(used));
                 advance_side_by_side(&mut self.parts, threads, limit, t_round, stop_at_events)
             } else {
                 Vec::new()
@@ -560,7 +564,7 @@ impl Islands {
                     Some(outcome) => outcome,
                     None => {
                         let island = &mut self.parts[k];
-                        island.model.solver.max_steps = per_island.min(budget.saturating_sub(used));
+                        island.model.solver.max_steps = limit;
                         advance_island(island, t_round, stop_at_events)
                     }
                 };
@@ -700,21 +704,22 @@ fn advance_island(island: &mut Island, t_round: f64, stop_at_events: bool) -> Ou
     (result, island.data.counters.steps - before)
 }
 
-/// The threads that advance `islands` islands side by side for the scene key `threads` (0:
-/// as many as the machine has): at most one per island.
-fn side_by_side(threads: usize, islands: usize) -> usize {
-    let threads = match threads {
+/// The threads that advance the islands side by side for the scene key `threads` (0: as many
+/// as the machine has, asked once: the answer costs system calls).
+fn side_by_side(threads: usize) -> usize {
+    match threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
-    };
-    threads.min(islands)
+    }
 }
 
-/// Advances every island of `parts` to `t_round` on `threads` threads (this one and
-/// `threads − 1` more, each taking the next island not yet taken), each island with the step
-/// limit `limit`: the outcome of each, in their order. An island's advance reads and writes its
-/// own model and data alone, so each outcome is the one of advancing the islands one after
-/// the other. The threads end before it returns.
+/// Advances every island of `parts` to `t_round` on up to `threads` threads (this one and
+/// `threads − 1` more, each taking the largest island not yet taken, so that a round does not
+/// wait for a large island taken last), each island with the step limit `limit`: the outcome of
+/// each, in their order. An island's advance reads and writes its own model and data alone, so
+/// each outcome is the one of advancing the islands one after the other. Every thread is joined
+/// before it returns, also when an island's advance panicked (the first panic is then resumed
+/// here); a thread the system does not start leaves its share to the others.
 fn advance_side_by_side(
     parts: &mut [Box<Island>],
     threads: usize,
@@ -723,11 +728,13 @@ fn advance_side_by_side(
     stop_at_events: bool,
 ) -> Vec<Option<Outcome>> {
     let mut outcomes: Vec<Option<Outcome>> = (0..parts.len()).map(|_| None).collect();
-    let queue = Mutex::new(parts.iter_mut().enumerate());
+    let mut order: Vec<(usize, &mut Box<Island>)> = parts.iter_mut().enumerate().collect();
+    order.sort_by_key(|(k, island)| (std::cmp::Reverse(island.bodies.len()), *k));
+    let queue = Mutex::new(order.into_iter());
     let work = || {
         let mut done = Vec::new();
         loop {
-            // (a thread that panicked holding the lock leaves the queue as it was)
+            // (the lock is held for `next` alone: no panic can poison it)
             let next = queue.lock().unwrap_or_else(PoisonError::into_inner).next();
             let Some((k, island)) = next else {
                 return done;
@@ -737,10 +744,22 @@ fn advance_side_by_side(
         }
     };
     std::thread::scope(|scope| {
-        let others: Vec<_> = (1..threads).map(|_| scope.spawn(work)).collect();
-        let mut all = vec![work()];
-        for other in others {
-            all.push(other.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+        let others: Vec<_> = (1..threads)
+            .filter_map(|_| std::thread::Builder::new().spawn_scoped(scope, work).ok())
+            .collect();
+        let own = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        let mut panic = None;
+        let mut all = Vec::with_capacity(threads);
+        for joined in std::iter::once(own).chain(others.into_iter().map(|other| other.join())) {
+            match joined {
+                Ok(done) => all.push(done),
+                Err(payload) => {
+                    panic.get_or_insert(payload);
+                }
+            }
+        }
+        if let Some(payload) = panic {
+            std::panic::resume_unwind(payload);
         }
         for (k, outcome) in all.into_iter().flatten() {
             outcomes[k] = Some(outcome);

@@ -142,3 +142,27 @@ fn islands_side_by_side_go_as_one_after_the_other() {
         assert_eq!(one.0, side.0, "stopping at events: {stops}");
     }
 }
+
+/// Near the step budget too, islands side by side go as one after the other: 64 spinning
+/// spheres with `max_steps` = 30 stop at the budget within one advance (several rounds, each
+/// island limited to the steps left at the round's start) with the same message and time, and
+/// the islands are taken back to the same states, on three threads and on one.
+#[test]
+fn islands_side_by_side_stop_at_the_step_budget_as_one_after_the_other() {
+    let run = |threads: usize| {
+        let mut scene = spinning_spheres();
+        scene.solver.threads = threads;
+        scene.solver.max_steps = 30;
+        on_scene(&scene, "budget test", |src, m, d, is| {
+            let e = is.advance(src, m, d, 0.02, false).unwrap_err();
+            assert!(e.step_limit, "{}", e.message);
+            assert!(is.rounds > 1, "rounds: {}", is.rounds);
+            (e.message, e.time.to_bits(), snapshot(is, m, d))
+        })
+    };
+    let (one, side) = (run(1), run(3));
+    eprintln!("{}", one.0);
+    assert_eq!(one.0, side.0);
+    assert_eq!(one.1, side.1);
+    assert_eq!(one.2, side.2);
+}
