@@ -14,19 +14,27 @@ use crate::scene::{Method, Scene};
 use std::path::Path;
 use std::time::Instant;
 
-/// Settings of a run.
+/// Settings of a run (the options of `contact-fmu bench islands`).
+#[derive(Debug, clap::Args)]
 pub struct Settings {
-    /// Simulated time of the islands' runs \[s\].
+    /// Simulated time per run (s).
+    #[arg(long, default_value_t = 0.05)]
     pub time: f64,
     /// Timed runs per point.
+    #[arg(long, default_value_t = 3)]
     pub repeats: usize,
     /// The former way and one integrator are timed up to this N.
+    #[arg(long, default_value_t = 1000)]
     pub compare_max: usize,
-    /// Their simulated time \[s\] (short: they are slow).
+    /// Their simulated time (s).
+    #[arg(long, default_value_t = 0.05)]
     pub compare_time: f64,
-    /// Broad-phase margin \[m\].
+    /// Broad-phase margin (m).
+    #[arg(long, default_value_t = 0.0015)]
     pub margin: f64,
-    /// Threads that advance the islands side by side (`[solver] threads`).
+    /// Threads that advance the islands side by side (`[solver] threads`; 0: as many as
+    /// the machine has); the former way and one integrator run on one.
+    #[arg(long, default_value_t = 1)]
     pub threads: usize,
 }
 

@@ -149,25 +149,8 @@ pub enum BenchCommand {
         /// Sphere counts.
         #[arg(long, value_delimiter = ',', default_value = "100,300,1000,3000")]
         n: Vec<usize>,
-        /// Simulated time per run (s).
-        #[arg(long, default_value_t = 0.05)]
-        time: f64,
-        /// Timed runs per point.
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
-        /// The former way and one integrator are timed up to this N.
-        #[arg(long, default_value_t = 1000)]
-        compare_max: usize,
-        /// Their simulated time (s).
-        #[arg(long, default_value_t = 0.05)]
-        compare_time: f64,
-        /// Broad-phase margin (m).
-        #[arg(long, default_value_t = 0.0015)]
-        margin: f64,
-        /// Threads that advance the islands side by side (`[solver] threads`; 0: as many as
-        /// the machine has); the former way and one integrator run on one.
-        #[arg(long, default_value_t = 1)]
-        threads: usize,
+        #[command(flatten)]
+        settings: islands::Settings,
         /// Output CSV.
         #[arg(long, default_value = "docs/islands.csv")]
         csv: PathBuf,
@@ -307,35 +290,18 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
         BenchCommand::Islands {
             write_scene: Some(p),
             n,
-            time,
-            margin,
+            settings: s,
             ..
         } => save_scene(
             &p,
-            &islands::grouped(n.first().copied().unwrap_or(100), time, margin, true),
+            &islands::grouped(n.first().copied().unwrap_or(100), s.time, s.margin, true),
         ),
         BenchCommand::Islands {
             n,
-            time,
-            repeats,
-            compare_max,
-            compare_time,
-            margin,
-            threads,
+            settings,
             csv,
             write_scene: None,
-        } => islands::run(
-            &n,
-            &islands::Settings {
-                time,
-                repeats,
-                compare_max,
-                compare_time,
-                margin,
-                threads,
-            },
-            &csv,
-        ),
+        } => islands::run(&n, &settings, &csv),
         BenchCommand::Groups {
             n,
             repeats,
