@@ -206,6 +206,12 @@ pub fn poses_and_velocities(m: &Model, d: &mut Data) {
     }
 }
 
+/// [`poses_and_velocities`] at the data's state (`d.state`, copied into `d.eval_state`).
+pub fn poses_and_velocities_at_state(m: &Model, d: &mut Data) {
+    d.eval_state.copy_from_slice(&d.state);
+    poses_and_velocities(m, d);
+}
+
 /// The lean kinematics of a rotor joint ([`Rotor`]): as [`joint_kinematics`] without the
 /// rotation by the joint angle, which moves nothing the right-hand side reads (the child's
 /// centre of mass and its spheres lie on the axis, its inertia is symmetric about it): the

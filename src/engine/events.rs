@@ -11,7 +11,7 @@ use super::modes;
 use crate::contact;
 use crate::contact::any_resting;
 use crate::forward::{evaluate, planned_kinematics};
-use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path};
+use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path, poses_and_velocities};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 
@@ -111,9 +111,11 @@ fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
 }
 
 /// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
-/// phase's reference poses changed: the contacts' entries do not depend on them).
+/// phase's reference poses changed: the contacts' entries do not depend on them), on the poses
+/// and velocities there ([`poses_and_velocities`]: the whole kinematics' numbers, without what
+/// the margin values do not read).
 pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
-    kinematics(m, d);
+    poses_and_velocities(m, d);
     store_margin_values(m, d, at_step_end);
 }
 

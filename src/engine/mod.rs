@@ -22,7 +22,7 @@ use crate::contact;
 use crate::contact::any_resting;
 use crate::dynamics;
 use crate::forward::{evaluate, Rhs};
-use crate::kinematics::{kinematics, poses_and_velocities};
+use crate::kinematics::{kinematics, poses_and_velocities_at_state};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
 use crate::scene::Law;
@@ -106,11 +106,7 @@ fn settle_margins(m: &Model, d: &mut Data) {
     }
     if let Some(i) = d.solver.method() {
         d.eval_state.copy_from_slice(i.y());
-        // (what `events::margin_event_values` computes, without the kinematics that the
-        // margin values do not read)
-        crate::kinematics::poses_and_velocities(m, d);
-        let (moved, time) = contact::groups::margin_values(m, d);
-        d.events.aux_new[d.contacts.len()] = (time, moved);
+        events::margin_event_values(m, d, true);
     }
     d.events.margin_pending = false;
 }
@@ -484,8 +480,7 @@ fn restart_with_values(m: &Model, d: &mut Data, h: f64) -> Result<(), EngineErro
         s.start.copy_from_slice(&rhs.data.state);
         s.method.reset(rhs, t, &s.start, h);
     })?;
-    d.eval_state.copy_from_slice(&d.state);
-    poses_and_velocities(m, d);
+    poses_and_velocities_at_state(m, d);
     d.solver.started = true;
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! taken back to.
 
 use crate::engine;
-use crate::kinematics::poses_and_velocities;
+use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
 use rustc_hash::FxHashMap as HashMap;
@@ -63,8 +63,7 @@ impl Island {
         let dl = &mut self.data;
         dl.outputs_valid = false;
         dl.kinematics_valid = false;
-        dl.eval_state.copy_from_slice(&dl.state);
-        poses_and_velocities(&self.model, dl);
+        poses_and_velocities_at_state(&self.model, dl);
     }
 
     /// Saves the island's state at the start of a round that ends at `t_round`, to take it

@@ -36,7 +36,7 @@ use crate::contact::elements::{contact_name, set_candidates};
 use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
-use crate::kinematics::poses_and_velocities;
+use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::contact::ContactMemory;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
@@ -529,7 +529,7 @@ impl Islands {
             // state at its start goes on across them)
             if grouped && !self.round_end.is_finite() {
                 if !poses_fresh {
-                    scene_poses(m, d);
+                    poses_and_velocities_at_state(m, d);
                 }
                 self.round_end = self.time + round_length(m, d);
             }
@@ -618,7 +618,7 @@ impl Islands {
             let stale = t_met < t_round && !at_event;
             if grouped && ((ends_round && t_met >= t_round) || stale) {
                 self.round_end = f64::INFINITY;
-                scene_poses(m, d);
+                poses_and_velocities_at_state(m, d);
                 poses_fresh = true;
                 let moved = (0..m.bodies.len())
                     .filter(|&b| m.groups.has_shape[b])
@@ -768,16 +768,9 @@ fn advance_side_by_side(
     outcomes
 }
 
-/// The poses and velocities of the scene's bodies at its state (the islands' coordinates),
-/// bit for bit those of the whole kinematics, which nothing here reads otherwise.
-fn scene_poses(m: &Model, d: &mut Data) {
-    d.eval_state.copy_from_slice(&d.state);
-    poses_and_velocities(m, d);
-}
-
 /// The time in which no body's group shapes can move [`ROUND_FRACTION`] of the margin from
 /// the reference poses at their present speed under gravity (from the poses and velocities
-/// in the scene's data `d`, [`scene_poses`]).
+/// in the scene's data `d`, [`poses_and_velocities_at_state`]).
 fn round_length(m: &Model, d: &Data) -> f64 {
     let g = &m.groups;
     let a = m.gravity.norm();
