@@ -48,7 +48,7 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
     }
     let mut power = dynamics::applied_forces(m, d);
     if !d.contacts.is_empty() {
-        power += lean_contact_forces(d);
+        power += contact_forces(d);
     }
     d.dissipation = power;
     dynamics::mass_and_bias(m, d);
@@ -56,7 +56,8 @@ fn evaluate_all(m: &Model, d: &mut Data, rotors: bool) -> bool {
     if ok {
         // The constraint rows: the loops, and the rows of resting impulse contacts (skipped
         // when there are no loops and nothing rests).
-        let resting = any_resting(d);
+        // (an engine's list of the step's force contacts means that none rests)
+        let resting = !d.force_contacts_listed && any_resting(d);
         if d.nc > 0 && (resting || m.fixed_rows() > 0) {
             constrained_accelerations(m, d);
             if resting {
@@ -177,14 +178,14 @@ fn planned_kinematics_and_forces(m: &Model, d: &mut Data) {
     planned_kinematics(m, d);
     let mut power = dynamics::applied_forces(m, d);
     if !d.contacts.is_empty() {
-        power += lean_contact_forces(d);
+        power += contact_forces(d);
     }
     d.dissipation = power;
 }
 
-/// [`contact::apply_forces`] for the right-hand side's lean path: over the contacts the
-/// engine listed for the integrator's step when it did (the same numbers), else over all.
-fn lean_contact_forces(d: &mut Data) -> f64 {
+/// [`contact::apply_forces`] for the right-hand side: over the contacts the engine listed for
+/// the integrator's step when it did (the same numbers), else over all.
+fn contact_forces(d: &mut Data) -> f64 {
     if d.force_contacts_listed {
         contact::apply_listed_forces(d)
     } else {

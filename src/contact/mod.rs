@@ -213,15 +213,19 @@ pub fn resting_friction(m: &Model, d: &mut Data) -> f64 {
 pub fn apply_forces(d: &mut Data) -> f64 {
     let mut power = 0.0;
     for i in 0..d.contacts.len() {
-        let c = &d.contacts[i];
-        let mem = d.contact_memory[i];
-        if !mem.active || c.law == Law::Impulse {
+        if !exerts_force(d, i) {
             d.contact_out[i] = ContactOutput::default();
             continue;
         }
-        apply_force(d, i, mem, &mut power);
+        apply_force(d, i, d.contact_memory[i], &mut power);
     }
     power
+}
+
+/// True when contact `i` exerts its law's force: active under a continuous law (an impulse-law
+/// contact acts by impulses, and while it rests by its constraint row).
+pub fn exerts_force(d: &Data, i: usize) -> bool {
+    d.contact_memory[i].active && d.contacts[i].law != Law::Impulse
 }
 
 /// True when some impulse-law contact is resting (its constraint row is on).
@@ -244,7 +248,7 @@ pub fn list_force_contacts(d: &mut Data) -> bool {
         return false;
     }
     for i in 0..d.contacts.len() {
-        if d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
+        if exerts_force(d, i) {
             // (within the capacity of the contact list's length: no allocation)
             d.force_contacts.push(i);
         } else {

@@ -50,7 +50,7 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     let stage_gaps = d.planned_kinematics;
     let n_contacts = d.contacts.len();
     for i in 0..n_contacts {
-        let (mode, clamp_value, a) = if stage_gaps && d.contact_memory[i].active && d.contacts[i].law != Law::Impulse {
+        let (mode, clamp_value, a) = if stage_gaps && contact::exerts_force(d, i) {
             modes::stage_event_values(d, i, d.clamp_events)
         } else {
             modes::contact_event_values(d, i, d.clamp_events)
@@ -350,7 +350,7 @@ pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
     let mut bound = f64::INFINITY;
     for (i, c) in d.contacts.iter().enumerate() {
         let (delta, closing) = d.events.aux_new[i];
-        let touched = c.law != Law::Impulse && d.contact_memory[i].active && delta <= 1e-6 * c.max_penetration;
+        let touched = contact::exerts_force(d, i) && delta <= 1e-6 * c.max_penetration;
         if !touched || closing.is_nan() || closing <= 0.0 {
             continue;
         }

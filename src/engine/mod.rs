@@ -505,7 +505,7 @@ fn project_after_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
             .g
             .iter()
             .zip(&d.events.g_new)
-            .any(|(a, b)| (*a <= 0.0) != (*b <= 0.0));
+            .any(|(&a, &b)| modes::crossed(a, b));
         if flipped {
             if let Some(method) = d.solver.method() {
                 d.state.copy_from_slice(method.y());

@@ -187,11 +187,11 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
         let c = &d.contacts[i];
         let gap = gap(d, i);
         let mem = d.contact_memory[i];
-        let crossed = relevant_crossing(d, i, before, now, gap.delta);
+        let relevant = relevant_crossing(d, i, before, now, gap.delta);
         // Reaching δ_max in contact is an error. (A continuous contact that is not active
         // there is a sphere passing behind a plate: not a contact at all.)
         let in_contact = if c.law == Law::Impulse { !mem.active } else { mem.active };
-        if crossed && now <= 0.0 && in_contact && gap.delta >= c.max_penetration * (1.0 - 1e-9) {
+        if relevant && now <= 0.0 && in_contact && gap.delta >= c.max_penetration * (1.0 - 1e-9) {
             return Err(format!(
                 "contact {:?}: penetration {:.6e} m reached max_penetration {:.6e} m (the contact is too \
                  soft or the impact too fast for this model, or the step too long: raise max_penetration or \
@@ -202,10 +202,10 @@ pub fn handle_events(m: &Model, d: &mut Data) -> Result<(), String> {
             ));
         }
         if c.law == Law::Impulse {
-            impulse_work |= crossed;
+            impulse_work |= relevant;
             continue;
         }
-        if crossed {
+        if relevant {
             // A touch comes through δ = 0 (or over the patch edge with a small overlap);
             // entering the zone deeper than δ_max/2 is the sphere coming through the back
             // of the shape: ignored.
