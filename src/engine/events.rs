@@ -50,7 +50,8 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
     let stage_gaps = d.planned_kinematics;
     let n_contacts = d.contacts.len();
     for i in 0..n_contacts {
-        let (mode, clamp_value, a) = if stage_gaps && contact::exerts_force(d, i) {
+        let from_stage = stage_gaps && contact::exerts_force(d, i);
+        let (mode, clamp_value, a) = if from_stage {
             modes::stage_event_values(d, i, d.clamp_events)
         } else {
             modes::contact_event_values(d, i, d.clamp_events)
@@ -63,7 +64,11 @@ fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of:
         g[i] = mode;
         g[n_contacts + i] = clamp_value;
         aux[i] = a;
-        let slip = modes::slip_event_value(d, i);
+        let slip = if from_stage {
+            modes::stage_slip_event_value(d, i)
+        } else {
+            modes::slip_event_value(d, i)
+        };
         let g = if at_step_end {
             &mut d.events.g_new
         } else {

@@ -86,6 +86,18 @@ pub fn slip_event_value(d: &Data, i: usize) -> f64 {
     slip_function_value(d, c)
 }
 
+/// [`slip_event_value`] of a continuous-law contact that is active, from the slip speed the
+/// right-hand side's evaluation at the same kinematics computed (`ContactOutput::slip_speed`,
+/// as [`stage_event_values`] takes its gap: the same numbers, not computed again).
+pub fn stage_slip_event_value(d: &Data, i: usize) -> f64 {
+    let c = &d.contacts[i];
+    if c.friction.is_on() {
+        friction::slip_function(&c.friction, d.contact_out[i].slip_speed)
+    } else {
+        1.0
+    }
+}
+
 /// [`slip_event_value`] of an active contact `c` with friction.
 fn slip_function_value(d: &Data, c: &ContactElement) -> f64 {
     let fs = frame(d, c.sphere_body);
