@@ -54,16 +54,20 @@ impl Island {
         engine::resync(&self.model, &mut self.data);
     }
 
-    /// [`Island::copy_coordinates`] for a new island, with only the poses and velocities
-    /// evaluated there (what forming reads: the gaps of its candidate pairs). The advance that
-    /// starts its integrator evaluates the event values there: what
-    /// [`Island::take_coordinates`] would evaluate now would be overwritten unread.
+    /// [`Island::copy_coordinates`] for a new island: nothing is evaluated there. The advance
+    /// that starts its integrator evaluates the event values there; forming reads only the
+    /// gaps of its candidate pairs new to the list, after [`Island::evaluate_poses`].
     pub(super) fn take_new_coordinates(&mut self, d: &Data) {
         self.copy_coordinates(d);
         let dl = &mut self.data;
         dl.outputs_valid = false;
         dl.kinematics_valid = false;
-        poses_and_velocities_at_state(&self.model, dl);
+    }
+
+    /// The poses and velocities at the island's coordinates (what the gaps of its contacts
+    /// read).
+    pub(super) fn evaluate_poses(&mut self) {
+        poses_and_velocities_at_state(&self.model, &mut self.data);
     }
 
     /// Saves the island's state at the start of a round that ends at `t_round`, to take it

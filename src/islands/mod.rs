@@ -338,9 +338,14 @@ impl Islands {
             self.compiled += 1;
             if !fresh {
                 let n = island.explicit.len();
-                for (k, c) in island.candidates.iter().enumerate() {
-                    if self.candidate_index.contains_key(c) {
+                let mut posed = false;
+                for k in 0..island.candidates.len() {
+                    if self.candidate_index.contains_key(&island.candidates[k]) {
                         continue;
+                    }
+                    if !posed {
+                        island.evaluate_poses();
+                        posed = true;
                     }
                     let g = contact::gap(&island.data, n + k);
                     if contact::event_function(&island.data.contacts[n + k], &g) > 0.0 {
