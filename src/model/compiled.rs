@@ -97,9 +97,22 @@ pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
 /// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
 /// toward a separation, taken at every step in contact: computed once per contact list).
 pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
+    // (the powers depend on the law and its exponent alone, which the contacts of one pair of
+    // groups share: a power already taken is reused, the same number)
+    let mut taken: Vec<([f64; 2], [f64; 2])> = Vec::new();
     contacts
         .iter()
-        .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
+        .map(|c| {
+            let p = [c.touch_power(), c.separation_power()];
+            match taken.iter().find(|(q, _)| *q == p) {
+                Some(&(_, v)) => v,
+                None => {
+                    let v = p.map(|p| crate::math::powf(rtol, p));
+                    taken.push((p, v));
+                    v
+                }
+            }
+        })
         .collect()
 }
 
