@@ -99,7 +99,8 @@ pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
 pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
     // (the powers depend on the law and its exponent alone, which the contacts of one pair of
     // groups share: a power already taken is reused, the same number)
-    let mut taken: Vec<([f64; 2], [f64; 2])> = Vec::new();
+    let mut taken = [([f64::NAN; 2], [0.0; 2]); 4];
+    let mut next = 0;
     contacts
         .iter()
         .map(|c| {
@@ -108,7 +109,8 @@ pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]>
                 Some(&(_, v)) => v,
                 None => {
                     let v = p.map(|p| crate::math::powf(rtol, p));
-                    taken.push((p, v));
+                    taken[next] = (p, v);
+                    next = (next + 1) % taken.len();
                     v
                 }
             }
