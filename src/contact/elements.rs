@@ -153,3 +153,48 @@ pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<()
     set_contact_list(m, d, found, contacts);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::model::step_rtol_powers;
+    use crate::scene::{Law, Scene};
+
+    /// The powers of rtol of a contact list, reused for contacts of the same law and exponent,
+    /// are those taken for each contact afresh, bit for bit: over a list of more laws and
+    /// exponents than the powers kept at once, in an order that comes back to each.
+    #[test]
+    fn reused_powers_of_rtol_are_those_taken_afresh() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/two_spheres/scene.toml");
+        let scene = Scene::from_file(&path).unwrap();
+        let (m, _) = crate::compile::compile(&scene, "two_spheres").unwrap();
+        let first = m.initial_contacts[0].clone();
+        let kinds = [
+            (Law::Hertz, 1.5),
+            (Law::KelvinVoigt, 1.0),
+            (Law::Hertz, 2.2),
+            (Law::HertzLn, 1.5),
+            (Law::Hertz, 1.0),
+            (Law::Hertz, 3.1),
+            (Law::Hertz, 0.7),
+        ];
+        let contacts: Vec<_> = (0..40)
+            .map(|k| {
+                let (law, exponent) = kinds[(k * 5 + k / 7) % kinds.len()];
+                let mut c = first.clone();
+                c.law = law;
+                c.exponent = exponent;
+                c
+            })
+            .collect();
+        let rtol = 3.7e-7;
+        let afresh: Vec<[f64; 2]> = contacts
+            .iter()
+            .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
+            .collect();
+        let reused = step_rtol_powers(&contacts, rtol);
+        assert_eq!(reused.len(), afresh.len());
+        for (k, (a, b)) in reused.iter().zip(&afresh).enumerate() {
+            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "contact {k}");
+        }
+    }
+}
