@@ -176,10 +176,13 @@ mod tests {
             (Law::Hertz, 1.0),
             (Law::Hertz, 3.1),
             (Law::Hertz, 0.7),
+            // (the same touch power as Kelvin-Voigt's, another separation power)
+            (Law::Hertz, 2.0),
+            (Law::KelvinVoigt, 3.0),
         ];
-        let contacts: Vec<_> = (0..40)
+        let contacts: Vec<_> = (0..60)
             .map(|k| {
-                let (law, exponent) = kinds[(k * 5 + k / 7) % kinds.len()];
+                let (law, exponent) = kinds[(k * 5 + k / 9) % kinds.len()];
                 let mut c = first.clone();
                 c.law = law;
                 c.exponent = exponent;
