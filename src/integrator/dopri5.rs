@@ -1,8 +1,8 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, StateReader, StepCore};
-use super::{error_scale, rms, Integrator, IntegratorError, OdeSystem};
-use crate::scene::Method;
+use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, zeroed, StateReader, StepCore};
+use super::{error_scale, largest_step, rms, Integrator, IntegratorError, OdeSystem};
+use crate::scene::{Method, SolverSection};
 use std::cell::{Cell, Ref, RefCell};
 
 // The tableau (Dormand and Prince 1980; Hairer, Nørsett and Wanner, Table II.5.2), stage s
@@ -88,6 +88,22 @@ impl Dopri5 {
         }
     }
 
+    /// Makes this method what [`Dopri5::new`]`(n, rtol, atol, hmax)` gives, in place (see
+    /// [`Integrator::renew`]); false, and nothing changed, for another size or other settings.
+    pub fn renew_with(&mut self, n: usize, rtol: f64, atol: f64, hmax: f64) -> bool {
+        if !self.core.renew(n, rtol, atol, hmax) {
+            return false;
+        }
+        (self.err_old, self.work, self.h_last, self.stiffness) = (1e-4, 0, 0.0, 0.0);
+        let [a, b] = &mut self.k;
+        let [a0, a1, a2, a3, a4, a5] = a;
+        let [b0, b1, b2, b3, b4, b5] = b;
+        zeroed([a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5]);
+        zeroed([&mut self.y_new, &mut self.tmp, &mut self.err]);
+        self.clear_dense();
+        true
+    }
+
     /// `h·ρ` of the last accepted step (0 before one), Hairer's estimate from the two stages
     /// at its end, in the error weights: free, but only a hint — it measures the Lipschitz
     /// constant along `y₁ − Y₆`, which the stiff components hardly enter once the controller
@@ -162,6 +178,10 @@ impl Dopri5 {
 
 impl Integrator for Dopri5 {
     core_accessors!();
+
+    fn renew(&mut self, s: &SolverSection, n: usize) -> bool {
+        s.method == Method::Dopri5 && self.renew_with(n, s.rtol, s.atol, largest_step(s))
+    }
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);

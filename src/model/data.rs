@@ -11,7 +11,6 @@ use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-use rustc_hash::FxHashMap as HashMap;
 
 /// Work counters since initialisation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -110,55 +109,23 @@ pub struct Stepper {
     pub start: Vec<f64>,
 }
 
-/// The saved states of fresh integrators, by method, settings and system size, to make used
-/// integrators fresh again without allocating ([`Data::refit`]).
+/// Makes used integrators fresh again in place, without allocating ([`Data::refit`],
+/// [`Integrator::renew`]).
 #[derive(Default)]
-pub struct FreshIntegrators {
-    states: HashMap<FreshKey, FreshState>,
-}
-
-/// The method, the system size and the solver's rtol, atol and largest step (as bits).
-type FreshKey = (i64, usize, [u64; 3]);
-
-/// A fresh integrator's rtol, atol and largest step, and its saved state.
-type FreshState = ([f64; 3], Vec<f64>);
+pub struct FreshIntegrators;
 
 impl FreshIntegrators {
-    /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place: a
-    /// fresh one's saved state loaded into it (a loaded integrator goes on exactly as the one
-    /// saved, [`Integrator::load_state`]; everything else a method holds is scratch written
-    /// before it is read). None (and `method` dropped) when it cannot be: another method, size
-    /// or settings (the load refuses another method's state or size), or an implicit method
-    /// built (its memory is not in an explicit method's state; implicit methods report
-    /// linear-algebra statistics, explicit ones none). Its second-order structure is set by
-    /// the caller, as after creation.
+    /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place
+    /// ([`Integrator::renew`]: every number as at creation). None (and `method` dropped) when
+    /// it cannot be: another method, size or settings, or an implicit method. Its
+    /// second-order structure is set by the caller, as after creation.
     pub fn renew(
         &mut self,
         mut method: Box<dyn Integrator + Send>,
         solver: &SolverSection,
         n: usize,
     ) -> Option<Box<dyn Integrator + Send>> {
-        if method.linear_stats().is_some() || method.y().len() != n {
-            return None;
-        }
-        let key = (
-            solver.method as i64,
-            n,
-            [solver.rtol, solver.atol, solver.max_step].map(f64::to_bits),
-        );
-        let (settings, state) = self.states.entry(key).or_insert_with(|| {
-            let fresh = integrator::create(solver, n);
-            let mut state = Vec::new();
-            fresh.save_state(&mut state);
-            let c = fresh.core();
-            ([c.rtol, c.atol, c.hmax], state)
-        });
-        let c = method.core();
-        if [c.rtol, c.atol, c.hmax].map(f64::to_bits) != settings.map(f64::to_bits) {
-            return None;
-        }
-        method.load_state(state).ok()?;
-        Some(method)
+        method.renew(solver, n).then_some(method)
     }
 }
 
