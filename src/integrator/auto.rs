@@ -57,7 +57,7 @@
 //!   method is not saved since it starts afresh at a switch (a state with the implicit
 //!   method active builds it when loaded).
 
-use super::core::{zeroed, StateReader, StepCore};
+use super::core::{StateReader, StepCore};
 use super::dopri5::Dopri5;
 use super::linear::JacRef;
 use super::newton::ImplicitMethod;
@@ -260,9 +260,8 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         }
         self.implicit = None;
         (self.stiff, self.switch_pending, self.memory) = (false, false, FRESH_MEMORY);
+        // (the stiff steps' scratch is written before it is read: `x` once `x_for` is unset)
         (self.x_for, self.linear_mark) = (u64::MAX, 0.0);
-        let Auto { x, jx, v, y_pert, jv, .. } = self;
-        zeroed([x, jx, v, y_pert, jv]);
         true
     }
 

@@ -1,6 +1,6 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
-use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, zeroed, StateReader, StepCore};
+use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, StateReader, StepCore};
 use super::{error_scale, largest_step, rms, Integrator, IntegratorError, OdeSystem};
 use crate::scene::{Method, SolverSection};
 use std::cell::{Cell, Ref, RefCell};
@@ -89,17 +89,16 @@ impl Dopri5 {
     }
 
     /// Makes this method what [`Dopri5::new`]`(n, rtol, atol, hmax)` gives, in place (see
-    /// [`Integrator::renew`]); false, and nothing changed, for another size or other settings.
+    /// [`Integrator::renew`]): every number that defines its future (what
+    /// [`Integrator::save_state`] writes) and its flags; false, and nothing changed, for
+    /// another size or other settings.
     pub fn renew_with(&mut self, n: usize, rtol: f64, atol: f64, hmax: f64) -> bool {
         if !self.core.renew(n, rtol, atol, hmax) {
             return false;
         }
         (self.err_old, self.work, self.h_last, self.stiffness) = (1e-4, 0, 0.0, 0.0);
-        let [a, b] = &mut self.k;
-        let [a0, a1, a2, a3, a4, a5] = a;
-        let [b0, b1, b2, b3, b4, b5] = b;
-        zeroed([a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5]);
-        zeroed([&mut self.y_new, &mut self.tmp, &mut self.err]);
+        // (the stages, `y_new`, `tmp` and `err` are scratch that a step writes before it
+        // reads them: they keep their numbers)
         self.clear_dense();
         true
     }

@@ -133,7 +133,9 @@ pub trait Integrator {
     /// to the velocities ([`second_order`]). Explicit methods ignore it.
     fn use_second_order(&mut self, _s: &second_order::SecondOrder) {}
     /// Makes this integrator what [`create`]`(s, n)` gives, in place and without allocating:
-    /// every number as at creation (the buffers kept), a built implicit method dropped; false,
+    /// what defines its future and its reports as at creation (everything
+    /// [`Integrator::save_state`] writes, its flags; the scratch that a step writes before it
+    /// reads keeps its numbers), a built implicit method dropped; false,
     /// and nothing changed, where it cannot: another method, size or settings (compared bit
     /// for bit), or a method that does not renew (the implicit ones). Its second-order
     /// structure is set by the caller, as after creation

@@ -116,7 +116,7 @@ pub struct FreshIntegrators;
 
 impl FreshIntegrators {
     /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place
-    /// ([`Integrator::renew`]: every number as at creation). None (and `method` dropped) when
+    /// ([`Integrator::renew`]: it goes on exactly as a new one). None (and `method` dropped) when
     /// it cannot be: another method, size or settings, or an implicit method. Its
     /// second-order structure is set by the caller, as after creation.
     pub fn renew(
@@ -712,7 +712,13 @@ fn take_contact_list(
 ) {
     contacts.clone_from(&model.initial_contacts);
     candidates.clone_from(&model.groups.initial_candidates);
-    *step_rtol_powers = crate::model::step_rtol_powers(contacts, model.solver.rtol);
+    // ([`crate::model::step_rtol_powers`] in the buffer held)
+    step_rtol_powers.clear();
+    step_rtol_powers.extend(
+        contacts
+            .iter()
+            .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(model.solver.rtol, p))),
+    );
     *nc = model.fixed_rows() + contacts.iter().filter(|c| c.law == Law::Impulse).count();
 }
 
