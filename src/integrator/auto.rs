@@ -270,7 +270,9 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
     /// needs none.
     fn size_stiff_scratch(&mut self) {
         let n = self.explicit.core().y.len();
-        let Auto { x, jx, v, y_pert, jv, .. } = self;
+        let Auto {
+            x, jx, v, y_pert, jv, ..
+        } = self;
         for w in [x, jx, v, y_pert, jv] {
             if w.len() != n {
                 *w = vec![0.0; n];

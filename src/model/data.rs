@@ -3,7 +3,8 @@
 //! nothing. The part that defines the future (what a saved state holds) is declared in
 //! [`super::state`]; the rest is workspace, recomputed from it.
 
-use super::compiled::Model;
+use super::compiled::{Model, TreeJoint};
+use crate::integrator::second_order::{Block, SecondOrder};
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
 use crate::model::groups::Candidate;
@@ -110,9 +111,11 @@ pub struct Stepper {
 }
 
 /// Makes used integrators fresh again in place, without allocating ([`Data::refit`],
-/// [`Integrator::renew`]).
+/// [`Integrator::renew`]), with a buffer for the second-order structure handed to them.
 #[derive(Default)]
-pub struct FreshIntegrators;
+pub struct FreshIntegrators {
+    second_order: SecondOrder,
+}
 
 impl FreshIntegrators {
     /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place
@@ -126,6 +129,22 @@ impl FreshIntegrators {
         n: usize,
     ) -> Option<Box<dyn Integrator + Send>> {
         method.renew(solver, n).then_some(method)
+    }
+
+    /// The model's second-order structure ([`Model::second_order`]), in the buffer held.
+    fn second_order(&mut self, model: &Model) -> &SecondOrder {
+        let s = &mut self.second_order;
+        (s.nq, s.nv) = (model.nq, model.nv);
+        s.blocks.clear();
+        let of_joint = |j: &TreeJoint| Block {
+            q0: j.qpos,
+            nq: j.nq(),
+            v0: j.qvel,
+            nv: j.nv(),
+        };
+        s.blocks
+            .extend(model.joints.iter().filter(|j| j.nq() > 0).map(of_joint));
+        s
     }
 }
 
@@ -549,7 +568,7 @@ impl Data {
             None => (None, Vec::new()),
         };
         let mut method = method.unwrap_or_else(|| integrator::create(&model.solver, n));
-        method.use_second_order(&model.second_order());
+        method.use_second_order(fresh.second_order(model));
         filled(&mut start, n, 0.0);
         *solver = Solver {
             stepper: Some(Stepper { method, start }),
