@@ -368,7 +368,8 @@ pub struct Data {
     /// Work vector of size nv.
     pub work2: Vec<f64>,
     /// Friction of resting impulse-law contacts: the generalised friction force applied so
-    /// far (nv), the next correction (nv) and its change of the multipliers (nc).
+    /// far (nv), the next correction (nv) and its change of the multipliers (nc); empty
+    /// without impulse-law contacts.
     pub friction_applied: Vec<f64>,
     pub friction_step: Vec<f64>,
     pub friction_dlambda: Vec<f64>,
@@ -538,8 +539,8 @@ impl Data {
             lambda: _,
             work: _,
             work2,
-            friction_applied,
-            friction_step,
+            friction_applied: _,
+            friction_step: _,
             friction_dlambda: _,
             dissipation,
             input_power,
@@ -616,8 +617,6 @@ impl Data {
         filled(qacc, nv, 0.0);
         filled(tau, nv, 0.0);
         filled(work2, nv, 0.0);
-        filled(friction_applied, nv, 0.0);
-        filled(friction_step, nv, 0.0);
         *dissipation = 0.0;
         *input_power = 0.0;
         filled(broad_reference, nb, (Vector3::zeros(), UnitQuaternion::identity()));
@@ -628,7 +627,8 @@ impl Data {
     }
 
     /// Sizes the work buffers that depend on the contact list (`contacts`, `nc`) and zeroes
-    /// them: event values, impact work, the constraint rows' arrays, contact outputs.
+    /// them: event values, impact work, the constraint rows' arrays, the resting friction's
+    /// work, contact outputs.
     pub fn fit_contact_work(&mut self, model: &Model) {
         let (nv, nc, ncontacts) = (model.nv, self.nc, self.contacts.len());
         let impulse_contacts = self.contacts.iter().filter(|c| c.law == Law::Impulse).count();
@@ -672,6 +672,10 @@ impl Data {
         self.schur_rank = 0;
         filled(&mut self.lambda, nc, 0.0);
         filled(&mut self.work, nv.max(nc), 0.0);
+        // (the resting friction's work: only impulse-law contacts rest)
+        let friction_nv = if impulse_contacts > 0 { nv } else { 0 };
+        filled(&mut self.friction_applied, friction_nv, 0.0);
+        filled(&mut self.friction_step, friction_nv, 0.0);
         filled(&mut self.friction_dlambda, nc, 0.0);
         filled(&mut self.contact_out, ncontacts, ContactOutput::default());
         emptied(&mut self.force_contacts, ncontacts);
