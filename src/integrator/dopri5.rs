@@ -77,7 +77,7 @@ impl Dopri5 {
             core: StepCore::new(n, rtol, atol, hmax),
             err_old: 1e-4,
             y_new: v(),
-            k: [0, 1].map(|_| [v(), v(), v(), v(), v(), v()]),
+            k: [[v(), v(), v(), v(), v(), v()], [v(), v(), v(), v(), v(), v()]],
             work: 0,
             h_last: 0.0,
             tmp: v(),

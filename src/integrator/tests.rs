@@ -633,3 +633,89 @@ fn newton_failures_in_a_burst_filter_the_starting_values() {
     m.write(&[], false, &mut v);
     assert_eq!(WarmMemory::read(&v, &mut [], 0, false), Ok(m));
 }
+
+/// A used integrator renewed for its own settings goes on as a new one, bit for bit (the
+/// explicit methods, and `auto`, whose implicit method, built in the stiff cases, is dropped);
+/// a renewal for another method, size or settings is refused and changes nothing; the
+/// implicit methods do not renew.
+#[test]
+fn a_renewed_integrator_goes_on_as_a_new_one() {
+    for mut c in cases() {
+        for method in Method::ALL {
+            if c.implicit_only && method == Method::Rk4 {
+                continue;
+            }
+            let s = SolverSection { method, ..c.s };
+            let n = c.y0.len();
+            let what = format!("{method:?} on {}", c.name);
+            let lim = limits(c.seed * 16 + method as u64, BEFORE);
+            let mut used = create(&s, n);
+            run_steps(used.as_mut(), &mut c, &lim[..BEFORE / 2]);
+            let saved = |m: &dyn Integrator| {
+                let mut w = Vec::new();
+                m.save_state(&mut w);
+                bits(&w)
+            };
+            let before = saved(used.as_ref());
+            let other_method = if method == Method::Rk4 {
+                Method::Dopri5
+            } else {
+                Method::Rk4
+            };
+            let mut others = vec![
+                (
+                    SolverSection {
+                        method: other_method,
+                        ..s.clone()
+                    },
+                    n,
+                ),
+                (
+                    SolverSection {
+                        max_step: 2.0 * s.max_step,
+                        ..s.clone()
+                    },
+                    n,
+                ),
+                (s.clone(), n + 1),
+            ];
+            if method != Method::Rk4 {
+                // (RK4 has no tolerances)
+                others.push((
+                    SolverSection {
+                        rtol: 2.0 * s.rtol,
+                        ..s.clone()
+                    },
+                    n,
+                ));
+            }
+            for (other, size) in others {
+                assert!(!used.renew(&other, size), "{what}: renewed for {other:?}, size {size}");
+            }
+            assert_eq!(
+                saved(used.as_ref()),
+                before,
+                "{what}: a refused renewal changes nothing"
+            );
+            let renewed = used.renew(&s, n);
+            assert_eq!(renewed, !is_implicit(method), "{what}: renews");
+            if !renewed {
+                continue;
+            }
+            assert!(
+                used.linear_stats().is_none(),
+                "{what}: no implicit method after the renewal"
+            );
+            let mut new = create(&s, n);
+            assert_eq!(saved(used.as_ref()), saved(new.as_ref()), "{what}: renewed");
+            run_steps(used.as_mut(), &mut c, &lim);
+            run_steps(new.as_mut(), &mut c, &lim);
+            assert_same(used.as_ref(), new.as_ref(), &what);
+            assert_eq!(
+                saved(used.as_ref()),
+                saved(new.as_ref()),
+                "{what}: after {BEFORE} steps"
+            );
+        }
+    }
+}
