@@ -62,8 +62,8 @@ use super::dopri5::Dopri5;
 use super::linear::JacRef;
 use super::newton::ImplicitMethod;
 use super::second_order::SecondOrder;
-use super::{ExplicitHold, Integrator, IntegratorError, OdeSystem};
-use crate::scene::Method;
+use super::{largest_step, ExplicitHold, Integrator, IntegratorError, OdeSystem};
+use crate::scene::{Method, SolverSection};
 
 /// Hairer's estimate of `h·ρ` from which a Dormand-Prince step's stiffness is checked
 /// ([`Dopri5::stiffness_check`]).
@@ -115,6 +115,26 @@ pub const MAX_HOLD_DOUBLINGS: u32 = 6;
 const POWER_ITERATIONS: usize = 16;
 /// Numbers of the switching memory in saved states (after the tag).
 pub const MEMORY_LEN: usize = 18;
+
+/// The switching memory of a new method.
+const FRESH_MEMORY: Memory = Memory {
+    count: 0,
+    calm: 0,
+    rho: 0.0,
+    rho_jac: u64::MAX,
+    switches: 0,
+    rho_now: 0.0,
+    since: 0,
+    stint_t: 0.0,
+    stint_rhs: 0,
+    steps_since_check: 0,
+    stint_steps: 0,
+    stint_linear: 0.0,
+    stint_explicit_rate: 0.0,
+    implicit_cost: 0.0,
+    cost_hold: 0,
+    losses: 0,
+};
 
 /// Builds the implicit method for a system size with the tolerances and largest step
 /// (`Radau5::new`).
@@ -201,6 +221,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
                 let mut fresh = self.build_with(build);
                 load(&mut fresh)?;
                 self.implicit = Some(fresh);
+                self.size_stiff_scratch();
                 Ok(())
             }
             (None, None) => Err(format!(
@@ -218,32 +239,44 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
             implicit: None,
             stiff: false,
             switch_pending: false,
-            memory: Memory {
-                count: 0,
-                calm: 0,
-                rho: 0.0,
-                rho_jac: u64::MAX,
-                switches: 0,
-                rho_now: 0.0,
-                since: 0,
-                stint_t: 0.0,
-                stint_rhs: 0,
-                steps_since_check: 0,
-                stint_steps: 0,
-                stint_linear: 0.0,
-                stint_explicit_rate: 0.0,
-                implicit_cost: 0.0,
-                cost_hold: 0,
-                losses: 0,
-            },
-            x: vec![0.0; n],
-            jx: vec![0.0; n],
+            memory: FRESH_MEMORY,
+            x: Vec::new(),
+            jx: Vec::new(),
             x_for: u64::MAX,
-            v: vec![0.0; n],
-            y_pert: vec![0.0; n],
-            jv: vec![0.0; n],
+            v: Vec::new(),
+            y_pert: Vec::new(),
+            jv: Vec::new(),
             second_order: None,
             linear_mark: 0.0,
+        }
+    }
+
+    /// [`Integrator::renew`] for the tolerances and largest step given (the settings of
+    /// [`Auto::new`]): the explicit method renewed, the switching memory as at creation, a
+    /// built implicit method dropped (the builder and the scratch of the stiff steps kept).
+    fn renew_with(&mut self, n: usize, rtol: f64, atol: f64, hmax: f64) -> bool {
+        if !self.explicit.renew_with(n, rtol, atol, hmax) {
+            return false;
+        }
+        self.implicit = None;
+        (self.stiff, self.switch_pending, self.memory) = (false, false, FRESH_MEMORY);
+        // (the stiff steps' scratch is written before it is read: `x` once `x_for` is unset)
+        (self.x_for, self.linear_mark) = (u64::MAX, 0.0);
+        true
+    }
+
+    /// Sizes the scratch of the stiff steps (the power iteration and the directional
+    /// differences) for the system, once an implicit method is built: Dormand-Prince alone
+    /// needs none.
+    fn size_stiff_scratch(&mut self) {
+        let n = self.explicit.core().y.len();
+        let Auto {
+            x, jx, v, y_pert, jv, ..
+        } = self;
+        for w in [x, jx, v, y_pert, jv] {
+            if w.len() != n {
+                *w = vec![0.0; n];
+            }
         }
     }
 
@@ -267,6 +300,7 @@ impl<I: ImplicitMethod + Integrator> Auto<I> {
         if self.implicit.is_none() {
             let build = self.build?;
             self.implicit = Some(self.build_with(build));
+            self.size_stiff_scratch();
         }
         self.implicit.as_mut()
     }
@@ -575,7 +609,18 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         if let Some(i) = &mut self.implicit {
             Integrator::use_second_order(i, s);
         }
-        self.second_order = Some(s.clone());
+        // (in the buffer held, as after a renewal)
+        let held = self.second_order.get_or_insert_with(SecondOrder::default);
+        (held.nq, held.nv) = (s.nq, s.nv);
+        held.blocks.clone_from(&s.blocks);
+    }
+
+    /// (the auto method over Radau IIA, with its builder, as [`super::create`] makes it)
+    fn renew(&mut self, s: &SolverSection, n: usize) -> bool {
+        s.method == Method::Auto
+            && I::METHOD == Method::Radau5
+            && self.build.is_some()
+            && self.renew_with(n, s.rtol, s.atol, largest_step(s))
     }
 
     /// The implicit method's, whichever is active (None without one).

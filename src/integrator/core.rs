@@ -32,6 +32,13 @@ pub struct StepCore {
     pub stats: Stats,
 }
 
+/// Sets every number of the buffers `vs` to zero, as at a method's creation.
+pub fn zeroed<const K: usize>(vs: [&mut Vec<f64>; K]) {
+    for v in vs {
+        v.fill(0.0);
+    }
+}
+
 /// The accessors [`Integrator::core`](super::Integrator::core) and
 /// [`Integrator::core_mut`](super::Integrator::core_mut) for a method whose step state is its
 /// field `core`.
@@ -63,6 +70,20 @@ impl StepCore {
             f: vec![0.0; n],
             stats: Stats::default(),
         }
+    }
+
+    /// Makes this step state what [`StepCore::new`]`(n, rtol, atol, hmax)` gives, in place
+    /// (its buffers kept); false, and nothing changed, for another size or other settings
+    /// (compared bit for bit).
+    pub fn renew(&mut self, n: usize, rtol: f64, atol: f64, hmax: f64) -> bool {
+        let settings = |c: [f64; 3]| c.map(f64::to_bits);
+        if self.y.len() != n || settings([self.rtol, self.atol, self.hmax]) != settings([rtol, atol, hmax]) {
+            return false;
+        }
+        (self.t, self.t_prev, self.h) = (0.0, 0.0, 0.0);
+        zeroed([&mut self.y, &mut self.y_prev, &mut self.f]);
+        self.stats = Stats::default();
+        true
     }
 
     /// Starts at `(t, y)` with a zero-length last step and evaluates `f(t, y)`.

@@ -1,8 +1,8 @@
 //! Dormand-Prince 5(4) with FSAL, PI step-size control and Hairer's 4th-order dense output.
 
 use super::core::{core_accessors, restore_blocks, save_blocks, state_tag, StateReader, StepCore};
-use super::{error_scale, rms, Integrator, IntegratorError, OdeSystem};
-use crate::scene::Method;
+use super::{error_scale, largest_step, rms, Integrator, IntegratorError, OdeSystem};
+use crate::scene::{Method, SolverSection};
 use std::cell::{Cell, Ref, RefCell};
 
 // The tableau (Dormand and Prince 1980; Hairer, Nørsett and Wanner, Table II.5.2), stage s
@@ -77,7 +77,7 @@ impl Dopri5 {
             core: StepCore::new(n, rtol, atol, hmax),
             err_old: 1e-4,
             y_new: v(),
-            k: [0, 1].map(|_| [v(), v(), v(), v(), v(), v()]),
+            k: [[v(), v(), v(), v(), v(), v()], [v(), v(), v(), v(), v(), v()]],
             work: 0,
             h_last: 0.0,
             tmp: v(),
@@ -86,6 +86,21 @@ impl Dopri5 {
             cont_ready: Cell::new(true),
             stiffness: 0.0,
         }
+    }
+
+    /// Makes this method what [`Dopri5::new`]`(n, rtol, atol, hmax)` gives, in place (see
+    /// [`Integrator::renew`]): every number that defines its future (what
+    /// [`Integrator::save_state`] writes) and its flags; false, and nothing changed, for
+    /// another size or other settings.
+    pub fn renew_with(&mut self, n: usize, rtol: f64, atol: f64, hmax: f64) -> bool {
+        if !self.core.renew(n, rtol, atol, hmax) {
+            return false;
+        }
+        (self.err_old, self.work, self.h_last, self.stiffness) = (1e-4, 0, 0.0, 0.0);
+        // (the stages, `y_new`, `tmp` and `err` are scratch that a step writes before it
+        // reads them: they keep their numbers)
+        self.clear_dense();
+        true
     }
 
     /// `h·ρ` of the last accepted step (0 before one), Hairer's estimate from the two stages
@@ -162,6 +177,10 @@ impl Dopri5 {
 
 impl Integrator for Dopri5 {
     core_accessors!();
+
+    fn renew(&mut self, s: &SolverSection, n: usize) -> bool {
+        s.method == Method::Dopri5 && self.renew_with(n, s.rtol, s.atol, largest_step(s))
+    }
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) {
         self.core.start(sys, t, y);

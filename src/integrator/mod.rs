@@ -132,6 +132,17 @@ pub trait Integrator {
     /// implicit method with dense linear algebra then factors its iteration matrices reduced
     /// to the velocities ([`second_order`]). Explicit methods ignore it.
     fn use_second_order(&mut self, _s: &second_order::SecondOrder) {}
+    /// Makes this integrator what [`create`]`(s, n)` gives, in place and without allocating:
+    /// what defines its future and its reports as at creation (everything
+    /// [`Integrator::save_state`] writes, its flags; the scratch that a step writes before it
+    /// reads keeps its numbers), a built implicit method dropped; false,
+    /// and nothing changed, where it cannot: another method, size or settings (compared bit
+    /// for bit), or a method that does not renew (the implicit ones). Its second-order
+    /// structure is set by the caller, as after creation
+    /// ([`Integrator::use_second_order`]).
+    fn renew(&mut self, _s: &SolverSection, _n: usize) -> bool {
+        false
+    }
     /// What the implicit methods' linear algebra did (None for explicit methods).
     fn linear_stats(&self) -> Option<linear::LinearStats> {
         None
@@ -220,16 +231,32 @@ pub fn rms(sum_of_squares: f64, n: usize) -> f64 {
 /// Creates the integrator named by the solver settings for a system of size `n`.
 /// `solver.max_step` 0 means no largest step.
 pub fn create(s: &SolverSection, n: usize) -> Box<dyn Integrator + Send> {
-    let hmax = if s.max_step > 0.0 { s.max_step } else { f64::INFINITY };
+    let hmax = largest_step(s);
     match s.method {
         Method::Dopri5 => Box::new(dopri5::Dopri5::new(n, s.rtol, s.atol, hmax)),
-        Method::Rk4 => Box::new(rk4::Rk4::new(
-            n,
-            if s.max_step > 0.0 { s.max_step } else { RK4_DEFAULT_STEP },
-        )),
+        Method::Rk4 => Box::new(rk4::Rk4::new(n, rk4_step(s))),
         Method::Sdirk => Box::new(sdirk::Sdirk::new(n, s.rtol, s.atol, hmax)),
         Method::Radau5 => Box::new(radau::Radau5::new(n, s.rtol, s.atol, hmax)),
         Method::Auto => Box::new(auto::Auto::new(n, s.rtol, s.atol, hmax, Some(radau::Radau5::new))),
+    }
+}
+
+/// The largest step [`create`] gives an adaptive method: `solver.max_step`, none (infinite)
+/// for 0.
+pub fn largest_step(s: &SolverSection) -> f64 {
+    if s.max_step > 0.0 {
+        s.max_step
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The fixed step [`create`] gives RK4: `solver.max_step`, [`RK4_DEFAULT_STEP`] for 0.
+pub fn rk4_step(s: &SolverSection) -> f64 {
+    if s.max_step > 0.0 {
+        s.max_step
+    } else {
+        RK4_DEFAULT_STEP
     }
 }
 

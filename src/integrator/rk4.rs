@@ -1,9 +1,9 @@
 //! Classical fixed-step Runge-Kutta 4, a baseline. Dense output is the cubic Hermite
 //! interpolant through both ends of the step.
 
-use super::core::{core_accessors, state_tag, StateReader, StepCore};
-use super::{Integrator, IntegratorError, OdeSystem};
-use crate::scene::Method;
+use super::core::{core_accessors, state_tag, zeroed, StateReader, StepCore};
+use super::{rk4_step, Integrator, IntegratorError, OdeSystem};
+use crate::scene::{Method, SolverSection};
 
 /// Fixed-step RK4 with step `h` (`core.h`).
 pub struct Rk4 {
@@ -33,6 +33,18 @@ impl Rk4 {
 
 impl Integrator for Rk4 {
     core_accessors!();
+
+    /// (as [`Rk4::new`]: the step is the core's largest step and its step to try)
+    fn renew(&mut self, s: &SolverSection, n: usize) -> bool {
+        let h = rk4_step(s);
+        if s.method != Method::Rk4 || !self.core.renew(n, 0.0, 0.0, h) {
+            return false;
+        }
+        self.core.h = h;
+        let [k0, k1, k2] = &mut self.k;
+        zeroed([&mut self.f_prev, k0, k1, k2, &mut self.tmp]);
+        true
+    }
 
     fn reset(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], _h: f64) {
         self.core.start(sys, t, y);

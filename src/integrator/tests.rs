@@ -633,3 +633,76 @@ fn newton_failures_in_a_burst_filter_the_starting_values() {
     m.write(&[], false, &mut v);
     assert_eq!(WarmMemory::read(&v, &mut [], 0, false), Ok(m));
 }
+
+/// A used integrator renewed for its own settings goes on as a new one, bit for bit (the
+/// explicit methods, and `auto`, whose implicit method, built in the stiff cases, is dropped);
+/// a renewal for another method, size or settings is refused and changes nothing; the
+/// implicit methods do not renew.
+#[test]
+fn a_renewed_integrator_goes_on_as_a_new_one() {
+    let saved = |m: &dyn Integrator| {
+        let mut w = Vec::new();
+        m.save_state(&mut w);
+        bits(&w)
+    };
+    // (every method on every case, RK4 on the non-stiff ones)
+    let runs = Method::ALL.into_iter().flat_map(|method| {
+        let cases = cases().into_iter();
+        cases.filter_map(move |c| (method != Method::Rk4 || !c.implicit_only).then_some((c, method)))
+    });
+    for (mut c, method) in runs {
+        let (s, n) = (SolverSection { method, ..c.s.clone() }, c.y0.len());
+        let what = format!("{method:?} on {}, renewed", c.name);
+        let lim = limits(c.seed * 16 + method as u64, BEFORE);
+        let mut used = create(&s, n);
+        run_steps(used.as_mut(), &mut c, &lim[..BEFORE / 2]);
+        let before = saved(used.as_ref());
+        let other = |f: fn(&mut SolverSection)| {
+            let mut o = s.clone();
+            f(&mut o);
+            o
+        };
+        let mut others = vec![
+            (
+                other(|o| {
+                    o.method = if o.method == Method::Rk4 {
+                        Method::Dopri5
+                    } else {
+                        Method::Rk4
+                    }
+                }),
+                n,
+            ),
+            (other(|o| o.max_step *= 2.0), n),
+            (s.clone(), n + 1),
+        ];
+        if method != Method::Rk4 {
+            // (RK4 has no tolerances)
+            others.push((other(|o| o.rtol *= 2.0), n));
+        }
+        for (o, size) in others {
+            assert!(!used.renew(&o, size), "{what} for {o:?}, size {size}");
+        }
+        assert_eq!(
+            saved(used.as_ref()),
+            before,
+            "{what}: a refused renewal changes nothing"
+        );
+        let renewed = used.renew(&s, n);
+        assert_eq!(renewed, !is_implicit(method), "{what}");
+        if !renewed {
+            continue;
+        }
+        assert!(used.linear_stats().is_none(), "{what}: no implicit method");
+        let mut new = create(&s, n);
+        assert_eq!(saved(used.as_ref()), saved(new.as_ref()), "{what}: its state");
+        run_steps(used.as_mut(), &mut c, &lim);
+        run_steps(new.as_mut(), &mut c, &lim);
+        assert_same(used.as_ref(), new.as_ref(), &what);
+        assert_eq!(
+            saved(used.as_ref()),
+            saved(new.as_ref()),
+            "{what}: after {BEFORE} steps"
+        );
+    }
+}

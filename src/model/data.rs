@@ -3,7 +3,8 @@
 //! nothing. The part that defines the future (what a saved state holds) is declared in
 //! [`super::state`]; the rest is workspace, recomputed from it.
 
-use super::compiled::Model;
+use super::compiled::{Model, TreeJoint};
+use crate::integrator::second_order::{Block, SecondOrder};
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
 use crate::model::groups::Candidate;
@@ -11,7 +12,6 @@ use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-use rustc_hash::FxHashMap as HashMap;
 
 /// Work counters since initialisation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -110,55 +110,41 @@ pub struct Stepper {
     pub start: Vec<f64>,
 }
 
-/// The saved states of fresh integrators, by method, settings and system size, to make used
-/// integrators fresh again without allocating ([`Data::refit`]).
+/// Makes used integrators fresh again in place, without allocating ([`Data::refit`],
+/// [`Integrator::renew`]), with a buffer for the second-order structure handed to them.
 #[derive(Default)]
 pub struct FreshIntegrators {
-    states: HashMap<FreshKey, FreshState>,
+    second_order: SecondOrder,
 }
 
-/// The method, the system size and the solver's rtol, atol and largest step (as bits).
-type FreshKey = (i64, usize, [u64; 3]);
-
-/// A fresh integrator's rtol, atol and largest step, and its saved state.
-type FreshState = ([f64; 3], Vec<f64>);
-
 impl FreshIntegrators {
-    /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place: a
-    /// fresh one's saved state loaded into it (a loaded integrator goes on exactly as the one
-    /// saved, [`Integrator::load_state`]; everything else a method holds is scratch written
-    /// before it is read). None (and `method` dropped) when it cannot be: another method, size
-    /// or settings (the load refuses another method's state or size), or an implicit method
-    /// built (its memory is not in an explicit method's state; implicit methods report
-    /// linear-algebra statistics, explicit ones none). Its second-order structure is set by
-    /// the caller, as after creation.
+    /// `method` made the integrator [`integrator::create`]`(solver, n)` gives, in place
+    /// ([`Integrator::renew`]: it goes on exactly as a new one). None (and `method` dropped) when
+    /// it cannot be: another method, size or settings, or an implicit method. Its
+    /// second-order structure is set by the caller, as after creation.
     pub fn renew(
         &mut self,
         mut method: Box<dyn Integrator + Send>,
         solver: &SolverSection,
         n: usize,
     ) -> Option<Box<dyn Integrator + Send>> {
-        if method.linear_stats().is_some() || method.y().len() != n {
-            return None;
-        }
-        let key = (
-            solver.method as i64,
-            n,
-            [solver.rtol, solver.atol, solver.max_step].map(f64::to_bits),
-        );
-        let (settings, state) = self.states.entry(key).or_insert_with(|| {
-            let fresh = integrator::create(solver, n);
-            let mut state = Vec::new();
-            fresh.save_state(&mut state);
-            let c = fresh.core();
-            ([c.rtol, c.atol, c.hmax], state)
-        });
-        let c = method.core();
-        if [c.rtol, c.atol, c.hmax].map(f64::to_bits) != settings.map(f64::to_bits) {
-            return None;
-        }
-        method.load_state(state).ok()?;
-        Some(method)
+        method.renew(solver, n).then_some(method)
+    }
+
+    /// The model's second-order structure ([`Model::second_order`]), in the buffer held.
+    fn second_order(&mut self, model: &Model) -> &SecondOrder {
+        let s = &mut self.second_order;
+        (s.nq, s.nv) = (model.nq, model.nv);
+        s.blocks.clear();
+        let of_joint = |j: &TreeJoint| Block {
+            q0: j.qpos,
+            nq: j.nq(),
+            v0: j.qvel,
+            nv: j.nv(),
+        };
+        s.blocks
+            .extend(model.joints.iter().filter(|j| j.nq() > 0).map(of_joint));
+        s
     }
 }
 
@@ -382,7 +368,8 @@ pub struct Data {
     /// Work vector of size nv.
     pub work2: Vec<f64>,
     /// Friction of resting impulse-law contacts: the generalised friction force applied so
-    /// far (nv), the next correction (nv) and its change of the multipliers (nc).
+    /// far (nv), the next correction (nv) and its change of the multipliers (nc); empty
+    /// without impulse-law contacts.
     pub friction_applied: Vec<f64>,
     pub friction_step: Vec<f64>,
     pub friction_dlambda: Vec<f64>,
@@ -552,8 +539,8 @@ impl Data {
             lambda: _,
             work: _,
             work2,
-            friction_applied,
-            friction_step,
+            friction_applied: _,
+            friction_step: _,
             friction_dlambda: _,
             dissipation,
             input_power,
@@ -582,7 +569,7 @@ impl Data {
             None => (None, Vec::new()),
         };
         let mut method = method.unwrap_or_else(|| integrator::create(&model.solver, n));
-        method.use_second_order(&model.second_order());
+        method.use_second_order(fresh.second_order(model));
         filled(&mut start, n, 0.0);
         *solver = Solver {
             stepper: Some(Stepper { method, start }),
@@ -630,8 +617,6 @@ impl Data {
         filled(qacc, nv, 0.0);
         filled(tau, nv, 0.0);
         filled(work2, nv, 0.0);
-        filled(friction_applied, nv, 0.0);
-        filled(friction_step, nv, 0.0);
         *dissipation = 0.0;
         *input_power = 0.0;
         filled(broad_reference, nb, (Vector3::zeros(), UnitQuaternion::identity()));
@@ -642,7 +627,8 @@ impl Data {
     }
 
     /// Sizes the work buffers that depend on the contact list (`contacts`, `nc`) and zeroes
-    /// them: event values, impact work, the constraint rows' arrays, contact outputs.
+    /// them: event values, impact work, the constraint rows' arrays, the resting friction's
+    /// work, contact outputs.
     pub fn fit_contact_work(&mut self, model: &Model) {
         let (nv, nc, ncontacts) = (model.nv, self.nc, self.contacts.len());
         let impulse_contacts = self.contacts.iter().filter(|c| c.law == Law::Impulse).count();
@@ -686,6 +672,10 @@ impl Data {
         self.schur_rank = 0;
         filled(&mut self.lambda, nc, 0.0);
         filled(&mut self.work, nv.max(nc), 0.0);
+        // (the resting friction's work: only impulse-law contacts rest)
+        let friction_nv = if impulse_contacts > 0 { nv } else { 0 };
+        filled(&mut self.friction_applied, friction_nv, 0.0);
+        filled(&mut self.friction_step, friction_nv, 0.0);
         filled(&mut self.friction_dlambda, nc, 0.0);
         filled(&mut self.contact_out, ncontacts, ContactOutput::default());
         emptied(&mut self.force_contacts, ncontacts);
@@ -745,7 +735,13 @@ fn take_contact_list(
 ) {
     contacts.clone_from(&model.initial_contacts);
     candidates.clone_from(&model.groups.initial_candidates);
-    *step_rtol_powers = crate::model::step_rtol_powers(contacts, model.solver.rtol);
+    // ([`crate::model::step_rtol_powers`] in the buffer held)
+    step_rtol_powers.clear();
+    step_rtol_powers.extend(
+        contacts
+            .iter()
+            .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(model.solver.rtol, p))),
+    );
     *nc = model.fixed_rows() + contacts.iter().filter(|c| c.law == Law::Impulse).count();
 }
 

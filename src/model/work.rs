@@ -155,9 +155,11 @@ impl ImpulseWork {
 
     /// Makes these buffers what [`ImpulseWork::new`]`(nv, nl, k)` gives, reusing them (they
     /// allocate only where they are too small). (`Data`'s test `refitted_data_equals_new_data`
-    /// compares every field.)
+    /// compares every field.) For no contacts (`k` 0) every buffer is empty: a round of no
+    /// impacts reads none, and a round of some makes them anew ([`ImpulseWork::reserve`]).
     pub(crate) fn refit(&mut self, nv: usize, nl: usize, k: usize) {
         (self.k, self.nv, self.last) = (k, nv, 0);
+        let (nv, nl) = if k == 0 { (0, 0) } else { (nv, nl) };
         self.proj.refit(nl);
         for (v, n) in [
             (&mut self.jrows, k * nv),
