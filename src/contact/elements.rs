@@ -135,7 +135,7 @@ pub fn set_contact_list(m: &Model, d: &mut Data, found: &[Candidate], mut contac
     d.contact_memory.truncate(n);
     d.contact_memory
         .extend(found.iter().map(|c| old.get(c).copied().unwrap_or_default()));
-    d.step_rtol_powers = crate::model::step_rtol_powers(&contacts, m.solver.rtol);
+    crate::model::step_rtol_powers(&contacts, m.solver.rtol, &mut d.step_rtol_powers);
     d.contacts = contacts;
     d.candidates = found.to_vec();
     d.nc = nc;
@@ -194,7 +194,8 @@ mod tests {
             .iter()
             .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(rtol, p)))
             .collect();
-        let reused = step_rtol_powers(&contacts, rtol);
+        let mut reused = Vec::new();
+        step_rtol_powers(&contacts, rtol, &mut reused);
         assert_eq!(reused.len(), afresh.len());
         for (k, (a, b)) in reused.iter().zip(&afresh).enumerate() {
             assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "contact {k}");

@@ -95,27 +95,26 @@ pub fn quaternion_coordinates(joints: &[TreeJoint]) -> Vec<usize> {
 
 /// Per contact, `rtol` to its [`ContactElement::touch_power`] and
 /// [`ContactElement::separation_power`] (the step after a touch and the floor of the steps
-/// toward a separation, taken at every step in contact: computed once per contact list).
-pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64) -> Vec<[f64; 2]> {
+/// toward a separation, taken at every step in contact: computed once per contact list), into
+/// `out` (its buffer kept).
+pub fn step_rtol_powers(contacts: &[ContactElement], rtol: f64, out: &mut Vec<[f64; 2]>) {
     // (the powers depend on the law and its exponent alone, which the contacts of one pair of
     // groups share: a power already taken is reused, the same number)
     let mut taken = [([f64::NAN; 2], [0.0; 2]); 4];
     let mut next = 0;
-    contacts
-        .iter()
-        .map(|c| {
-            let p = [c.touch_power(), c.separation_power()];
-            match taken.iter().find(|(q, _)| *q == p) {
-                Some(&(_, v)) => v,
-                None => {
-                    let v = p.map(|p| crate::math::powf(rtol, p));
-                    taken[next] = (p, v);
-                    next = (next + 1) % taken.len();
-                    v
-                }
+    out.clear();
+    out.extend(contacts.iter().map(|c| {
+        let p = [c.touch_power(), c.separation_power()];
+        match taken.iter().find(|(q, _)| *q == p) {
+            Some(&(_, v)) => v,
+            None => {
+                let v = p.map(|p| crate::math::powf(rtol, p));
+                taken[next] = (p, v);
+                next = (next + 1) % taken.len();
+                v
             }
-        })
-        .collect()
+        }
+    }));
 }
 
 /// Degrees of freedom of a joint type.

@@ -735,13 +735,7 @@ fn take_contact_list(
 ) {
     contacts.clone_from(&model.initial_contacts);
     candidates.clone_from(&model.groups.initial_candidates);
-    // ([`crate::model::step_rtol_powers`] in the buffer held)
-    step_rtol_powers.clear();
-    step_rtol_powers.extend(
-        contacts
-            .iter()
-            .map(|c| [c.touch_power(), c.separation_power()].map(|p| crate::math::powf(model.solver.rtol, p))),
-    );
+    crate::model::step_rtol_powers(contacts, model.solver.rtol, step_rtol_powers);
     *nc = model.fixed_rows() + contacts.iter().filter(|c| c.law == Law::Impulse).count();
 }
 
