@@ -12,11 +12,12 @@
 //! loops, springs, contacts, inputs and shapes keep the scene's order too.
 
 use super::cut::{items, SceneIndex};
-use crate::compile::{contact_warnings, dof_maps, group_numbering, Parameters};
+use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
-use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
+use crate::model::compiled::NOT_FREE;
+use crate::model::{Body, Drive, FreeBody, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
@@ -28,9 +29,16 @@ pub(super) struct ModelCutter {
     pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
-    /// Scratch: per scene body its island index, per scene group its island index.
+    /// The plan of the whole scene as one island (with its declared contacts alone): an
+    /// island's plan is its part ([`Plan::of`] decides each body, joint and tree from what
+    /// the island holds whole: its trees, and the loops, springs, contacts and group shapes
+    /// that name its bodies).
+    plan: Plan,
+    /// Scratch: per scene body its island index, per scene group its island index, the
+    /// island's tree joints.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
+    tree_joints: Vec<usize>,
 }
 
 /// An island's model and the scene indices of its declared contacts and inputs.
@@ -64,12 +72,16 @@ impl ModelCutter {
                 m.scene_joint.get(inp.joint_in(&joint_index)).and_then(|r| r.ok())
             })
             .collect();
+        let explicit = &m.initial_contacts[..m.groups.n_explicit];
+        let plan = Plan::of(&m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees);
         ModelCutter {
             index: SceneIndex::of(scene),
             pair_groups,
             drive_joint,
+            plan,
             local_body: vec![usize::MAX; scene.body.len()],
             local_group: vec![usize::MAX; group_index.len()],
+            tree_joints: Vec::new(),
         }
     }
 
@@ -84,7 +96,9 @@ impl ModelCutter {
         let lb = |b: Option<usize>| b.map(|b| local[b]);
 
         // tree joints, in the scene's order restricted to the island
-        let mut tree_joints: Vec<usize> = bodies.iter().map(|&b| m.bodies[b].joint).collect();
+        let tree_joints = &mut self.tree_joints;
+        tree_joints.clear();
+        tree_joints.extend(bodies.iter().map(|&b| m.bodies[b].joint));
         tree_joints.sort_unstable();
         let scene_joints = items(&self.index.joints, bodies);
         let mut out_bodies: Vec<Body> = bodies
@@ -94,19 +108,46 @@ impl ModelCutter {
                 ..m.bodies[b].clone()
             })
             .collect();
-        let mut joints = Vec::with_capacity(tree_joints.len());
-        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(tree_joints.len());
-        let (mut nq, mut nv) = (0, 0);
+        // (the sizes first, so that every list below is made once at its size)
+        let (mut ntrees, mut nquat, mut dofs) = (0, 0, 0);
         let mut scene_tree = usize::MAX;
-        for &t in &tree_joints {
+        for &t in tree_joints.iter() {
+            let j = &m.joints[t];
+            if j.tree != scene_tree {
+                scene_tree = j.tree;
+                ntrees += 1;
+            }
+            nquat += usize::from(j.quaternion().is_some());
+            dofs += j.nv();
+        }
+        let nt = tree_joints.len();
+        let mut joints = Vec::with_capacity(nt);
+        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(ntrees);
+        let mut quaternions = Vec::with_capacity(nquat);
+        // the dof maps: a tree's parents are local to its block, as the scene's
+        let mut dof_joint = Vec::with_capacity(dofs);
+        let mut dof_parent = Vec::with_capacity(dofs);
+        // the plan: the scene's, whose every entry the island's bodies and trees decide
+        let sp = &self.plan;
+        let mut plan = Plan {
+            free_of: vec![NOT_FREE; bodies.len()],
+            rotors: Vec::with_capacity(nt),
+            constant_row: Vec::with_capacity(nt),
+            leaves: Vec::with_capacity(ntrees),
+            ..Plan::default()
+        };
+        let (mut nq, mut nv) = (0, 0);
+        scene_tree = usize::MAX;
+        for &t in tree_joints.iter() {
             let j = &m.joints[t];
             if j.tree != scene_tree {
                 scene_tree = j.tree;
                 trees.push((nv, 0));
+                plan.leaves.push(sp.leaves[j.tree].clone());
             }
-            let child = local[j.child];
-            out_bodies[child].joint = joints.len();
-            joints.push(TreeJoint {
+            let (ji, child, tree) = (joints.len(), local[j.child], trees.len() - 1);
+            out_bodies[child].joint = ji;
+            let joint = TreeJoint {
                 scene_index: j
                     .scene_index
                     .map(|si| scene_joints.binary_search(&si).unwrap_or(usize::MAX)),
@@ -114,15 +155,44 @@ impl ModelCutter {
                 child,
                 qpos: nq,
                 qvel: nv,
-                tree: trees.len() - 1,
+                tree,
                 ..j.clone()
-            });
+            };
+            quaternions.extend(joint.quaternion());
+            dof_joint.extend(std::iter::repeat_n(ji, j.nv()));
+            dof_parent.extend_from_slice(&m.dof_parent[j.qvel..j.qvel + j.nv()]);
+            match sp.free_body(j.child) {
+                Some(f) => {
+                    plan.free_of[child] = plan.free.len();
+                    plan.free.push(FreeBody {
+                        body: child,
+                        qpos: nq,
+                        qvel: nv,
+                        ..f.clone()
+                    });
+                }
+                None => {
+                    plan.general.joints.push(ji);
+                    plan.general.bodies.push(child);
+                    if plan.general.trees.last() != Some(&tree) {
+                        plan.general.trees.push(tree);
+                    }
+                }
+            }
+            plan.rotors.push(sp.rotors[t]);
+            plan.constant_row.push(sp.constant_row[t]);
             nq += j.nq();
             nv += j.nv();
-            let last = trees.len() - 1;
-            trees[last].1 = nv - trees[last].0;
+            joints.push(joint);
+            trees[tree].1 = nv - trees[tree].0;
         }
-        let (dof_joint, dof_parent, tree_block) = dof_maps(&joints, &out_bodies, &trees);
+        plan.general.bodies.sort_unstable();
+        let mut tree_block = Vec::with_capacity(trees.len());
+        let mut off = 0;
+        for &(_, n) in &trees {
+            tree_block.push(off);
+            off += n * n;
+        }
         // the island's tree joint of the scene's tree joint t
         let joint_of = |t: usize| out_bodies[local[m.joints[t].child]].joint;
 
@@ -287,8 +357,6 @@ impl ModelCutter {
             }
         };
         let warnings = contact_warnings(&contacts);
-        let quaternions = crate::model::quaternion_coordinates(&joints);
-        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &groups, &trees);
         let model = Model {
             name: m.name.clone(),
             gravity: m.gravity,
