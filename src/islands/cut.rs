@@ -215,7 +215,14 @@ pub(super) fn local_candidates(shapes: &[usize], candidates: &[Candidate]) -> Ve
 
 /// The sorted, deduplicated items of `lists` over `bodies`.
 pub(super) fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
-    let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
+    let n = bodies.iter().map(|&b| lists[b].len()).sum();
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut v = Vec::with_capacity(n);
+    for &b in bodies {
+        v.extend_from_slice(&lists[b]);
+    }
     v.sort_unstable();
     v.dedup();
     v

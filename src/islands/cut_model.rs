@@ -12,11 +12,12 @@
 //! loops, springs, contacts, inputs and shapes keep the scene's order too.
 
 use super::cut::{items, SceneIndex};
+use super::pool::{numbering, Compiled};
 use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
+use crate::model::compiled::NOT_FREE;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
-use crate::model::compiled::NOT_FREE;
 use crate::model::{Body, Drive, FreeBody, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
 
@@ -41,16 +42,6 @@ pub(super) struct ModelCutter {
     tree_joints: Vec<usize>,
 }
 
-/// An island's model and the scene indices of its declared contacts and inputs.
-pub(super) struct CutModel {
-    pub(super) model: Model,
-    pub(super) explicit: Vec<usize>,
-    pub(super) inputs: Vec<usize>,
-    /// The scene's index of each of the island's group shapes (sorted: the island numbers
-    /// its shapes in the scene's order).
-    pub(super) shapes: Vec<usize>,
-}
-
 impl ModelCutter {
     /// The cutter of the scene `scene` whose model `m` was compiled from it.
     pub(super) fn new(scene: &Scene, m: &Model) -> ModelCutter {
@@ -73,7 +64,9 @@ impl ModelCutter {
             })
             .collect();
         let explicit = &m.initial_contacts[..m.groups.n_explicit];
-        let plan = Plan::of(&m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees);
+        let plan = Plan::of(
+            &m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees,
+        );
         ModelCutter {
             index: SceneIndex::of(scene),
             pair_groups,
@@ -85,10 +78,18 @@ impl ModelCutter {
         }
     }
 
-    /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
-    /// `candidates` (scene numbering), cut from the scene's model `m` (compiled from `scene`
-    /// with `params`; its own candidate pairs play no part).
-    pub(super) fn cut(&mut self, scene: &Scene, params: &Parameters, m: &Model, bodies: &[usize]) -> CutModel {
+    /// The part of the island of scene bodies `bodies` (sorted): its model cut from the
+    /// scene's model `m` (compiled from `scene` with `params`; its own candidate pairs play
+    /// no part), numbered against the scene's (`joint_coords`: per scene body the first
+    /// position and velocity index of its joint in the scene's state).
+    pub(super) fn cut(
+        &mut self,
+        scene: &Scene,
+        params: &Parameters,
+        m: &Model,
+        joint_coords: &[(usize, usize)],
+        bodies: &[usize],
+    ) -> Compiled {
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
         }
@@ -109,7 +110,7 @@ impl ModelCutter {
             })
             .collect();
         // (the sizes first, so that every list below is made once at its size)
-        let (mut ntrees, mut nquat, mut dofs) = (0, 0, 0);
+        let (mut ntrees, mut nquat, mut dofs, mut nfree) = (0, 0, 0, 0);
         let mut scene_tree = usize::MAX;
         for &t in tree_joints.iter() {
             let j = &m.joints[t];
@@ -119,6 +120,7 @@ impl ModelCutter {
             }
             nquat += usize::from(j.quaternion().is_some());
             dofs += j.nv();
+            nfree += usize::from(self.plan.free_of[j.child] != NOT_FREE);
         }
         let nt = tree_joints.len();
         let mut joints = Vec::with_capacity(nt);
@@ -130,6 +132,7 @@ impl ModelCutter {
         // the plan: the scene's, whose every entry the island's bodies and trees decide
         let sp = &self.plan;
         let mut plan = Plan {
+            free: Vec::with_capacity(nfree),
             free_of: vec![NOT_FREE; bodies.len()],
             rotors: Vec::with_capacity(nt),
             constant_row: Vec::with_capacity(nt),
@@ -357,6 +360,7 @@ impl ModelCutter {
             }
         };
         let warnings = contact_warnings(&contacts);
+        let (coords, input_pairs, driven) = numbering(m, &joints, nq, &drives, joint_coords, bodies, &inputs);
         let model = Model {
             name: m.name.clone(),
             gravity: m.gravity,
@@ -383,10 +387,12 @@ impl ModelCutter {
             baumgarte: m.baumgarte,
             warnings,
         };
-        CutModel {
+        Compiled {
             model,
+            coords,
             explicit,
-            inputs,
+            inputs: input_pairs,
+            driven,
             shapes,
         }
     }
