@@ -101,7 +101,7 @@ impl ModelCutter {
         tree_joints.clear();
         tree_joints.extend(bodies.iter().map(|&b| m.bodies[b].joint));
         tree_joints.sort_unstable();
-        let scene_joints = items(&self.index.joints, bodies);
+        let scene_joints = items(&self.index.joints, &scene.joint, bodies);
         let mut out_bodies: Vec<Body> = bodies
             .iter()
             .map(|&b| Body {
@@ -221,7 +221,7 @@ impl ModelCutter {
         }
 
         // inputs and drives
-        let inputs = items(&self.index.inputs, bodies);
+        let inputs = items(&self.index.inputs, &scene.input, bodies);
         let mut drives = Vec::new();
         let mut input_value = Vec::with_capacity(inputs.len());
         let mut input_start = Vec::new();
@@ -261,7 +261,7 @@ impl ModelCutter {
             });
         }
 
-        let springs: Vec<SpringDamper> = items(&self.index.springs, bodies)
+        let springs: Vec<SpringDamper> = items(&self.index.springs, &scene.spring_damper, bodies)
             .into_iter()
             .map(|i| {
                 let s = &m.springs[i];
@@ -274,7 +274,7 @@ impl ModelCutter {
             .collect();
 
         // contacts: the declared ones (the data lists the candidate pairs' after them)
-        let explicit = items(&self.index.contacts, bodies);
+        let explicit = items(&self.index.contacts, &scene.contact, bodies);
         let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len());
         for &i in &explicit {
             let mut c = m.initial_contacts[i].clone();
@@ -299,65 +299,15 @@ impl ModelCutter {
                 ..Groups::default()
             }
         } else {
-            // the island's group numbering: its shapes' groups, then those the pairs name
-            let mut ngroups = 0;
-            let mut number = |g: usize, local_group: &mut Vec<usize>| {
-                if local_group[g] == usize::MAX {
-                    local_group[g] = ngroups;
-                    ngroups += 1;
-                }
-            };
-            for &s in &shapes {
-                number(m.groups.shapes[s].group, &mut self.local_group);
-            }
-            for &(a, b) in &self.pair_groups {
-                number(a, &mut self.local_group);
-                number(b, &mut self.local_group);
-            }
-            let mut touch = vec![None; ngroups * ngroups];
-            for (p, &(a, b)) in self.pair_groups.iter().enumerate() {
-                touch[self.local_group[a] * ngroups + self.local_group[b]] = Some(p);
-            }
-            let out_shapes = shapes
-                .iter()
-                .map(|&s| {
-                    let gs = &m.groups.shapes[s];
-                    GroupShape {
-                        body: lb(gs.body),
-                        group: self.local_group[gs.group],
-                        ..gs.clone()
-                    }
-                })
-                .collect();
-            self.local_group.fill(usize::MAX);
-            Groups {
-                shapes: out_shapes,
-                ngroups,
-                touch,
-                pair_names: m.groups.pair_names.clone(),
-                n_explicit: explicit.len(),
-                initial_candidates: Vec::new(),
-                margin: m.groups.margin,
-                method: m.groups.method,
-                reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
-                has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
-                stale_fraction: super::ISLAND_STALE_FRACTION,
-                sphere_sides: shapes
-                    .iter()
-                    .map(|&s| SphereSide {
-                        body: lb(m.groups.sphere_sides[s].body),
-                        ..m.groups.sphere_sides[s]
-                    })
-                    .collect(),
-                other_sides: shapes
-                    .iter()
-                    .map(|&s| OtherSide {
-                        body: lb(m.groups.other_sides[s].body),
-                        ..m.groups.other_sides[s].clone()
-                    })
-                    .collect(),
-                laws: m.groups.laws.clone(),
-            }
+            cut_groups(
+                m,
+                local,
+                &mut self.local_group,
+                &self.pair_groups,
+                bodies,
+                &shapes,
+                explicit.len(),
+            )
         };
         let warnings = contact_warnings(&contacts);
         let (coords, input_pairs, driven) = numbering(m, &joints, nq, &drives, joint_coords, bodies, &inputs);
@@ -395,6 +345,82 @@ impl ModelCutter {
             driven,
             shapes,
         }
+    }
+}
+
+/// The contact groups of the island of scene bodies `bodies` (sorted; `local`: per scene
+/// body its island index) whose group shapes are the scene's `shapes` (sorted), with
+/// `n_explicit` declared contacts, from the scene's model `m` whose group pairs name the
+/// scene's groups `pair_groups`. `local_group`: scratch per scene group, left as it came
+/// (`usize::MAX` throughout).
+fn cut_groups(
+    m: &Model,
+    local: &[usize],
+    local_group: &mut [usize],
+    pair_groups: &[(usize, usize)],
+    bodies: &[usize],
+    shapes: &[usize],
+    n_explicit: usize,
+) -> Groups {
+    let lb = |b: Option<usize>| b.map(|b| local[b]);
+    // the island's group numbering: its shapes' groups, then those the pairs name
+    let mut ngroups = 0;
+    let mut number = |g: usize, local_group: &mut [usize]| {
+        if local_group[g] == usize::MAX {
+            local_group[g] = ngroups;
+            ngroups += 1;
+        }
+    };
+    for &s in shapes {
+        number(m.groups.shapes[s].group, local_group);
+    }
+    for &(a, b) in pair_groups {
+        number(a, local_group);
+        number(b, local_group);
+    }
+    let mut touch = vec![None; ngroups * ngroups];
+    for (p, &(a, b)) in pair_groups.iter().enumerate() {
+        touch[local_group[a] * ngroups + local_group[b]] = Some(p);
+    }
+    let out_shapes = shapes
+        .iter()
+        .map(|&s| {
+            let gs = &m.groups.shapes[s];
+            GroupShape {
+                body: lb(gs.body),
+                group: local_group[gs.group],
+                ..gs.clone()
+            }
+        })
+        .collect();
+    local_group.fill(usize::MAX);
+    Groups {
+        shapes: out_shapes,
+        ngroups,
+        touch,
+        pair_names: m.groups.pair_names.clone(),
+        n_explicit,
+        initial_candidates: Vec::new(),
+        margin: m.groups.margin,
+        method: m.groups.method,
+        reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
+        has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
+        stale_fraction: super::ISLAND_STALE_FRACTION,
+        sphere_sides: shapes
+            .iter()
+            .map(|&s| SphereSide {
+                body: lb(m.groups.sphere_sides[s].body),
+                ..m.groups.sphere_sides[s]
+            })
+            .collect(),
+        other_sides: shapes
+            .iter()
+            .map(|&s| OtherSide {
+                body: lb(m.groups.other_sides[s].body),
+                ..m.groups.other_sides[s].clone()
+            })
+            .collect(),
+        laws: m.groups.laws.clone(),
     }
 }
 
