@@ -15,6 +15,7 @@ use super::cut::{items, SceneIndex};
 use super::pool::{numbering, Compiled};
 use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
+use crate::linalg::ConstantLeaves;
 use crate::model::compiled::NOT_FREE;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
@@ -146,11 +147,17 @@ impl ModelCutter {
             if j.tree != scene_tree {
                 scene_tree = j.tree;
                 trees.push((nv, 0));
-                plan.leaves.push(sp.leaves[j.tree].clone());
+                // (most trees have no constant leaf: an empty set is made, not cloned)
+                let leaves = &sp.leaves[j.tree];
+                plan.leaves.push(if leaves.is_leaf.is_empty() {
+                    ConstantLeaves::default()
+                } else {
+                    leaves.clone()
+                });
             }
             let (ji, child, tree) = (joints.len(), local[j.child], trees.len() - 1);
             out_bodies[child].joint = ji;
-            let joint = TreeJoint {
+            joints.push(TreeJoint {
                 scene_index: j
                     .scene_index
                     .map(|si| scene_joints.binary_search(&si).unwrap_or(usize::MAX)),
@@ -160,8 +167,8 @@ impl ModelCutter {
                 qvel: nv,
                 tree,
                 ..j.clone()
-            };
-            quaternions.extend(joint.quaternion());
+            });
+            quaternions.extend(joints[ji].quaternion());
             dof_joint.extend(std::iter::repeat_n(ji, j.nv()));
             dof_parent.extend_from_slice(&m.dof_parent[j.qvel..j.qvel + j.nv()]);
             match sp.free_body(j.child) {
@@ -186,7 +193,6 @@ impl ModelCutter {
             plan.constant_row.push(sp.constant_row[t]);
             nq += j.nq();
             nv += j.nv();
-            joints.push(joint);
             trees[tree].1 = nv - trees[tree].0;
         }
         plan.general.bodies.sort_unstable();
