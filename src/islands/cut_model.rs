@@ -9,7 +9,9 @@
 //! Why the numbering carries over: compilation orders the tree joints depth first from the
 //! ground, the trees by their root bodies and the children by body order. An island holds
 //! every body of each of its trees, so its order is the scene's restricted to its bodies; its
-//! loops, springs, contacts, inputs and shapes keep the scene's order too.
+//! loops, springs, contacts, inputs and shapes keep the scene's order too. Its dof maps and
+//! its plan are the scene's restricted to it as well: both are decided tree by tree, from
+//! what an island holds whole.
 
 use super::cut::{items, SceneIndex};
 use super::pool::{numbering, Compiled};
