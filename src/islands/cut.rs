@@ -213,9 +213,17 @@ pub(super) fn local_candidates(shapes: &[usize], candidates: &[Candidate]) -> Ve
         .collect()
 }
 
-/// The sorted, deduplicated items of `lists` over `bodies`.
-pub(super) fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
-    let mut v: Vec<usize> = bodies.iter().flat_map(|&b| lists[b].iter().copied()).collect();
+/// The sorted, deduplicated items of `lists` over `bodies`, of the scene's `all` (none
+/// without looking when there is none).
+pub(super) fn items<T>(lists: &[Vec<usize>], all: &[T], bodies: &[usize]) -> Vec<usize> {
+    if all.is_empty() {
+        return Vec::new();
+    }
+    let n = bodies.iter().map(|&b| lists[b].len()).sum();
+    let mut v = Vec::with_capacity(n);
+    for &b in bodies {
+        v.extend_from_slice(&lists[b]);
+    }
     v.sort_unstable();
     v.dedup();
     v
@@ -223,12 +231,12 @@ pub(super) fn items(lists: &[Vec<usize>], bodies: &[usize]) -> Vec<usize> {
 
 #[cfg(test)]
 pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
-    let joints = items(&ix.joints, bodies);
-    let springs = items(&ix.springs, bodies);
-    let explicit = items(&ix.contacts, bodies);
-    let inputs = items(&ix.inputs, bodies);
+    let joints = items(&ix.joints, &scene.joint, bodies);
+    let springs = items(&ix.springs, &scene.spring_damper, bodies);
+    let explicit = items(&ix.contacts, &scene.contact, bodies);
+    let inputs = items(&ix.inputs, &scene.input, bodies);
     let (first_value, _) = scene.input_values();
-    let mut shapes = items(&ix.shapes, bodies);
+    let mut shapes = items(&ix.shapes, &scene.shape, bodies);
     shapes.extend(&ix.ground_shapes);
     shapes.sort_unstable();
     let s = Scene {

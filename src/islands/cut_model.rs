@@ -9,14 +9,19 @@
 //! Why the numbering carries over: compilation orders the tree joints depth first from the
 //! ground, the trees by their root bodies and the children by body order. An island holds
 //! every body of each of its trees, so its order is the scene's restricted to its bodies; its
-//! loops, springs, contacts, inputs and shapes keep the scene's order too.
+//! loops, springs, contacts, inputs and shapes keep the scene's order too. Its dof maps and
+//! its plan are the scene's restricted to it as well: both are decided tree by tree, from
+//! what an island holds whole.
 
 use super::cut::{items, SceneIndex};
-use crate::compile::{contact_warnings, dof_maps, group_numbering, Parameters};
+use super::pool::{numbering, Compiled};
+use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
+use crate::linalg::ConstantLeaves;
+use crate::model::compiled::NOT_FREE;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
-use crate::model::{Body, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
+use crate::model::{Body, Drive, FreeBody, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::Scene;
 
 /// What cutting an island's model needs of the scene, made once per scene (none of it
@@ -28,19 +33,16 @@ pub(super) struct ModelCutter {
     pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
-    /// Scratch: per scene body its island index, per scene group its island index.
+    /// The plan of the whole scene as one island (with its declared contacts alone): an
+    /// island's plan is its part ([`Plan::of`] decides each body, joint and tree from what
+    /// the island holds whole: its trees, and the loops, springs, contacts and group shapes
+    /// that name its bodies).
+    plan: Plan,
+    /// Scratch: per scene body its island index, per scene group its island index, the
+    /// island's tree joints.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
-}
-
-/// An island's model and the scene indices of its declared contacts and inputs.
-pub(super) struct CutModel {
-    pub(super) model: Model,
-    pub(super) explicit: Vec<usize>,
-    pub(super) inputs: Vec<usize>,
-    /// The scene's index of each of the island's group shapes (sorted: the island numbers
-    /// its shapes in the scene's order).
-    pub(super) shapes: Vec<usize>,
+    tree_joints: Vec<usize>,
 }
 
 impl ModelCutter {
@@ -64,19 +66,33 @@ impl ModelCutter {
                 m.scene_joint.get(inp.joint_in(&joint_index)).and_then(|r| r.ok())
             })
             .collect();
+        let explicit = &m.initial_contacts[..m.groups.n_explicit];
+        let plan = Plan::of(
+            &m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees,
+        );
         ModelCutter {
             index: SceneIndex::of(scene),
             pair_groups,
             drive_joint,
+            plan,
             local_body: vec![usize::MAX; scene.body.len()],
             local_group: vec![usize::MAX; group_index.len()],
+            tree_joints: Vec::new(),
         }
     }
 
-    /// The model of the island of scene bodies `bodies` (sorted) with the candidate pairs
-    /// `candidates` (scene numbering), cut from the scene's model `m` (compiled from `scene`
-    /// with `params`; its own candidate pairs play no part).
-    pub(super) fn cut(&mut self, scene: &Scene, params: &Parameters, m: &Model, bodies: &[usize]) -> CutModel {
+    /// The part of the island of scene bodies `bodies` (sorted): its model cut from the
+    /// scene's model `m` (compiled from `scene` with `params`; its own candidate pairs play
+    /// no part), numbered against the scene's (`joint_coords`: per scene body the first
+    /// position and velocity index of its joint in the scene's state).
+    pub(super) fn cut(
+        &mut self,
+        scene: &Scene,
+        params: &Parameters,
+        m: &Model,
+        joint_coords: &[(usize, usize)],
+        bodies: &[usize],
+    ) -> Compiled {
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
         }
@@ -84,9 +100,11 @@ impl ModelCutter {
         let lb = |b: Option<usize>| b.map(|b| local[b]);
 
         // tree joints, in the scene's order restricted to the island
-        let mut tree_joints: Vec<usize> = bodies.iter().map(|&b| m.bodies[b].joint).collect();
+        let tree_joints = &mut self.tree_joints;
+        tree_joints.clear();
+        tree_joints.extend(bodies.iter().map(|&b| m.bodies[b].joint));
         tree_joints.sort_unstable();
-        let scene_joints = items(&self.index.joints, bodies);
+        let scene_joints = items(&self.index.joints, &scene.joint, bodies);
         let mut out_bodies: Vec<Body> = bodies
             .iter()
             .map(|&b| Body {
@@ -94,18 +112,53 @@ impl ModelCutter {
                 ..m.bodies[b].clone()
             })
             .collect();
-        let mut joints = Vec::with_capacity(tree_joints.len());
-        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(tree_joints.len());
-        let (mut nq, mut nv) = (0, 0);
+        // (the sizes first, so that every list below is made once at its size)
+        let (mut ntrees, mut nquat, mut dofs, mut nfree) = (0, 0, 0, 0);
         let mut scene_tree = usize::MAX;
-        for &t in &tree_joints {
+        for &t in tree_joints.iter() {
+            let j = &m.joints[t];
+            if j.tree != scene_tree {
+                scene_tree = j.tree;
+                ntrees += 1;
+            }
+            nquat += usize::from(j.quaternion().is_some());
+            dofs += j.nv();
+            nfree += usize::from(self.plan.free_of[j.child] != NOT_FREE);
+        }
+        let nt = tree_joints.len();
+        let mut joints = Vec::with_capacity(nt);
+        let mut trees: Vec<(usize, usize)> = Vec::with_capacity(ntrees);
+        let mut quaternions = Vec::with_capacity(nquat);
+        // the dof maps: a tree's parents are local to its block, as the scene's
+        let mut dof_joint = Vec::with_capacity(dofs);
+        let mut dof_parent = Vec::with_capacity(dofs);
+        // the plan: the scene's, whose every entry the island's bodies and trees decide
+        let sp = &self.plan;
+        let mut plan = Plan {
+            free: Vec::with_capacity(nfree),
+            free_of: vec![NOT_FREE; bodies.len()],
+            rotors: Vec::with_capacity(nt),
+            constant_row: Vec::with_capacity(nt),
+            leaves: Vec::with_capacity(ntrees),
+            ..Plan::default()
+        };
+        let (mut nq, mut nv) = (0, 0);
+        scene_tree = usize::MAX;
+        for &t in tree_joints.iter() {
             let j = &m.joints[t];
             if j.tree != scene_tree {
                 scene_tree = j.tree;
                 trees.push((nv, 0));
+                // (most trees have no constant leaf: an empty set is made, not cloned)
+                let leaves = &sp.leaves[j.tree];
+                plan.leaves.push(if leaves.is_leaf.is_empty() {
+                    ConstantLeaves::default()
+                } else {
+                    leaves.clone()
+                });
             }
-            let child = local[j.child];
-            out_bodies[child].joint = joints.len();
+            let (ji, child, tree) = (joints.len(), local[j.child], trees.len() - 1);
+            out_bodies[child].joint = ji;
             joints.push(TreeJoint {
                 scene_index: j
                     .scene_index
@@ -114,15 +167,43 @@ impl ModelCutter {
                 child,
                 qpos: nq,
                 qvel: nv,
-                tree: trees.len() - 1,
+                tree,
                 ..j.clone()
             });
+            quaternions.extend(joints[ji].quaternion());
+            dof_joint.extend(std::iter::repeat_n(ji, j.nv()));
+            dof_parent.extend_from_slice(&m.dof_parent[j.qvel..j.qvel + j.nv()]);
+            match sp.free_body(j.child) {
+                Some(f) => {
+                    plan.free_of[child] = plan.free.len();
+                    plan.free.push(FreeBody {
+                        body: child,
+                        qpos: nq,
+                        qvel: nv,
+                        ..f.clone()
+                    });
+                }
+                None => {
+                    plan.general.joints.push(ji);
+                    plan.general.bodies.push(child);
+                    if plan.general.trees.last() != Some(&tree) {
+                        plan.general.trees.push(tree);
+                    }
+                }
+            }
+            plan.rotors.push(sp.rotors[t]);
+            plan.constant_row.push(sp.constant_row[t]);
             nq += j.nq();
             nv += j.nv();
-            let last = trees.len() - 1;
-            trees[last].1 = nv - trees[last].0;
+            trees[tree].1 = nv - trees[tree].0;
         }
-        let (dof_joint, dof_parent, tree_block) = dof_maps(&joints, &out_bodies, &trees);
+        plan.general.bodies.sort_unstable();
+        let mut tree_block = Vec::with_capacity(trees.len());
+        let mut off = 0;
+        for &(_, n) in &trees {
+            tree_block.push(off);
+            off += n * n;
+        }
         // the island's tree joint of the scene's tree joint t
         let joint_of = |t: usize| out_bodies[local[m.joints[t].child]].joint;
 
@@ -148,7 +229,7 @@ impl ModelCutter {
         }
 
         // inputs and drives
-        let inputs = items(&self.index.inputs, bodies);
+        let inputs = items(&self.index.inputs, &scene.input, bodies);
         let mut drives = Vec::new();
         let mut input_value = Vec::with_capacity(inputs.len());
         let mut input_start = Vec::new();
@@ -188,7 +269,7 @@ impl ModelCutter {
             });
         }
 
-        let springs: Vec<SpringDamper> = items(&self.index.springs, bodies)
+        let springs: Vec<SpringDamper> = items(&self.index.springs, &scene.spring_damper, bodies)
             .into_iter()
             .map(|i| {
                 let s = &m.springs[i];
@@ -201,7 +282,7 @@ impl ModelCutter {
             .collect();
 
         // contacts: the declared ones (the data lists the candidate pairs' after them)
-        let explicit = items(&self.index.contacts, bodies);
+        let explicit = items(&self.index.contacts, &scene.contact, bodies);
         let mut contacts: Vec<ContactElement> = Vec::with_capacity(explicit.len());
         for &i in &explicit {
             let mut c = m.initial_contacts[i].clone();
@@ -226,69 +307,18 @@ impl ModelCutter {
                 ..Groups::default()
             }
         } else {
-            // the island's group numbering: its shapes' groups, then those the pairs name
-            let mut ngroups = 0;
-            let mut number = |g: usize, local_group: &mut Vec<usize>| {
-                if local_group[g] == usize::MAX {
-                    local_group[g] = ngroups;
-                    ngroups += 1;
-                }
-            };
-            for &s in &shapes {
-                number(m.groups.shapes[s].group, &mut self.local_group);
-            }
-            for &(a, b) in &self.pair_groups {
-                number(a, &mut self.local_group);
-                number(b, &mut self.local_group);
-            }
-            let mut touch = vec![None; ngroups * ngroups];
-            for (p, &(a, b)) in self.pair_groups.iter().enumerate() {
-                touch[self.local_group[a] * ngroups + self.local_group[b]] = Some(p);
-            }
-            let out_shapes = shapes
-                .iter()
-                .map(|&s| {
-                    let gs = &m.groups.shapes[s];
-                    GroupShape {
-                        body: lb(gs.body),
-                        group: self.local_group[gs.group],
-                        ..gs.clone()
-                    }
-                })
-                .collect();
-            self.local_group.fill(usize::MAX);
-            Groups {
-                shapes: out_shapes,
-                ngroups,
-                touch,
-                pair_names: m.groups.pair_names.clone(),
-                n_explicit: explicit.len(),
-                initial_candidates: Vec::new(),
-                margin: m.groups.margin,
-                method: m.groups.method,
-                reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
-                has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
-                stale_fraction: super::ISLAND_STALE_FRACTION,
-                sphere_sides: shapes
-                    .iter()
-                    .map(|&s| SphereSide {
-                        body: lb(m.groups.sphere_sides[s].body),
-                        ..m.groups.sphere_sides[s]
-                    })
-                    .collect(),
-                other_sides: shapes
-                    .iter()
-                    .map(|&s| OtherSide {
-                        body: lb(m.groups.other_sides[s].body),
-                        ..m.groups.other_sides[s].clone()
-                    })
-                    .collect(),
-                laws: m.groups.laws.clone(),
-            }
+            cut_groups(
+                m,
+                local,
+                &mut self.local_group,
+                &self.pair_groups,
+                bodies,
+                &shapes,
+                explicit.len(),
+            )
         };
         let warnings = contact_warnings(&contacts);
-        let quaternions = crate::model::quaternion_coordinates(&joints);
-        let plan = Plan::of(&out_bodies, &joints, &loops, &springs, &contacts, &groups, &trees);
+        let (coords, input_pairs, driven) = numbering(m, &joints, nq, &drives, joint_coords, bodies, &inputs);
         let model = Model {
             name: m.name.clone(),
             gravity: m.gravity,
@@ -315,12 +345,90 @@ impl ModelCutter {
             baumgarte: m.baumgarte,
             warnings,
         };
-        CutModel {
+        Compiled {
             model,
+            coords,
             explicit,
-            inputs,
+            inputs: input_pairs,
+            driven,
             shapes,
         }
+    }
+}
+
+/// The contact groups of the island of scene bodies `bodies` (sorted; `local`: per scene
+/// body its island index) whose group shapes are the scene's `shapes` (sorted), with
+/// `n_explicit` declared contacts, from the scene's model `m` whose group pairs name the
+/// scene's groups `pair_groups`. `local_group`: scratch per scene group, left as it came
+/// (`usize::MAX` throughout).
+fn cut_groups(
+    m: &Model,
+    local: &[usize],
+    local_group: &mut [usize],
+    pair_groups: &[(usize, usize)],
+    bodies: &[usize],
+    shapes: &[usize],
+    n_explicit: usize,
+) -> Groups {
+    let lb = |b: Option<usize>| b.map(|b| local[b]);
+    // the island's group numbering: its shapes' groups, then those the pairs name
+    let mut ngroups = 0;
+    let mut number = |g: usize, local_group: &mut [usize]| {
+        if local_group[g] == usize::MAX {
+            local_group[g] = ngroups;
+            ngroups += 1;
+        }
+    };
+    for &s in shapes {
+        number(m.groups.shapes[s].group, local_group);
+    }
+    for &(a, b) in pair_groups {
+        number(a, local_group);
+        number(b, local_group);
+    }
+    let mut touch = vec![None; ngroups * ngroups];
+    for (p, &(a, b)) in pair_groups.iter().enumerate() {
+        touch[local_group[a] * ngroups + local_group[b]] = Some(p);
+    }
+    let out_shapes = shapes
+        .iter()
+        .map(|&s| {
+            let gs = &m.groups.shapes[s];
+            GroupShape {
+                body: lb(gs.body),
+                group: local_group[gs.group],
+                ..gs.clone()
+            }
+        })
+        .collect();
+    local_group.fill(usize::MAX);
+    Groups {
+        shapes: out_shapes,
+        ngroups,
+        touch,
+        pair_names: m.groups.pair_names.clone(),
+        n_explicit,
+        initial_candidates: Vec::new(),
+        margin: m.groups.margin,
+        method: m.groups.method,
+        reach: bodies.iter().map(|&b| m.groups.reach[b]).collect(),
+        has_shape: bodies.iter().map(|&b| m.groups.has_shape[b]).collect(),
+        stale_fraction: super::ISLAND_STALE_FRACTION,
+        sphere_sides: shapes
+            .iter()
+            .map(|&s| SphereSide {
+                body: lb(m.groups.sphere_sides[s].body),
+                ..m.groups.sphere_sides[s]
+            })
+            .collect(),
+        other_sides: shapes
+            .iter()
+            .map(|&s| OtherSide {
+                body: lb(m.groups.other_sides[s].body),
+                ..m.groups.other_sides[s].clone()
+            })
+            .collect(),
+        laws: m.groups.laws.clone(),
     }
 }
 

@@ -9,7 +9,7 @@
 use super::cut_model::ModelCutter;
 use super::Source;
 use crate::compile::Parameters;
-use crate::model::{nq_of, nv_of, Model};
+use crate::model::{nq_of, nv_of, Drive, Model, TreeJoint};
 use rustc_hash::FxHashMap as HashMap;
 
 /// An island's model and its numbering against the scene's.
@@ -43,26 +43,30 @@ pub(super) fn compile(
     joint_coords: &[(usize, usize)],
     key: &Key,
 ) -> Compiled {
-    let cut = cutter.cut(src.scene, params, m, key);
-    numbered(m, cut.model, joint_coords, key, cut.explicit, &cut.inputs, cut.shapes)
+    cutter.cut(src.scene, params, m, joint_coords, key)
 }
 
-/// The part of an island of `bodies` whose model is `model` (with the scene's declared
-/// contacts `explicit` and inputs `inputs`), numbered against the scene's model `m`.
-fn numbered(
+/// An island's [`Compiled::coords`], [`Compiled::inputs`] and [`Compiled::driven`].
+pub(super) type Numbering = (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<(usize, usize)>);
+
+/// The numbering against the scene's model `m` of the model of an island of `bodies` whose
+/// tree joints are `joints` (with `nq` position coordinates) and drives `drives`, with the
+/// scene's inputs `scene_inputs`.
+pub(super) fn numbering(
     m: &Model,
-    model: Model,
+    joints: &[TreeJoint],
+    nq: usize,
+    drives: &[Drive],
     joint_coords: &[(usize, usize)],
     bodies: &[usize],
-    explicit: Vec<usize>,
     scene_inputs: &[usize],
-    shapes: Vec<usize>,
-) -> Compiled {
-    let mut coords = Vec::with_capacity(model.nq + model.nv);
-    for j in &model.joints {
+) -> Numbering {
+    let nv: usize = joints.iter().map(|j| nv_of(j.kind)).sum();
+    let mut coords = Vec::with_capacity(nq + nv);
+    for j in joints {
         let (qpos, qvel) = joint_coords[bodies[j.child]];
         coords.extend((0..nq_of(j.kind)).map(|k| (j.qpos + k, qpos + k)));
-        coords.extend((0..nv_of(j.kind)).map(|k| (model.nq + j.qvel + k, qvel + k)));
+        coords.extend((0..nv_of(j.kind)).map(|k| (nq + j.qvel + k, qvel + k)));
     }
     let mut inputs = Vec::new();
     for &g in scene_inputs {
@@ -72,20 +76,12 @@ fn numbered(
     }
     // a drive's coordinates: the scene's state index of the island's
     let scene_index = |l: usize| coords.iter().find(|&&(a, _)| a == l).map(|&(_, b)| b);
-    let driven = model
-        .drives
+    let driven = drives
         .iter()
-        .flat_map(|dr| [dr.qpos, model.nq + dr.qvel])
+        .flat_map(|dr| [dr.qpos, nq + dr.qvel])
         .filter_map(|l| Some((l, scene_index(l)?)))
         .collect();
-    Compiled {
-        model,
-        coords,
-        explicit,
-        inputs,
-        driven,
-        shapes,
-    }
+    (coords, inputs, driven)
 }
 
 /// The part [`compile`] gives, made the former way: the island's part of the scene cut
@@ -103,15 +99,23 @@ pub(super) fn compile_cut_scene(
     let mut model = crate::compile::compile_model(&cut.scene, &cut.params, src.origin, Some(&[]))
         .map_err(|e| format!("an island could not be compiled: {e}"))?;
     model.groups.stale_fraction = super::ISLAND_STALE_FRACTION;
-    Ok(numbered(
+    let (coords, inputs, driven) = numbering(
         m,
-        model,
+        &model.joints,
+        model.nq,
+        &model.drives,
         joint_coords,
         key,
-        cut.explicit,
         &cut.inputs,
-        cut.shapes,
-    ))
+    );
+    Ok(Compiled {
+        model,
+        coords,
+        explicit: cut.explicit,
+        inputs,
+        driven,
+        shapes: cut.shapes,
+    })
 }
 
 /// The compiled parts of islands that ended, by their bodies.
