@@ -30,7 +30,7 @@ impl Islands {
             input_work += island.input_work();
             counters = counters + island.data.counters;
             for e in &island.data.event_log {
-                if let Some(g) = island.scene_contact(e.contact, n_explicit, &self.candidate_index) {
+                if let Some(g) = island.scene_contact(e.contact, n_explicit) {
                     d.event_log.push(ContactEvent { contact: g, ..*e });
                     logged = true;
                 }
@@ -59,7 +59,7 @@ impl Islands {
         debug_assert!(d.candidates == self.candidates);
         for island in &self.parts {
             for (k, mem) in island.data.contact_memory.iter().enumerate() {
-                if let Some(g) = island.scene_contact(k, self.n_explicit, &self.candidate_index) {
+                if let Some(g) = island.scene_contact(k, self.n_explicit) {
                     d.contact_memory[g] = *mem;
                 }
             }

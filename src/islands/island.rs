@@ -6,7 +6,6 @@ use crate::engine;
 use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
-use rustc_hash::FxHashMap as HashMap;
 
 /// One island: a model cut from the scene's, and its data.
 pub struct Island {
@@ -22,6 +21,8 @@ pub struct Island {
     pub(super) explicit: Vec<usize>,
     /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
     pub(super) candidates: Vec<Candidate>,
+    /// The index of each of them in the islands' list ([`super::Islands::candidates`]).
+    pub(super) listed: Vec<usize>,
     /// (island, scene) index pairs of the input values.
     pub(super) inputs: Vec<(usize, usize)>,
     /// (island, scene) index pairs of the driven joints' coordinates and rates.
@@ -122,20 +123,12 @@ impl Island {
         self.model.input_work(&self.data.state)
     }
 
-    /// The scene's index of the island's contact `k`, `candidate_index` giving the scene's
-    /// index of a candidate pair.
-    pub(super) fn scene_contact(
-        &self,
-        k: usize,
-        n_explicit: usize,
-        candidate_index: &HashMap<Candidate, usize>,
-    ) -> Option<usize> {
+    /// The scene's index of the island's contact `k` (its declared contacts', then the
+    /// candidate pairs' of the islands' list after them).
+    pub(super) fn scene_contact(&self, k: usize, n_explicit: usize) -> Option<usize> {
         match self.explicit.get(k) {
             Some(&g) => Some(g),
-            None => {
-                let c = self.candidates.get(k - self.explicit.len())?;
-                candidate_index.get(c).map(|i| n_explicit + i)
-            }
+            None => self.listed.get(k - self.explicit.len()).map(|i| n_explicit + i),
         }
     }
 

@@ -104,8 +104,6 @@ pub struct Islands {
     /// The candidate pairs of the whole scene (its shape numbering), as the broad phase
     /// found them last (sorted).
     pub candidates: Vec<Candidate>,
-    /// The index of each candidate pair in that list.
-    candidate_index: HashMap<Candidate, usize>,
     /// Contact events of islands that ended since the last gathering (the scene's contact
     /// numbering of the candidate list then).
     retired_log: Vec<ContactEvent>,
@@ -164,10 +162,41 @@ pub struct Source<'a> {
 }
 
 /// The contacts' memory, by the scene's numbering: declared contacts by index, candidate
-/// pairs by their shapes.
+/// pairs by their index in the islands' list [`Islands::candidates`].
 struct Memory {
     explicit: Vec<ContactMemory>,
-    candidates: HashMap<Candidate, ContactMemory>,
+    candidates: Vec<ContactMemory>,
+}
+
+/// What a new island holds of the scene: its bodies (sorted), its candidate pairs (in the
+/// list's order) and their indices in the list.
+struct Members {
+    bodies: Vec<usize>,
+    candidates: Vec<Candidate>,
+    listed: Vec<usize>,
+}
+
+/// [`former_indices`]: a candidate pair not in the former list.
+const NOT_LISTED: usize = usize::MAX;
+
+/// Per candidate pair of the list `new`, its index in the list `old` ([`NOT_LISTED`]: none),
+/// into `out`: by one walk through both when both are sorted (the broad phase's lists are),
+/// by a map of `old` otherwise (a pair listed twice: its last index).
+fn former_indices(old: &[Candidate], new: &[Candidate], out: &mut Vec<usize>) {
+    out.clear();
+    let sorted = |l: &[Candidate]| l.windows(2).all(|w| w[0] < w[1]);
+    if sorted(old) && sorted(new) {
+        let mut i = 0;
+        for c in new {
+            while i < old.len() && old[i] < *c {
+                i += 1;
+            }
+            out.push(if old.get(i) == Some(c) { i } else { NOT_LISTED });
+        }
+    } else {
+        let index: HashMap<Candidate, usize> = old.iter().enumerate().map(|(i, c)| (*c, i)).collect();
+        out.extend(new.iter().map(|c| index.get(c).copied().unwrap_or(NOT_LISTED)));
+    }
 }
 
 impl Islands {
@@ -193,7 +222,6 @@ impl Islands {
             dissipated_base: d.state[m.dissipated_index()],
             input_work_base: m.input_work(&d.state),
             candidates: d.candidates.clone(),
-            candidate_index: d.candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect(),
             retired_log: Vec::new(),
             rebuilds: 0,
             compiled: 0,
@@ -218,16 +246,16 @@ impl Islands {
         }
     }
 
-    /// The memory of the scene's data `d` (model `m`).
+    /// The memory of the scene's data `d` (model `m`), by the islands' list of candidate pairs.
     fn memory_of_scene(&self, m: &Model, d: &Data) -> Memory {
         let n = m.groups.n_explicit;
+        let mut at = Vec::new();
+        former_indices(&d.candidates, &self.candidates, &mut at);
         Memory {
             explicit: d.contact_memory[..n].to_vec(),
-            candidates: d
-                .candidates
+            candidates: at
                 .iter()
-                .zip(&d.contact_memory[n..])
-                .map(|(k, mem)| (*k, *mem))
+                .map(|&i| d.contact_memory.get(n.wrapping_add(i)).copied().unwrap_or_default())
                 .collect(),
         }
     }
@@ -236,7 +264,7 @@ impl Islands {
     fn memory_of_islands(&self, m: &Model) -> Memory {
         let mut memory = Memory {
             explicit: vec![ContactMemory::default(); m.groups.n_explicit],
-            candidates: HashMap::default(),
+            candidates: vec![ContactMemory::default(); self.candidates.len()],
         };
         for island in &self.parts {
             let mem = &island.data.contact_memory;
@@ -244,8 +272,8 @@ impl Islands {
                 memory.explicit[g] = mem[k];
             }
             let n = island.explicit.len();
-            for (k, c) in island.candidates.iter().enumerate() {
-                memory.candidates.insert(*c, mem[n + k]);
+            for (k, &i) in island.listed.iter().enumerate() {
+                memory.candidates[i] = mem[n + k];
             }
         }
         memory
@@ -254,7 +282,7 @@ impl Islands {
     /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
     /// coordinates and reference poses), keeping those of `old` whose bodies and candidate
     /// pairs are unchanged (with their integrators) and compiling the others with the
-    /// contact memory `memory`. A candidate pair new to the list that already touches is an
+    /// contact memory `memory` (by the former list, [`Islands::candidates`]). A candidate pair new to the list that already touches is an
     /// error (the bounds on the step were broken).
     // (the islands are boxed: forming moves them between lists, a pointer each instead of the
     // whole island, which saved a tenth of forming's instructions on 300 spheres)
@@ -298,13 +326,19 @@ impl Islands {
         }
         let mut next = cand_start.clone();
         let mut by_island = candidates.to_vec();
-        for c in candidates {
+        // (and each one's index in the list)
+        let mut listed = vec![0; candidates.len()];
+        for (i, c) in candidates.iter().enumerate() {
             if let Some(b) = candidate_body(m, c) {
                 let k = parts.island_of[b];
                 by_island[next[k]] = *c;
+                listed[next[k]] = i;
                 next[k] += 1;
             }
         }
+        // per pair of the list, its index in the former list
+        let mut former = Vec::new();
+        former_indices(&self.candidates, candidates, &mut former);
         // the former islands by their first body
         let mut by_first = vec![usize::MAX; m.bodies.len()];
         for (k, island) in old.iter().enumerate() {
@@ -313,13 +347,16 @@ impl Islands {
         let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (k, bodies) in parts.iter().enumerate() {
-            let cands = &by_island[cand_start[k]..cand_start[k + 1]];
-            let former = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
-            if let Some(mut island) = former {
+            let span = cand_start[k]..cand_start[k + 1];
+            let cands = &by_island[span.clone()];
+            let previous = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
+            if let Some(mut island) = previous {
                 if island.bodies == bodies && island.candidates == cands {
                     for (lb, &gb) in island.bodies.iter().enumerate() {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
                     }
+                    island.listed.clear();
+                    island.listed.extend_from_slice(&listed[span]);
                     engine::resync_margins(&island.model, &mut island.data);
                     out.push(island);
                     continue;
@@ -327,7 +364,12 @@ impl Islands {
                 self.retire(island);
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
-            let mut island = self.compile_island(src, m, d, bodies.to_vec(), cands.to_vec(), memory)?;
+            let members = Members {
+                bodies: bodies.to_vec(),
+                candidates: cands.to_vec(),
+                listed: listed[span.clone()].to_vec(),
+            };
+            let mut island = self.compile_island(src, m, d, members, memory, &former)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -339,8 +381,8 @@ impl Islands {
             if !fresh {
                 let n = island.explicit.len();
                 let mut posed = false;
-                for k in 0..island.candidates.len() {
-                    if self.candidate_index.contains_key(&island.candidates[k]) {
+                for (k, &i) in listed[span].iter().enumerate() {
+                    if former[i] != NOT_LISTED {
                         continue;
                     }
                     if !posed {
@@ -369,7 +411,6 @@ impl Islands {
         self.parts = out;
         self.island_of = parts.island_of;
         self.candidates = candidates.to_vec();
-        self.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
         Ok(())
     }
 
@@ -380,7 +421,7 @@ impl Islands {
         self.dissipated_base += island.dissipated();
         self.input_work_base += island.input_work();
         for e in &island.data.event_log {
-            if let Some(g) = island.scene_contact(e.contact, self.n_explicit, &self.candidate_index) {
+            if let Some(g) = island.scene_contact(e.contact, self.n_explicit) {
                 self.retired_log.push(ContactEvent { contact: g, ..*e });
             }
         }
@@ -406,18 +447,24 @@ impl Islands {
         }
     }
 
-    /// The island of `bodies` with the candidate pairs `candidates` (scene numbering), its
-    /// model from the pool or cut from the scene's model `m`, its data set from the scene's data `d` (coordinates,
-    /// inputs, flags, the broad phase's reference poses) and the contacts' memory.
+    /// The island of `members` (scene numbering), its model from the pool or cut from the
+    /// scene's model `m`, its data set from the scene's data `d` (coordinates, inputs, flags,
+    /// the broad phase's reference poses) and the contacts' memory (`memory`, its candidate
+    /// pairs' by the former list: `former` gives the former index of each pair of the list).
     fn compile_island(
         &mut self,
         src: &Source,
         m: &Model,
         d: &Data,
-        bodies: Vec<usize>,
-        candidates: Vec<Candidate>,
+        members: Members,
         memory: &Memory,
+        former: &[usize],
     ) -> Result<Box<Island>, EngineError> {
+        let Members {
+            bodies,
+            candidates,
+            listed,
+        } = members;
         let (bodies, part) = match self.pool.take(&bodies) {
             Some(pooled) => {
                 self.pooled += 1;
@@ -460,8 +507,12 @@ impl Islands {
             data.contact_memory[k] = memory.explicit[g];
         }
         let n = part.explicit.len();
-        for (k, c) in candidates.iter().enumerate() {
-            data.contact_memory[n + k] = memory.candidates.get(c).copied().unwrap_or_default();
+        for (k, &i) in listed.iter().enumerate() {
+            data.contact_memory[n + k] = former
+                .get(i)
+                .and_then(|&j| memory.candidates.get(j))
+                .copied()
+                .unwrap_or_default();
         }
         for (lb, &gb) in bodies.iter().enumerate() {
             data.broad_reference[lb] = d.broad_reference[gb];
@@ -473,6 +524,7 @@ impl Islands {
             coords: part.coords,
             explicit: part.explicit,
             candidates,
+            listed,
             inputs: part.inputs,
             driven: part.driven,
             shapes: part.shapes,

@@ -2,7 +2,7 @@
 //! counters, energies and rebuilds not held by an island, the end of the present round, the
 //! candidate pairs, and per island its bodies and whole state.
 
-use super::{candidate_body, Islands, Source};
+use super::{candidate_body, Islands, Members, Source};
 use crate::compile::Parameters;
 use crate::engine;
 use crate::model::groups::Candidate;
@@ -34,20 +34,27 @@ impl Islands {
     pub fn load(src: &Source, params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
         let (head, candidates, saved) = island_state::set(m, d.time, v)?;
         let mut is = Islands::bare(src, params, m, d);
-        is.candidate_index = candidates.iter().enumerate().map(|(i, c)| (*c, i)).collect();
         is.candidates = candidates;
+        // (the memory by the islands' list; each island's saved state then sets its own)
         let memory = is.memory_of_scene(m, d);
+        let same: Vec<usize> = (0..is.candidates.len()).collect();
         let mut parts = Vec::with_capacity(saved.len());
         for island in saved {
             let bodies = island.bodies;
-            let cands: Vec<Candidate> = is
+            let (candidates, listed): (Vec<Candidate>, Vec<usize>) = is
                 .candidates
                 .iter()
-                .filter(|c| candidate_body(m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
-                .copied()
-                .collect();
+                .enumerate()
+                .filter(|(_, c)| candidate_body(m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
+                .map(|(i, c)| (*c, i))
+                .unzip();
+            let members = Members {
+                bodies,
+                candidates,
+                listed,
+            };
             let mut built = is
-                .compile_island(src, m, d, bodies, cands, &memory)
+                .compile_island(src, m, d, members, &memory, &same)
                 .map_err(|e| e.message)?;
             if state::group_candidates(&built.model, island.state).as_ref() != Some(&built.data.candidates)
                 && built.model.groups.is_active()
