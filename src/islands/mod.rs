@@ -37,7 +37,6 @@ use crate::contact::{self, groups};
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
 use crate::kinematics::poses_and_velocities_at_state;
-use crate::model::contact::ContactMemory;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
 use crate::model::{ContactEvent, Counters, Data, Model};
@@ -45,6 +44,7 @@ use crate::scene::Scene;
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 
+mod carry;
 mod cut;
 mod cut_model;
 mod gather;
@@ -54,6 +54,7 @@ mod saved;
 #[cfg(test)]
 mod tests;
 
+use carry::{former_indices, Memory, NOT_LISTED};
 use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
@@ -161,42 +162,12 @@ pub struct Source<'a> {
     pub origin: &'a str,
 }
 
-/// The contacts' memory, by the scene's numbering: declared contacts by index, candidate
-/// pairs by their index in the islands' list [`Islands::candidates`].
-struct Memory {
-    explicit: Vec<ContactMemory>,
-    candidates: Vec<ContactMemory>,
-}
-
 /// What a new island holds of the scene: its bodies (sorted), its candidate pairs (in the
 /// list's order) and their indices in the list.
 struct Members {
     bodies: Vec<usize>,
     candidates: Vec<Candidate>,
     listed: Vec<usize>,
-}
-
-/// [`former_indices`]: a candidate pair not in the former list.
-const NOT_LISTED: usize = usize::MAX;
-
-/// Per candidate pair of the list `new`, its index in the list `old` ([`NOT_LISTED`]: none),
-/// into `out`: by one walk through both when both are sorted (the broad phase's lists are),
-/// by a map of `old` otherwise (a pair listed twice: its last index).
-fn former_indices(old: &[Candidate], new: &[Candidate], out: &mut Vec<usize>) {
-    out.clear();
-    let sorted = |l: &[Candidate]| l.windows(2).all(|w| w[0] < w[1]);
-    if sorted(old) && sorted(new) {
-        let mut i = 0;
-        for c in new {
-            while i < old.len() && old[i] < *c {
-                i += 1;
-            }
-            out.push(if old.get(i) == Some(c) { i } else { NOT_LISTED });
-        }
-    } else {
-        let index: HashMap<Candidate, usize> = old.iter().enumerate().map(|(i, c)| (*c, i)).collect();
-        out.extend(new.iter().map(|c| index.get(c).copied().unwrap_or(NOT_LISTED)));
-    }
 }
 
 impl Islands {
@@ -244,39 +215,6 @@ impl Islands {
             reused: 0,
             fresh: FreshIntegrators::default(),
         }
-    }
-
-    /// The memory of the scene's data `d` (model `m`), by the islands' list of candidate pairs.
-    fn memory_of_scene(&self, m: &Model, d: &Data) -> Memory {
-        let n = m.groups.n_explicit;
-        let mut at = Vec::new();
-        former_indices(&d.candidates, &self.candidates, &mut at);
-        Memory {
-            explicit: d.contact_memory[..n].to_vec(),
-            candidates: at
-                .iter()
-                .map(|&i| d.contact_memory.get(n.wrapping_add(i)).copied().unwrap_or_default())
-                .collect(),
-        }
-    }
-
-    /// The memory the islands hold.
-    fn memory_of_islands(&self, m: &Model) -> Memory {
-        let mut memory = Memory {
-            explicit: vec![ContactMemory::default(); m.groups.n_explicit],
-            candidates: vec![ContactMemory::default(); self.candidates.len()],
-        };
-        for island in &self.parts {
-            let mem = &island.data.contact_memory;
-            for (k, &g) in island.explicit.iter().enumerate() {
-                memory.explicit[g] = mem[k];
-            }
-            let n = island.explicit.len();
-            for (k, &i) in island.listed.iter().enumerate() {
-                memory.candidates[i] = mem[n + k];
-            }
-        }
-        memory
     }
 
     /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
