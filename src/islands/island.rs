@@ -11,8 +11,8 @@ use crate::model::{state, Data, Model};
 pub struct Island {
     /// The island's model.
     pub model: Model,
-    /// The island's data.
-    pub data: Data,
+    /// The island's data (boxed: forming and the spare data move a pointer, not the data).
+    pub data: Box<Data>,
     /// The scene's index of each of the island's bodies (its own order, sorted).
     pub bodies: Vec<usize>,
     /// (island, scene) index pairs of the position and velocity coordinates.

@@ -138,7 +138,7 @@ pub struct Islands {
     /// The data of islands that ended (with their buffers of the saved state), by the size of
     /// their state, for new islands' data (their buffers and integrators reused), how many it
     /// holds and may hold.
-    spare: HashMap<usize, Vec<(Data, Vec<f64>)>>,
+    spare: HashMap<usize, Vec<(Box<Data>, Vec<f64>)>>,
     n_spare: usize,
     spare_limit: usize,
     /// Threads that advance the islands of a round side by side (`[solver] threads`, 0
@@ -425,7 +425,7 @@ impl Islands {
                 data.refit(&model, 0, &mut self.fresh);
                 (data, saved)
             }
-            None => (Data::with_event_log(&model, 0), Vec::new()),
+            None => (Box::new(Data::with_event_log(&model, 0)), Vec::new()),
         };
         saved.clear();
         let diss = model.dissipated_index();
