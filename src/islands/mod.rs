@@ -138,7 +138,7 @@ pub struct Islands {
     /// The data of islands that ended (with their buffers of the saved state), by the size of
     /// their state, for new islands' data (their buffers and integrators reused), how many it
     /// holds and may hold.
-    spare: HashMap<usize, Vec<(Box<Data>, Vec<f64>)>>,
+    spare: HashMap<usize, Vec<Spare>>,
     n_spare: usize,
     spare_limit: usize,
     /// Threads that advance the islands of a round side by side (`[solver] threads`, 0
@@ -152,6 +152,9 @@ pub struct Islands {
     /// Makes the spare data's integrators fresh.
     fresh: FreshIntegrators,
 }
+
+/// An ended island's data and its buffer of the saved state, for a new island.
+type Spare = (Box<Data>, Vec<f64>);
 
 /// The scene and its origin: what an island is compiled from (with the parameter values the
 /// islands keep).
