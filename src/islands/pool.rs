@@ -183,8 +183,6 @@ const MULTI_BODY_PARTS: usize = 32;
 /// instructions instead of 271.0 M).
 const SPARE_PARTS: usize = 64;
 
-/// The pool keeps up to this many spare parts.
-
 impl Pool {
     /// The part compiled for `key`, taken out of the pool (with the key), if there is one.
     pub(super) fn take(&mut self, key: &Key) -> Option<(Key, Compiled)> {
