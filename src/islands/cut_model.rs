@@ -93,28 +93,13 @@ impl ModelCutter {
         }
     }
 
-    /// The part of the island of scene bodies `bodies` (sorted): its model cut from the
-    /// scene's model `m` (compiled from `scene` with `params`; its own candidate pairs play
-    /// no part), numbered against the scene's (`joint_coords`: per scene body the first
-    /// position and velocity index of its joint in the scene's state).
-    #[cfg(test)]
-    pub(super) fn cut(
-        &mut self,
-        scene: &Scene,
-        params: &Parameters,
-        m: &Model,
-        joint_coords: &[(usize, usize)],
-        bodies: &[usize],
-    ) -> Compiled {
-        let mut part = Compiled::empty(params);
-        self.cut_into(scene, params, m, joint_coords, bodies, &mut part);
-        part
-    }
-
-    /// [`ModelCutter::cut`] into the buffers of `part` (the part of any island, or
-    /// [`Compiled::empty`]): every list of `part` and of its model is emptied and filled anew,
-    /// each name written into the buffer of a name it held, so that nothing is allocated
-    /// where `part`'s buffers are large enough. `part` is then the part `cut` gives.
+    /// Makes `part` the part of the island of scene bodies `bodies` (sorted): its model cut
+    /// from the scene's model `m` (compiled from `scene` with `params`; its own candidate pairs
+    /// play no part), numbered against the scene's (`joint_coords`: per scene body the first
+    /// position and velocity index of its joint in the scene's state). `part` may be the part
+    /// of any island, of any scene, or [`Compiled::empty`]: every list of it and of its model
+    /// is emptied and filled anew, each name written into the buffer of a name it held, so
+    /// that nothing is allocated where its buffers are large enough.
     pub(super) fn cut_into(
         &mut self,
         scene: &Scene,
@@ -599,37 +584,44 @@ mod tests {
         }
     }
 
-    /// A part cut into the buffers of a part of other bodies (more of them, fewer, the same
-    /// number) is the one cut anew: 64 grouped spheres, the bundled pile, and scenes of
-    /// joints, loops, springs, declared contacts and inputs, every part cut into every other.
+    /// A part cut into the buffers of another part (of more bodies, fewer, as many, of the same
+    /// scene or another) is the one cut anew: 64 grouped spheres, the bundled pile, and scenes
+    /// of joints, loops, springs, declared contacts and inputs, every part cut into every
+    /// other.
     #[test]
     fn parts_cut_into_used_buffers_are_those_cut_anew() {
         let mut scenes = vec![grouped(64, 0.02, 0.0015, true), bundled("pile_of_balls")];
         scenes.extend(["rail_vehicle", "slider_crank", "two_spheres"].map(bundled));
-        let mut compared = 0;
-        for scene in &scenes {
-            let origin = "recycle test";
-            let (m, d) = compile_scene(scene, origin).unwrap();
+        let origin = "recycle test";
+        let compiled: Vec<_> = scenes.iter().map(|s| compile_scene(s, origin).unwrap()).collect();
+        // (per scene: its source, model and islands; the keys with their scene's index)
+        let (mut cases, mut keyed) = (Vec::new(), Vec::new());
+        for (scene, (m, d)) in scenes.iter().zip(&compiled) {
             let src = Source { scene, origin };
-            let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
-            let mut keys: Vec<Vec<usize>> = partition(&m, &d.candidates).iter().map(<[usize]>::to_vec).collect();
+            let is = Islands::new(&src, Parameters::of_scene(scene), m, d).unwrap();
+            let mut keys: Vec<Vec<usize>> = partition(m, &d.candidates).iter().map(<[usize]>::to_vec).collect();
             keys.truncate(4);
             keys.push((0..m.bodies.len()).collect());
             if m.groups.is_active() {
                 // (bodies that are no island at the start: any spheres are one)
                 keys.push((1..m.bodies.len()).step_by(3).collect());
             }
-            for a in &keys {
-                for b in &keys {
-                    let mut part = compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, a);
-                    let (scene, params) = (src.scene, &is.params);
-                    is.cutter.cut_into(scene, params, &m, &is.joint_coords, b, &mut part);
-                    let fresh = compile(&src, &is.params, &mut is.cutter, &m, &is.joint_coords, b);
-                    assert_same_part(&part, &fresh, b);
-                    compared += 1;
-                }
+            keyed.extend(keys.into_iter().map(|k| (cases.len(), k)));
+            cases.push((src, m, is));
+        }
+        let mut compared = 0;
+        for (from, a) in &keyed {
+            for (to, b) in &keyed {
+                let (src, m, is) = &mut cases[*from];
+                let mut part = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, a);
+                let (src, m, is) = &mut cases[*to];
+                let (scene, params) = (src.scene, &is.params);
+                is.cutter.cut_into(scene, params, m, &is.joint_coords, b, &mut part);
+                let fresh = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, b);
+                assert_same_part(&part, &fresh, b);
+                compared += 1;
             }
         }
-        assert!(compared > 60, "{compared} parts compared");
+        assert!(compared > 300, "{compared} parts compared");
     }
 }

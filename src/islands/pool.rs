@@ -86,7 +86,9 @@ pub(super) fn compile(
     joint_coords: &[(usize, usize)],
     key: &Key,
 ) -> Compiled {
-    cutter.cut(src.scene, params, m, joint_coords, key)
+    let mut part = Compiled::empty(params);
+    cutter.cut_into(src.scene, params, m, joint_coords, key, &mut part);
+    part
 }
 
 /// Writes into `part` (its buffers kept) the numbering against the scene's model `m` of its
@@ -196,8 +198,8 @@ impl Pool {
         Some(taken)
     }
 
-    /// The part of the island of the bodies `key` cut by `cutter` (as [`compile`] does) into
-    /// a spare part's buffers, if there is one.
+    /// The part of the island of the bodies `key` cut by `cutter` (as [`compile`] does, from
+    /// the same arguments) into a spare part's buffers, if there is one.
     pub(super) fn cut(
         &mut self,
         src: &Source,
