@@ -213,30 +213,34 @@ pub(super) fn local_candidates(shapes: &[usize], candidates: &[Candidate]) -> Ve
         .collect()
 }
 
-/// The sorted, deduplicated items of `lists` over `bodies`, of the scene's `all` (none
-/// without looking when there is none).
-pub(super) fn items<T>(lists: &[Vec<usize>], all: &[T], bodies: &[usize]) -> Vec<usize> {
+/// Writes into `out` the sorted, deduplicated items of `lists` over `bodies`, of the scene's
+/// `all` (none without looking when there is none).
+pub(super) fn items<T>(lists: &[Vec<usize>], all: &[T], bodies: &[usize], out: &mut Vec<usize>) {
+    out.clear();
     if all.is_empty() {
-        return Vec::new();
+        return;
     }
-    let n = bodies.iter().map(|&b| lists[b].len()).sum();
-    let mut v = Vec::with_capacity(n);
+    out.reserve(bodies.iter().map(|&b| lists[b].len()).sum());
     for &b in bodies {
-        v.extend_from_slice(&lists[b]);
+        out.extend_from_slice(&lists[b]);
     }
-    v.sort_unstable();
-    v.dedup();
-    v
+    out.sort_unstable();
+    out.dedup();
 }
 
 #[cfg(test)]
 pub(super) fn cut(scene: &Scene, p: &Parameters, ix: &SceneIndex, bodies: &[usize], candidates: &[Candidate]) -> Cut {
-    let joints = items(&ix.joints, &scene.joint, bodies);
-    let springs = items(&ix.springs, &scene.spring_damper, bodies);
-    let explicit = items(&ix.contacts, &scene.contact, bodies);
-    let inputs = items(&ix.inputs, &scene.input, bodies);
+    fn of<T>(lists: &[Vec<usize>], all: &[T], bodies: &[usize]) -> Vec<usize> {
+        let mut v = Vec::new();
+        items(lists, all, bodies, &mut v);
+        v
+    }
+    let joints = of(&ix.joints, &scene.joint, bodies);
+    let springs = of(&ix.springs, &scene.spring_damper, bodies);
+    let explicit = of(&ix.contacts, &scene.contact, bodies);
+    let inputs = of(&ix.inputs, &scene.input, bodies);
     let (first_value, _) = scene.input_values();
-    let mut shapes = items(&ix.shapes, &scene.shape, bodies);
+    let mut shapes = of(&ix.shapes, &scene.shape, bodies);
     shapes.extend(&ix.ground_shapes);
     shapes.sort_unstable();
     let s = Scene {

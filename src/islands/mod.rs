@@ -412,7 +412,9 @@ impl Islands {
                 pooled
             }
             None => {
-                let part = pool::compile(src, &self.params, &mut self.cutter, m, &self.joint_coords, &bodies);
+                let part = self
+                    .pool
+                    .cut(src, &self.params, &mut self.cutter, m, &self.joint_coords, &bodies);
                 (bodies, part)
             }
         };
