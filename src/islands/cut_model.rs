@@ -14,7 +14,7 @@
 //! what an island holds whole.
 
 use super::cut::{items, SceneIndex};
-use super::pool::{numbering, Compiled};
+use super::part::{numbering, Compiled};
 use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
 use crate::linalg::ConstantLeaves;
@@ -474,8 +474,9 @@ fn cut_groups(
 
 #[cfg(test)]
 mod tests {
+    use super::super::part::compile_cut_scene;
+    use super::super::pool::compile;
     use super::super::pool::tests::assert_same_part;
-    use super::super::pool::{compile, compile_cut_scene};
     use super::super::{partition, Islands, Source};
     use crate::bench::islands::grouped;
     use crate::compile::{compile as compile_scene, compile_model, Parameters};

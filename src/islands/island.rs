@@ -9,8 +9,8 @@ use crate::model::{state, Data, Model};
 
 /// One island: a model cut from the scene's, and its data.
 pub struct Island {
-    /// The island's model.
-    pub model: Model,
+    /// The island's model (boxed, as its data).
+    pub model: Box<Model>,
     /// The island's data (boxed: forming and the spare data move a pointer, not the data).
     pub data: Box<Data>,
     /// The scene's index of each of the island's bodies (its own order, sorted).

@@ -49,6 +49,7 @@ mod cut;
 mod cut_model;
 mod gather;
 mod island;
+mod part;
 mod pool;
 mod saved;
 #[cfg(test)]
@@ -59,7 +60,8 @@ use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
-use pool::{Compiled, Pool};
+use part::Compiled;
+use pool::Pool;
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
 /// than the round is planned for: it only stops when a collision sped a body up; less than
