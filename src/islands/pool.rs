@@ -68,7 +68,7 @@ impl Pool {
         Some(taken)
     }
 
-    /// The part of the island of the bodies `key` cut by `cutter` (as [`compile`] does, from
+    /// The part of the island of the bodies `key` cut by `cutter` (as the tests' `compile` does, from
     /// the same arguments) into a spare part's buffers, if there is one.
     pub(super) fn cut(
         &mut self,
