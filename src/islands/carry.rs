@@ -51,7 +51,10 @@ impl Islands {
             explicit: d.contact_memory[..n].to_vec(),
             candidates: at
                 .iter()
-                .map(|&i| d.contact_memory.get(n.wrapping_add(i)).copied().unwrap_or_default())
+                .map(|&i| match i {
+                    NOT_LISTED => ContactMemory::default(),
+                    i => d.contact_memory.get(n + i).copied().unwrap_or_default(),
+                })
                 .collect(),
         }
     }

@@ -209,3 +209,56 @@ fn former_indices_are_the_pairs_places_in_the_former_list() {
         assert_eq!(out, wanted, "round {round}: old {old:?}, new {new:?}");
     }
 }
+
+/// The contacts' memory the islands take from the scene's data: a declared contact's by its
+/// index, a candidate pair's by its place in the scene's list, and none for a pair the scene
+/// does not list (with a declared contact before the pairs, whose memory a pair not listed
+/// must not take).
+#[test]
+fn a_pair_the_scene_does_not_list_carries_no_memory() {
+    use crate::model::contact::ContactMemory;
+    use crate::model::groups::Candidate;
+    use crate::scene::{ContactSpec, ContactType, Law, GROUND};
+    let mut scene = grouped(8, 0.02, 0.0015, true);
+    let ball = scene.body[0].name.clone();
+    let mut floor = ContactSpec::new(
+        "floor",
+        ContactType::SpherePlane,
+        Law::Hertz,
+        &ball,
+        [0.0; 3],
+        0.01,
+        GROUND,
+    );
+    floor.origin = Some([0.0, 0.0, -1.0]);
+    floor.normal = Some([0.0, 0.0, 1.0]);
+    floor.size = Some([10.0, 10.0]);
+    floor.stiffness = Some(1e7);
+    scene.contact.push(floor);
+    on_scene(&scene, "memory test", |_, m, d, is| {
+        assert_eq!(m.groups.n_explicit, 1);
+        let declared = ContactMemory {
+            active: true,
+            impact_velocity: -0.25,
+            impacts: 3,
+        };
+        let listed = ContactMemory {
+            active: true,
+            impact_velocity: -0.5,
+            impacts: 7,
+        };
+        // the scene's data lists one pair; the islands' list holds it and one more
+        let pair = Candidate {
+            pair: 0,
+            sphere: 0,
+            other: 1,
+        };
+        let unlisted = Candidate { other: 2, ..pair };
+        d.candidates = vec![pair];
+        d.contact_memory = vec![declared, listed];
+        is.candidates = vec![pair, unlisted];
+        let memory = is.memory_of_scene(m, d);
+        assert_eq!(memory.explicit, vec![declared]);
+        assert_eq!(memory.candidates, vec![listed, ContactMemory::default()]);
+    });
+}
