@@ -475,7 +475,7 @@ fn cut_groups(
 #[cfg(test)]
 mod tests {
     use super::super::part::compile_cut_scene;
-    use super::super::pool::compile;
+    use super::super::pool::fresh_cut;
     use super::super::pool::tests::assert_same_part;
     use super::super::{partition, Islands, Source};
     use crate::bench::islands::grouped;
@@ -494,7 +494,7 @@ mod tests {
     /// makes for the candidate pairs of `key` is the one compiling that part with them gives.
     fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Part) {
         let (bodies, candidates) = key;
-        let cut = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, bodies);
+        let cut = fresh_cut(src, is, m, bodies);
         let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, bodies).unwrap();
         assert_same_part(&cut, &oracle, bodies);
         let part = super::super::cut::cut(src.scene, &is.params, &is.cutter.index, bodies, candidates);
@@ -614,11 +614,11 @@ mod tests {
         for (from, a) in &keyed {
             for (to, b) in &keyed {
                 let (src, m, is) = &mut cases[*from];
-                let mut part = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, a);
+                let mut part = fresh_cut(src, is, m, a);
                 let (src, m, is) = &mut cases[*to];
                 let (scene, params) = (src.scene, &is.params);
                 is.cutter.cut_into(scene, params, m, &is.joint_coords, b, &mut part);
-                let fresh = compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, b);
+                let fresh = fresh_cut(src, is, m, b);
                 assert_same_part(&part, &fresh, b);
                 compared += 1;
             }

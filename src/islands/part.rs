@@ -107,7 +107,7 @@ pub(super) fn numbering(
     );
 }
 
-/// The part [`super::pool::compile`] gives, made the former way: the island's part of the scene cut
+/// The part a cut gives (the tests' `pool::fresh_cut`), made the former way: the island's part of the scene cut
 /// (`cut.rs`) and compiled (the oracle of the tests).
 #[cfg(test)]
 pub(super) fn compile_cut_scene(

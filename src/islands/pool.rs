@@ -13,22 +13,12 @@ use crate::model::Model;
 use rustc_hash::FxHashMap as HashMap;
 use std::collections::VecDeque;
 
-/// The part of the island of the bodies `key`: its model cut from the
-/// scene's model `m` (compiled from `src` with the parameter values `params`) by `cutter`,
-/// `joint_coords`: per scene body the first position and velocity index of its joint in the
-/// scene's state.
+/// The part of the island of the bodies `key` cut anew (into no one's buffers) from the
+/// scene's model `m` of the islands `is` (compiled from `src`): what [`Pool::cut`] gives
+/// without a spare part.
 #[cfg(test)]
-pub(super) fn compile(
-    src: &Source,
-    params: &Parameters,
-    cutter: &mut ModelCutter,
-    m: &Model,
-    joint_coords: &[(usize, usize)],
-    key: &Key,
-) -> Compiled {
-    let mut part = Compiled::empty(params);
-    cutter.cut_into(src.scene, params, m, joint_coords, key, &mut part);
-    part
+pub(super) fn fresh_cut(src: &Source, is: &mut super::Islands, m: &Model, key: &Key) -> Compiled {
+    Pool::default().cut(src, &is.params, &mut is.cutter, m, &is.joint_coords, key)
 }
 
 /// The compiled parts of islands that ended, by their bodies, and spare parts to cut into.
@@ -68,8 +58,8 @@ impl Pool {
         Some(taken)
     }
 
-    /// The part of the island of the bodies `key` cut by `cutter` (as the tests' `compile` does, from
-    /// the same arguments) into a spare part's buffers, if there is one.
+    /// The part of the island of the bodies `key` cut by `cutter` into a spare part's
+    /// buffers, if there is one (else into new ones).
     pub(super) fn cut(
         &mut self,
         src: &Source,
@@ -151,8 +141,9 @@ pub(super) mod tests {
                 is.pooled
             );
             assert!(!is.pool.parts.is_empty());
-            for (key, part) in &is.pool.parts {
-                let fresh = super::compile(src, &is.params, &mut is.cutter, m, &is.joint_coords, key);
+            let pooled = std::mem::take(&mut is.pool.parts);
+            for (key, part) in &pooled {
+                let fresh = super::fresh_cut(src, is, m, key);
                 assert_same_part(part, &fresh, key);
             }
         });
