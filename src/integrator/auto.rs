@@ -609,10 +609,12 @@ impl<I: ImplicitMethod + Integrator> Integrator for Auto<I> {
         if let Some(i) = &mut self.implicit {
             Integrator::use_second_order(i, s);
         }
-        // (in the buffer held, as after a renewal)
+        // (in the buffer held, as after a renewal; every field named, so that a new one is not
+        // left out)
         let held = self.second_order.get_or_insert_with(SecondOrder::default);
-        (held.nq, held.nv) = (s.nq, s.nv);
-        held.blocks.clone_from(&s.blocks);
+        let SecondOrder { nq, nv, blocks } = s;
+        (held.nq, held.nv) = (*nq, *nv);
+        held.blocks.clone_from(blocks);
     }
 
     /// (the auto method over Radau IIA, with its builder, as [`super::create`] makes it)

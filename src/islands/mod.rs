@@ -225,8 +225,8 @@ impl Islands {
     /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
     /// coordinates and reference poses), keeping those of `old` whose bodies and candidate
     /// pairs are unchanged (with their integrators) and compiling the others with the
-    /// contact memory `memory` (by the former list, [`Islands::candidates`]). A candidate pair new to the list that already touches is an
-    /// error (the bounds on the step were broken).
+    /// contact memory `memory` (by the former list, [`Islands::candidates`]). A candidate pair
+    /// new to the list that already touches is an error (the bounds on the step were broken).
     // (the islands are boxed: forming moves them between lists, a pointer each instead of the
     // whole island, which saved a tenth of forming's instructions on 300 spheres)
     #[allow(clippy::vec_box)]

@@ -590,23 +590,18 @@ impl Model {
         self.nq + self.nv + 1 + usize::from(!self.inputs.is_empty())
     }
     /// The state's second-order structure: each joint's positions and velocities; the
-    /// integrals (dissipated energy, input work) follow them.
-    pub fn second_order(&self) -> SecondOrder {
-        SecondOrder {
-            nq: self.nq,
-            nv: self.nv,
-            blocks: self
-                .joints
-                .iter()
-                .filter(|j| j.nq() > 0)
-                .map(|j| Block {
-                    q0: j.qpos,
-                    nq: j.nq(),
-                    v0: j.qvel,
-                    nv: j.nv(),
-                })
-                .collect(),
-        }
+    /// integrals (dissipated energy, input work) follow them. Written into `out` (its buffer
+    /// kept).
+    pub fn second_order_into(&self, out: &mut SecondOrder) {
+        (out.nq, out.nv) = (self.nq, self.nv);
+        out.blocks.clear();
+        out.blocks
+            .extend(self.joints.iter().filter(|j| j.nq() > 0).map(|j| Block {
+                q0: j.qpos,
+                nq: j.nq(),
+                v0: j.qvel,
+                nv: j.nv(),
+            }));
     }
     /// Index of the dissipated-energy state.
     pub fn dissipated_index(&self) -> usize {

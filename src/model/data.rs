@@ -3,8 +3,8 @@
 //! nothing. The part that defines the future (what a saved state holds) is declared in
 //! [`super::state`]; the rest is workspace, recomputed from it.
 
-use super::compiled::{Model, TreeJoint};
-use crate::integrator::second_order::{Block, SecondOrder};
+use super::compiled::Model;
+use crate::integrator::second_order::SecondOrder;
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
 use crate::model::groups::Candidate;
@@ -131,20 +131,10 @@ impl FreshIntegrators {
         method.renew(solver, n).then_some(method)
     }
 
-    /// The model's second-order structure ([`Model::second_order`]), in the buffer held.
+    /// The model's second-order structure ([`Model::second_order_into`]), in the buffer held.
     fn second_order(&mut self, model: &Model) -> &SecondOrder {
-        let s = &mut self.second_order;
-        (s.nq, s.nv) = (model.nq, model.nv);
-        s.blocks.clear();
-        let of_joint = |j: &TreeJoint| Block {
-            q0: j.qpos,
-            nq: j.nq(),
-            v0: j.qvel,
-            nv: j.nv(),
-        };
-        s.blocks
-            .extend(model.joints.iter().filter(|j| j.nq() > 0).map(of_joint));
-        s
+        model.second_order_into(&mut self.second_order);
+        &self.second_order
     }
 }
 
