@@ -2,9 +2,7 @@
 //! its coordinates, inputs, contacts and shapes map onto the scene's.
 
 use crate::compile::Parameters;
-use crate::model::groups::Groups;
-use crate::model::{nq_of, nv_of, Model, Plan};
-use nalgebra::Vector3;
+use crate::model::{nq_of, nv_of, Model};
 
 /// An island's model and its numbering against the scene's.
 pub(super) struct Compiled {
@@ -30,30 +28,8 @@ impl Compiled {
     pub(super) fn empty(params: &Parameters) -> Compiled {
         Compiled {
             model: Box::new(Model {
-                name: String::new(),
-                gravity: Vector3::zeros(),
-                bodies: Vec::new(),
-                joints: Vec::new(),
-                scene_joint: Vec::new(),
-                loops: Vec::new(),
-                drives: Vec::new(),
-                springs: Vec::new(),
-                initial_contacts: Vec::new(),
-                groups: Groups::default(),
-                inputs: Vec::new(),
-                input_value: Vec::new(),
-                input_start: Vec::new(),
-                nq: 0,
-                nv: 0,
-                quaternions: Vec::new(),
-                trees: Vec::new(),
-                tree_block: Vec::new(),
-                dof_joint: Vec::new(),
-                dof_parent: Vec::new(),
-                plan: Plan::default(),
                 solver: params.solver.clone(),
-                baumgarte: 0.0,
-                warnings: Vec::new(),
+                ..Model::default()
             }),
             coords: Vec::new(),
             explicit: Vec::new(),

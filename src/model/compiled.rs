@@ -523,7 +523,7 @@ impl Plan {
 }
 
 /// The compiled, read-only model.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Model {
     /// Name.
     pub name: String,
