@@ -263,9 +263,10 @@ fn advance_steps(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> R
             d.time = t_end;
             break;
         } else {
-            if steps == m.solver.max_steps {
+            let max_steps = d.max_steps.unwrap_or(m.solver.max_steps);
+            if steps == max_steps {
                 sync_counters(d);
-                return Err(step_limit(d, m.solver.max_steps, t_end));
+                return Err(step_limit(d, max_steps, t_end));
             }
             steps += 1;
             let limit = if continuation { f64::INFINITY } else { t_end };

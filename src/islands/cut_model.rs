@@ -14,7 +14,7 @@
 //! what an island holds whole.
 
 use super::cut::{items, SceneIndex};
-use super::part::{numbering, Compiled};
+use super::part::{alike_bodies, key_into, numbering, Key, Numbering};
 use crate::compile::{contact_warnings, group_numbering, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
 use crate::linalg::ConstantLeaves;
@@ -50,6 +50,8 @@ pub(super) struct ModelCutter {
     /// of the part cut.
     names: Vec<String>,
     qvels: Vec<Vec<usize>>,
+    /// Per scene body, the plain body it is alike to ([`alike_bodies`]).
+    pub(super) alike: Vec<Option<usize>>,
 }
 
 impl ModelCutter {
@@ -77,8 +79,10 @@ impl ModelCutter {
         let plan = Plan::of(
             &m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees,
         );
+        let index = SceneIndex::of(scene);
+        let alike = alike_bodies(&index, m, &plan);
         ModelCutter {
-            index: SceneIndex::of(scene),
+            index,
             pair_groups,
             drive_joint,
             plan,
@@ -90,16 +94,58 @@ impl ModelCutter {
             scene_springs: Vec::new(),
             names: Vec::new(),
             qvels: Vec::new(),
+            alike,
         }
     }
 
-    /// Makes `part` the part of the island of scene bodies `bodies` (sorted): its model cut
-    /// from the scene's model `m` (compiled from `scene` with `params`; its own candidate pairs
-    /// play no part), numbered against the scene's (`joint_coords`: per scene body the first
-    /// position and velocity index of its joint in the scene's state). `part` may be the part
-    /// of any island, of any scene, or [`Compiled::empty`]: every list of it and of its model
-    /// is emptied and filled anew, each name written into the buffer of a name it held, so
-    /// that nothing is allocated where its buffers are large enough.
+    /// Writes into `key` what the model of the island of `bodies` (sorted) is cut for
+    /// ([`Key`]): islands of the same key have the same model.
+    pub(super) fn key_into(&self, bodies: &[usize], key: &mut Key) {
+        key_into(&self.alike, bodies, key);
+    }
+
+    /// Writes into `own` the numbering against the scene's model `m` (compiled from `scene`;
+    /// `joint_coords` as for [`ModelCutter::cut_into`]) of the island of scene bodies `bodies`
+    /// (sorted) whose model is `model`: cut for them, or for bodies of the same key.
+    pub(super) fn number_into(
+        &mut self,
+        scene: &Scene,
+        m: &Model,
+        joint_coords: &[(usize, usize)],
+        bodies: &[usize],
+        model: &Model,
+        own: &mut Numbering,
+    ) {
+        self.lists(scene, bodies, own);
+        numbering(m, joint_coords, bodies, &self.scene_inputs, model, own);
+    }
+
+    /// Writes into `own` the island's declared contacts and group shapes (scene numbering),
+    /// and into the scratch its scene inputs.
+    fn lists(&mut self, scene: &Scene, bodies: &[usize], own: &mut Numbering) {
+        items(&self.index.contacts, &scene.contact, bodies, &mut own.explicit);
+        items(&self.index.inputs, &scene.input, bodies, &mut self.scene_inputs);
+        // (the island's shapes, then the ground's)
+        let (ix, ground) = (&self.index.shapes, &self.index.ground_shapes);
+        let shapes = renew(
+            &mut own.shapes,
+            bodies.iter().map(|&b| ix[b].len()).sum::<usize>() + ground.len(),
+        );
+        shapes.extend(bodies.iter().flat_map(|&b| ix[b].iter().copied()));
+        shapes.sort_unstable();
+        shapes.dedup();
+        shapes.extend(ground);
+        shapes.sort_unstable();
+    }
+
+    /// Makes `out` the model of the island of scene bodies `bodies` (sorted), cut from the
+    /// scene's model `m` (compiled from `scene` with `params`; its own candidate pairs play no
+    /// part), and `own` its numbering against the scene's (`joint_coords`: per scene body the
+    /// first position and velocity index of its joint in the scene's state). `out` may be the
+    /// model of any island, of any scene, or an empty one: every list of it and of `own` is
+    /// emptied and filled anew, each name written into the buffer of a name it held, so that
+    /// nothing is allocated where its buffers are large enough.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn cut_into(
         &mut self,
         scene: &Scene,
@@ -107,14 +153,15 @@ impl ModelCutter {
         m: &Model,
         joint_coords: &[(usize, usize)],
         bodies: &[usize],
-        part: &mut Compiled,
+        out: &mut Model,
+        own: &mut Numbering,
     ) {
+        self.lists(scene, bodies, own);
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
         }
         let local = &self.local_body;
         let lb = |b: Option<usize>| b.map(|b| local[b]);
-        let out = &mut part.model;
         // the names' buffers, the bodies' on top (taken first: a body's, then its joint's)
         let names = &mut self.names;
         names.extend(out.initial_contacts.drain(..).map(|c| c.name));
@@ -264,8 +311,7 @@ impl ModelCutter {
         }
 
         // inputs and drives
-        let inputs = &mut self.scene_inputs;
-        items(&self.index.inputs, &scene.input, bodies, inputs);
+        let inputs = &self.scene_inputs;
         let drives = &mut out.drives;
         drives.clear();
         let input_value = renew(&mut out.input_value, inputs.len());
@@ -321,8 +367,7 @@ impl ModelCutter {
         }));
 
         // contacts: the declared ones (the data lists the candidate pairs' after them)
-        let explicit = &mut part.explicit;
-        items(&self.index.contacts, &scene.contact, bodies, explicit);
+        let explicit = &own.explicit;
         let contacts = renew(&mut out.initial_contacts, explicit.len());
         contacts.extend(explicit.iter().map(|&i| {
             let c = &m.initial_contacts[i];
@@ -334,17 +379,7 @@ impl ModelCutter {
                 ..*c
             }
         }));
-        // (the island's shapes, then the ground's)
-        let (ix, ground) = (&self.index.shapes, &self.index.ground_shapes);
-        let shapes = renew(
-            &mut part.shapes,
-            bodies.iter().map(|&b| ix[b].len()).sum::<usize>() + ground.len(),
-        );
-        shapes.extend(bodies.iter().flat_map(|&b| ix[b].iter().copied()));
-        shapes.sort_unstable();
-        shapes.dedup();
-        shapes.extend(ground);
-        shapes.sort_unstable();
+        let shapes = &own.shapes;
         reserve_constraint_rows(contacts, nc);
 
         if scene.contact_group.is_empty() {
@@ -374,7 +409,7 @@ impl ModelCutter {
         // (the names and joint force lists left over are kept for the next cut, up to a bound)
         names.truncate(SPARE_NAMES);
         qvels.truncate(SPARE_NAMES);
-        numbering(m, joint_coords, bodies, inputs, part);
+        numbering(m, joint_coords, bodies, inputs, out, own);
     }
 }
 
@@ -541,7 +576,7 @@ mod tests {
                 .iter()
                 .map(|i| (i.bodies.clone(), i.candidates.clone()))
                 .collect();
-            keys.extend(is.pool.keys().map(|bodies| (bodies.clone(), Vec::new())));
+            keys.extend(is.pool.keys().map(|(_, bodies)| (bodies.clone(), Vec::new())));
             for key in &keys {
                 assert_same(&src, &mut is, &m, key);
             }
@@ -617,7 +652,9 @@ mod tests {
                 let mut part = fresh_cut(src, is, m, a);
                 let (src, m, is) = &mut cases[*to];
                 let (scene, params) = (src.scene, &is.params);
-                is.cutter.cut_into(scene, params, m, &is.joint_coords, b, &mut part);
+                let out = std::sync::Arc::make_mut(&mut part.model);
+                is.cutter
+                    .cut_into(scene, params, m, &is.joint_coords, b, out, &mut part.numbering);
                 let fresh = fresh_cut(src, is, m, b);
                 assert_same_part(&part, &fresh, b);
                 compared += 1;

@@ -1,4 +1,4 @@
-//! One island: its model cut from the scene's and its data, how its coordinates, inputs,
+//! One island: its model cut from the scene's (shared by alike islands) and its data, how its coordinates, inputs,
 //! contacts and shapes map onto the scene's, and the state it saves at a round's start to be
 //! taken back to.
 
@@ -6,11 +6,12 @@ use crate::engine;
 use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
+use std::sync::Arc;
 
 /// One island: a model cut from the scene's, and its data.
 pub struct Island {
-    /// The island's model (boxed, as its data).
-    pub model: Box<Model>,
+    /// The island's model (shared with the islands of alike bodies and the pool).
+    pub model: Arc<Model>,
     /// The island's data (boxed: forming and the spare data move a pointer, not the data).
     pub data: Box<Data>,
     /// The scene's index of each of the island's bodies (its own order, sorted).

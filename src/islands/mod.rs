@@ -60,7 +60,7 @@ use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
-use part::Compiled;
+use part::{Compiled, Numbering};
 use pool::Pool;
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
@@ -368,16 +368,16 @@ impl Islands {
                 self.retired_log.push(ContactEvent { contact: g, ..*e });
             }
         }
-        let part = Compiled {
+        self.pool.put_back(Compiled {
             model: island.model,
-            coords: island.coords,
-            explicit: island.explicit,
-            inputs: island.inputs,
-            driven: island.driven,
-            shapes: island.shapes,
-        };
-        let limit = POOL_PER_BODY * self.island_of.len();
-        self.pool.put(island.bodies, part, self.params.solver.max_steps, limit);
+            numbering: Numbering {
+                coords: island.coords,
+                explicit: island.explicit,
+                inputs: island.inputs,
+                driven: island.driven,
+                shapes: island.shapes,
+            },
+        });
         if self.n_spare < self.spare_limit {
             self.n_spare += 1;
             let (mut data, saved) = (island.data, island.saved);
@@ -408,19 +408,18 @@ impl Islands {
             candidates,
             listed,
         } = members;
-        let (bodies, part) = match self.pool.take(&bodies) {
-            Some(pooled) => {
-                self.pooled += 1;
-                pooled
-            }
-            None => {
-                let part = self
-                    .pool
-                    .cut(src, &self.params, &mut self.cutter, m, &self.joint_coords, &bodies);
-                (bodies, part)
-            }
-        };
-        let model = part.model;
+        let limit = POOL_PER_BODY * self.island_of.len();
+        let (part, pooled) = self.pool.part(
+            src,
+            &self.params,
+            &mut self.cutter,
+            m,
+            &self.joint_coords,
+            &bodies,
+            limit,
+        );
+        self.pooled += u64::from(pooled);
+        let Compiled { model, numbering } = part;
         // (the scene's data keeps the log; an island's holds the events of one advance and
         // starts small: a full log's buffer would cost more to clear than the island to
         // compile)
@@ -442,16 +441,16 @@ impl Islands {
         }
         data.clamp_events = d.clamp_events;
         data.log_peaks = d.log_peaks;
-        for &(l, g) in &part.inputs {
+        for &(l, g) in &numbering.inputs {
             data.inputs[l] = d.inputs[g];
         }
         // the candidate pairs' contact elements, by the island's numbering of the shapes
-        let local = cut::local_candidates(&part.shapes, &candidates);
+        let local = cut::local_candidates(&numbering.shapes, &candidates);
         set_candidates(&model, &mut data, &local).map_err(|e| fail(d.time, e))?;
-        for (k, &g) in part.explicit.iter().enumerate() {
+        for (k, &g) in numbering.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
         }
-        let n = part.explicit.len();
+        let n = numbering.explicit.len();
         for (k, &i) in listed.iter().enumerate() {
             data.contact_memory[n + k] = former
                 .get(i)
@@ -466,13 +465,13 @@ impl Islands {
             model,
             data,
             bodies,
-            coords: part.coords,
-            explicit: part.explicit,
+            coords: numbering.coords,
+            explicit: numbering.explicit,
             candidates,
             listed,
-            inputs: part.inputs,
-            driven: part.driven,
-            shapes: part.shapes,
+            inputs: numbering.inputs,
+            driven: numbering.driven,
+            shapes: numbering.shapes,
             saved,
             saved_light: false,
             saved_log: 0,
@@ -566,7 +565,7 @@ impl Islands {
                     Some(outcome) => outcome,
                     None => {
                         let island = &mut self.parts[k];
-                        island.model.solver.max_steps = limit;
+                        island.data.max_steps = Some(limit);
                         advance_island(island, t_round, stop_at_events)
                     }
                 };
@@ -605,7 +604,7 @@ impl Islands {
                     }
                     island.restore();
                     // (the same steps again, counted once)
-                    island.model.solver.max_steps = m.solver.max_steps;
+                    island.data.max_steps = Some(m.solver.max_steps);
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
                         return Err(self.take_back(src, k, e));
                     }
@@ -741,7 +740,7 @@ fn advance_side_by_side(
             let Some((k, island)) = next else {
                 return done;
             };
-            island.model.solver.max_steps = limit;
+            island.data.max_steps = Some(limit);
             done.push((k, advance_island(island, t_round, stop_at_events)));
         }
     };

@@ -1,13 +1,25 @@
-//! The compiled part of an island: its model, cut from the scene's (`cut_model.rs`), and how
-//! its coordinates, inputs, contacts and shapes map onto the scene's.
+//! The compiled part of an island: its model, cut from the scene's (`cut_model.rs`) and
+//! shared by the islands of alike bodies, and how its coordinates, inputs, contacts and shapes
+//! map onto the scene's.
 
+use super::cut::SceneIndex;
 use crate::compile::Parameters;
-use crate::model::{nq_of, nv_of, Model};
+use crate::model::compiled::NOT_FREE;
+use crate::model::{nq_of, nv_of, Body, FreeBody, Model, Plan, TreeJoint};
+use rustc_hash::FxHashMap as HashMap;
+use std::sync::Arc;
 
 /// An island's model and its numbering against the scene's.
 pub(super) struct Compiled {
-    /// The island's model (boxed: the pool, its spares and the islands move a pointer).
-    pub(super) model: Box<Model>,
+    /// The island's model (shared: the islands of alike bodies, and the pool, hold the same).
+    pub(super) model: Arc<Model>,
+    /// Its numbering against the scene's, for the island's own bodies.
+    pub(super) numbering: Numbering,
+}
+
+/// How an island's coordinates, inputs, contacts and shapes map onto the scene's.
+#[derive(Debug, Default, PartialEq)]
+pub(super) struct Numbering {
     /// (island, scene) index pairs of the position and velocity coordinates.
     pub(super) coords: Vec<(usize, usize)>,
     /// The scene's index of each of the island's declared contacts.
@@ -20,43 +32,167 @@ pub(super) struct Compiled {
     pub(super) shapes: Vec<usize>,
 }
 
-/// An island's bodies (scene numbering, sorted): what its model is cut from.
+/// What an island's model is cut for: its bodies (scene numbering, sorted), or, where every
+/// one of them is plain ([`alike_bodies`]), the body each is alike to, in their order.
 pub(super) type Key = Vec<usize>;
 
-impl Compiled {
-    /// A part with nothing in it (to cut into).
-    pub(super) fn empty(params: &Parameters) -> Compiled {
-        Compiled {
-            model: Box::new(Model {
-                solver: params.solver.clone(),
-                ..Model::default()
-            }),
-            coords: Vec::new(),
-            explicit: Vec::new(),
-            inputs: Vec::new(),
-            driven: Vec::new(),
-            shapes: Vec::new(),
-        }
+/// An empty model with the islands' solver settings (to cut into).
+pub(super) fn empty_model(params: &Parameters) -> Model {
+    Model {
+        solver: params.solver.clone(),
+        ..Model::default()
     }
 }
 
-/// Writes into `part` (its buffers kept) the numbering against the scene's model `m` of its
-/// model, that of an island of `bodies` with the scene's inputs `scene_inputs`
-/// ([`Compiled::coords`], [`Compiled::inputs`] and [`Compiled::driven`]).
+/// Per scene body of the scene's model `m` (with its plan `plan` and the scene's index of the
+/// items naming each body `index`), the first body alike to it, if it is *plain*: a free body
+/// alone in its tree on the lean path, with no spring, declared contact or input, and no ground
+/// shape between its group shapes. Alike bodies differ only in their names, their initial
+/// coordinates (an island's state is the scene's) and their place in the scene, so an island
+/// of plain bodies has the model of the island of the bodies they are alike to, in the same
+/// order: that of its key ([`key_into`]). Compared with `==` (so a −0 and a +0 count as one
+/// value, where a shape's centre holds one). None throughout when the plain bodies' joints or
+/// shapes are listed in the scene in another order than the bodies (an island's order would
+/// then depend on which bodies it holds).
+pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Option<usize>> {
+    let nb = m.bodies.len();
+    let mut has_child = vec![false; nb];
+    for j in &m.joints {
+        if let Some(p) = j.parent {
+            has_child[p] = true;
+        }
+    }
+    // (the ground shapes listed before a shape)
+    let rank = |s: usize| index.ground_shapes.partition_point(|&g| g < s);
+    let plain = |b: usize| {
+        let t = m.bodies[b].joint;
+        let shapes = &index.shapes[b];
+        m.joints[t].parent.is_none()
+            && !has_child[b]
+            && plan.free_of[b] != NOT_FREE
+            && index.joints[b].iter().all(|&si| m.scene_joint.get(si) == Some(&Ok(t)))
+            && index.springs[b].is_empty()
+            && index.contacts[b].is_empty()
+            && index.inputs[b].is_empty()
+            && shapes.first().map(|&s| rank(s)) == shapes.last().map(|&s| rank(s))
+    };
+    let mut alike = vec![None; nb];
+    let (mut last_joint, mut last_shape) = (None, None);
+    // (the first bodies of each kind, by their mass)
+    let mut firsts: HashMap<u64, Vec<usize>> = HashMap::default();
+    for b in (0..nb).filter(|&b| plain(b)) {
+        if let Some(si) = m.joints[m.bodies[b].joint].scene_index {
+            if last_joint.is_some_and(|l| l >= si) {
+                return vec![None; nb];
+            }
+            last_joint = Some(si);
+        }
+        if let (Some(&first), Some(&last)) = (index.shapes[b].first(), index.shapes[b].last()) {
+            if last_shape.is_some_and(|l| l >= first) {
+                return vec![None; nb];
+            }
+            last_shape = Some(last);
+        }
+        let kind = firsts.entry(m.bodies[b].mass.to_bits()).or_default();
+        let first = match kind.iter().copied().find(|&a| same_part(index, m, plan, &rank, a, b)) {
+            Some(a) => a,
+            None => {
+                kind.push(b);
+                b
+            }
+        };
+        alike[b] = Some(first);
+    }
+    alike
+}
+
+/// Whether the plain bodies `a` and `b` bring the same to an island's model: everything the
+/// cut takes of them but their names, numbers and initial coordinates.
+fn same_part(index: &SceneIndex, m: &Model, plan: &Plan, rank: &dyn Fn(usize) -> usize, a: usize, b: usize) -> bool {
+    let body = |x: usize| Body {
+        name: String::new(),
+        joint: 0,
+        ..m.bodies[x].clone()
+    };
+    let joint = |x: usize| {
+        let j = &m.joints[m.bodies[x].joint];
+        TreeJoint {
+            name: String::new(),
+            scene_index: j.scene_index.map(|_| 0),
+            child: 0,
+            qpos: 0,
+            qvel: 0,
+            tree: 0,
+            q0: [0.0; 7],
+            ..j.clone()
+        }
+    };
+    let free = |x: usize| FreeBody {
+        body: 0,
+        qpos: 0,
+        qvel: 0,
+        ..plan.free[plan.free_of[x]].clone()
+    };
+    let (ta, tb) = (m.bodies[a].joint, m.bodies[b].joint);
+    let (ja, jb) = (&m.joints[ta], &m.joints[tb]);
+    let g = &m.groups;
+    let same_shape = |sa: usize, sb: usize| {
+        rank(sa) == rank(sb)
+            && g.shapes.get(sa).map(|s| (s.group, s.center, s.bound))
+                == g.shapes.get(sb).map(|s| (s.group, s.center, s.bound))
+            && g.sphere_sides
+                .get(sa)
+                .map(|s| crate::model::contact::SphereSide { body: None, ..*s })
+                == g.sphere_sides
+                    .get(sb)
+                    .map(|s| crate::model::contact::SphereSide { body: None, ..*s })
+            && g.other_sides.get(sa).map(|s| crate::model::contact::OtherSide {
+                body: None,
+                ..s.clone()
+            }) == g.other_sides.get(sb).map(|s| crate::model::contact::OtherSide {
+                body: None,
+                ..s.clone()
+            })
+    };
+    let (sa, sb) = (&index.shapes[a], &index.shapes[b]);
+    body(a) == body(b)
+        && joint(a) == joint(b)
+        && free(a) == free(b)
+        && plan.rotors[ta] == plan.rotors[tb]
+        && plan.constant_row[ta] == plan.constant_row[tb]
+        && plan.leaves[ja.tree] == plan.leaves[jb.tree]
+        && m.dof_parent[ja.qvel..ja.qvel + ja.nv()] == m.dof_parent[jb.qvel..jb.qvel + jb.nv()]
+        && g.reach.get(a) == g.reach.get(b)
+        && g.has_shape.get(a) == g.has_shape.get(b)
+        && sa.len() == sb.len()
+        && sa.iter().zip(sb).all(|(&x, &y)| same_shape(x, y))
+}
+
+/// Writes into `key` what the model of the island of `bodies` (sorted) is cut for: the bodies
+/// they are alike to (`alike`, of [`alike_bodies`]) where every one is plain, else the bodies.
+pub(super) fn key_into(alike: &[Option<usize>], bodies: &[usize], key: &mut Key) {
+    key.clear();
+    if bodies.iter().all(|&b| alike[b].is_some()) {
+        key.extend(bodies.iter().filter_map(|&b| alike[b]));
+    } else {
+        key.extend_from_slice(bodies);
+    }
+}
+
+/// Writes into `numbering` (its buffers kept) the numbering against the scene's model `m` of
+/// `model`, that of an island of `bodies` with the scene's inputs `scene_inputs`
+/// ([`Numbering::coords`], [`Numbering::inputs`] and [`Numbering::driven`]).
 pub(super) fn numbering(
     m: &Model,
     joint_coords: &[(usize, usize)],
     bodies: &[usize],
     scene_inputs: &[usize],
-    part: &mut Compiled,
+    model: &Model,
+    numbering: &mut Numbering,
 ) {
-    let Compiled {
-        model,
-        coords,
-        inputs,
-        driven,
-        ..
-    } = part;
+    let Numbering {
+        coords, inputs, driven, ..
+    } = numbering;
     let nq = model.nq;
     coords.clear();
     coords.reserve(nq + model.nv);
@@ -83,7 +219,7 @@ pub(super) fn numbering(
     );
 }
 
-/// The part a cut gives (the tests' `pool::fresh_cut`), made the former way: the island's part of the scene cut
+/// The part a cut gives (the tests' `pool::fresh_cut`) for the island of `bodies`, made the former way: the island's part of the scene cut
 /// (`cut.rs`) and compiled (the oracle of the tests).
 #[cfg(test)]
 pub(super) fn compile_cut_scene(
@@ -92,20 +228,20 @@ pub(super) fn compile_cut_scene(
     index: &super::cut::SceneIndex,
     m: &Model,
     joint_coords: &[(usize, usize)],
-    key: &Key,
+    bodies: &[usize],
 ) -> Result<Compiled, String> {
-    let cut = super::cut::cut(src.scene, params, index, key, &[]);
+    let cut = super::cut::cut(src.scene, params, index, bodies, &[]);
     let mut model = crate::compile::compile_model(&cut.scene, &cut.params, src.origin, Some(&[]))
         .map_err(|e| format!("an island could not be compiled: {e}"))?;
     model.groups.stale_fraction = super::ISLAND_STALE_FRACTION;
-    let mut part = Compiled {
-        model: Box::new(model),
-        coords: Vec::new(),
+    let mut own = Numbering {
         explicit: cut.explicit,
-        inputs: Vec::new(),
-        driven: Vec::new(),
         shapes: cut.shapes,
+        ..Numbering::default()
     };
-    numbering(m, joint_coords, key, &cut.inputs, &mut part);
-    Ok(part)
+    numbering(m, joint_coords, bodies, &cut.inputs, &model, &mut own);
+    Ok(Compiled {
+        model: Arc::new(model),
+        numbering: own,
+    })
 }

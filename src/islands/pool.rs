@@ -1,135 +1,161 @@
-//! The pool that keeps the compiled part of an island ([`Compiled`]) when the island ends: an
-//! island formed again from the same bodies — a sphere alone again after a collision, a pair
-//! that meets again, whatever its candidate pairs — takes its model from there instead of
-//! cutting it from the scene's model anew. A model depends on nothing else (the scene and the
+//! The pool of the models cut for islands: an island formed of bodies whose model was cut
+//! before — a sphere alone again after a collision, a pair that meets again, whatever its
+//! candidate pairs, or bodies alike to those ([`super::part::alike_bodies`]) — shares that
+//! model instead of cutting one anew. A model depends on nothing else (the scene and the
 //! parameter values are the islands' own), so a pooled model is the one cutting would give,
 //! and the results do not depend on the pool.
 
 use super::cut_model::ModelCutter;
-use super::part::{Compiled, Key};
+use super::part::{empty_model, Compiled, Key, Numbering};
 use super::Source;
 use crate::compile::Parameters;
 use crate::model::Model;
 use rustc_hash::FxHashMap as HashMap;
 use std::collections::VecDeque;
+use std::sync::Arc;
 
-/// The part of the island of the bodies `key` cut anew (into no one's buffers) from the
-/// scene's model `m` of the islands `is` (compiled from `src`): what [`Pool::cut`] gives
-/// without a spare part.
+/// The part of the island of the bodies `bodies` cut anew (into no one's buffers) from the
+/// scene's model `m` of the islands `is` (compiled from `src`): what [`Pool::part`] gives for
+/// a key not in the pool and without a spare model.
 #[cfg(test)]
-pub(super) fn fresh_cut(src: &Source, is: &mut super::Islands, m: &Model, key: &Key) -> Compiled {
-    Pool::default().cut(src, &is.params, &mut is.cutter, m, &is.joint_coords, key)
+pub(super) fn fresh_cut(src: &Source, is: &mut super::Islands, m: &Model, bodies: &[usize]) -> Compiled {
+    let mut model = empty_model(&is.params);
+    let mut own = Numbering::default();
+    is.cutter
+        .cut_into(src.scene, &is.params, m, &is.joint_coords, bodies, &mut model, &mut own);
+    Compiled {
+        model: Arc::new(model),
+        numbering: own,
+    }
 }
 
-/// The compiled parts of islands that ended, by their bodies, and spare parts to cut into.
-/// Every one-body part is kept (a body alone again takes its part back, however long after),
-/// the multi-body parts up to [`MULTI_BODY_PARTS`], the oldest put leaving first (those taken
-/// again mostly are within a few rounds): the parts that leave, and those dropped when the
-/// pool starts empty again, become spares, up to [`SPARE_PARTS`], whose buffers the cuts
-/// reuse.
+/// The models cut for islands, by their keys, with the bodies each was cut for, and spare
+/// models and numberings to cut into. Every one-body key's model is kept (a body alone again
+/// shares it, however long after), the multi-body keys' up to [`MULTI_BODY_PARTS`], the
+/// oldest put leaving first (those taken again mostly are within a few rounds): the models
+/// that leave, and those dropped when the pool starts empty again, become spares once no
+/// island holds them, up to [`SPARE_PARTS`], and the cuts reuse their buffers.
 #[derive(Default)]
 pub(super) struct Pool {
-    parts: HashMap<Key, Compiled>,
-    /// The keys of the multi-body parts held, oldest put first.
+    models: HashMap<Key, (Arc<Model>, Vec<usize>)>,
+    /// The multi-body keys held, oldest put first.
     multi: VecDeque<Key>,
-    /// Parts to cut into, with their numbers of bodies.
-    spares: Vec<(usize, Compiled)>,
+    /// Models no island holds, to cut into, with their numbers of bodies.
+    spares: Vec<(usize, Arc<Model>)>,
+    /// Numberings of islands that ended, to write into.
+    numberings: Vec<Numbering>,
+    /// Scratch: the key of the island being formed.
+    key: Key,
 }
 
-/// The pool keeps up to this many multi-body parts (measured on 1,000 spheres, docs/benchmarks.md
-/// §16: 0, 16, 32, 64 and 128 formed the islands in 273.6, 271.7, 271.0, 273.1 and 274.1 M
-/// instructions: fewer pool hits, or fewer spares).
+/// The pool keeps up to this many multi-body keys' models (measured on 1,000 spheres,
+/// docs/benchmarks.md §16, when each island had a model of its own: 0, 16, 32, 64 and 128
+/// formed the islands in 273.6, 271.7, 271.0, 273.1 and 274.1 M instructions: fewer pool
+/// hits, or fewer spares).
 const MULTI_BODY_PARTS: usize = 32;
 
-/// The pool keeps up to this many spare parts (16 and 256 instead of 64: 275.6 and 271.1 M
-/// instructions instead of 271.0 M).
+/// The pool keeps up to this many spare models (16 and 256 instead of 64: 275.6 and 271.1 M
+/// instructions instead of 271.0 M, measured as above).
 const SPARE_PARTS: usize = 64;
 
-impl Pool {
-    /// The part compiled for `key`, taken out of the pool (with the key), if there is one.
-    pub(super) fn take(&mut self, key: &Key) -> Option<(Key, Compiled)> {
-        let taken = self.parts.remove_entry(key)?;
-        if key.len() > 1 {
-            // (those taken again are mostly among the last put)
-            if let Some(i) = self.multi.iter().rposition(|k| k == key) {
-                self.multi.remove(i);
-            }
-        }
-        Some(taken)
-    }
+/// The pool keeps up to this many numberings of islands that ended.
+const SPARE_NUMBERINGS: usize = 4096;
 
-    /// The part of the island of the bodies `key` cut by `cutter` into a spare part's
-    /// buffers, if there is one (else into new ones).
-    pub(super) fn cut(
+impl Pool {
+    /// The part of the island of the scene bodies `bodies` (sorted): the model of its key from
+    /// the pool (`true`), or cut by `cutter` from the scene's model `m` into a spare model's
+    /// buffers if there is one (else into new ones) and put in the pool; its numbering written
+    /// into the buffers of an ended island's. Beyond `limit` models the pool starts empty
+    /// again.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn part(
         &mut self,
         src: &Source,
         params: &Parameters,
         cutter: &mut ModelCutter,
         m: &Model,
         joint_coords: &[(usize, usize)],
-        key: &Key,
-    ) -> Compiled {
-        let mut part = self.take_spare(key.len()).unwrap_or_else(|| Compiled::empty(params));
-        cutter.cut_into(src.scene, params, m, joint_coords, key, &mut part);
-        part
+        bodies: &[usize],
+        limit: usize,
+    ) -> (Compiled, bool) {
+        let mut own = self.numberings.pop().unwrap_or_default();
+        cutter.key_into(bodies, &mut self.key);
+        if let Some((model, _)) = self.models.get(&self.key) {
+            let model = Arc::clone(model);
+            cutter.number_into(src.scene, m, joint_coords, bodies, &model, &mut own);
+            return (Compiled { model, numbering: own }, true);
+        }
+        let mut model = self
+            .take_spare(bodies.len())
+            .unwrap_or_else(|| Arc::new(empty_model(params)));
+        // (a spare is held by no one: nothing is cloned)
+        let out = Arc::make_mut(&mut model);
+        cutter.cut_into(src.scene, params, m, joint_coords, bodies, out, &mut own);
+        self.keep(Arc::clone(&model), bodies, limit);
+        (Compiled { model, numbering: own }, false)
     }
 
-    /// The keys of the parts the pool holds.
+    /// Takes back the part of an island that ended: its numbering's buffers, and its model as
+    /// a spare if the pool no longer holds it and no other island does.
+    pub(super) fn put_back(&mut self, part: Compiled) {
+        if self.numberings.len() < SPARE_NUMBERINGS {
+            self.numberings.push(part.numbering);
+        }
+        self.spare(part.model);
+    }
+
+    /// The keys of the models the pool holds, with the bodies each was cut for.
     #[cfg(test)]
-    pub(super) fn keys(&self) -> impl Iterator<Item = &Key> {
-        self.parts.keys()
+    pub(super) fn keys(&self) -> impl Iterator<Item = (&Key, &Vec<usize>)> {
+        self.models.iter().map(|(k, (_, bodies))| (k, bodies))
     }
 
-    /// The spare part of the fewest bodies from `n` on (whose buffers are most likely large
+    /// The spare model of the fewest bodies from `n` on (whose buffers are most likely large
     /// enough), else of the most.
-    fn take_spare(&mut self, n: usize) -> Option<Compiled> {
-        let fit = |&(m, _): &(usize, Compiled)| if m >= n { m - n } else { usize::MAX - m };
+    fn take_spare(&mut self, n: usize) -> Option<Arc<Model>> {
+        let fit = |&(m, _): &(usize, Arc<Model>)| if m >= n { m - n } else { usize::MAX - m };
         let (i, _) = self.spares.iter().enumerate().min_by_key(|(_, s)| fit(s))?;
         Some(self.spares.swap_remove(i).1)
     }
 
-    /// Keeps `part` (of `n` bodies) as a spare, if there is room.
-    fn spare(&mut self, n: usize, part: Compiled) {
-        if self.spares.len() < SPARE_PARTS {
-            self.spares.push((n, part));
+    /// Keeps `model` as a spare, if no one else holds it and there is room.
+    fn spare(&mut self, model: Arc<Model>) {
+        if Arc::strong_count(&model) == 1 && self.spares.len() < SPARE_PARTS {
+            self.spares.push((model.bodies.len(), model));
         }
     }
 
-    /// Keeps the part of an island that ended, its model's largest step count set back to
-    /// `max_steps` (the parameter values': the rounds set it before every advance). Beyond
-    /// `limit` parts the pool starts empty again.
-    pub(super) fn put(&mut self, key: Key, mut part: Compiled, max_steps: u64, limit: usize) {
-        if self.parts.len() >= limit {
+    /// Puts `model`, cut for `bodies`, in the pool under the present key.
+    fn keep(&mut self, model: Arc<Model>, bodies: &[usize], limit: usize) {
+        if self.models.len() >= limit {
             self.multi.clear();
-            for (k, old) in std::mem::take(&mut self.parts) {
-                self.spare(k.len(), old);
+            for (_, (old, _)) in std::mem::take(&mut self.models) {
+                self.spare(old);
             }
         }
-        part.model.solver.max_steps = max_steps;
-        let (n, multi) = (key.len(), (key.len() > 1).then(|| key.clone()));
-        if let Some(old) = self.parts.insert(key, part) {
-            // (a part of the same bodies: its key is listed already)
-            self.spare(n, old);
-        } else if let Some(key) = multi {
-            self.multi.push_back(key);
+        let key = self.key.clone();
+        if key.len() > 1 {
+            self.multi.push_back(key.clone());
             if self.multi.len() > MULTI_BODY_PARTS {
-                if let Some((k, old)) = self.multi.pop_front().and_then(|k| self.parts.remove_entry(&k)) {
-                    self.spare(k.len(), old);
+                if let Some((old, _)) = self.multi.pop_front().and_then(|k| self.models.remove(&k)) {
+                    self.spare(old);
                 }
             }
         }
+        self.models.insert(key, (model, bodies.to_vec()));
     }
 }
 
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::tests::{on_64_spheres, snapshot};
-    use super::{Compiled, Key};
+    use super::Compiled;
 
-    /// Every model the pool holds after islands merged and split is the one compilation
-    /// gives for its bodies and candidate pairs (compared field by field through their
-    /// debug form, which prints every number so that it reads back exactly), with the same
-    /// numbering against the scene.
+    /// Every model the pool holds after islands merged and split is the one cutting gives
+    /// for the bodies it was cut for (compared field by field through their debug form,
+    /// which prints every number so that it reads back exactly), and every island's model is
+    /// the one cut for its own bodies but for the names, with the same numbering against the
+    /// scene.
     #[test]
     fn pooled_parts_are_those_compilation_gives() {
         on_64_spheres("pool test", |src, m, d, is| {
@@ -140,13 +166,56 @@ pub(super) mod tests {
                 is.rebuilds,
                 is.pooled
             );
-            assert!(!is.pool.parts.is_empty());
-            let pooled = std::mem::take(&mut is.pool.parts);
-            for (key, part) in &pooled {
-                let fresh = super::fresh_cut(src, is, m, key);
-                assert_same_part(part, &fresh, key);
+            let pooled: Vec<_> = is.pool.models.values().cloned().collect();
+            assert!(!pooled.is_empty());
+            for (model, bodies) in &pooled {
+                let fresh = super::fresh_cut(src, is, m, bodies);
+                assert_eq!(format!("{model:?}"), format!("{:?}", fresh.model), "bodies {bodies:?}");
             }
+            let (mut shared, mut own) = (0, 0);
+            for k in 0..is.parts.len() {
+                let bodies = is.parts[k].bodies.clone();
+                let fresh = super::fresh_cut(src, is, m, &bodies);
+                let island = &is.parts[k];
+                let (model, unnamed_model) = (format!("{:?}", island.model), format!("{:?}", unnamed(&island.model)));
+                assert_eq!(
+                    unnamed_model,
+                    format!("{:?}", unnamed(&fresh.model)),
+                    "bodies {bodies:?}"
+                );
+                let numbering = &fresh.numbering;
+                assert_eq!(island.coords, numbering.coords);
+                assert_eq!(island.explicit, numbering.explicit);
+                assert_eq!(island.inputs, numbering.inputs);
+                assert_eq!(island.driven, numbering.driven);
+                assert_eq!(island.shapes, numbering.shapes);
+                if model == format!("{:?}", fresh.model) {
+                    own += 1;
+                } else {
+                    shared += 1;
+                }
+            }
+            assert!(
+                shared > 0 && own > 0,
+                "{shared} islands with another's model, {own} with their own"
+            );
         });
+    }
+
+    /// `model` with no names (those of its bodies, joints, loops, springs and contacts) and no
+    /// initial coordinates of its joints (which an island does not read: its state is the
+    /// scene's), what alike bodies differ in.
+    pub(in super::super) fn unnamed(model: &crate::model::Model) -> crate::model::Model {
+        let mut model = model.clone();
+        model.bodies.iter_mut().for_each(|b| b.name.clear());
+        model.joints.iter_mut().for_each(|j| {
+            j.name.clear();
+            j.q0 = [0.0; 7];
+        });
+        model.loops.iter_mut().for_each(|l| l.name.clear());
+        model.springs.iter_mut().for_each(|s| s.name.clear());
+        model.initial_contacts.iter_mut().for_each(|c| c.name.clear());
+        model
     }
 
     /// Islands formed with the data (and integrators) of islands that ended take the same
@@ -177,15 +246,11 @@ pub(super) mod tests {
         assert_eq!(with.3, without.3);
     }
 
-    /// Asserts that two parts of the island `key` are the same: their models field by field
-    /// through their debug form (which prints every number so that it reads back exactly, the
-    /// sign of a zero too) and their numbering against the scene.
-    pub(in super::super) fn assert_same_part(a: &Compiled, b: &Compiled, key: &Key) {
-        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {key:?}");
-        assert_eq!(a.coords, b.coords);
-        assert_eq!(a.explicit, b.explicit);
-        assert_eq!(a.inputs, b.inputs);
-        assert_eq!(a.driven, b.driven);
-        assert_eq!(a.shapes, b.shapes);
+    /// Asserts that two parts of the island of `bodies` are the same: their models field by
+    /// field through their debug form (which prints every number so that it reads back
+    /// exactly, the sign of a zero too) and their numbering against the scene.
+    pub(in super::super) fn assert_same_part(a: &Compiled, b: &Compiled, bodies: &[usize]) {
+        assert_eq!(format!("{:?}", a.model), format!("{:?}", b.model), "bodies {bodies:?}");
+        assert_eq!(a.numbering, b.numbering, "bodies {bodies:?}");
     }
 }

@@ -15,7 +15,7 @@ use crate::scene::JointType;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 /// A rigid body.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Body {
     /// Name.
     pub name: String,
@@ -28,7 +28,7 @@ pub struct Body {
 }
 
 /// A joint of the spanning tree (the child's path to ground).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TreeJoint {
     /// Name (the scene's, or `<body>.free` for an implicit free joint).
     pub name: String,
@@ -232,7 +232,7 @@ pub enum Input {
 /// the angular velocity (body frame), so its block of M̄ is the constant
 /// `diag(m, m, m, I₁, I₂, I₃)` and its accelerations are Newton-Euler's, body by body:
 /// `m a = f`, `I ω̇ + ω × I ω = τ` (see [`crate::forward`]).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FreeBody {
     /// The body.
     pub body: usize,

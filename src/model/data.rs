@@ -276,6 +276,10 @@ pub struct Data {
     /// Log the largest penetration of each continuous contact (a diagnostic: it costs event
     /// location work and changes no result).
     pub log_peaks: bool,
+    /// The most steps one advance may take, in place of the model's `solver.max_steps`
+    /// (`None`: the model's). The islands set it before every advance: the steps left of
+    /// their budget, while their models, shared by islands alike, stay as compiled.
+    pub max_steps: Option<u64>,
     // --- diagnostics ---
     /// Located contact events, oldest first (at most [`EVENT_LOG_CAPACITY`]).
     pub event_log: Vec<ContactEvent>,
@@ -424,6 +428,7 @@ impl Data {
             },
             clamp_events: true,
             log_peaks: false,
+            max_steps: None,
             event_log: Vec::new(),
             eval_state: Vec::new(),
             planned_kinematics: false,
@@ -495,6 +500,7 @@ impl Data {
             solver,
             clamp_events,
             log_peaks,
+            max_steps,
             event_log,
             eval_state,
             planned_kinematics,
@@ -570,6 +576,7 @@ impl Data {
         };
         *clamp_events = true;
         *log_peaks = false;
+        *max_steps = None;
         emptied(event_log, if ncontacts > 0 { log_capacity } else { 0 });
         *dense_pending = false;
         *outputs_valid = false;
