@@ -14,7 +14,7 @@ use std::collections::HashMap;
 /// The scene's group numbering: the shapes' groups in their order, then those a group pair
 /// names that no shape has (a part of a scene cut for an island may hold none of a group's
 /// shapes). An island's model is cut with the same numbering.
-pub(crate) fn group_numbering(scene: &Scene) -> HashMap<&str, usize> {
+fn group_numbering(scene: &Scene) -> HashMap<&str, usize> {
     let mut group_index: HashMap<&str, usize> = HashMap::new();
     let named = scene.contact_group.iter().flat_map(|g| g.groups.iter());
     for group in scene.shape.iter().map(|s| &s.group).chain(named) {
@@ -54,8 +54,12 @@ pub(super) fn compile_groups(
     let group_index = group_numbering(scene);
     let ngroups = group_index.len();
     let mut touch = vec![None; ngroups * ngroups];
-    for (p, g) in scene.contact_group.iter().enumerate() {
-        let (a, b) = (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]);
+    let pair_groups: Vec<(usize, usize)> = scene
+        .contact_group
+        .iter()
+        .map(|g| (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]))
+        .collect();
+    for (p, &(a, b)) in pair_groups.iter().enumerate() {
         touch[a * ngroups + b] = Some(p);
     }
     let nb = scene.body.len();
@@ -149,6 +153,7 @@ pub(super) fn compile_groups(
         ngroups,
         touch,
         pair_names: scene.contact_group.iter().map(|g| g.name.clone()).collect(),
+        pair_groups,
         n_explicit,
         initial_candidates: Vec::new(),
         margin: scene.broad_phase_margin(),

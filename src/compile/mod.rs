@@ -18,7 +18,6 @@ mod groups;
 pub mod parameters;
 mod velocities;
 
-pub(crate) use groups::group_numbering;
 pub use parameters::Parameters;
 
 use crate::kinematics::kinematics;

@@ -1,17 +1,20 @@
 //! What the islands are cut from: which bodies are coupled (the partition), the scene's items
-//! per body, and (the tests' oracle) the part of the scene and of the parameter values that an
-//! island's model compiles from.
+//! per body (read off the scene's compiled model), and (the tests' oracle) the part of the
+//! scene and of the parameter values that an island's model compiles from.
 
 #[cfg(test)]
 use crate::compile::Parameters;
 use crate::model::groups::Candidate;
 use crate::model::{Input, Model};
+#[cfg(test)]
 use crate::scene::{Scene, GROUND};
 use crate::union_find::UnionFind;
+#[cfg(test)]
 use std::collections::HashMap;
 
 /// Per scene body, the scene items that name it (to cut an island's part of the scene in
 /// time proportional to its size).
+#[cfg_attr(test, derive(Debug, PartialEq))]
 pub(super) struct SceneIndex {
     pub(super) joints: Vec<Vec<usize>>,
     pub(super) springs: Vec<Vec<usize>>,
@@ -23,6 +26,68 @@ pub(super) struct SceneIndex {
 }
 
 impl SceneIndex {
+    /// No items for `nb` bodies.
+    fn empty(nb: usize) -> SceneIndex {
+        SceneIndex {
+            joints: vec![Vec::new(); nb],
+            springs: vec![Vec::new(); nb],
+            contacts: vec![Vec::new(); nb],
+            inputs: vec![Vec::new(); nb],
+            shapes: vec![Vec::new(); nb],
+            ground_shapes: Vec::new(),
+        }
+    }
+
+    /// The index of the scene whose compiled model is `m`, read off the model (its lists are
+    /// in the scene's order: `m.scene_joint` by the scene's joints, the springs, the declared
+    /// contacts, the inputs and the group shapes as the scene lists them).
+    pub(super) fn of_model(m: &Model) -> SceneIndex {
+        let nb = m.bodies.len();
+        let mut ix = SceneIndex::empty(nb);
+        for (si, joint) in m.scene_joint.iter().enumerate() {
+            let child = match *joint {
+                Ok(t) => m.joints[t].child,
+                Err(l) => m.loops[l].body_b,
+            };
+            ix.joints[child].push(si);
+        }
+        for (i, s) in m.springs.iter().enumerate() {
+            for b in [s.body_a, s.body_b].into_iter().flatten() {
+                ix.springs[b].push(i);
+            }
+        }
+        for (i, c) in m.initial_contacts[..m.groups.n_explicit].iter().enumerate() {
+            for b in [c.sphere_body, c.body].into_iter().flatten() {
+                ix.contacts[b].push(i);
+            }
+        }
+        for (g, input) in m.inputs.iter().enumerate() {
+            match input {
+                Input::Force { body, .. } | Input::Torque { body, .. } => ix.inputs[*body].push(g),
+                Input::JointForce { qvels } => {
+                    for &v in qvels {
+                        ix.inputs[m.joints[m.dof_joint[v]].child].push(g);
+                    }
+                }
+                Input::JointMotion => {
+                    if let Some(t) = driven_joint(m, g) {
+                        ix.inputs[m.joints[t].child].push(g);
+                    }
+                }
+            }
+        }
+        for (s, shape) in m.groups.shapes.iter().enumerate() {
+            match shape.body {
+                Some(b) => ix.shapes[b].push(s),
+                None => ix.ground_shapes.push(s),
+            }
+        }
+        ix
+    }
+
+    /// The index of `scene` read off the scene (the tests compare it with
+    /// [`SceneIndex::of_model`]).
+    #[cfg(test)]
     pub(super) fn of(scene: &Scene) -> SceneIndex {
         let nb = scene.body.len();
         let body = scene.body_index();
@@ -31,14 +96,7 @@ impl SceneIndex {
             .iter()
             .filter_map(|j| Some((j.name.as_str(), *body.get(j.child.as_str())?)))
             .collect();
-        let mut ix = SceneIndex {
-            joints: vec![Vec::new(); nb],
-            springs: vec![Vec::new(); nb],
-            contacts: vec![Vec::new(); nb],
-            inputs: vec![Vec::new(); nb],
-            shapes: vec![Vec::new(); nb],
-            ground_shapes: Vec::new(),
-        };
+        let mut ix = SceneIndex::empty(nb);
         let put = |list: &mut Vec<Vec<usize>>, name: &str, i: usize| {
             if let Some(&b) = body.get(name) {
                 list[b].push(i);
@@ -74,6 +132,19 @@ impl SceneIndex {
         }
         ix
     }
+}
+
+/// The tree joint that the input `g` of the model `m` drives, if it is a `joint_motion` (its
+/// drive holds the input's first value).
+pub(super) fn driven_joint(m: &Model, g: usize) -> Option<usize> {
+    if !matches!(m.inputs.get(g), Some(Input::JointMotion)) {
+        return None;
+    }
+    let value = *m.input_value.get(g)?;
+    let drive = m.drives.iter().find(|d| d.value == value)?;
+    m.joints
+        .iter()
+        .position(|j| j.qpos == drive.qpos && j.qvel == drive.qvel && j.nv() > 0)
 }
 
 /// The islands of a model: the bodies of each, in scene order, the islands ordered by their

@@ -13,24 +13,21 @@
 //! its plan are the scene's restricted to it as well: both are decided tree by tree, from
 //! what an island holds whole.
 
-use super::cut::{items, SceneIndex};
+use super::cut::{driven_joint, items, SceneIndex};
 use super::part::{alike_bodies, key_into, numbering, Key, Numbering};
-use crate::compile::{contact_warnings, group_numbering, Parameters};
+use crate::compile::{contact_warnings, Parameters};
 use crate::contact::elements::reserve_constraint_rows;
 use crate::linalg::ConstantLeaves;
 use crate::model::compiled::NOT_FREE;
 use crate::model::contact::{ContactElement, OtherSide, SphereSide};
 use crate::model::groups::{GroupShape, Groups};
 use crate::model::{Body, Drive, FreeBody, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
-use crate::scene::Scene;
 
-/// What cutting an island's model needs of the scene, made once per scene (none of it
-/// depends on the candidate pairs, so the scene's model may be compiled again for others).
+/// What cutting an island's model needs of the scene's compiled model, made once when the
+/// islands are (none of it depends on the candidate pairs, which the data holds).
 pub(super) struct ModelCutter {
     /// Per scene body, the scene items that name it.
     pub(super) index: SceneIndex,
-    /// Per group pair, the scene's group indices of its two groups.
-    pair_groups: Vec<(usize, usize)>,
     /// Per scene input, the tree joint it drives (a `joint_motion`).
     drive_joint: Vec<Option<usize>>,
     /// The plan of the whole scene as one island (with its declared contacts alone): an
@@ -55,39 +52,21 @@ pub(super) struct ModelCutter {
 }
 
 impl ModelCutter {
-    /// The cutter of the scene `scene` whose model `m` was compiled from it.
-    pub(super) fn new(scene: &Scene, m: &Model) -> ModelCutter {
-        // the scene's group numbering, as the compiler's
-        let group_index = group_numbering(scene);
-        let pair_groups = scene
-            .contact_group
-            .iter()
-            .map(|g| (group_index[g.groups[0].as_str()], group_index[g.groups[1].as_str()]))
-            .collect();
-        let joint_index = scene.joint_index();
-        let drive_joint = scene
-            .input
-            .iter()
-            .map(|inp| {
-                if inp.kind != crate::scene::InputType::JointMotion {
-                    return None;
-                }
-                m.scene_joint.get(inp.joint_in(&joint_index)).and_then(|r| r.ok())
-            })
-            .collect();
+    /// The cutter of the scene's compiled model `m`.
+    pub(super) fn new(m: &Model) -> ModelCutter {
+        let drive_joint = (0..m.inputs.len()).map(|g| driven_joint(m, g)).collect();
         let explicit = &m.initial_contacts[..m.groups.n_explicit];
         let plan = Plan::of(
             &m.bodies, &m.joints, &m.loops, &m.springs, explicit, &m.groups, &m.trees,
         );
-        let index = SceneIndex::of(scene);
+        let index = SceneIndex::of_model(m);
         let alike = alike_bodies(&index, m, &plan);
         ModelCutter {
             index,
-            pair_groups,
             drive_joint,
             plan,
-            local_body: vec![usize::MAX; scene.body.len()],
-            local_group: vec![usize::MAX; group_index.len()],
+            local_body: vec![usize::MAX; m.bodies.len()],
+            local_group: vec![usize::MAX; m.groups.ngroups],
             tree_joints: Vec::new(),
             scene_joints: Vec::new(),
             scene_inputs: Vec::new(),
@@ -109,22 +88,22 @@ impl ModelCutter {
     /// (sorted) whose model is `model`: cut for them, or for bodies of the same key.
     pub(super) fn number_into(
         &mut self,
-        scene: &Scene,
         m: &Model,
         joint_coords: &[(usize, usize)],
         bodies: &[usize],
         model: &Model,
         own: &mut Numbering,
     ) {
-        self.lists(scene, bodies, own);
+        self.lists(m, bodies, own);
         numbering(m, joint_coords, bodies, &self.scene_inputs, model, own);
     }
 
     /// Writes into `own` the island's declared contacts and group shapes (scene numbering),
     /// and into the scratch its scene inputs.
-    fn lists(&mut self, scene: &Scene, bodies: &[usize], own: &mut Numbering) {
-        items(&self.index.contacts, &scene.contact, bodies, &mut own.explicit);
-        items(&self.index.inputs, &scene.input, bodies, &mut self.scene_inputs);
+    fn lists(&mut self, m: &Model, bodies: &[usize], own: &mut Numbering) {
+        let explicit = &m.initial_contacts[..m.groups.n_explicit];
+        items(&self.index.contacts, explicit, bodies, &mut own.explicit);
+        items(&self.index.inputs, &m.inputs, bodies, &mut self.scene_inputs);
         // (the island's shapes, then the ground's)
         let (ix, ground) = (&self.index.shapes, &self.index.ground_shapes);
         let shapes = renew(
@@ -148,7 +127,6 @@ impl ModelCutter {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn cut_into(
         &mut self,
-        scene: &Scene,
         params: &Parameters,
         m: &Model,
         joint_coords: &[(usize, usize)],
@@ -156,7 +134,7 @@ impl ModelCutter {
         out: &mut Model,
         own: &mut Numbering,
     ) {
-        self.lists(scene, bodies, own);
+        self.lists(m, bodies, own);
         for (l, &b) in bodies.iter().enumerate() {
             self.local_body[b] = l;
         }
@@ -182,7 +160,7 @@ impl ModelCutter {
         tree_joints.extend(bodies.iter().map(|&b| m.bodies[b].joint));
         tree_joints.sort_unstable();
         let scene_joints = &mut self.scene_joints;
-        items(&self.index.joints, &scene.joint, bodies, scene_joints);
+        items(&self.index.joints, &m.scene_joint, bodies, scene_joints);
         renew(&mut out.bodies, bodies.len()).extend(bodies.iter().map(|&b| Body {
             name: name_in(names, &m.bodies[b].name),
             joint: 0,
@@ -355,7 +333,7 @@ impl ModelCutter {
         }
 
         let springs = &mut self.scene_springs;
-        items(&self.index.springs, &scene.spring_damper, bodies, springs);
+        items(&self.index.springs, &m.springs, bodies, springs);
         renew(&mut out.springs, springs.len()).extend(springs.iter().map(|&i| {
             let s = &m.springs[i];
             SpringDamper {
@@ -382,7 +360,7 @@ impl ModelCutter {
         let shapes = &own.shapes;
         reserve_constraint_rows(contacts, nc);
 
-        if scene.contact_group.is_empty() {
+        if m.groups.pair_groups.is_empty() {
             out.groups = Groups {
                 n_explicit: explicit.len(),
                 stale_fraction: super::ISLAND_STALE_FRACTION,
@@ -393,7 +371,6 @@ impl ModelCutter {
                 m,
                 local,
                 &mut self.local_group,
-                &self.pair_groups,
                 bodies,
                 shapes,
                 explicit.len(),
@@ -442,15 +419,13 @@ fn copy_leaves(to: &mut ConstantLeaves, from: &ConstantLeaves) {
 
 /// Writes into `out` the contact groups of the island of scene bodies `bodies` (sorted;
 /// `local`: per scene body its island index) whose group shapes are the scene's `shapes`
-/// (sorted), with `n_explicit` declared contacts, from the scene's model `m` whose group pairs
-/// name the scene's groups `pair_groups` (`out`'s buffers kept). `local_group`: scratch per
-/// scene group, left as it came (`usize::MAX` throughout).
+/// (sorted), with `n_explicit` declared contacts, from the scene's model `m` (`out`'s buffers
+/// kept). `local_group`: scratch per scene group, left as it came (`usize::MAX` throughout).
 #[allow(clippy::too_many_arguments)]
 fn cut_groups(
     m: &Model,
     local: &[usize],
     local_group: &mut [usize],
-    pair_groups: &[(usize, usize)],
     bodies: &[usize],
     shapes: &[usize],
     n_explicit: usize,
@@ -465,6 +440,7 @@ fn cut_groups(
             ngroups += 1;
         }
     };
+    let pair_groups = &m.groups.pair_groups;
     for &s in shapes {
         number(m.groups.shapes[s].group, local_group);
     }
@@ -477,6 +453,8 @@ fn cut_groups(
     for (p, &(a, b)) in pair_groups.iter().enumerate() {
         out.touch[local_group[a] * ngroups + local_group[b]] = Some(p);
     }
+    renew(&mut out.pair_groups, pair_groups.len())
+        .extend(pair_groups.iter().map(|&(a, b)| (local_group[a], local_group[b])));
     renew(&mut out.shapes, shapes.len()).extend(shapes.iter().map(|&s| {
         let gs = &m.groups.shapes[s];
         GroupShape {
@@ -509,6 +487,7 @@ fn cut_groups(
 
 #[cfg(test)]
 mod tests {
+    use super::super::cut::SceneIndex;
     use super::super::part::compile_cut_scene;
     use super::super::pool::fresh_cut;
     use super::super::pool::tests::assert_same_part;
@@ -529,7 +508,7 @@ mod tests {
     /// makes for the candidate pairs of `key` is the one compiling that part with them gives.
     fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Part) {
         let (bodies, candidates) = key;
-        let cut = fresh_cut(src, is, m, bodies);
+        let cut = fresh_cut(is, m, bodies);
         let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, bodies).unwrap();
         assert_same_part(&cut, &oracle, bodies);
         let part = super::super::cut::cut(src.scene, &is.params, &is.cutter.index, bodies, candidates);
@@ -554,7 +533,7 @@ mod tests {
         let origin = "cut test";
         let (m, mut d) = compile_scene(scene, origin).unwrap();
         let src = Source { scene, origin };
-        let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
+        let mut is = Islands::new(Parameters::of_scene(scene), &m, &d).unwrap();
         let all: Part = ((0..m.bodies.len()).collect(), d.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
@@ -570,7 +549,7 @@ mod tests {
             compared += 1;
         }
         for &t in advances {
-            is.advance(&src, &m, &mut d, t, false).unwrap();
+            is.advance(&m, &mut d, t, false).unwrap();
             let mut keys: Vec<Part> = is
                 .parts
                 .iter()
@@ -620,6 +599,32 @@ mod tests {
         }
     }
 
+    /// The scene's items per body read off its compiled model are those read off the scene:
+    /// grouped spheres, and the bundled scenes (joints, loops, springs, declared contacts,
+    /// force, joint force and joint motion inputs, group shapes on bodies and on the ground).
+    #[test]
+    fn the_index_read_off_the_model_is_the_scenes() {
+        let mut scenes = vec![grouped(64, 0.02, 0.0015, true)];
+        scenes.extend(
+            [
+                "pile_of_balls",
+                "rail_vehicle",
+                "rail_vehicle_track",
+                "slider_crank",
+                "two_spheres",
+                "bouncing_ball",
+            ]
+            .map(bundled),
+        );
+        for scene in &scenes {
+            let (m, _) = compile_scene(scene, "index test").unwrap();
+            let of_model = SceneIndex::of_model(&m);
+            assert_eq!(of_model, SceneIndex::of(scene), "{}", scene.model.name);
+            // (not vacuous: the inputs the scene has are listed)
+            assert!(scene.input.is_empty() || of_model.inputs.iter().any(|l| !l.is_empty()));
+        }
+    }
+
     /// A part cut into the buffers of another part (of more bodies, fewer, as many, of the same
     /// scene or another) is the one cut anew: 64 grouped spheres, the bundled pile, and scenes
     /// of joints, loops, springs, declared contacts and inputs, every part cut into every
@@ -630,11 +635,10 @@ mod tests {
         scenes.extend(["rail_vehicle", "slider_crank", "two_spheres"].map(bundled));
         let origin = "recycle test";
         let compiled: Vec<_> = scenes.iter().map(|s| compile_scene(s, origin).unwrap()).collect();
-        // (per scene: its source, model and islands; the keys with their scene's index)
+        // (per scene: its model and islands; the keys with their scene's index)
         let (mut cases, mut keyed) = (Vec::new(), Vec::new());
         for (scene, (m, d)) in scenes.iter().zip(&compiled) {
-            let src = Source { scene, origin };
-            let is = Islands::new(&src, Parameters::of_scene(scene), m, d).unwrap();
+            let is = Islands::new(Parameters::of_scene(scene), m, d).unwrap();
             let mut keys: Vec<Vec<usize>> = partition(m, &d.candidates).iter().map(<[usize]>::to_vec).collect();
             keys.truncate(4);
             keys.push((0..m.bodies.len()).collect());
@@ -643,19 +647,18 @@ mod tests {
                 keys.push((1..m.bodies.len()).step_by(3).collect());
             }
             keyed.extend(keys.into_iter().map(|k| (cases.len(), k)));
-            cases.push((src, m, is));
+            cases.push((m, is));
         }
         let mut compared = 0;
         for (from, a) in &keyed {
             for (to, b) in &keyed {
-                let (src, m, is) = &mut cases[*from];
-                let mut part = fresh_cut(src, is, m, a);
-                let (src, m, is) = &mut cases[*to];
-                let (scene, params) = (src.scene, &is.params);
+                let (m, is) = &mut cases[*from];
+                let mut part = fresh_cut(is, m, a);
+                let (m, is) = &mut cases[*to];
                 let out = std::sync::Arc::make_mut(&mut part.model);
                 is.cutter
-                    .cut_into(scene, params, m, &is.joint_coords, b, out, &mut part.numbering);
-                let fresh = fresh_cut(src, is, m, b);
+                    .cut_into(&is.params, m, &is.joint_coords, b, out, &mut part.numbering);
+                let fresh = fresh_cut(is, m, b);
                 assert_same_part(&part, &fresh, b);
                 compared += 1;
             }

@@ -1,6 +1,7 @@
 //! Independent islands: the bodies coupled through joints, spring-dampers, joint-force inputs
 //! and contacts that can act (the declared contacts, and the contact groups' candidate pairs)
-//! form islands. Each island is a model of its own, cut from the scene's model (`cut_model.rs`), with
+//! form islands. Each island has a model cut from the scene's compiled model (`cut_model.rs`;
+//! the islands read nothing else of the scene, and islands of alike bodies share one), with
 //! its own integrator, step-size control and located events, so that an impact in one corner
 //! of a scene does not restart the integration of the rest.
 //!
@@ -20,7 +21,7 @@
 //!    margin, the candidate pairs are found again for the whole scene and the islands formed
 //!    again: an island whose bodies and candidate pairs did not change keeps its integrator,
 //!    the others are formed anew with their contacts' memory carried over, their model
-//!    cut from the scene's or taken from the pool of the islands that ended (`pool.rs`).
+//!    cut from the scene's or taken from the pool (`pool.rs`).
 //!
 //! Two islands stay apart within a round: a pair of shapes left out of the candidate list was
 //! farther apart than the margin, and neither body moves half of it before the list is made
@@ -40,6 +41,7 @@ use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
 use crate::model::{ContactEvent, Counters, Data, Model};
+#[cfg(test)]
 use crate::scene::Scene;
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -158,8 +160,9 @@ pub struct Islands {
 /// An ended island's data and its buffer of the saved state, for a new island.
 type Spare = (Box<Data>, Vec<f64>);
 
-/// The scene and its origin: what an island is compiled from (with the parameter values the
-/// islands keep).
+/// The scene and its origin: what the tests compile an island's part of the scene from (their
+/// oracle for the cut models).
+#[cfg(test)]
 pub struct Source<'a> {
     /// The scene.
     pub scene: &'a Scene,
@@ -176,18 +179,18 @@ struct Members {
 }
 
 impl Islands {
-    /// Forms the islands of the scene's model `m` (compiled from `src` with `params`) at its
+    /// Forms the islands of the scene's model `m` (compiled with `params`) at its
     /// data `d` (its candidate pairs and contact memory as they are).
-    pub fn new(src: &Source, params: Parameters, m: &Model, d: &Data) -> Result<Islands, EngineError> {
-        let mut is = Islands::bare(src, params, m, d);
+    pub fn new(params: Parameters, m: &Model, d: &Data) -> Result<Islands, EngineError> {
+        let mut is = Islands::bare(params, m, d);
         let memory = is.memory_of_scene(m, d);
         let candidates = is.candidates.clone();
-        is.form(src, m, d, &candidates, &memory, Vec::new())?;
+        is.form(m, d, &candidates, &memory, Vec::new())?;
         Ok(is)
     }
 
     /// No islands yet, the rest from the scene's model and data.
-    fn bare(src: &Source, params: Parameters, m: &Model, d: &Data) -> Islands {
+    fn bare(params: Parameters, m: &Model, d: &Data) -> Islands {
         let mut joint_coords = vec![(0, 0); m.bodies.len()];
         for j in &m.joints {
             joint_coords[j.child] = (j.qpos, m.nq + j.qvel);
@@ -209,7 +212,7 @@ impl Islands {
             joint_coords,
             island_of: vec![0; m.bodies.len()],
             n_explicit: m.groups.n_explicit,
-            cutter: ModelCutter::new(src.scene, m),
+            cutter: ModelCutter::new(m),
             params: Arc::new(params),
             pool: Pool::default(),
             spare: HashMap::default(),
@@ -232,7 +235,6 @@ impl Islands {
     #[allow(clippy::vec_box)]
     fn form(
         &mut self,
-        src: &Source,
         m: &Model,
         d: &Data,
         candidates: &[Candidate],
@@ -312,7 +314,7 @@ impl Islands {
                 candidates: cands.to_vec(),
                 listed: listed[span.clone()].to_vec(),
             };
-            let mut island = self.compile_island(src, m, d, members, memory, &former)?;
+            let mut island = self.compile_island(m, d, members, memory, &former)?;
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -396,7 +398,6 @@ impl Islands {
     /// pairs' by the former list: `former` gives the former index of each pair of the list).
     fn compile_island(
         &mut self,
-        src: &Source,
         m: &Model,
         d: &Data,
         members: Members,
@@ -409,15 +410,9 @@ impl Islands {
             listed,
         } = members;
         let limit = POOL_PER_BODY * self.island_of.len();
-        let (part, pooled) = self.pool.part(
-            src,
-            &self.params,
-            &mut self.cutter,
-            m,
-            &self.joint_coords,
-            &bodies,
-            limit,
-        );
+        let (part, pooled) = self
+            .pool
+            .part(&self.params, &mut self.cutter, m, &self.joint_coords, &bodies, limit);
         self.pooled += u64::from(pooled);
         let Compiled { model, numbering } = part;
         // (the scene's data keeps the log; an island's holds the events of one advance and
@@ -486,14 +481,7 @@ impl Islands {
     /// of the round, whose time the error carries. With `stop_at_events` the islands stop at
     /// the first contact event before `t_end` (see [`engine::advance_with`]): those that went
     /// further are taken back to it, and the result is `Ok(true)`.
-    pub fn advance(
-        &mut self,
-        src: &Source,
-        m: &Model,
-        d: &mut Data,
-        t_end: f64,
-        stop_at_events: bool,
-    ) -> Result<bool, EngineError> {
+    pub fn advance(&mut self, m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
         if t_end.is_nan() || t_end < self.time {
             return Err(fail(self.time, format!("cannot integrate backwards to {t_end}")));
         }
@@ -576,8 +564,8 @@ impl Islands {
                 }
                 if let Err(e) = result {
                     let n = self.parts.len();
-                    let name = self.island_name(src, k);
-                    let mut e = self.take_back(src, k, e);
+                    let name = self.island_name(m, k);
+                    let mut e = self.take_back(m, k, e);
                     if e.step_limit {
                         e.message = format!(
                             "solver.max_steps = {per_island} integrator steps per island and communication step \
@@ -606,7 +594,7 @@ impl Islands {
                     // (the same steps again, counted once)
                     island.data.max_steps = Some(m.solver.max_steps);
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
-                        return Err(self.take_back(src, k, e));
+                        return Err(self.take_back(m, k, e));
                     }
                 }
                 t_met = self.parts.iter().map(|i| i.data.time).fold(t_met, f64::min);
@@ -626,7 +614,7 @@ impl Islands {
                     .map(|b| groups::displacement(m, d, b))
                     .fold(0.0, f64::max);
                 if moved >= REBUILD_FRACTION * m.groups.margin || stale {
-                    self.rebuild(src, m, d)?;
+                    self.rebuild(m, d)?;
                 }
             }
             if at_event {
@@ -643,15 +631,15 @@ impl Islands {
     }
 
     /// The name of island `k`: that of its first body.
-    fn island_name<'s>(&self, src: &Source<'s>, k: usize) -> &'s str {
+    fn island_name<'m>(&self, m: &'m Model, k: usize) -> &'m str {
         let first = self.parts[k].bodies[0];
-        src.scene.body.get(first).map_or("?", |b| b.name.as_str())
+        m.bodies.get(first).map_or("?", |b| b.name.as_str())
     }
 
     /// After island `k` failed with `e`: every island back to the start of the round (its
     /// saved state) and the error, naming the island, at that time.
-    fn take_back(&mut self, src: &Source, k: usize, e: EngineError) -> EngineError {
-        let name = self.island_name(src, k);
+    fn take_back(&mut self, m: &Model, k: usize, e: EngineError) -> EngineError {
+        let name = self.island_name(m, k);
         for island in &mut self.parts {
             island.restore();
         }
@@ -665,7 +653,7 @@ impl Islands {
     /// Finds the candidate pairs again at the scene's data `d` (kinematics evaluated at the
     /// gathered coordinates), makes the present poses the reference and forms the islands
     /// again.
-    fn rebuild(&mut self, src: &Source, m: &Model, d: &mut Data) -> Result<(), EngineError> {
+    fn rebuild(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
         let found = m.groups.find(&|b| groups::pose(d, b));
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
@@ -674,7 +662,7 @@ impl Islands {
         let memory = self.memory_of_islands(m);
         let old = std::mem::take(&mut self.parts);
         self.rebuilds += 1;
-        self.form(src, m, d, &found, &memory, old)
+        self.form(m, d, &found, &memory, old)
     }
 
     /// The parameter values the islands are compiled with.

@@ -7,7 +7,6 @@
 
 use super::cut_model::ModelCutter;
 use super::part::{empty_model, Compiled, Key, Numbering};
-use super::Source;
 use crate::compile::Parameters;
 use crate::model::Model;
 use rustc_hash::FxHashMap as HashMap;
@@ -15,14 +14,14 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 /// The part of the island of the bodies `bodies` cut anew (into no one's buffers) from the
-/// scene's model `m` of the islands `is` (compiled from `src`): what [`Pool::part`] gives for
+/// scene's model `m` of the islands `is`: what [`Pool::part`] gives for
 /// a key not in the pool and without a spare model.
 #[cfg(test)]
-pub(super) fn fresh_cut(src: &Source, is: &mut super::Islands, m: &Model, bodies: &[usize]) -> Compiled {
+pub(super) fn fresh_cut(is: &mut super::Islands, m: &Model, bodies: &[usize]) -> Compiled {
     let mut model = empty_model(&is.params);
     let mut own = Numbering::default();
     is.cutter
-        .cut_into(src.scene, &is.params, m, &is.joint_coords, bodies, &mut model, &mut own);
+        .cut_into(&is.params, m, &is.joint_coords, bodies, &mut model, &mut own);
     Compiled {
         model: Arc::new(model),
         numbering: own,
@@ -70,7 +69,6 @@ impl Pool {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn part(
         &mut self,
-        src: &Source,
         params: &Parameters,
         cutter: &mut ModelCutter,
         m: &Model,
@@ -82,7 +80,7 @@ impl Pool {
         cutter.key_into(bodies, &mut self.key);
         if let Some((model, _)) = self.models.get(&self.key) {
             let model = Arc::clone(model);
-            cutter.number_into(src.scene, m, joint_coords, bodies, &model, &mut own);
+            cutter.number_into(m, joint_coords, bodies, &model, &mut own);
             return (Compiled { model, numbering: own }, true);
         }
         let mut model = self
@@ -90,7 +88,7 @@ impl Pool {
             .unwrap_or_else(|| Arc::new(empty_model(params)));
         // (a spare is held by no one: nothing is cloned)
         let out = Arc::make_mut(&mut model);
-        cutter.cut_into(src.scene, params, m, joint_coords, bodies, out, &mut own);
+        cutter.cut_into(params, m, joint_coords, bodies, out, &mut own);
         self.keep(Arc::clone(&model), bodies, limit);
         (Compiled { model, numbering: own }, false)
     }
@@ -158,8 +156,8 @@ pub(super) mod tests {
     /// scene.
     #[test]
     fn pooled_parts_are_those_compilation_gives() {
-        on_64_spheres("pool test", |src, m, d, is| {
-            is.advance(src, m, d, 0.02, false).unwrap();
+        on_64_spheres("pool test", |m, d, is| {
+            is.advance(m, d, 0.02, false).unwrap();
             assert!(
                 is.rebuilds > 0 && is.pooled > 0,
                 "rebuilds {}, pooled {}",
@@ -169,13 +167,13 @@ pub(super) mod tests {
             let pooled: Vec<_> = is.pool.models.values().cloned().collect();
             assert!(!pooled.is_empty());
             for (model, bodies) in &pooled {
-                let fresh = super::fresh_cut(src, is, m, bodies);
+                let fresh = super::fresh_cut(is, m, bodies);
                 assert_eq!(format!("{model:?}"), format!("{:?}", fresh.model), "bodies {bodies:?}");
             }
             let (mut shared, mut own) = (0, 0);
             for k in 0..is.parts.len() {
                 let bodies = is.parts[k].bodies.clone();
-                let fresh = super::fresh_cut(src, is, m, &bodies);
+                let fresh = super::fresh_cut(is, m, &bodies);
                 let island = &is.parts[k];
                 let (model, unnamed_model) = (format!("{:?}", island.model), format!("{:?}", unnamed(&island.model)));
                 assert_eq!(
@@ -225,9 +223,9 @@ pub(super) mod tests {
     #[test]
     fn reused_data_gives_the_trajectories_of_new_data() {
         let run = |spare_limit: usize| {
-            on_64_spheres("reuse test", |src, m, d, is| {
+            on_64_spheres("reuse test", |m, d, is| {
                 is.spare_limit = spare_limit;
-                is.advance(src, m, d, 0.02, false).unwrap();
+                is.advance(m, d, 0.02, false).unwrap();
                 let (states, scene_state, counters) = snapshot(is, m, d);
                 (states, scene_state, counters, is.compiled, is.reused)
             })

@@ -2,7 +2,7 @@
 //! counters, energies and rebuilds not held by an island, the end of the present round, the
 //! candidate pairs, and per island its bodies and whole state.
 
-use super::{candidate_body, Islands, Members, Source};
+use super::{candidate_body, Islands, Members};
 use crate::compile::Parameters;
 use crate::engine;
 use crate::model::groups::Candidate;
@@ -31,9 +31,9 @@ impl Islands {
 
     /// The islands saved by [`Islands::save`], for the scene's model `m` and data `d` (both
     /// restored from the same saved state). Anything that does not fit is refused.
-    pub fn load(src: &Source, params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
+    pub fn load(params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
         let (head, candidates, saved) = island_state::set(m, d.time, v)?;
-        let mut is = Islands::bare(src, params, m, d);
+        let mut is = Islands::bare(params, m, d);
         is.candidates = candidates;
         // (the memory by the islands' list; each island's saved state then sets its own)
         let memory = is.memory_of_scene(m, d);
@@ -54,7 +54,7 @@ impl Islands {
                 listed,
             };
             let mut built = is
-                .compile_island(src, m, d, members, &memory, &same)
+                .compile_island(m, d, members, &memory, &same)
                 .map_err(|e| e.message)?;
             if state::group_candidates(&built.model, island.state).as_ref() != Some(&built.data.candidates)
                 && built.model.groups.is_active()

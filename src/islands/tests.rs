@@ -1,6 +1,6 @@
 //! Tests of the rounds: islands taken back to a round's start.
 
-use super::{Islands, Source};
+use super::Islands;
 use crate::bench::islands::grouped;
 use crate::compile::{compile, Parameters};
 use crate::model::{state, Counters, Data, Model};
@@ -24,18 +24,17 @@ pub(super) fn snapshot(is: &mut Islands, m: &Model, d: &mut Data) -> Snapshot {
     (islands, d.state.iter().map(|x| x.to_bits()).collect(), d.counters)
 }
 
-/// `f` of 64 grouped spheres that collide within 0.02 s (broad-phase margin 1.5 mm): their
-/// scene and file name `origin`, model, data and islands at the start.
-pub(super) fn on_64_spheres<R>(origin: &str, f: impl FnOnce(&Source, &Model, &mut Data, &mut Islands) -> R) -> R {
+/// `f` of 64 grouped spheres that collide within 0.02 s (broad-phase margin 1.5 mm, file name
+/// `origin`): their model, data and islands at the start.
+pub(super) fn on_64_spheres<R>(origin: &str, f: impl FnOnce(&Model, &mut Data, &mut Islands) -> R) -> R {
     on_scene(&grouped(64, 0.02, 0.0015, true), origin, f)
 }
 
-/// `f` of `scene` (file name `origin`): its source, model, data and islands at the start.
-fn on_scene<R>(scene: &Scene, origin: &str, f: impl FnOnce(&Source, &Model, &mut Data, &mut Islands) -> R) -> R {
+/// `f` of `scene` (file name `origin`): its model, data and islands at the start.
+fn on_scene<R>(scene: &Scene, origin: &str, f: impl FnOnce(&Model, &mut Data, &mut Islands) -> R) -> R {
     let (m, mut d) = compile(scene, origin).unwrap();
-    let src = Source { scene, origin };
-    let mut is = Islands::new(&src, Parameters::of_scene(scene), &m, &d).unwrap();
-    f(&src, &m, &mut d, &mut is)
+    let mut is = Islands::new(Parameters::of_scene(scene), &m, &d).unwrap();
+    f(&m, &mut d, &mut is)
 }
 
 /// 64 grouped spheres that collide within 0.02 s, spinning (a free body's lean kinematics,
@@ -58,16 +57,16 @@ fn spinning_spheres() -> Scene {
 #[test]
 fn light_takebacks_go_on_as_whole_state_takebacks() {
     let run = |light: bool| {
-        on_64_spheres("take-back test", |src, m, d, is| {
+        on_64_spheres("take-back test", |m, d, is| {
             is.light_saves = light;
             let mut snapshots = Vec::new();
             let mut stops = 0;
-            while is.advance(src, m, d, 0.01, true).unwrap() {
+            while is.advance(m, d, 0.01, true).unwrap() {
                 stops += 1;
                 assert!(stops < 100_000, "no end of the stops at events");
                 snapshots.push(snapshot(is, m, d));
             }
-            is.advance(src, m, d, 0.02, false).unwrap();
+            is.advance(m, d, 0.02, false).unwrap();
             snapshots.push(snapshot(is, m, d));
             (snapshots, stops, is.light_takebacks)
         })
@@ -95,14 +94,14 @@ fn light_takebacks_go_on_as_whole_state_takebacks() {
 fn stops_at_events_leave_the_islands_trajectories_as_they_are() {
     let scene = spinning_spheres();
     let run = |stops: bool, light: bool| {
-        on_scene(&scene, "stop test", |src, m, d, is| {
+        on_scene(&scene, "stop test", |m, d, is| {
             is.light_saves = light;
             let mut n = 0;
-            while is.advance(src, m, d, 0.01, stops).unwrap() {
+            while is.advance(m, d, 0.01, stops).unwrap() {
                 n += 1;
                 assert!(n < 100_000, "no end of the stops at events");
             }
-            is.advance(src, m, d, 0.02, false).unwrap();
+            is.advance(m, d, 0.02, false).unwrap();
             (snapshot(is, m, d), n, is.light_takebacks)
         })
     };
@@ -125,13 +124,13 @@ fn islands_side_by_side_go_as_one_after_the_other() {
     let run = |threads: usize, stops: bool| {
         let mut scene = spinning_spheres();
         scene.solver.threads = threads;
-        on_scene(&scene, "threads test", |src, m, d, is| {
+        on_scene(&scene, "threads test", |m, d, is| {
             let mut n = 0;
-            while is.advance(src, m, d, 0.01, stops).unwrap() {
+            while is.advance(m, d, 0.01, stops).unwrap() {
                 n += 1;
                 assert!(n < 100_000, "no end of the stops at events");
             }
-            is.advance(src, m, d, 0.02, false).unwrap();
+            is.advance(m, d, 0.02, false).unwrap();
             (snapshot(is, m, d), n)
         })
     };
@@ -153,8 +152,8 @@ fn islands_side_by_side_stop_at_the_step_budget_as_one_after_the_other() {
         let mut scene = spinning_spheres();
         scene.solver.threads = threads;
         scene.solver.max_steps = 30;
-        on_scene(&scene, "budget test", |src, m, d, is| {
-            let e = is.advance(src, m, d, 0.02, false).unwrap_err();
+        on_scene(&scene, "budget test", |m, d, is| {
+            let e = is.advance(m, d, 0.02, false).unwrap_err();
             assert!(e.step_limit, "{}", e.message);
             assert!(is.rounds > 1, "rounds: {}", is.rounds);
             (e.message, e.time.to_bits(), snapshot(is, m, d))
@@ -235,7 +234,7 @@ fn a_pair_the_scene_does_not_list_carries_no_memory() {
     floor.size = Some([10.0, 10.0]);
     floor.stiffness = Some(1e7);
     scene.contact.push(floor);
-    on_scene(&scene, "memory test", |_, m, d, is| {
+    on_scene(&scene, "memory test", |m, d, is| {
         assert_eq!(m.groups.n_explicit, 1);
         let declared = ContactMemory {
             active: true,
@@ -275,16 +274,15 @@ fn shared_models_give_the_trajectories_of_own_models() {
         let run = |share: bool| {
             let origin = "share test";
             let (m, mut d) = compile(&scene, origin).unwrap();
-            let src = Source { scene: &scene, origin };
-            let mut is = Islands::bare(&src, Parameters::of_scene(&scene), &m, &d);
+            let mut is = Islands::bare(Parameters::of_scene(&scene), &m, &d);
             let plain = is.cutter.alike.iter().filter(|a| a.is_some()).count();
             if !share {
                 is.cutter.alike.fill(None);
             }
             let memory = is.memory_of_scene(&m, &d);
             let candidates = is.candidates.clone();
-            is.form(&src, &m, &d, &candidates, &memory, Vec::new()).unwrap();
-            is.advance(&src, &m, &mut d, t, false).unwrap();
+            is.form(&m, &d, &candidates, &memory, Vec::new()).unwrap();
+            is.advance(&m, &mut d, t, false).unwrap();
             let cuts = is.compiled - is.pooled;
             (snapshot(&mut is, &m, &mut d), cuts, plain, is.compiled)
         };

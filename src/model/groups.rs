@@ -53,6 +53,8 @@ pub struct Groups {
     pub touch: Vec<Option<usize>>,
     /// Per group pair: its name.
     pub pair_names: Vec<String>,
+    /// Per group pair: its two groups (the spheres', the other shapes').
+    pub pair_groups: Vec<(usize, usize)>,
     /// Contact elements before the group contacts (the scene's `[[contact]]` entries).
     pub n_explicit: usize,
     /// The candidate pairs at the initial configuration (found by the broad phase there, or

@@ -7,7 +7,7 @@ use crate::checkpoint::Snapshot;
 use crate::compile::compile_with;
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
-use crate::islands::{Islands, Source};
+use crate::islands::Islands;
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
@@ -444,12 +444,10 @@ impl Simulation {
         if c.split || c.islands.is_some() {
             if c.islands.is_none() {
                 let params = self.parameters();
-                let (scene, origin) = (&self.scene, &self.origin);
                 let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
                     return Err(SimError::NotInitialized);
                 };
-                let src = Source { scene, origin };
-                c.islands = Some(Islands::new(&src, params, &c.model, &c.data).map_err(step_error)?);
+                c.islands = Some(Islands::new(params, &c.model, &c.data).map_err(step_error)?);
             }
             let at_event = self.step_islands(t_end, stop_at_events)?;
             return self.watch_energy().map(|()| at_event);
@@ -466,10 +464,9 @@ impl Simulation {
         self.watch_energy().map(|()| at_event)
     }
 
-    /// [`Simulation::step_to`] for a scene that runs as islands: they advance, the model gets
-    /// their candidate pairs (compiled again when they changed) and the data their state.
+    /// [`Simulation::step_to`] for a scene that runs as islands: they advance, and the scene's
+    /// data gets their state (and their contacts' memory when it lists their candidate pairs).
     fn step_islands(&mut self, t_end: f64, stop_at_events: bool) -> Result<bool, SimError> {
-        let (scene, origin) = (&self.scene, &self.origin);
         let Some(Compiled {
             model, data, islands, ..
         }) = self.compiled.as_mut().map(Compiled::settled)
@@ -479,8 +476,7 @@ impl Simulation {
         let Some(is) = islands.as_mut() else {
             return Err(SimError::NotInitialized);
         };
-        let src = Source { scene, origin };
-        let result = is.advance(&src, model, data, t_end, stop_at_events);
+        let result = is.advance(model, data, t_end, stop_at_events);
         is.gather(model, data);
         if is.candidates == data.candidates {
             is.gather_contacts(data);
@@ -562,7 +558,6 @@ impl Simulation {
             self.compiled_fresh = false;
         }
         let params = self.parameters();
-        let (scene, origin) = (self.scene.clone(), self.origin.clone());
         let restored = self.ensure_compiled().and_then(|c| {
             // contact groups: the contact list of the snapshot's candidate pairs (the present
             // one put back if the state is refused)
@@ -586,11 +581,7 @@ impl Simulation {
             engine::resync(&c.model, &mut c.data);
             c.islands = None;
             if !s.islands.is_empty() {
-                let src = Source {
-                    scene: &scene,
-                    origin: &origin,
-                };
-                let islands = Islands::load(&src, params.clone(), &c.model, &c.data, &s.islands);
+                let islands = Islands::load(params.clone(), &c.model, &c.data, &s.islands);
                 c.islands = Some(islands.map_err(SimError::Variable)?);
             }
             Ok(())
