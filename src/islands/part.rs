@@ -5,6 +5,7 @@
 use super::cut::SceneIndex;
 use crate::compile::Parameters;
 use crate::model::compiled::NOT_FREE;
+use crate::model::groups::Bound;
 use crate::model::{nq_of, nv_of, Body, FreeBody, Model, Plan, TreeJoint};
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
@@ -50,8 +51,10 @@ pub(super) fn empty_model(params: &Parameters) -> Model {
 /// shape between its group shapes. Alike bodies differ only in their names, their initial
 /// coordinates (an island's state is the scene's) and their place in the scene, so an island
 /// of plain bodies has the model of the island of the bodies they are alike to, in the same
-/// order: that of its key ([`key_into`]). Compared with `==` (so a −0 and a +0 count as one
-/// value, where a shape's centre holds one). None throughout when the plain bodies' joints or
+/// order: that of its key ([`key_into`]). The numbers of [`kind_bits`] (mass, inertia, the
+/// shapes' centres, bounds, radii and materials) are compared bit for bit, the rest with `==`
+/// (there a −0 and a +0 count as one value: a joint's frame, a plane's normal or a cylinder's
+/// axis given as −0 where another body's has +0). None throughout when the plain bodies' joints or
 /// shapes are listed in the scene in another order than the bodies (an island's order would
 /// then depend on which bodies it holds).
 pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Option<usize>> {
@@ -78,8 +81,8 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
     };
     let mut alike = vec![None; nb];
     let (mut last_joint, mut last_shape) = (None, None);
-    // (the first bodies of each kind, by their mass)
-    let mut firsts: HashMap<u64, Vec<usize>> = HashMap::default();
+    // (the first bodies of each kind, by their numbers bit for bit)
+    let mut firsts: HashMap<Vec<u64>, Vec<usize>> = HashMap::default();
     for b in (0..nb).filter(|&b| plain(b)) {
         if let Some(si) = m.joints[m.bodies[b].joint].scene_index {
             if last_joint.is_some_and(|l| l >= si) {
@@ -93,7 +96,7 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
             }
             last_shape = Some(last);
         }
-        let kind = firsts.entry(m.bodies[b].mass.to_bits()).or_default();
+        let kind = firsts.entry(kind_bits(index, m, &rank, b)).or_default();
         let first = match kind.iter().copied().find(|&a| same_part(index, m, plan, &rank, a, b)) {
             Some(a) => a,
             None => {
@@ -104,6 +107,45 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
         alike[b] = Some(first);
     }
     alike
+}
+
+/// The numbers of body `b` that tell kinds of bodies apart, bit for bit (so that alike bodies
+/// have the same, and a body is compared with few others): its mass and inertia, and per
+/// group shape the ground shapes listed before it, its group, centre, bound, radius and
+/// materials, and its reach (every group shape present, whatever its lists hold).
+fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: usize) -> Vec<u64> {
+    let body = &m.bodies[b];
+    let mut bits = vec![body.mass.to_bits()];
+    bits.extend(body.inertia.iter().map(|x| x.to_bits()));
+    let g = &m.groups;
+    let material = |bits: &mut Vec<u64>, material: &Option<[f64; 2]>| match material {
+        Some(values) => bits.extend([1].into_iter().chain(values.iter().map(|x| x.to_bits()))),
+        None => bits.push(0),
+    };
+    bits.push(index.shapes[b].len() as u64);
+    for &s in &index.shapes[b] {
+        bits.push(rank(s) as u64);
+        if let Some(shape) = g.shapes.get(s) {
+            bits.push(shape.group as u64);
+            bits.extend(shape.center.iter().map(|x| x.to_bits()));
+            match shape.bound {
+                Bound::Ball(r) => bits.extend([0, r.to_bits()]),
+                Bound::Rectangle(u, v) => {
+                    bits.extend([1].into_iter().chain(u.iter().chain(v.iter()).map(|x| x.to_bits())))
+                }
+            }
+        }
+        if let Some(side) = g.sphere_sides.get(s) {
+            bits.push(side.radius.to_bits());
+            material(&mut bits, &side.material);
+        }
+        if let Some(side) = g.other_sides.get(s) {
+            bits.push(side.bound_radius.to_bits());
+            material(&mut bits, &side.material);
+        }
+    }
+    bits.extend(g.reach.get(b).map(|x| x.to_bits()));
+    bits
 }
 
 /// Whether the plain bodies `a` and `b` bring the same to an island's model: everything the
