@@ -135,16 +135,14 @@ impl SceneIndex {
 }
 
 /// The tree joint that the input `g` of the model `m` drives, if it is a `joint_motion` (its
-/// drive holds the input's first value).
+/// drive holds the input's first value; its degree of freedom is the joint's).
 pub(super) fn driven_joint(m: &Model, g: usize) -> Option<usize> {
     if !matches!(m.inputs.get(g), Some(Input::JointMotion)) {
         return None;
     }
     let value = *m.input_value.get(g)?;
     let drive = m.drives.iter().find(|d| d.value == value)?;
-    m.joints
-        .iter()
-        .position(|j| j.qpos == drive.qpos && j.qvel == drive.qvel && j.nv() > 0)
+    m.dof_joint.get(drive.qvel).copied()
 }
 
 /// The islands of a model: the bodies of each, in scene order, the islands ordered by their

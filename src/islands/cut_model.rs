@@ -35,8 +35,9 @@ pub(super) struct ModelCutter {
     /// the island holds whole: its trees, and the loops, springs, contacts and group shapes
     /// that name its bodies).
     plan: Plan,
-    /// Scratch: per scene body its island index, per scene group its island index, the
-    /// island's tree joints, and its scene joints, inputs and springs.
+    /// Scratch: per scene body its island index and per scene group its island index (both
+    /// `usize::MAX` outside a cut), the island's tree joints, and its scene joints, inputs and
+    /// springs.
     local_body: Vec<usize>,
     local_group: Vec<usize>,
     tree_joints: Vec<usize>,
@@ -387,6 +388,10 @@ impl ModelCutter {
         names.truncate(SPARE_NAMES);
         qvels.truncate(SPARE_NAMES);
         numbering(m, joint_coords, bodies, inputs, out, own);
+        // (left as it came: a body not of the island has no island index)
+        for &b in bodies {
+            self.local_body[b] = usize::MAX;
+        }
     }
 }
 
@@ -509,9 +514,11 @@ mod tests {
     fn assert_same(src: &Source, is: &mut Islands, m: &Model, key: &Part) {
         let (bodies, candidates) = key;
         let cut = fresh_cut(is, m, bodies);
-        let oracle = compile_cut_scene(src, &is.params, &is.cutter.index, m, &is.joint_coords, bodies).unwrap();
+        // (the oracle reads the scene itself: its index too)
+        let index = SceneIndex::of(src.scene);
+        let oracle = compile_cut_scene(src, &is.params, &index, m, &is.joint_coords, bodies).unwrap();
         assert_same_part(&cut, &oracle, bodies);
-        let part = super::super::cut::cut(src.scene, &is.params, &is.cutter.index, bodies, candidates);
+        let part = super::super::cut::cut(src.scene, &is.params, &index, bodies, candidates);
         let with = compile_model(&part.scene, &part.params, src.origin, Some(&part.candidates)).unwrap();
         let mut data = Data::new(&cut.model);
         set_candidates(&cut.model, &mut data, &part.candidates).unwrap();

@@ -223,6 +223,11 @@ impl Scene {
         for i in &self.input {
             let item = item_name("input", &i.name);
             unique(&item, &i.name)?;
+            // (the first given of two fields the input's type does not use is refused)
+            let unused = |given: [(&str, bool); 2], why: &str| match given.iter().find(|(_, g)| *g) {
+                Some((field, _)) => Err(err(item.clone(), field, why.into())),
+                None => Ok(()),
+            };
             if let Some(d) = i.direction {
                 direction(origin, &item, "direction", d)?;
             }
@@ -237,6 +242,10 @@ impl Scene {
                     if i.direction.is_none() {
                         return Err(err(item, "direction", "required for force and torque inputs".into()));
                     }
+                    unused(
+                        [("joint", i.joint.is_some()), ("joints", i.joints.is_some())],
+                        "not used by a force or torque input (it acts on its body)",
+                    )?;
                 }
                 InputType::JointMotion => {
                     if i.joints.is_some() {
@@ -274,14 +283,10 @@ impl Scene {
                             format!("joint {} is already driven by input {}", quote(jn), quote(&other.name)),
                         ));
                     }
-                    if i.body.is_some() || i.direction.is_some() {
-                        let field = if i.body.is_some() { "body" } else { "direction" };
-                        return Err(err(
-                            item,
-                            field,
-                            "not used by a joint_motion input (it drives its joint)".into(),
-                        ));
-                    }
+                    unused(
+                        [("body", i.body.is_some()), ("direction", i.direction.is_some())],
+                        "not used by a joint_motion input (it drives its joint)",
+                    )?;
                     if i.start != 0.0 {
                         return Err(err(
                             item,
@@ -301,6 +306,10 @@ impl Scene {
                         }
                         _ => return Err(err(item, "joint", "required for joint_force inputs (or joints)".into())),
                     };
+                    unused(
+                        [("body", i.body.is_some()), ("direction", i.direction.is_some())],
+                        "not used by a joint_force input (it acts on its joints)",
+                    )?;
                     let field = if i.joint.is_some() { "joint" } else { "joints" };
                     let mut kinds = names.iter().filter_map(|n| joints.get(n.as_str()).map(|j| j.kind));
                     if let Some(first) = kinds.next() {
