@@ -6,7 +6,7 @@
 //! one integrator (`solver.islands = false`). Reports the run time per simulated second
 //! (setup excluded; wall clock, median of the repeats), the deterministic counters, the
 //! islands (how many at the end, the largest, rounds, candidate-list rebuilds, islands
-//! compiled) and the fitted exponent of the run time against N.
+//! formed and the models cut for them) and the fitted exponent of the run time against N.
 
 use super::scaling::loglog_slope;
 use super::{f, scenes, setup, step_through, time_runs, Csv, RunSpec};
@@ -71,6 +71,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         "rounds",
         "rebuilds",
         "islands_compiled",
+        "models_cut",
         "former_seconds_per_simulated_second",
         "one_integrator_seconds_per_simulated_second",
         "speedup_over_former",
@@ -81,7 +82,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         println!("(the islands on {} threads; 0: as many as the machine has)", s.threads);
     }
     println!(
-        "{:>6} {:>12} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>11} {:>9}",
+        "{:>6} {:>12} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>6} {:>12} {:>12} {:>11} {:>9}",
         "N",
         "s per sim s",
         "steps",
@@ -92,6 +93,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         "rounds",
         "rebuilds",
         "compiled",
+        "cut",
         "former",
         "one integr.",
         "over former",
@@ -115,7 +117,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         }
         let islands = sim.islands();
         let largest = islands.iter().map(|i| i.bodies.len()).max().unwrap_or(0);
-        let (rounds, compiled) = sim.island_diagnostics();
+        let (rounds, compiled, cut) = sim.island_diagnostics();
         let rebuilds = sim.candidate_refreshes();
         let (former, one) = if n <= s.compare_max {
             let t0 = Instant::now();
@@ -137,7 +139,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
         let over_one = one.map(|x| x / per_sim);
         let opt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.3}"));
         println!(
-            "{:>6} {:>12.3} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>12} {:>12} {:>11} {:>9}",
+            "{:>6} {:>12.3} {:>8} {:>9} {:>7} {:>8} {:>8} {:>7} {:>8} {:>9} {:>6} {:>12} {:>12} {:>11} {:>9}",
             n,
             per_sim,
             c.steps,
@@ -148,6 +150,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             rounds,
             rebuilds,
             compiled,
+            cut,
             opt(former),
             opt(one),
             speedup.map_or("-".to_string(), |v| format!("{v:.1}x")),
@@ -165,6 +168,7 @@ pub fn run(ns: &[usize], s: &Settings, csv_path: &Path) -> Result<(), String> {
             rounds.to_string(),
             rebuilds.to_string(),
             compiled.to_string(),
+            cut.to_string(),
             optf(former),
             optf(one),
             optf(speedup),

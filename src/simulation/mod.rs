@@ -188,10 +188,11 @@ impl Simulation {
         self.refreshes + islands.map_or(0, |is| is.rebuilds)
     }
 
-    /// Diagnostics of the islands: (rounds, islands compiled).
-    pub fn island_diagnostics(&self) -> (u64, u64) {
+    /// Diagnostics of the islands: (rounds, islands formed, models cut for them: the others
+    /// took a model from the pool, shared with islands of alike bodies).
+    pub fn island_diagnostics(&self) -> (u64, u64, u64) {
         let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
-        islands.map_or((0, 0), |is| (is.rounds, is.compiled))
+        islands.map_or((0, 0, 0), |is| (is.rounds, is.compiled, is.compiled - is.pooled))
     }
 
     /// The independent islands the scene runs as (empty when it runs as one: a single
