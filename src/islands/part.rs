@@ -5,6 +5,7 @@
 use super::cut::SceneIndex;
 use crate::compile::Parameters;
 use crate::model::compiled::NOT_FREE;
+use crate::model::contact::{OtherSide, Shape, SphereSide};
 use crate::model::groups::Bound;
 use crate::model::{nq_of, nv_of, Body, FreeBody, Model, Plan, TreeJoint};
 use rustc_hash::FxHashMap as HashMap;
@@ -51,10 +52,9 @@ pub(super) fn empty_model(params: &Parameters) -> Model {
 /// shape between its group shapes. Alike bodies differ only in their names, their initial
 /// coordinates (an island's state is the scene's) and their place in the scene, so an island
 /// of plain bodies has the model of the island of the bodies they are alike to, in the same
-/// order: that of its key ([`key_into`]). The numbers of [`kind_bits`] (mass, inertia, the
-/// shapes' centres, bounds, radii and materials) are compared bit for bit, the rest with `==`
-/// (there a −0 and a +0 count as one value: a joint's frame, a plane's normal or a cylinder's
-/// axis given as −0 where another body's has +0). None throughout when the plain bodies' joints or
+/// order: that of its key ([`key_into`]). Every number a cut takes of a plain body is compared
+/// bit for bit ([`kind_bits`]: a −0 is not a +0), and then everything with `==` (the plan's
+/// free body, computed from those numbers, and what holds no number). None throughout when the plain bodies' joints or
 /// shapes are listed in the scene in another order than the bodies (an island's order would
 /// then depend on which bodies it holds).
 pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Option<usize>> {
@@ -109,14 +109,35 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
     alike
 }
 
-/// The numbers of body `b` that tell kinds of bodies apart, bit for bit (so that alike bodies
-/// have the same, and a body is compared with few others): its mass and inertia, and per
-/// group shape the ground shapes listed before it, its group, centre, bound, radius and
-/// materials, and its reach (every group shape present, whatever its lists hold).
+/// The numbers a cut takes of the plain body `b`, bit for bit (so that alike bodies have the
+/// same, and a body is compared with few others): its mass and inertia, its joint's frame,
+/// per group shape the ground shapes listed before it, its group, centre, bound and both its
+/// sides (sphere, other shape, materials), and its reach.
 fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: usize) -> Vec<u64> {
     let body = &m.bodies[b];
     let mut bits = vec![body.mass.to_bits()];
     bits.extend(body.inertia.iter().map(|x| x.to_bits()));
+    let reals = |bits: &mut Vec<u64>, values: &[f64]| bits.extend(values.iter().map(|x| x.to_bits()));
+    // the joint's frame (every field named: a new one must be placed here or left out here)
+    let TreeJoint {
+        name: _,
+        kind: _,
+        scene_index: _,
+        parent: _,
+        child: _,
+        qpos: _,
+        qvel: _,
+        axis,
+        anchor,
+        offset,
+        rot0,
+        q0: _,
+        tree: _,
+    } = &m.joints[body.joint];
+    for v in [axis, anchor, offset] {
+        reals(&mut bits, v.as_slice());
+    }
+    reals(&mut bits, rot0.coords.as_slice());
     let g = &m.groups;
     let material = |bits: &mut Vec<u64>, material: &Option<[f64; 2]>| match material {
         Some(values) => bits.extend([1].into_iter().chain(values.iter().map(|x| x.to_bits()))),
@@ -135,17 +156,73 @@ fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: us
                 }
             }
         }
-        if let Some(side) = g.sphere_sides.get(s) {
-            bits.push(side.radius.to_bits());
-            material(&mut bits, &side.material);
+        if let Some(SphereSide {
+            body: _,
+            center,
+            radius,
+            material: values,
+        }) = g.sphere_sides.get(s)
+        {
+            reals(&mut bits, center.as_slice());
+            bits.push(radius.to_bits());
+            material(&mut bits, values);
         }
-        if let Some(side) = g.other_sides.get(s) {
-            bits.push(side.bound_radius.to_bits());
-            material(&mut bits, &side.material);
+        if let Some(OtherSide {
+            body: _,
+            kind: _,
+            shape,
+            bound_radius,
+            material: values,
+        }) = g.other_sides.get(s)
+        {
+            shape_bits(&mut bits, shape);
+            bits.push(bound_radius.to_bits());
+            material(&mut bits, values);
         }
     }
     bits.extend(g.reach.get(b).map(|x| x.to_bits()));
     bits
+}
+
+/// Appends the numbers of `shape`, bit for bit.
+fn shape_bits(bits: &mut Vec<u64>, shape: &Shape) {
+    let mut reals = |values: &[f64]| bits.extend(values.iter().map(|x| x.to_bits()));
+    match shape {
+        Shape::Sphere { center, radius } => {
+            reals(&[0.0]);
+            reals(center.as_slice());
+            reals(&[*radius]);
+        }
+        Shape::Plane {
+            origin,
+            normal,
+            u,
+            v,
+            half,
+        } => {
+            reals(&[1.0]);
+            for w in [origin, normal, u, v] {
+                reals(w.as_slice());
+            }
+            reals(half);
+        }
+        Shape::Cylinder {
+            point: on_axis,
+            axis: along,
+            reference: theta_zero,
+            radius: rho,
+            half_length: half,
+            theta_range: range,
+            inside: _,
+        } => {
+            reals(&[2.0]);
+            for w in [on_axis, along, theta_zero] {
+                reals(w.as_slice());
+            }
+            reals(&[*rho, *half]);
+            reals(range.as_ref().map_or(&[][..], |r| &r[..]));
+        }
+    }
 }
 
 /// Whether the plain bodies `a` and `b` bring the same to an island's model: everything the
