@@ -6,7 +6,7 @@ use super::cut::SceneIndex;
 use crate::compile::Parameters;
 use crate::model::compiled::NOT_FREE;
 use crate::model::contact::{OtherSide, Shape, SphereSide};
-use crate::model::groups::Bound;
+use crate::model::groups::{Bound, GroupShape};
 use crate::model::{nq_of, nv_of, Body, FreeBody, Model, Plan, TreeJoint};
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
@@ -52,9 +52,9 @@ pub(super) fn empty_model(params: &Parameters) -> Model {
 /// shape between its group shapes. Alike bodies differ only in their names, their initial
 /// coordinates (an island's state is the scene's) and their place in the scene, so an island
 /// of plain bodies has the model of the island of the bodies they are alike to, in the same
-/// order: that of its key ([`key_into`]). Every number a cut takes of a plain body is compared
-/// bit for bit ([`kind_bits`]: a −0 is not a +0), and then everything with `==` (the plan's
-/// free body, computed from those numbers, and what holds no number). None throughout when the plain bodies' joints or
+/// order: that of its key ([`key_into`]). Everything a cut takes of a plain body is compared
+/// bit for bit ([`kind_bits`]: a −0 is not a +0), and what the plan computed from it with
+/// `==` ([`same_plan`]). None throughout when the plain bodies' joints or
 /// shapes are listed in the scene in another order than the bodies (an island's order would
 /// then depend on which bodies it holds).
 pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Option<usize>> {
@@ -97,7 +97,7 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
             last_shape = Some(last);
         }
         let kind = firsts.entry(kind_bits(index, m, &rank, b)).or_default();
-        let first = match kind.iter().copied().find(|&a| same_part(index, m, plan, &rank, a, b)) {
+        let first = match kind.iter().copied().find(|&a| same_plan(m, plan, a, b)) {
             Some(a) => a,
             None => {
                 kind.push(b);
@@ -109,20 +109,26 @@ pub(super) fn alike_bodies(index: &SceneIndex, m: &Model, plan: &Plan) -> Vec<Op
     alike
 }
 
-/// The numbers a cut takes of the plain body `b`, bit for bit (so that alike bodies have the
-/// same, and a body is compared with few others): its mass and inertia, its joint's frame,
+/// What a cut takes of the plain body `b` but its names, numbers and initial coordinates, bit
+/// for bit (alike bodies have the same): its mass and inertia, its joint's type and frame,
 /// per group shape the ground shapes listed before it, its group, centre, bound and both its
 /// sides (sphere, other shape, materials), and its reach.
 fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: usize) -> Vec<u64> {
-    let body = &m.bodies[b];
-    let mut bits = vec![body.mass.to_bits()];
-    bits.extend(body.inertia.iter().map(|x| x.to_bits()));
+    // (every field named: a new one must be placed here or left out here)
+    let Body {
+        name: _,
+        mass,
+        inertia,
+        joint,
+    } = &m.bodies[b];
+    let mut bits = vec![mass.to_bits()];
     let reals = |bits: &mut Vec<u64>, values: &[f64]| bits.extend(values.iter().map(|x| x.to_bits()));
-    // the joint's frame (every field named: a new one must be placed here or left out here)
+    reals(&mut bits, inertia.as_slice());
     let TreeJoint {
         name: _,
-        kind: _,
-        scene_index: _,
+        kind,
+        scene_index,
+        // (none: the body is plain)
         parent: _,
         child: _,
         qpos: _,
@@ -133,7 +139,8 @@ fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: us
         rot0,
         q0: _,
         tree: _,
-    } = &m.joints[body.joint];
+    } = &m.joints[*joint];
+    bits.extend([*kind as u64, u64::from(scene_index.is_some())]);
     for v in [axis, anchor, offset] {
         reals(&mut bits, v.as_slice());
     }
@@ -146,10 +153,16 @@ fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: us
     bits.push(index.shapes[b].len() as u64);
     for &s in &index.shapes[b] {
         bits.push(rank(s) as u64);
-        if let Some(shape) = g.shapes.get(s) {
-            bits.push(shape.group as u64);
-            bits.extend(shape.center.iter().map(|x| x.to_bits()));
-            match shape.bound {
+        if let Some(GroupShape {
+            body: _,
+            group,
+            center,
+            bound,
+        }) = g.shapes.get(s)
+        {
+            bits.push(*group as u64);
+            reals(&mut bits, center.as_slice());
+            match *bound {
                 Bound::Ball(r) => bits.extend([0, r.to_bits()]),
                 Bound::Rectangle(u, v) => {
                     bits.extend([1].into_iter().chain(u.iter().chain(v.iter()).map(|x| x.to_bits())))
@@ -169,18 +182,20 @@ fn kind_bits(index: &SceneIndex, m: &Model, rank: &dyn Fn(usize) -> usize, b: us
         }
         if let Some(OtherSide {
             body: _,
-            kind: _,
+            kind,
             shape,
             bound_radius,
             material: values,
         }) = g.other_sides.get(s)
         {
+            bits.push(*kind as u64);
             shape_bits(&mut bits, shape);
             bits.push(bound_radius.to_bits());
             material(&mut bits, values);
         }
     }
     bits.extend(g.reach.get(b).map(|x| x.to_bits()));
+    bits.extend(g.has_shape.get(b).map(|&h| u64::from(h)));
     bits
 }
 
@@ -213,39 +228,25 @@ fn shape_bits(bits: &mut Vec<u64>, shape: &Shape) {
             radius: rho,
             half_length: half,
             theta_range: range,
-            inside: _,
+            inside,
         } => {
-            reals(&[2.0]);
+            reals(&[2.0, f64::from(u8::from(*inside))]);
             for w in [on_axis, along, theta_zero] {
                 reals(w.as_slice());
             }
             reals(&[*rho, *half]);
-            reals(range.as_ref().map_or(&[][..], |r| &r[..]));
+            match range {
+                Some(r) => reals(&[1.0, r[0], r[1]]),
+                None => reals(&[0.0]),
+            }
         }
     }
 }
 
-/// Whether the plain bodies `a` and `b` bring the same to an island's model: everything the
-/// cut takes of them but their names, numbers and initial coordinates.
-fn same_part(index: &SceneIndex, m: &Model, plan: &Plan, rank: &dyn Fn(usize) -> usize, a: usize, b: usize) -> bool {
-    let body = |x: usize| Body {
-        name: String::new(),
-        joint: 0,
-        ..m.bodies[x].clone()
-    };
-    let joint = |x: usize| {
-        let j = &m.joints[m.bodies[x].joint];
-        TreeJoint {
-            name: String::new(),
-            scene_index: j.scene_index.map(|_| 0),
-            child: 0,
-            qpos: 0,
-            qvel: 0,
-            tree: 0,
-            q0: [0.0; 7],
-            ..j.clone()
-        }
-    };
+/// Whether the plain bodies `a` and `b`, of the same [`kind_bits`], have the same entries in
+/// the plan (computed from those numbers): their free body, rotor, constant row and leaves,
+/// and their joints' dof parents.
+fn same_plan(m: &Model, plan: &Plan, a: usize, b: usize) -> bool {
     let free = |x: usize| FreeBody {
         body: 0,
         qpos: 0,
@@ -254,37 +255,11 @@ fn same_part(index: &SceneIndex, m: &Model, plan: &Plan, rank: &dyn Fn(usize) ->
     };
     let (ta, tb) = (m.bodies[a].joint, m.bodies[b].joint);
     let (ja, jb) = (&m.joints[ta], &m.joints[tb]);
-    let g = &m.groups;
-    let same_shape = |sa: usize, sb: usize| {
-        rank(sa) == rank(sb)
-            && g.shapes.get(sa).map(|s| (s.group, s.center, s.bound))
-                == g.shapes.get(sb).map(|s| (s.group, s.center, s.bound))
-            && g.sphere_sides
-                .get(sa)
-                .map(|s| crate::model::contact::SphereSide { body: None, ..*s })
-                == g.sphere_sides
-                    .get(sb)
-                    .map(|s| crate::model::contact::SphereSide { body: None, ..*s })
-            && g.other_sides.get(sa).map(|s| crate::model::contact::OtherSide {
-                body: None,
-                ..s.clone()
-            }) == g.other_sides.get(sb).map(|s| crate::model::contact::OtherSide {
-                body: None,
-                ..s.clone()
-            })
-    };
-    let (sa, sb) = (&index.shapes[a], &index.shapes[b]);
-    body(a) == body(b)
-        && joint(a) == joint(b)
-        && free(a) == free(b)
+    free(a) == free(b)
         && plan.rotors[ta] == plan.rotors[tb]
         && plan.constant_row[ta] == plan.constant_row[tb]
         && plan.leaves[ja.tree] == plan.leaves[jb.tree]
         && m.dof_parent[ja.qvel..ja.qvel + ja.nv()] == m.dof_parent[jb.qvel..jb.qvel + jb.nv()]
-        && g.reach.get(a) == g.reach.get(b)
-        && g.has_shape.get(a) == g.has_shape.get(b)
-        && sa.len() == sb.len()
-        && sa.iter().zip(sb).all(|(&x, &y)| same_shape(x, y))
 }
 
 /// Writes into `key` what the model of the island of `bodies` (sorted) is cut for: the bodies
