@@ -26,13 +26,10 @@ pub struct Snapshot {
     pub initialized: bool,
     /// The state ([`crate::model::state::FULL`]; empty when not initialised).
     pub state: Vec<f64>,
-    /// The independent islands' own states ([`crate::islands::Islands::save`]; empty when
-    /// the scene runs as one).
-    pub islands: Vec<f64>,
 }
 
 const MAGIC: &[u8; 8] = b"CFMUSTAT";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8;
 const SECTION_HEADER_LEN: usize = 4 + 4 + 8;
 
@@ -41,8 +38,6 @@ const HOST: u32 = 1;
 const VALUES: u32 = 2;
 const FLAGS: u32 = 3;
 const STATE: u32 = 4;
-/// (optional: written only when the scene runs as islands)
-const ISLANDS: u32 = 5;
 
 /// FNV-1a, 64 bits.
 fn checksum(bytes: &[u8]) -> u64 {
@@ -58,15 +53,12 @@ impl Snapshot {
     /// The bytes, tagged with `model_hash` (a state only restores into the same model).
     pub fn to_bytes(&self, model_hash: u64) -> Vec<u8> {
         let flags = [self.initialized as u8 as f64];
-        let mut sections: Vec<(u32, &[f64])> = vec![
+        let sections: [(u32, &[f64]); 4] = [
             (HOST, &self.host),
             (VALUES, &self.values),
             (FLAGS, &flags),
             (STATE, &self.state),
         ];
-        if !self.islands.is_empty() {
-            sections.push((ISLANDS, &self.islands));
-        }
         let numbers: usize = sections.iter().map(|(_, s)| s.len()).sum();
         let mut b = Vec::with_capacity(HEADER_LEN + sections.len() * SECTION_HEADER_LEN + 8 * numbers + 8);
         b.extend_from_slice(MAGIC);
@@ -125,7 +117,6 @@ impl Snapshot {
             values: Vec::new(),
             initialized: false,
             state: Vec::new(),
-            islands: Vec::new(),
         };
         let mut seen = 0u32;
         for _ in 0..nsections {
@@ -152,12 +143,11 @@ impl Snapshot {
                     s.initialized = flag == 1.0;
                 }
                 STATE => s.state = values,
-                ISLANDS => s.islands = values,
                 _ => return Err(format!("serialized state: unknown section {tag}")),
             }
             seen |= 1 << tag;
         }
-        if seen & !(1 << ISLANDS) != (1 << HOST) | (1 << VALUES) | (1 << FLAGS) | (1 << STATE) {
+        if seen != (1 << HOST) | (1 << VALUES) | (1 << FLAGS) | (1 << STATE) {
             return Err("serialized state lacks a section".into());
         }
         if r.pos != body.len() {
@@ -206,7 +196,6 @@ mod tests {
             values: vec![1.5, -2.0, 3.25],
             initialized: true,
             state: vec![0.1, 0.2, f64::MIN_POSITIVE],
-            islands: Vec::new(),
         }
     }
 

@@ -119,7 +119,6 @@ mod tests {
                 values: vec![1.0, -2.5, 1e-300],
                 initialized: true,
                 state: vec![0.1, f64::MIN_POSITIVE, -0.0],
-                islands: Vec::new(),
             },
         )
     }

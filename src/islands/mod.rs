@@ -29,8 +29,9 @@
 //!
 //! The scene's own model and data (held by [`crate::simulation`]) receive the gathered state
 //! at the communication points ([`Islands::gather`]): every output, energy and saved state
-//! reads them as before. A saved state adds each island's whole state ([`Islands::save`]), so
-//! a restored simulation continues bit for bit.
+//! reads them as before. A saved state holds what the islands hold beyond the scene's state
+//! (their integrators, counters, energies and partition: the state's islands part, gathered by
+//! [`Islands::record`]), so a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
 use crate::contact::elements::{contact_name, set_candidates};

@@ -1,51 +1,65 @@
-//! The islands' own part of a saved state (declared in [`crate::model::island_state`]): the
-//! counters, energies and rebuilds not held by an island, the end of the present round, the
-//! candidate pairs, and per island its bodies and whole state.
+//! The islands' part of a saved state ([`crate::model::island_state`], in the scene's data):
+//! gathered from the islands when the state is saved, and the islands built from it and the
+//! scene's state when it is restored.
 
+use super::carry::Memory;
 use super::{candidate_body, Islands, Members};
 use crate::compile::Parameters;
 use crate::engine;
-use crate::model::groups::Candidate;
-use crate::model::island_state::{self, IslandsHead};
-use crate::model::{state, Data, Model};
+use crate::model::island_state::{IslandsHead, ENERGIES};
+use crate::model::state::{self, ISLAND_OWN};
+use crate::model::{Data, Model};
 
 impl Islands {
-    /// Appends the islands' own part ([`island_state::get`]).
-    pub fn save(&self, out: &mut Vec<f64>) {
-        let head = IslandsHead {
+    /// Gathers what the islands hold beyond the scene's state into the scene's data `d`
+    /// (`Data::islands`): the counters, energies and rebuilds not held by an island, the
+    /// round's end, the candidate pairs with the contacts' memory, each body's island, and per
+    /// island its energies, inputs, counters and integrator.
+    pub fn record(&self, m: &Model, d: &mut Data) {
+        let memory = self.memory_of_islands(m);
+        let s = &mut d.islands;
+        s.clear();
+        s.count = self.parts.len();
+        s.head = IslandsHead {
             retired: self.retired,
             dissipated_base: self.dissipated_base,
             input_work_base: self.input_work_base,
             rebuilds: self.rebuilds,
             round_end: self.round_end,
         };
-        let bodies = self.parts.iter().map(|island| &island.bodies[..]);
-        island_state::get(
-            &head,
-            &self.candidates,
-            bodies,
-            |k, out| state::get(&self.parts[k].model, &self.parts[k].data, state::FULL, out),
-            out,
-        );
+        s.candidates.extend_from_slice(&self.candidates);
+        s.memory.extend(memory.explicit);
+        s.memory.extend(memory.candidates);
+        s.island_of.extend_from_slice(&self.island_of);
+        for island in &self.parts {
+            s.record_at.push(s.records.len());
+            s.records.extend([island.dissipated(), island.input_work()]);
+            state::get(&island.model, &island.data, ISLAND_OWN, &mut s.records);
+        }
+        s.record_at.push(s.records.len());
     }
 
-    /// The islands saved by [`Islands::save`], for the scene's model `m` and data `d` (both
-    /// restored from the same saved state). Anything that does not fit is refused.
-    pub fn load(params: Parameters, m: &Model, d: &Data, v: &[f64]) -> Result<Islands, String> {
-        let (head, candidates, saved) = island_state::set(m, d.time, v)?;
+    /// The islands of the scene's model `m` and data `d` as [`Islands::record`] left them in
+    /// `d.islands` (a restored state: its coordinates, inputs and reference poses are the
+    /// islands'). What does not fit the islands' models is refused.
+    pub fn load(params: Parameters, m: &Model, d: &Data) -> Result<Islands, String> {
+        let saved = &d.islands;
         let mut is = Islands::bare(params, m, d);
-        is.candidates = candidates;
-        // (the memory by the islands' list; each island's saved state then sets its own)
-        let memory = is.memory_of_scene(m, d);
+        is.candidates.clone_from(&saved.candidates);
+        let n = m.groups.n_explicit;
+        let memory = Memory {
+            explicit: saved.memory[..n].to_vec(),
+            candidates: saved.memory[n..].to_vec(),
+        };
+        // (the memory is by the islands' own list)
         let same: Vec<usize> = (0..is.candidates.len()).collect();
-        let mut parts = Vec::with_capacity(saved.len());
-        for island in saved {
-            let bodies = island.bodies;
-            let (candidates, listed): (Vec<Candidate>, Vec<usize>) = is
+        let mut parts = Vec::with_capacity(saved.count);
+        for (k, bodies) in saved.bodies().into_iter().enumerate() {
+            let (candidates, listed) = is
                 .candidates
                 .iter()
                 .enumerate()
-                .filter(|(_, c)| candidate_body(m, c).is_some_and(|b| bodies.binary_search(&b).is_ok()))
+                .filter(|(_, c)| candidate_body(m, c).is_some_and(|b| saved.island_of[b] == k))
                 .map(|(i, c)| (*c, i))
                 .unzip();
             let members = Members {
@@ -56,21 +70,23 @@ impl Islands {
             let mut built = is
                 .compile_island(m, d, members, &memory, &same)
                 .map_err(|e| e.message)?;
-            if state::group_candidates(&built.model, island.state).as_ref() != Some(&built.data.candidates)
-                && built.model.groups.is_active()
-            {
-                return Err("saved islands: an island's candidate pairs are not the scene's".into());
+            let (energies, own) = saved.record(k).split_at(ENERGIES);
+            let (im, id) = (&built.model, &mut built.data);
+            id.state[im.dissipated_index()] = energies[0];
+            match im.input_work_index() {
+                Some(i) => id.state[i] = energies[1],
+                None if energies[1] != 0.0 => {
+                    return Err(format!("saved islands: island {k} holds input work, it has no inputs"));
+                }
+                None => {}
             }
-            state::set(&built.model, &mut built.data, state::FULL, island.state)?;
-            engine::resync(&built.model, &mut built.data);
+            state::set(im, id, ISLAND_OWN, own).map_err(|e| format!("saved islands: island {k}: {e}"))?;
+            engine::resync(im, id);
             parts.push(built);
         }
-        for (k, island) in parts.iter().enumerate() {
-            for &b in &island.bodies {
-                is.island_of[b] = k;
-            }
-        }
+        is.island_of.clone_from(&saved.island_of);
         is.parts = parts;
+        let head = saved.head;
         is.retired = head.retired;
         is.dissipated_base = head.dissipated_base;
         is.input_work_base = head.input_work_base;

@@ -326,3 +326,41 @@ fn bodies_that_differ_in_the_sign_of_a_zero_are_not_alike() {
         "{alike:?}"
     );
 }
+
+/// Islands built from their part of a saved state (gathered into the scene's data, written and
+/// read through the state spec with the scene's whole state, and set into a data compiled
+/// anew) hold every island's whole state as the islands that saved it, bit for bit, and go on
+/// as they do: 64 spinning spheres saved at 0.02 s and the bundled pile at 0.15 s (islands
+/// with candidate pairs, contact memory and events behind them), both advanced 0.02 s further.
+#[test]
+fn islands_restored_from_their_saved_part_hold_their_whole_states() {
+    let pile = Scene::from_file(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/pile_of_balls/scene.toml"))
+        .unwrap();
+    for (scene, t) in [(spinning_spheres(), 0.02), (pile, 0.15)] {
+        on_scene(&scene, "restore test", |m, d, is| {
+            is.advance(m, d, t, false).unwrap();
+            is.gather(m, d);
+            is.record(m, d);
+            let mut saved = Vec::new();
+            state::get(m, d, state::FULL, &mut saved);
+            d.islands.clear();
+            let (m2, mut d2) = compile(&scene, "restore test").unwrap();
+            if let Some(found) = state::group_candidates(&m2, &saved) {
+                crate::contact::elements::set_candidates(&m2, &mut d2, &found).unwrap();
+            }
+            state::set(&m2, &mut d2, state::FULL, &saved).unwrap();
+            crate::engine::resync(&m2, &mut d2);
+            let mut restored = Islands::load(Parameters::of_scene(&scene), &m2, &d2).unwrap();
+            assert!(restored.parts.len() > 1, "{} islands", restored.parts.len());
+            assert_eq!(snapshot(is, m, d), snapshot(&mut restored, &m2, &mut d2), "at {t} s");
+            is.advance(m, d, t + 0.02, false).unwrap();
+            restored.advance(&m2, &mut d2, t + 0.02, false).unwrap();
+            assert_eq!(
+                snapshot(is, m, d),
+                snapshot(&mut restored, &m2, &mut d2),
+                "at {} s",
+                t + 0.02
+            );
+        });
+    }
+}

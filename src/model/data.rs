@@ -8,6 +8,7 @@ use crate::integrator::second_order::SecondOrder;
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
 use crate::model::groups::Candidate;
+use crate::model::island_state::IslandsState;
 use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
@@ -258,6 +259,9 @@ pub struct Data {
     pub counters: Counters,
     /// The integrator with its memory.
     pub solver: Solver,
+    /// The islands' own state, gathered when a scene that runs as islands saves its state,
+    /// read when it restores one (empty otherwise: the islands hold it in their own data).
+    pub islands: IslandsState,
     // --- the contact list (the model's at compilation; the broad phase's stage makes it anew) ---
     /// Contact elements: the declared contacts, then one per candidate pair of the contact
     /// groups.
@@ -426,6 +430,7 @@ impl Data {
                 next_h: 0.0,
                 base: Stats::default(),
             },
+            islands: IslandsState::default(),
             clamp_events: true,
             log_peaks: false,
             max_steps: None,
@@ -498,6 +503,7 @@ impl Data {
             nc: rows,
             counters,
             solver,
+            islands,
             clamp_events,
             log_peaks,
             max_steps,
@@ -560,6 +566,7 @@ impl Data {
         filled(contact_memory, ncontacts, ContactMemory::default());
         take_contact_list(model, contacts, candidates, step_rtol_powers, rows);
         *counters = Counters::default();
+        islands.clear();
         let (method, mut start) = match solver.stepper.take() {
             Some(s) => (fresh.renew(s.method, &model.solver, n), s.start),
             None => (None, Vec::new()),

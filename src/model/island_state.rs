@@ -1,28 +1,36 @@
-//! The islands' part of a saved state, declared beside the scene's ([`super::state`]): what a
-//! scene that runs as independent islands saves after the scene's whole state, and the checks
-//! a loaded one passes before anything is built from it. The islands (`crate::islands`) only
-//! map their own fields to and from [`IslandsHead`] and each island's whole state (its own
-//! model's [`super::state::FULL`]).
+//! The islands' part of the state (`StatePart::Islands` in [`super::state`]), declared beside the
+//! scene's other parts: the arrays [`IslandsState`] in [`super::Data::islands`] that a scene
+//! running as independent islands saves beyond the scene's own coordinates, inputs, contact
+//! memory and counters. The islands (`crate::islands`) hold their state in their own data while
+//! they run; they gather it into these arrays when the state is saved, and are built from them
+//! (and from the scene's coordinates and reference poses) when it is restored.
 //!
 //! Layout (all `f64`, counts as whole numbers):
 //!
 //! | numbers | contents |
 //! |---|---|
+//! | 1 | the number of islands k (0: the scene runs as one integrator, and nothing follows) |
 //! | 5 | counters of the islands that ended: steps, rejected, RHS and Jacobian evaluations, events |
 //! | 1 | energy dissipated by the islands that ended |
 //! | 1 | input work of the islands that ended |
 //! | 1 | rebuilds of the candidate pairs |
 //! | 1 | end of the present round (not before the state's time) |
-//! | 1 + 3c | the candidate pairs: their number c, then pair, sphere shape and other shape of each |
-//! | 1 | the number of islands k (at most the scene's bodies) |
-//! | per island | its number of bodies b, its bodies (ascending, each body in exactly one island), the length s of its state, its state |
+//! | 1 + 3c | the islands' candidate pairs: their number c, then pair, sphere shape and other shape of each |
+//! | 3 (e + c) | the contact memory of the e declared contacts, then of the c candidate pairs: active flag, δ̇⁻, impact count |
+//! | b | per body of the scene, its island (the islands numbered in the order of their first bodies) |
+//! | per island | the length s of its own state, then its dissipated energy, its input work, and its inputs, counters and integrator (the parts [`super::state::ISLAND_OWN`] of its own model) |
 
+use super::contact::ContactMemory;
 use super::groups::Candidate;
 use super::{Counters, Model};
 use crate::integrator::core::StateReader;
 
+/// Numbers of an island's record before its [`super::state::ISLAND_OWN`] parts: dissipated
+/// energy, input work.
+pub const ENERGIES: usize = 2;
+
 /// The islands' own numbers besides their candidate pairs and their islands.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct IslandsHead {
     /// Counters of the islands that ended.
     pub retired: Counters,
@@ -36,125 +44,187 @@ pub struct IslandsHead {
     pub round_end: f64,
 }
 
-/// One island as saved: its bodies (scene numbering, ascending) and its whole state.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SavedIsland<'a> {
-    /// Its bodies.
-    pub bodies: Vec<usize>,
-    /// Its whole state ([`super::state::FULL`] of its own model).
-    pub state: &'a [f64],
+/// The islands' state as arrays (empty: the scene runs as one integrator, or its islands hold
+/// their state themselves; see the module's documentation).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct IslandsState {
+    /// The number of islands.
+    pub count: usize,
+    /// Counters, energies and rebuilds not held by an island, and the round's end.
+    pub head: IslandsHead,
+    /// The islands' candidate pairs (the scene's shape numbering), sorted as the broad phase
+    /// found them.
+    pub candidates: Vec<Candidate>,
+    /// The contact memory of the declared contacts, then of the candidate pairs.
+    pub memory: Vec<ContactMemory>,
+    /// Per body of the scene, its island.
+    pub island_of: Vec<usize>,
+    /// The islands' records, one after the other: island k's is `records[record_at[k]..record_at[k + 1]]`
+    /// ([`ENERGIES`] numbers, then its [`super::state::ISLAND_OWN`] parts).
+    pub records: Vec<f64>,
+    /// Where each record starts, and the end of the last.
+    pub record_at: Vec<usize>,
 }
 
-/// Appends the islands' part: `head`, the candidate pairs, then per island its bodies and the
-/// state `island_state` appends for it.
-pub fn get<'a>(
-    head: &IslandsHead,
-    candidates: &[Candidate],
-    islands: impl ExactSizeIterator<Item = &'a [usize]>,
-    mut island_state: impl FnMut(usize, &mut Vec<f64>),
-    out: &mut Vec<f64>,
-) {
-    let r = head.retired;
+impl IslandsState {
+    /// No islands.
+    pub fn clear(&mut self) {
+        self.count = 0;
+        self.head = IslandsHead::default();
+        self.candidates.clear();
+        self.memory.clear();
+        self.island_of.clear();
+        self.records.clear();
+        self.record_at.clear();
+    }
+
+    /// Island `k`'s record.
+    pub fn record(&self, k: usize) -> &[f64] {
+        &self.records[self.record_at[k]..self.record_at[k + 1]]
+    }
+
+    /// The bodies of each island, ascending.
+    pub fn bodies(&self) -> Vec<Vec<usize>> {
+        let mut bodies = vec![Vec::new(); self.count];
+        for (b, &k) in self.island_of.iter().enumerate() {
+            bodies[k].push(b);
+        }
+        bodies
+    }
+}
+
+/// Appends the islands' part of `s` (see the module's documentation).
+pub fn get(s: &IslandsState, out: &mut Vec<f64>) {
+    out.push(s.count as f64);
+    if s.count == 0 {
+        return;
+    }
+    let (h, r) = (&s.head, s.head.retired);
     out.extend([r.steps, r.rejected, r.rhs_evals, r.jac_evals, r.events].map(|x| x as f64));
-    out.extend([
-        head.dissipated_base,
-        head.input_work_base,
-        head.rebuilds as f64,
-        head.round_end,
-    ]);
-    out.push(candidates.len() as f64);
-    for c in candidates {
+    out.extend([h.dissipated_base, h.input_work_base, h.rebuilds as f64, h.round_end]);
+    out.push(s.candidates.len() as f64);
+    for c in &s.candidates {
         out.extend([c.pair, c.sphere, c.other].map(|x| x as f64));
     }
-    out.push(islands.len() as f64);
-    for (k, bodies) in islands.enumerate() {
-        out.push(bodies.len() as f64);
-        out.extend(bodies.iter().map(|&b| b as f64));
-        let at = out.len();
-        out.push(0.0);
-        island_state(k, out);
-        out[at] = (out.len() - at - 1) as f64;
+    for mem in &s.memory {
+        out.extend([mem.active as u8 as f64, mem.impact_velocity, mem.impacts as f64]);
+    }
+    out.extend(s.island_of.iter().map(|&k| k as f64));
+    for k in 0..s.count {
+        let record = s.record(k);
+        out.push(record.len() as f64);
+        out.extend_from_slice(record);
     }
 }
 
-/// Reads and checks an islands' part written by [`get`] for the scene's model `m` at the
-/// state's time `time`: counts are counts, the round does not end before `time`, the
-/// candidate pairs' numbers are within the model's group pairs and shapes, every island has
-/// bodies and every body is in exactly one island, listed in ascending order. Whether the
-/// candidate pairs are those of the scene's groups, and the islands' own states, are checked
-/// when the islands are built from it and their states set into their models.
-pub fn set<'a>(
-    m: &Model,
-    time: f64,
-    v: &'a [f64],
-) -> Result<(IslandsHead, Vec<Candidate>, Vec<SavedIsland<'a>>), String> {
-    let mut r = StateReader::part(v, "saved islands");
+/// Reads and checks the islands' part at the start of `v` for the scene's model `m` at the
+/// state's time `time`; gives it and the numbers it takes. Checked: counts are counts and
+/// numbers finite, the round does not end before `time`, the candidate pairs' numbers are
+/// within the model's group pairs and shapes, the memory's flags are flags, every body is in
+/// one island and every island has bodies, numbered in the order of their first bodies, and
+/// every record holds its energies. Whether the candidate pairs are those of the scene's
+/// groups, and the islands' own parts, are checked when the islands are built from it.
+pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), String> {
+    let mut r = StateReader::part(v, "the saved islands");
+    let mut s = IslandsState::default();
+    let nb = m.bodies.len();
+    s.count = r.count_to(nb as u64)? as usize;
+    if s.count == 0 {
+        return Ok((s, 1));
+    }
     let mut c = [0u64; 5];
     for x in &mut c {
         *x = r.count()?;
     }
-    let retired = Counters {
-        steps: c[0],
-        rejected: c[1],
-        rhs_evals: c[2],
-        jac_evals: c[3],
-        events: c[4],
+    let head = IslandsHead {
+        retired: Counters {
+            steps: c[0],
+            rejected: c[1],
+            rhs_evals: c[2],
+            jac_evals: c[3],
+            events: c[4],
+        },
+        dissipated_base: finite(r.value()?, "energy dissipated by the islands that ended")?,
+        input_work_base: finite(r.value()?, "input work of the islands that ended")?,
+        rebuilds: r.count()?,
+        round_end: r.value()?,
     };
-    let dissipated_base = r.value()?;
-    let input_work_base = r.value()?;
-    let rebuilds = r.count()?;
-    let round_end = r.value()?;
-    if round_end.is_nan() || round_end < time {
-        return Err(format!("saved islands: round end {round_end} before their time {time}"));
+    if head.round_end.is_nan() || head.round_end < time {
+        return Err(format!(
+            "saved islands: round end {} before their time {time}",
+            head.round_end
+        ));
     }
+    s.head = head;
     let (np, ns) = (m.groups.pair_names.len() as u64, m.groups.shapes.len() as u64);
-    let nc = r.count_to(r.left() as u64)? as usize;
+    let nc = r.count_to(r.left() as u64 / 3)? as usize;
     if nc > 0 && (np == 0 || ns == 0) {
         return Err("saved islands hold candidate pairs, the scene has no contact groups".into());
     }
-    let mut candidates = Vec::with_capacity(nc);
     for _ in 0..nc {
         let pair = r.count_to(np.saturating_sub(1))? as usize;
         let sphere = r.count_to(ns.saturating_sub(1))? as usize;
         let other = r.count_to(ns.saturating_sub(1))? as usize;
-        candidates.push(Candidate { pair, sphere, other });
+        let c = Candidate { pair, sphere, other };
+        let g = &m.groups;
+        if g.pair_groups[pair] != (g.shapes[sphere].group, g.shapes[other].group) {
+            return Err(format!(
+                "saved islands: candidate pair {} is not of its group pair's groups",
+                g.element_name(&c)
+            ));
+        }
+        if s.candidates.last().is_some_and(|l| *l >= c) {
+            return Err("saved islands: the candidate pairs are listed twice or out of order".into());
+        }
+        s.candidates.push(c);
     }
-    let nb = m.bodies.len();
-    let n = r.count_to(nb as u64)? as usize;
-    let mut seen = vec![false; nb];
-    let mut islands = Vec::with_capacity(n);
-    for _ in 0..n {
-        let len = r.count_to(nb as u64)? as usize;
-        if len == 0 {
-            return Err("saved islands: an island without bodies".into());
-        }
-        let mut bodies = Vec::with_capacity(len);
-        for _ in 0..len {
-            let b = r.count_to(nb as u64 - 1)? as usize;
-            if seen[b] || bodies.last().is_some_and(|&l| l >= b) {
-                return Err("saved islands: a body is listed twice or out of order".into());
-            }
-            seen[b] = true;
-            bodies.push(b);
-        }
-        let len = r.count_to(r.left() as u64)? as usize;
-        islands.push(SavedIsland {
-            bodies,
-            state: r.take(len)?,
+    for _ in 0..m.groups.n_explicit + nc {
+        let active = r.flag()?;
+        let impact_velocity = finite(r.value()?, "a contact's δ̇⁻")?;
+        let impacts = r.count()?;
+        s.memory.push(ContactMemory {
+            active,
+            impact_velocity,
+            impacts,
         });
     }
-    r.finish()?;
-    if seen.iter().any(|s| !s) {
-        return Err("saved islands: they do not hold every body once".into());
+    let mut seen = 0;
+    for _ in 0..nb {
+        let k = r.count_to(s.count as u64 - 1)? as usize;
+        if k > seen {
+            return Err(format!(
+                "saved islands: island {k} before island {seen} (they are numbered by their first bodies)"
+            ));
+        }
+        seen = seen.max(k + 1);
+        s.island_of.push(k);
     }
-    let head = IslandsHead {
-        retired,
-        dissipated_base,
-        input_work_base,
-        rebuilds,
-        round_end,
-    };
-    Ok((head, candidates, islands))
+    if seen < s.count {
+        return Err(format!("saved islands: island {seen} has no bodies"));
+    }
+    for _ in 0..s.count {
+        let len = r.count_to(r.left() as u64)? as usize;
+        if len < ENERGIES {
+            return Err(format!("saved islands: a record of {len} numbers holds no energies"));
+        }
+        let record = r.take(len)?;
+        for &x in &record[..ENERGIES] {
+            finite(x, "an island's energy")?;
+        }
+        s.record_at.push(s.records.len());
+        s.records.extend_from_slice(record);
+    }
+    s.record_at.push(s.records.len());
+    Ok((s, v.len() - r.left()))
+}
+
+/// `x`, when it is finite.
+fn finite(x: f64, what: &str) -> Result<f64, String> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("saved islands: {what} = {x} is not finite"))
+    }
 }
 
 #[cfg(test)]
@@ -169,92 +239,111 @@ mod tests {
         compile(&Scene::from_file(&path).unwrap(), "pile_of_balls").unwrap().0
     }
 
-    /// A part of two islands (bodies 0-9 and 10-26), written and read back.
-    fn written(head: &IslandsHead, candidates: &[Candidate]) -> Vec<f64> {
-        let islands: [Vec<usize>; 2] = [(0..10).collect(), (10..27).collect()];
-        let mut out = Vec::new();
-        get(
-            head,
+    /// Two islands (bodies 0-9 and 10-26) with two of the pile's candidate pairs.
+    fn two_islands(m: &Model) -> IslandsState {
+        // (ball_ball: the first ball and the last; ball_box: the first ball and the last wall)
+        let g = &m.groups;
+        let candidates: Vec<Candidate> = (0..2)
+            .map(|pair| {
+                let (a, b) = g.pair_groups[pair];
+                Candidate {
+                    pair,
+                    sphere: g.shapes.iter().position(|s| s.group == a).unwrap(),
+                    other: g.shapes.iter().rposition(|s| s.group == b).unwrap(),
+                }
+            })
+            .collect();
+        let memory = (0..m.groups.n_explicit + 2)
+            .map(|k| ContactMemory {
+                active: k % 2 == 1,
+                impact_velocity: -0.25 * k as f64,
+                impacts: k as u64,
+            })
+            .collect();
+        IslandsState {
+            count: 2,
+            head: IslandsHead {
+                retired: Counters {
+                    steps: 7,
+                    rejected: 1,
+                    rhs_evals: 50,
+                    jac_evals: 2,
+                    events: 3,
+                },
+                dissipated_base: 0.25,
+                input_work_base: -1.5,
+                rebuilds: 4,
+                round_end: 0.125,
+            },
             candidates,
-            islands.iter().map(|b| &b[..]),
-            |k, out| out.extend(std::iter::repeat_n(k as f64 + 0.5, 3 + k)),
-            &mut out,
-        );
-        out
+            memory,
+            island_of: (0..27).map(|b| usize::from(b >= 10)).collect(),
+            records: vec![0.5, 0.0, 1.0, 2.0, 3.0, 1.5, 0.0, 9.0],
+            record_at: vec![0, 5, 8],
+        }
     }
 
-    /// What [`get`] writes, [`set`] reads back; every kind of damage is refused with a reason.
+    /// What [`get`] writes, [`read`] reads back; every kind of damage is refused with a reason.
     #[test]
     fn the_islands_part_reads_back_and_damage_is_refused() {
         let m = pile();
-        let head = IslandsHead {
-            retired: Counters {
-                steps: 7,
-                rejected: 1,
-                rhs_evals: 50,
-                jac_evals: 2,
-                events: 3,
-            },
-            dissipated_base: 0.25,
-            input_work_base: -1.5,
-            rebuilds: 4,
-            round_end: 0.125,
-        };
-        let cands = [
-            Candidate {
-                pair: 0,
-                sphere: 1,
-                other: 2,
-            },
-            Candidate {
-                pair: 1,
-                sphere: 3,
-                other: 27,
-            },
-        ];
-        let v = written(&head, &cands);
-        let (h, c, islands) = set(&m, 0.1, &v).unwrap();
-        assert_eq!((h, &c[..]), (head, &cands[..]));
-        assert_eq!(islands.len(), 2);
-        assert_eq!(islands[0].bodies, (0..10).collect::<Vec<_>>());
-        assert_eq!(islands[1].state, &[1.5; 4]);
+        let s = two_islands(&m);
+        let mut v = Vec::new();
+        get(&s, &mut v);
+        let (back, len) = read(&m, 0.1, &v).unwrap();
+        assert_eq!((&back, len), (&s, v.len()));
+        assert_eq!(back.bodies()[1], (10..27).collect::<Vec<_>>());
+        // (what follows the part is not its)
+        let mut followed = v.clone();
+        followed.push(7.0);
+        assert_eq!(read(&m, 0.1, &followed).unwrap().1, v.len());
+        let none = IslandsState::default();
+        let mut empty = Vec::new();
+        get(&none, &mut empty);
+        assert_eq!(read(&m, 0.1, &empty).unwrap(), (none, 1));
 
         let refused = |v: &[f64], time: f64, why: &str| {
-            let e = set(&m, time, v).expect_err(why);
-            assert!(e.starts_with("saved islands"), "{why}: {e}");
+            let e = read(&m, time, v).expect_err(why);
+            assert!(e.contains("saved islands"), "{why}: {e}");
         };
         refused(&v, 0.2, "a round that ended before the state's time");
         refused(&v[..v.len() - 1], 0.1, "truncated");
-        let mut longer = v.clone();
-        longer.push(0.0);
-        refused(&longer, 0.1, "a number too many");
-        let at_cands = 9;
+        let at_cands = 10;
         let mut bad = v.clone();
         bad[at_cands + 1] = m.groups.pair_names.len() as f64;
         refused(&bad, 0.1, "a pair the scene does not have");
         let mut bad = v.clone();
-        bad[0] = 0.5;
+        bad.swap(at_cands + 5, at_cands + 6);
+        refused(&bad, 0.1, "a wall as the sphere of ball_box");
+        let mut bad = v.clone();
+        bad.copy_within(at_cands + 1..at_cands + 4, at_cands + 4);
+        refused(&bad, 0.1, "a candidate pair listed twice");
+        let mut bad = v.clone();
+        bad[1] = 0.5;
         refused(&bad, 0.1, "a counter that is not a count");
-        let first_island = at_cands + 1 + 3 * cands.len() + 1;
         let mut bad = v.clone();
-        bad[first_island + 2] = 0.0;
-        refused(&bad, 0.1, "a body listed twice");
+        bad[0] = 28.0;
+        refused(&bad, 0.1, "more islands than bodies");
+        let at_memory = at_cands + 1 + 3 * s.candidates.len();
         let mut bad = v.clone();
-        bad[first_island + 1] = 5.0;
-        refused(&bad, 0.1, "bodies out of order");
-        let one_island = {
-            let mut out = Vec::new();
-            let bodies: Vec<usize> = (0..26).collect();
-            get(&head, &cands, [&bodies[..]].into_iter(), |_, _| {}, &mut out);
-            out
-        };
-        refused(&one_island, 0.1, "a body in no island");
-        let with_an_empty_island = {
-            let mut v = v.clone();
-            v[first_island - 1] = 3.0;
-            v.extend([0.0, 0.0]);
-            v
-        };
-        refused(&with_an_empty_island, 0.1, "an island without bodies");
+        bad[at_memory] = 0.5;
+        refused(&bad, 0.1, "an active flag that is not a flag");
+        let at_bodies = at_memory + 3 * s.memory.len();
+        let mut bad = v.clone();
+        bad[at_bodies] = 1.0;
+        refused(&bad, 0.1, "islands out of the order of their first bodies");
+        let mut bad = v.clone();
+        bad[at_bodies + 26] = 2.0;
+        refused(&bad, 0.1, "an island the part does not have");
+        let mut bad = v.clone();
+        bad[0] = 3.0;
+        refused(&bad, 0.1, "an island without bodies");
+        let at_records = at_bodies + 27;
+        let mut bad = v.clone();
+        bad[at_records + 1] = f64::NAN;
+        refused(&bad, 0.1, "an energy that is not finite");
+        let mut bad = v.clone();
+        bad[at_records] = 1.0;
+        refused(&bad, 0.1, "a record without its energies");
     }
 }

@@ -7,6 +7,7 @@
 //! [`set`]; [`set`] checks everything before it writes anything, so a refused state leaves
 //! the data as it was.
 
+use super::island_state::{self, IslandsState};
 use super::{Data, Model};
 use crate::integrator::Stats;
 use crate::model::groups::Candidate;
@@ -36,11 +37,19 @@ named_enum! {
         /// state and that state (`Integrator::save_state`: its last step, dense output,
         /// controller and Newton memory, counters; length 0: none, the method restarts cold).
         Solver = 32 => "integrator",
+        /// `Data::islands`: what a scene that runs as independent islands holds beyond the parts
+        /// above (see [`super::island_state`]; 1 number, 0, when it runs as one integrator).
+        Islands = 64 => "islands",
     }
 }
 
 /// The mask of the whole state: what continues a simulation bit for bit.
-pub const FULL: u32 = 63;
+pub const FULL: u32 = 127;
+
+/// The parts of an island's own model and data that its record in the islands' part holds
+/// ([`super::island_state`]; its coordinates, time, contact memory and reference poses are
+/// the scene's).
+pub const ISLAND_OWN: u32 = StatePart::Inputs as u32 | StatePart::Counters as u32 | StatePart::Solver as u32;
 
 /// Numbers per contact in [`StatePart::ContactMemory`].
 const MEMORY_LEN: usize = 3;
@@ -93,6 +102,7 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
                 }
                 out[at] = (out.len() - at - 1) as f64;
             }
+            StatePart::Islands => island_state::get(&d.islands, out),
         }
     }
 }
@@ -152,7 +162,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
     }
     // Pass 1: locate and check every part.
     let mut at = 0;
-    let mut spans = [(0usize, 0usize); 6];
+    let mut spans = [(0usize, 0usize); 7];
+    let mut islands: Option<IslandsState> = None;
     for (k, part) in StatePart::ALL.iter().enumerate() {
         if mask & *part as u32 == 0 {
             continue;
@@ -170,6 +181,16 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 let own = count(head[SOLVER_HEAD - 1], "integrator state length")? as usize;
                 SOLVER_HEAD + own
             }
+            StatePart::Islands => {
+                let time = if mask & StatePart::Time as u32 != 0 {
+                    v[spans[0].0]
+                } else {
+                    d.time
+                };
+                let (read, len) = island_state::read(m, time, v.get(at..).unwrap_or_default())?;
+                islands = Some(read);
+                len
+            }
         };
         let Some(slice) = v.get(at..at + len) else {
             return Err(format!(
@@ -180,7 +201,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         };
         let checked = match part {
             StatePart::Solver => &slice[1..2],
-            StatePart::Counters => &[],
+            StatePart::Counters | StatePart::Islands => &[],
             _ => slice,
         };
         if let Some(x) = checked.iter().find(|x| !x.is_finite()) {
@@ -284,6 +305,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 c.events = s[4] as u64;
             }
             StatePart::Solver => {}
+            StatePart::Islands => d.islands = islands.take().unwrap_or_default(),
         }
     }
     if let Some((started, h, pending)) = solver_head {

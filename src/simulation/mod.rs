@@ -16,6 +16,8 @@ use std::path::Path;
 
 mod candidates;
 mod energy;
+#[cfg(test)]
+mod tests;
 mod values;
 
 use energy::{Drift, EnergyWatch};
@@ -515,18 +517,19 @@ impl Simulation {
     pub fn snapshot(&mut self, host: Vec<f64>) -> Snapshot {
         let mut st = Vec::new();
         if let (true, Some(c)) = (self.initialized, self.compiled.as_mut().map(Compiled::settled)) {
+            // (the islands' own state is gathered into the data for the one state spec)
+            match &c.islands {
+                Some(is) => is.record(&c.model, &mut c.data),
+                None => c.data.islands.clear(),
+            }
             state::get(&c.model, &c.data, state::FULL, &mut st);
-        }
-        let mut islands = Vec::new();
-        if let (true, Some(Compiled { islands: Some(is), .. })) = (self.initialized, &self.compiled) {
-            is.save(&mut islands);
+            c.data.islands.clear();
         }
         Snapshot {
             host,
             values: self.values.clone(),
             initialized: self.initialized,
             state: st,
-            islands,
         }
     }
 
@@ -563,6 +566,10 @@ impl Simulation {
             // contact groups: the contact list of the snapshot's candidate pairs (the present
             // one put back if the state is refused)
             let kept = (c.data.candidates.clone(), c.data.contact_memory.clone());
+            // (and the present state, put back if the snapshot's islands are refused)
+            let mut before = Vec::new();
+            engine::settle(&c.model, &mut c.data);
+            state::get(&c.model, &c.data, state::FULL, &mut before);
             if let Some(found) = state::group_candidates(&c.model, &s.state) {
                 if found != c.data.candidates {
                     crate::contact::elements::set_candidates(&c.model, &mut c.data, &found)
@@ -580,10 +587,22 @@ impl Simulation {
                 return Err(SimError::Variable(e));
             }
             engine::resync(&c.model, &mut c.data);
-            c.islands = None;
-            if !s.islands.is_empty() {
-                let islands = Islands::load(params.clone(), &c.model, &c.data, &s.islands);
-                c.islands = Some(islands.map_err(SimError::Variable)?);
+            let islands = match c.data.islands.count {
+                0 => Ok(None),
+                _ => Islands::load(params.clone(), &c.model, &c.data).map(Some),
+            };
+            c.data.islands.clear();
+            match islands {
+                Ok(islands) => c.islands = islands,
+                Err(e) => {
+                    // (the present state and islands stay; a state it saved always fits)
+                    if c.data.candidates != kept.0 {
+                        let _ = crate::contact::elements::set_candidates(&c.model, &mut c.data, &kept.0);
+                    }
+                    let _ = state::set(&c.model, &mut c.data, state::FULL, &before);
+                    engine::resync(&c.model, &mut c.data);
+                    return Err(SimError::Variable(e));
+                }
             }
             Ok(())
         });

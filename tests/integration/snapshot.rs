@@ -94,7 +94,7 @@ fn implicit_methods_carry_their_jacobian_in_the_state_and_continue_bit_identical
         let mut carried = 0;
         for p in scenes() {
             if p.parent().is_some_and(|d| d.ends_with("pile_of_balls")) {
-                // it runs as islands, whose integrators are saved in their own section
+                // it runs as islands, whose integrators are saved in the state's islands part
                 // (tests/integration/islands.rs restores them bit for bit); the state's size below is the
                 // scene's alone; and the implicit methods on its stiff steel contacts take minutes
                 continue;
@@ -131,16 +131,20 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     // integrator part: started, next step, pending event, length, then sdirk's own state
     // (tag, 7 + 3n of the step, 3n dense output, 10 Newton numbers, the n² Jacobian)
     let memory = 1 + 7 + 3 * n + 3 * n + 10 + n * n;
-    assert_eq!(head + 4 + memory, len, "the integrator part ends the state");
+    // (then the islands' part: one number, 0, for a scene that runs as one integrator)
+    let end = len - 1;
+    assert_eq!(snap.state[end], 0.0, "no islands");
+    assert_eq!(head + 4 + memory, end, "the integrator part ends the scene's parts");
     assert_eq!(
-        snap.state[len - memory - 1],
+        snap.state[end - memory - 1],
         memory as f64,
         "length prefix, then the method's state with J"
     );
     let mut old = snap.clone();
-    old.state.truncate(len - memory);
-    old.state[len - memory - 1] = 0.0;
+    old.state.truncate(end - memory);
+    old.state[end - memory - 1] = 0.0;
     old.state[head] = 0.0; // not continuing a step
+    old.state.push(0.0);
     let mut runs = Vec::new();
     for _ in 0..2 {
         let mut b = open(path, None);
@@ -152,7 +156,7 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     }
     assert_eq!(runs[0], runs[1]);
     let mut bad = snap.clone();
-    bad.state[len - memory - 1] += 1.0;
+    bad.state[end - memory - 1] += 1.0;
     assert!(open(path, None).restore(&bad).is_err());
     let mut bad = snap;
     bad.state.pop();
