@@ -67,10 +67,10 @@ impl Islands {
         };
         for island in &self.parts {
             let mem = &island.data.contact_memory;
-            for (k, &g) in island.explicit.iter().enumerate() {
+            for (k, &g) in island.numbering.explicit.iter().enumerate() {
                 memory.explicit[g] = mem[k];
             }
-            let n = island.explicit.len();
+            let n = island.numbering.explicit.len();
             for (k, &i) in island.listed.iter().enumerate() {
                 memory.candidates[i] = mem[n + k];
             }

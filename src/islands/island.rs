@@ -2,6 +2,7 @@
 //! contacts and shapes map onto the scene's, and the state it saves at a round's start to be
 //! taken back to.
 
+use super::part::Numbering;
 use crate::engine;
 use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::groups::Candidate;
@@ -16,20 +17,12 @@ pub struct Island {
     pub data: Box<Data>,
     /// The scene's index of each of the island's bodies (its own order, sorted).
     pub bodies: Vec<usize>,
-    /// (island, scene) index pairs of the position and velocity coordinates.
-    pub(super) coords: Vec<(usize, usize)>,
-    /// The scene's index of each of the island's declared contacts.
-    pub(super) explicit: Vec<usize>,
+    /// How its coordinates, inputs, declared contacts and shapes map onto the scene's.
+    pub(super) numbering: Numbering,
     /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
     pub(super) candidates: Vec<Candidate>,
     /// The index of each of them in the islands' list ([`super::Islands::candidates`]).
     pub(super) listed: Vec<usize>,
-    /// (island, scene) index pairs of the input values.
-    pub(super) inputs: Vec<(usize, usize)>,
-    /// (island, scene) index pairs of the driven joints' coordinates and rates.
-    pub(super) driven: Vec<(usize, usize)>,
-    /// The scene's index of each of its group shapes (sorted).
-    pub(super) shapes: Vec<usize>,
     /// Its state at the start of the round: the whole state, or (`saved_light`) its time and
     /// coordinates ([`Island::save_round_start`]).
     pub(super) saved: Vec<f64>,
@@ -43,7 +36,7 @@ impl Island {
     /// at the next advance.
     pub(super) fn copy_coordinates(&mut self, d: &Data) {
         let dl = &mut self.data;
-        for &(l, g) in &self.coords {
+        for &(l, g) in &self.numbering.coords {
             dl.state[l] = d.state[g];
         }
         dl.time = d.time;
@@ -93,7 +86,7 @@ impl Island {
 
     /// Copies the island's coordinates into the scene's state.
     pub(super) fn put_coordinates(&self, state: &mut [f64]) {
-        for &(l, g) in &self.coords {
+        for &(l, g) in &self.numbering.coords {
             state[g] = self.data.state[l];
         }
     }
@@ -101,7 +94,7 @@ impl Island {
     /// Takes the scene's input values, and its coordinates when a host moved a driven joint;
     /// a change restarts the integrator.
     pub(super) fn take_inputs(&mut self, d: &Data) {
-        for &(l, g) in &self.inputs {
+        for &(l, g) in &self.numbering.inputs {
             if self.data.inputs[l] != d.inputs[g] {
                 self.data.inputs[l] = d.inputs[g];
                 self.data.solver.started = false;
@@ -109,7 +102,12 @@ impl Island {
         }
         // a host moved a driven joint (and the rest of the scene's state followed it onto the
         // loops): the island takes all its coordinates
-        if self.driven.iter().any(|&(l, g)| self.data.state[l] != d.state[g]) {
+        if self
+            .numbering
+            .driven
+            .iter()
+            .any(|&(l, g)| self.data.state[l] != d.state[g])
+        {
             self.take_coordinates(d);
         }
     }
@@ -127,9 +125,12 @@ impl Island {
     /// The scene's index of the island's contact `k` (its declared contacts', then the
     /// candidate pairs' of the islands' list after them).
     pub(super) fn scene_contact(&self, k: usize, n_explicit: usize) -> Option<usize> {
-        match self.explicit.get(k) {
+        match self.numbering.explicit.get(k) {
             Some(&g) => Some(g),
-            None => self.listed.get(k - self.explicit.len()).map(|i| n_explicit + i),
+            None => self
+                .listed
+                .get(k - self.numbering.explicit.len())
+                .map(|i| n_explicit + i),
         }
     }
 

@@ -63,7 +63,7 @@ use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
-use part::{Compiled, Numbering};
+use part::Compiled;
 use pool::Pool;
 
 /// The fraction of the broad-phase margin after which an island stops inside a round (more
@@ -325,7 +325,7 @@ impl Islands {
             }
             self.compiled += 1;
             if !fresh {
-                let n = island.explicit.len();
+                let n = island.numbering.explicit.len();
                 let mut posed = false;
                 for (k, &i) in listed[span].iter().enumerate() {
                     if former[i] != NOT_LISTED {
@@ -373,13 +373,7 @@ impl Islands {
         }
         self.pool.put_back(Compiled {
             model: island.model,
-            numbering: Numbering {
-                coords: island.coords,
-                explicit: island.explicit,
-                inputs: island.inputs,
-                driven: island.driven,
-                shapes: island.shapes,
-            },
+            numbering: island.numbering,
         });
         if self.n_spare < self.spare_limit {
             self.n_spare += 1;
@@ -461,13 +455,9 @@ impl Islands {
             model,
             data,
             bodies,
-            coords: numbering.coords,
-            explicit: numbering.explicit,
+            numbering,
             candidates,
             listed,
-            inputs: numbering.inputs,
-            driven: numbering.driven,
-            shapes: numbering.shapes,
             saved,
             saved_light: false,
             saved_log: 0,
