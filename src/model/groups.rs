@@ -90,6 +90,13 @@ impl Groups {
         !self.initial_candidates.is_empty() || !self.shapes.is_empty()
     }
 
+    /// True when `c` names one of the group pairs and a shape of each of its two groups (two
+    /// shapes): a pair the broad phase may list (a saved state's are checked by it).
+    pub fn is_candidate(&self, c: &Candidate) -> bool {
+        let group = |s: usize| self.shapes.get(s).map(|s| s.group);
+        c.sphere != c.other && self.pair_groups.get(c.pair).copied() == group(c.sphere).zip(group(c.other))
+    }
+
     /// The name of candidate pair `c`'s contact: `<group pair>[<sphere>:<other>]` (1-based
     /// shape numbers).
     pub fn element_name(&self, c: &Candidate) -> String {

@@ -120,9 +120,10 @@ pub fn get(s: &IslandsState, out: &mut Vec<f64>) {
 /// Reads and checks the islands' part at the start of `v` for the scene's model `m` at the
 /// state's time `time`; gives it and the numbers it takes. Checked: counts are counts and
 /// numbers finite, the round does not end before `time`, the candidate pairs' numbers are
-/// within the model's group pairs and shapes, the memory's flags are flags, every body is in
-/// one island and every island has bodies, numbered in the order of their first bodies, and
-/// every record holds its energies. Whether the candidate pairs are those of the scene's
+/// of the model's group pairs and their groups' shapes (sorted, each once), the memory's flags
+/// are flags, every body is in one island and every island has bodies, numbered in the order of
+/// their first bodies, the two shapes of a candidate pair are in one island, and every record
+/// holds its energies. Whether the candidate pairs are those of the scene's
 /// groups, and the islands' own parts, are checked when the islands are built from it.
 pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), String> {
     let mut r = StateReader::part(v, "the saved islands");
@@ -167,7 +168,7 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
         let other = r.count_to(ns.saturating_sub(1))? as usize;
         let c = Candidate { pair, sphere, other };
         let g = &m.groups;
-        if g.pair_groups[pair] != (g.shapes[sphere].group, g.shapes[other].group) {
+        if !g.is_candidate(&c) {
             return Err(format!(
                 "saved islands: candidate pair {} is not of its group pair's groups",
                 g.element_name(&c)
@@ -201,6 +202,18 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
     }
     if seen < s.count {
         return Err(format!("saved islands: island {seen} has no bodies"));
+    }
+    let g = &m.groups;
+    for c in &s.candidates {
+        let island = |shape: usize| g.shapes[shape].body.map(|b| s.island_of[b]);
+        if let (Some(a), Some(b)) = (island(c.sphere), island(c.other)) {
+            if a != b {
+                return Err(format!(
+                    "saved islands: candidate pair {} joins islands {a} and {b}",
+                    g.element_name(c)
+                ));
+            }
+        }
     }
     for _ in 0..s.count {
         let len = r.count_to(r.left() as u64)? as usize;
@@ -241,16 +254,16 @@ mod tests {
 
     /// Two islands (bodies 0-9 and 10-26) with two of the pile's candidate pairs.
     fn two_islands(m: &Model) -> IslandsState {
-        // (ball_ball: the first ball and the last; ball_box: the first ball and the last wall)
+        // (ball_ball: the first ball and the second; ball_box: the first ball and the first wall)
         let g = &m.groups;
         let candidates: Vec<Candidate> = (0..2)
             .map(|pair| {
                 let (a, b) = g.pair_groups[pair];
-                Candidate {
-                    pair,
-                    sphere: g.shapes.iter().position(|s| s.group == a).unwrap(),
-                    other: g.shapes.iter().rposition(|s| s.group == b).unwrap(),
-                }
+                let sphere = g.shapes.iter().position(|s| s.group == a).unwrap();
+                let other = (0..g.shapes.len())
+                    .find(|&o| o != sphere && g.shapes[o].group == b)
+                    .unwrap();
+                Candidate { pair, sphere, other }
             })
             .collect();
         let memory = (0..m.groups.n_explicit + 2)
@@ -287,6 +300,7 @@ mod tests {
     #[test]
     fn the_islands_part_reads_back_and_damage_is_refused() {
         let m = pile();
+        let g = &m.groups;
         let s = two_islands(&m);
         let mut v = Vec::new();
         get(&s, &mut v);
@@ -338,6 +352,11 @@ mod tests {
         let mut bad = v.clone();
         bad[0] = 3.0;
         refused(&bad, 0.1, "an island without bodies");
+        let second = g.shapes[s.candidates[0].other].body.unwrap();
+        assert_eq!(s.island_of[second], 0);
+        let mut bad = v.clone();
+        bad[at_bodies + second] = 1.0;
+        refused(&bad, 0.1, "a candidate pair of two islands");
         let at_records = at_bodies + 27;
         let mut bad = v.clone();
         bad[at_records + 1] = f64::NAN;

@@ -117,18 +117,20 @@ fn group_section_len(m: &Model, d: &Data) -> usize {
     }
 }
 
-/// The candidate pairs at the start of a contact-group section (None: malformed).
-fn candidates_in(v: &[f64]) -> Option<Vec<Candidate>> {
+/// The candidate pairs at the start of a contact-group section of model `m` (None: malformed,
+/// or a pair `m`'s groups cannot list).
+fn candidates_in(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
     let n = count(*v.first()?, "candidates").ok()? as usize;
     let list = v.get(1..1 + 3 * n)?;
     list.chunks(3)
         .map(|c| {
             let k = |x: f64| count(x, "shape").ok().map(|x| x as usize);
-            Some(Candidate {
+            let c = Candidate {
                 pair: k(c[0])?,
                 sphere: k(c[1])?,
                 other: k(c[2])?,
-            })
+            };
+            m.groups.is_candidate(&c).then_some(c)
         })
         .collect()
 }
@@ -140,7 +142,7 @@ pub fn group_candidates(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
     if !m.groups.is_active() {
         return None;
     }
-    candidates_in(v.get(1 + m.nstate() + m.input_values()..)?)
+    candidates_in(m, v.get(1 + m.nstate() + m.input_values()..)?)
 }
 
 /// A count stored as a number: a whole number in range, or an error naming the part.
@@ -213,7 +215,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         match part {
             StatePart::ContactMemory => {
                 let groups = group_section_len(m, d);
-                if groups > 0 && candidates_in(&slice[..groups]) != Some(d.candidates.clone()) {
+                if groups > 0 && candidates_in(m, &slice[..groups]) != Some(d.candidates.clone()) {
                     return Err("state: its contact-group candidate pairs are not this model's".into());
                 }
                 for c in slice[groups..].chunks(MEMORY_LEN) {
