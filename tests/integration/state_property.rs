@@ -198,3 +198,61 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     assert!(!ok && err.contains("ball.state") && err.contains("checksum"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every bundled scene's whole state, saved after a tenth of its experiment (the pile at
+/// 0.05 s, with its islands), once per scene.
+fn saved_states() -> &'static Vec<(std::path::PathBuf, Snapshot, f64)> {
+    static SAVED: std::sync::OnceLock<Vec<(std::path::PathBuf, Snapshot, f64)>> = std::sync::OnceLock::new();
+    SAVED.get_or_init(|| {
+        common::bundled_scenes()
+            .into_iter()
+            .map(|(name, path)| {
+                let scene = Scene::from_file(&path).unwrap();
+                let h = scene.model.interval;
+                let stop = if name == "pile_of_balls" {
+                    0.05
+                } else {
+                    0.1 * scene.model.stop_time
+                };
+                let mut s = Simulation::new(scene, &name);
+                s.initialize(0.0).unwrap();
+                let n = (stop / h).ceil() as usize;
+                for k in 1..=n {
+                    s.step_to(k as f64 * h).unwrap();
+                }
+                (path, s.snapshot(Vec::new()), h)
+            })
+            .collect()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 600, ..ProptestConfig::default() })]
+
+    /// A bundled scene's saved state with one number damaged anywhere (not a number, infinite,
+    /// negative, fractional, huge, one more, zero), its bytes whole (as a host's own state
+    /// object, or bytes whose checksum was made to agree): refused with a message, or restored
+    /// and run on one communication step to a result (an error included). Nothing panics.
+    #[test]
+    fn damaged_state_numbers_are_refused_or_run_without_panic(
+        scene in 0usize..64,
+        at in 0usize..1_000_000,
+        kind in 0usize..7,
+    ) {
+        let saved = saved_states();
+        let (path, snap, h) = &saved[scene % saved.len()];
+        let mut damaged = snap.clone();
+        let k = at % damaged.state.len();
+        let x = damaged.state[k];
+        damaged.state[k] = [f64::NAN, f64::INFINITY, -1.0, x + 0.5, 1e300, x + 1.0, 0.0][kind];
+        let mut b = Simulation::new(Scene::from_file(path).unwrap(), "damaged");
+        b.initialize(0.0).unwrap();
+        match b.restore(&damaged) {
+            Err(e) => prop_assert!(!e.to_string().is_empty()),
+            Ok(()) => {
+                let t = b.time();
+                let _ = b.step_to(t + h);
+            }
+        }
+    }
+}
