@@ -40,10 +40,24 @@ impl Islands {
     }
 
     /// The islands of the scene's model `m` and data `d` as [`Islands::record`] left them in
-    /// `d.islands` (a restored state: its coordinates, inputs and reference poses are the
-    /// islands'). What does not fit the islands' models is refused.
+    /// `d.islands` (a restored state: its coordinates and reference poses are the islands';
+    /// their inputs are in their records). A scene that does not run as islands, bodies not in
+    /// the islands their joints, springs, inputs and candidate pairs make, and records that do
+    /// not fit the islands' models are refused.
     pub fn load(params: Parameters, m: &Model, d: &Data) -> Result<Islands, String> {
         let saved = &d.islands;
+        if !super::wanted(m) {
+            return Err("saved islands: this scene runs as one integrator, not as islands".into());
+        }
+        // (the islands are always formed as the partition of their candidate pairs: a body
+        // cut from the bodies it is joined to would be cut into a model of its own)
+        if super::partition(m, &saved.candidates).island_of != saved.island_of {
+            return Err(
+                "saved islands: the bodies' islands are not those their joints, springs, inputs \
+                        and candidate pairs make"
+                    .into(),
+            );
+        }
         let mut is = Islands::bare(params, m, d);
         is.candidates.clone_from(&saved.candidates);
         let n = m.groups.n_explicit;

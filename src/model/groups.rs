@@ -90,11 +90,16 @@ impl Groups {
         !self.initial_candidates.is_empty() || !self.shapes.is_empty()
     }
 
-    /// True when `c` names one of the group pairs and a shape of each of its two groups (two
-    /// shapes): a pair the broad phase may list (a saved state's are checked by it).
+    /// True when `c` is a pair the broad phase may list: one of the group pairs, a shape of
+    /// each of its two groups, on two bodies (or a body and the ground), the lower shape first
+    /// where both groups are one (a saved state's pairs are checked by it).
     pub fn is_candidate(&self, c: &Candidate) -> bool {
-        let group = |s: usize| self.shapes.get(s).map(|s| s.group);
-        c.sphere != c.other && self.pair_groups.get(c.pair).copied() == group(c.sphere).zip(group(c.other))
+        let (Some(a), Some(b)) = (self.shapes.get(c.sphere), self.shapes.get(c.other)) else {
+            return false;
+        };
+        self.pair_groups.get(c.pair) == Some(&(a.group, b.group))
+            && a.body != b.body
+            && (a.group != b.group || c.sphere < c.other)
     }
 
     /// The name of candidate pair `c`'s contact: `<group pair>[<sphere>:<other>]` (1-based

@@ -47,8 +47,8 @@ named_enum! {
 pub const FULL: u32 = 127;
 
 /// The parts of an island's own model and data that its record in the islands' part holds
-/// ([`super::island_state`]; its coordinates, time, contact memory and reference poses are
-/// the scene's).
+/// ([`super::island_state`]; its coordinates, time and reference poses are the scene's, its
+/// contact memory is in the islands' part by their list of candidate pairs).
 pub const ISLAND_OWN: u32 = StatePart::Inputs as u32 | StatePart::Counters as u32 | StatePart::Solver as u32;
 
 /// Numbers per contact in [`StatePart::ContactMemory`].

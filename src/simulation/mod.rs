@@ -558,8 +558,11 @@ impl Simulation {
         // Compile for the snapshot's parameter values; keep the current ones if that fails.
         let kept_values = std::mem::replace(&mut self.values, s.values.clone());
         let kept_fresh = self.compiled_fresh;
+        let mut kept_compiled = None;
         if kept_values != self.values {
             self.compiled_fresh = false;
+            // (the running model and data, put back if the state is refused)
+            kept_compiled = self.compiled.take();
         }
         let params = self.parameters();
         let restored = self.ensure_compiled().and_then(|c| {
@@ -609,10 +612,9 @@ impl Simulation {
         if let Err(e) = restored {
             if self.values != kept_values {
                 self.values = kept_values;
-                self.compiled_fresh = false;
-            } else {
-                self.compiled_fresh = kept_fresh;
+                self.compiled = kept_compiled;
             }
+            self.compiled_fresh = kept_fresh;
             return Err(e);
         }
         self.initialized = true;

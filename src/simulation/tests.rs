@@ -8,8 +8,17 @@ use crate::scene::Scene;
 /// The bundled pile, initialised and run to `t` (its balls still apart at 0.1 s: several
 /// islands; at 0, not yet stepped: no islands yet).
 fn pile_at(t: f64) -> Simulation {
+    pile_with(t, None)
+}
+
+/// [`pile_at`], with the balls' coefficient of restitution set to `restitution` before the
+/// initialisation (a tunable parameter: its value is part of a saved state).
+fn pile_with(t: f64, restitution: Option<f64>) -> Simulation {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/pile_of_balls/scene.toml");
     let mut s = Simulation::new(Scene::from_file(&path).unwrap(), "pile_of_balls");
+    if let Some(e) = restitution {
+        s.set_by_name("ball_ball.restitution", e).unwrap();
+    }
     s.initialize(0.0).unwrap();
     // (in communication steps of 10 ms: the step budget is per communication step)
     let n = (t / 0.01).ceil() as usize;
@@ -17,6 +26,12 @@ fn pile_at(t: f64) -> Simulation {
         s.step_to(if k == n { t } else { k as f64 * 0.01 }).unwrap();
     }
     s
+}
+
+/// The bits of a saved state's values and state.
+fn bits(s: &crate::checkpoint::Snapshot) -> (Vec<u64>, Vec<u64>) {
+    let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect();
+    (b(&s.values), b(&s.state))
 }
 
 /// The pile's state at 0.1 s and where its islands' part starts.
@@ -44,7 +59,9 @@ fn pile_state() -> &'static (crate::checkpoint::Snapshot, usize) {
 /// and the simulations given it go on as ones that never were: the same saved state, bit for
 /// bit, after they ran on 0.05 s. One was at 0.12 s with its islands, one initialised and not
 /// yet stepped (its islands are formed from the scene's data at its first step, so a scene's
-/// state left from the refused one would show). The state itself, restored, continues as the
+/// state left from the refused one would show), one at 0.12 s with another restitution of the
+/// balls (the saved state's values differ: the model is compiled for them before the state is
+/// read, and the running one is put back). The state itself, restored, continues as the
 /// simulation that saved it.
 #[test]
 fn refused_islands_leave_the_simulation_as_it_was() {
@@ -61,18 +78,18 @@ fn refused_islands_leave_the_simulation_as_it_was() {
     damaged.state.truncate(*start);
     island_state::get(&saved, &mut damaged.state);
 
-    for t in [0.12, 0.0] {
-        let mut b = pile_at(t);
+    for (t, restitution) in [(0.12, None), (0.0, None), (0.12, Some(0.6))] {
+        let mut b = pile_with(t, restitution);
         let e = b.restore(&damaged).expect_err("islands that do not fit").to_string();
         assert!(e.contains("saved islands: island"), "{e}");
-        let mut untouched = pile_at(t);
+        let mut untouched = pile_with(t, restitution);
         for s in [&mut b, &mut untouched] {
             s.step_to(t + 0.05).unwrap();
         }
         assert_eq!(
-            b.snapshot(Vec::new()),
-            untouched.snapshot(Vec::new()),
-            "the refused state changed the simulation at {t} s"
+            bits(&b.snapshot(Vec::new())),
+            bits(&untouched.snapshot(Vec::new())),
+            "the refused state changed the simulation at {t} s (restitution {restitution:?})"
         );
     }
     let mut r = pile_at(0.12);
@@ -138,4 +155,56 @@ fn saved_candidate_pairs_the_groups_cannot_list_are_refused() {
         let e = pile_at(0.0).restore(&bad).expect_err(why).to_string();
         assert!(e.contains("candidate pairs"), "{why}: {e}");
     }
+}
+
+/// A saved state whose islands are not those the bodies' joints, springs, inputs and candidate
+/// pairs make (the pile's last island merged into its first, the records made to agree in
+/// number) is refused by that check, before an island is cut (a body cut from the bodies it is
+/// joined to would be cut into a model that names a parent it does not hold), and so is an
+/// islands' part in the state of a scene that runs as one integrator.
+#[test]
+fn islands_other_than_their_partition_are_refused() {
+    let (snap, start) = pile_state();
+    let mut a = pile_at(0.0);
+    let m = a.model().unwrap();
+    let (mut saved, _) = island_state::read(m, snap.state[0], &snap.state[*start..]).unwrap();
+    let last = saved.count - 1;
+    for k in saved.island_of.iter_mut().filter(|k| **k == last) {
+        *k = 0;
+    }
+    saved.count -= 1;
+    saved.record_at.pop();
+    saved.records.truncate(*saved.record_at.last().unwrap());
+    let mut merged = snap.clone();
+    merged.state.truncate(*start);
+    island_state::get(&saved, &mut merged.state);
+    let e = a.restore(&merged).expect_err("merged islands").to_string();
+    assert!(e.contains("not those their joints"), "{e}");
+
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/two_spheres/scene.toml");
+    let mut one = Simulation::new(Scene::from_file(&path).unwrap(), "two_spheres");
+    one.initialize(0.0).unwrap();
+    one.step_to(0.001).unwrap();
+    let mut s = one.snapshot(Vec::new());
+    assert_eq!(s.state.last(), Some(&0.0), "no islands");
+    let m = one.model().unwrap();
+    let islands = IslandsState {
+        count: 1,
+        island_of: vec![0; m.bodies.len()],
+        memory: vec![Default::default(); m.groups.n_explicit],
+        records: vec![0.0; 2],
+        record_at: vec![0, 2],
+        head: island_state::IslandsHead {
+            round_end: f64::INFINITY,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    s.state.pop();
+    island_state::get(&islands, &mut s.state);
+    let e = one
+        .restore(&s)
+        .expect_err("islands of a scene that runs as one")
+        .to_string();
+    assert!(e.contains("runs as one integrator"), "{e}");
 }
