@@ -199,28 +199,71 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The slider-crank with a ball bouncing on the floor far from it: two islands, one of them
+/// the mechanism's three bodies joined by joints and a loop, and the block that strikes it.
+fn slider_crank_and_ball() -> Scene {
+    let text = std::fs::read_to_string(common::bundled("slider_crank")).unwrap();
+    let ball = r#"
+[[material]]
+name = "steel"
+youngs_modulus = 210e9
+poisson_ratio = 0.3
+
+[[body]]
+name = "ball"
+mass = 0.0329
+inertia = [1.316e-6, 1.316e-6, 1.316e-6]
+position = [5.0, 0.0, 0.011]
+
+[[contact]]
+name = "ball_floor"
+type = "sphere_plane"
+law = "hertz_ln"
+restitution = 0.8
+sphere_body = "ball"
+center = [5.0, 0.0, 0.011]
+radius = 0.01
+sphere_material = "steel"
+body = "ground"
+material = "steel"
+origin = [5.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [1.0, 1.0]
+"#;
+    Scene::from_str(&format!("{text}\n{ball}"), "slider_crank_and_ball").unwrap()
+}
+
 /// Every bundled scene's whole state, saved after a tenth of its experiment (the pile at
-/// 0.05 s, with its islands), once per scene.
-fn saved_states() -> &'static Vec<(std::path::PathBuf, Snapshot, f64)> {
-    static SAVED: std::sync::OnceLock<Vec<(std::path::PathBuf, Snapshot, f64)>> = std::sync::OnceLock::new();
+/// 0.05 s, with its islands), and the slider-crank's with a ball (as islands, one of them
+/// jointed), once per scene.
+fn saved_states() -> &'static Vec<(Scene, Snapshot, f64)> {
+    static SAVED: std::sync::OnceLock<Vec<(Scene, Snapshot, f64)>> = std::sync::OnceLock::new();
     SAVED.get_or_init(|| {
-        common::bundled_scenes()
+        let mut scenes: Vec<(String, Scene)> = common::bundled_scenes()
             .into_iter()
-            .map(|(name, path)| {
-                let scene = Scene::from_file(&path).unwrap();
+            .map(|(name, path)| (name, Scene::from_file(&path).unwrap()))
+            .collect();
+        scenes.push(("slider_crank_and_ball".into(), slider_crank_and_ball()));
+        scenes
+            .into_iter()
+            .map(|(name, scene)| {
                 let h = scene.model.interval;
                 let stop = if name == "pile_of_balls" {
                     0.05
                 } else {
                     0.1 * scene.model.stop_time
                 };
-                let mut s = Simulation::new(scene, &name);
+                let mut s = Simulation::new(scene.clone(), &name);
                 s.initialize(0.0).unwrap();
                 let n = (stop / h).ceil() as usize;
                 for k in 1..=n {
                     s.step_to(k as f64 * h).unwrap();
                 }
-                (path, s.snapshot(Vec::new()), h)
+                if name == "slider_crank_and_ball" {
+                    assert_eq!(s.islands().len(), 2, "the mechanism and the ball");
+                }
+                (scene, s.snapshot(Vec::new()), h)
             })
             .collect()
     })
@@ -229,7 +272,8 @@ fn saved_states() -> &'static Vec<(std::path::PathBuf, Snapshot, f64)> {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 600, ..ProptestConfig::default() })]
 
-    /// A bundled scene's saved state with one number damaged anywhere (not a number, infinite,
+    /// A bundled scene's saved state, or the slider-crank's with a ball (islands, one jointed),
+    /// with one number damaged anywhere (not a number, infinite,
     /// negative, fractional, huge, one more, zero), its bytes whole (as a host's own state
     /// object, or bytes whose checksum was made to agree): refused with a message, or restored
     /// and run on one communication step to a result (an error included). Nothing panics.
@@ -240,12 +284,12 @@ proptest! {
         kind in 0usize..7,
     ) {
         let saved = saved_states();
-        let (path, snap, h) = &saved[scene % saved.len()];
+        let (scene, snap, h) = &saved[scene % saved.len()];
         let mut damaged = snap.clone();
         let k = at % damaged.state.len();
         let x = damaged.state[k];
         damaged.state[k] = [f64::NAN, f64::INFINITY, -1.0, x + 0.5, 1e300, x + 1.0, 0.0][kind];
-        let mut b = Simulation::new(Scene::from_file(path).unwrap(), "damaged");
+        let mut b = Simulation::new(scene.clone(), "damaged");
         b.initialize(0.0).unwrap();
         match b.restore(&damaged) {
             Err(e) => prop_assert!(!e.to_string().is_empty()),
