@@ -19,7 +19,6 @@ impl Islands {
         let memory = self.memory_of_islands(m);
         let s = &mut d.islands;
         s.clear();
-        s.count = self.parts.len();
         s.head = IslandsHead {
             retired: self.retired,
             dissipated_base: self.dissipated_base,
@@ -32,11 +31,10 @@ impl Islands {
         s.memory.extend(memory.candidates);
         s.island_of.extend_from_slice(&self.island_of);
         for island in &self.parts {
-            s.record_at.push(s.records.len());
-            s.records.extend([island.dissipated(), island.input_work()]);
-            state::get(&island.model, &island.data, ISLAND_OWN, &mut s.records);
+            let mut record = vec![island.dissipated(), island.input_work()];
+            state::get(&island.model, &island.data, ISLAND_OWN, &mut record);
+            s.records.push(record);
         }
-        s.record_at.push(s.records.len());
     }
 
     /// The islands of the scene's model `m` and data `d` as [`Islands::record`] left them in
@@ -67,7 +65,7 @@ impl Islands {
         };
         // (the memory is by the islands' own list)
         let same: Vec<usize> = (0..is.candidates.len()).collect();
-        let mut parts = Vec::with_capacity(saved.count);
+        let mut parts = Vec::with_capacity(saved.count());
         for (k, bodies) in saved.bodies().into_iter().enumerate() {
             let (candidates, listed) = is
                 .candidates
@@ -84,7 +82,7 @@ impl Islands {
             let mut built = is
                 .compile_island(m, d, members, &memory, &same)
                 .map_err(|e| e.message)?;
-            let (energies, own) = saved.record(k).split_at(ENERGIES);
+            let (energies, own) = saved.records[k].split_at(ENERGIES);
             let (im, id) = (&built.model, &mut built.data);
             id.state[im.dissipated_index()] = energies[0];
             match im.input_work_index() {

@@ -48,8 +48,6 @@ pub struct IslandsHead {
 /// their state themselves; see the module's documentation).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct IslandsState {
-    /// The number of islands.
-    pub count: usize,
     /// Counters, energies and rebuilds not held by an island, and the round's end.
     pub head: IslandsHead,
     /// The islands' candidate pairs (the scene's shape numbering), sorted as the broad phase
@@ -59,33 +57,29 @@ pub struct IslandsState {
     pub memory: Vec<ContactMemory>,
     /// Per body of the scene, its island.
     pub island_of: Vec<usize>,
-    /// The islands' records, one after the other: island k's is `records[record_at[k]..record_at[k + 1]]`
-    /// ([`ENERGIES`] numbers, then its [`super::state::ISLAND_OWN`] parts).
-    pub records: Vec<f64>,
-    /// Where each record starts, and the end of the last.
-    pub record_at: Vec<usize>,
+    /// Per island, its record: [`ENERGIES`] numbers, then its [`super::state::ISLAND_OWN`]
+    /// parts (none: no islands).
+    pub records: Vec<Vec<f64>>,
 }
 
 impl IslandsState {
     /// No islands.
     pub fn clear(&mut self) {
-        self.count = 0;
         self.head = IslandsHead::default();
         self.candidates.clear();
         self.memory.clear();
         self.island_of.clear();
         self.records.clear();
-        self.record_at.clear();
     }
 
-    /// Island `k`'s record.
-    pub fn record(&self, k: usize) -> &[f64] {
-        &self.records[self.record_at[k]..self.record_at[k + 1]]
+    /// The number of islands.
+    pub fn count(&self) -> usize {
+        self.records.len()
     }
 
     /// The bodies of each island, ascending.
     pub fn bodies(&self) -> Vec<Vec<usize>> {
-        let mut bodies = vec![Vec::new(); self.count];
+        let mut bodies = vec![Vec::new(); self.count()];
         for (b, &k) in self.island_of.iter().enumerate() {
             bodies[k].push(b);
         }
@@ -95,8 +89,8 @@ impl IslandsState {
 
 /// Appends the islands' part of `s` (see the module's documentation).
 pub fn get(s: &IslandsState, out: &mut Vec<f64>) {
-    out.push(s.count as f64);
-    if s.count == 0 {
+    out.push(s.count() as f64);
+    if s.count() == 0 {
         return;
     }
     let (h, r) = (&s.head, s.head.retired);
@@ -110,8 +104,7 @@ pub fn get(s: &IslandsState, out: &mut Vec<f64>) {
         out.extend([mem.active as u8 as f64, mem.impact_velocity, mem.impacts as f64]);
     }
     out.extend(s.island_of.iter().map(|&k| k as f64));
-    for k in 0..s.count {
-        let record = s.record(k);
+    for record in &s.records {
         out.push(record.len() as f64);
         out.extend_from_slice(record);
     }
@@ -129,8 +122,8 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
     let mut r = StateReader::part(v, "the saved islands");
     let mut s = IslandsState::default();
     let nb = m.bodies.len();
-    s.count = r.count_to(nb as u64)? as usize;
-    if s.count == 0 {
+    let count = r.count_to(nb as u64)? as usize;
+    if count == 0 {
         return Ok((s, 1));
     }
     let mut c = [0u64; 5];
@@ -191,7 +184,7 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
     }
     let mut seen = 0;
     for _ in 0..nb {
-        let k = r.count_to(s.count as u64 - 1)? as usize;
+        let k = r.count_to(count as u64 - 1)? as usize;
         if k > seen {
             return Err(format!(
                 "saved islands: island {k} before island {seen} (they are numbered by their first bodies)"
@@ -200,7 +193,7 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
         seen = seen.max(k + 1);
         s.island_of.push(k);
     }
-    if seen < s.count {
+    if seen < count {
         return Err(format!("saved islands: island {seen} has no bodies"));
     }
     let g = &m.groups;
@@ -215,7 +208,7 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
             }
         }
     }
-    for _ in 0..s.count {
+    for _ in 0..count {
         let len = r.count_to(r.left() as u64)? as usize;
         if len < ENERGIES {
             return Err(format!("saved islands: a record of {len} numbers holds no energies"));
@@ -224,10 +217,8 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
         for &x in &record[..ENERGIES] {
             finite(x, "an island's energy")?;
         }
-        s.record_at.push(s.records.len());
-        s.records.extend_from_slice(record);
+        s.records.push(record.to_vec());
     }
-    s.record_at.push(s.records.len());
     Ok((s, v.len() - r.left()))
 }
 
@@ -274,7 +265,6 @@ mod tests {
             })
             .collect();
         IslandsState {
-            count: 2,
             head: IslandsHead {
                 retired: Counters {
                     steps: 7,
@@ -291,8 +281,7 @@ mod tests {
             candidates,
             memory,
             island_of: (0..27).map(|b| usize::from(b >= 10)).collect(),
-            records: vec![0.5, 0.0, 1.0, 2.0, 3.0, 1.5, 0.0, 9.0],
-            record_at: vec![0, 5, 8],
+            records: vec![vec![0.5, 0.0, 1.0, 2.0, 3.0], vec![1.5, 0.0, 9.0]],
         }
     }
 

@@ -590,7 +590,7 @@ impl Simulation {
                 return Err(SimError::Variable(e));
             }
             engine::resync(&c.model, &mut c.data);
-            let islands = match c.data.islands.count {
+            let islands = match c.data.islands.count() {
                 0 => Ok(None),
                 _ => Islands::load(params.clone(), &c.model, &c.data).map(Some),
             };

@@ -199,39 +199,26 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The slider-crank with a ball bouncing on the floor far from it: two islands, one of them
-/// the mechanism's three bodies joined by joints and a loop, and the block that strikes it.
+/// The slider-crank with the bundled bouncing ball beside it, 5 m away: two islands, one of
+/// them the mechanism's three bodies joined by joints and a loop, and the block that strikes
+/// it.
 fn slider_crank_and_ball() -> Scene {
-    let text = std::fs::read_to_string(common::bundled("slider_crank")).unwrap();
-    let ball = r#"
-[[material]]
-name = "steel"
-youngs_modulus = 210e9
-poisson_ratio = 0.3
-
-[[body]]
-name = "ball"
-mass = 0.0329
-inertia = [1.316e-6, 1.316e-6, 1.316e-6]
-position = [5.0, 0.0, 0.011]
-
-[[contact]]
-name = "ball_floor"
-type = "sphere_plane"
-law = "hertz_ln"
-restitution = 0.8
-sphere_body = "ball"
-center = [5.0, 0.0, 0.011]
-radius = 0.01
-sphere_material = "steel"
-body = "ground"
-material = "steel"
-origin = [5.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-u_axis = [1.0, 0.0, 0.0]
-size = [1.0, 1.0]
-"#;
-    Scene::from_str(&format!("{text}\n{ball}"), "slider_crank_and_ball").unwrap()
+    let mut scene = bundled("slider_crank");
+    let ball = bundled("bouncing_ball");
+    let away = |p: &mut [f64; 3]| p[0] += 5.0;
+    scene.material.extend(ball.material);
+    for mut b in ball.body {
+        away(&mut b.position);
+        scene.body.push(b);
+    }
+    for mut c in ball.contact {
+        away(&mut c.center);
+        if let Some(o) = c.origin.as_mut() {
+            away(o);
+        }
+        scene.contact.push(c);
+    }
+    scene
 }
 
 /// Every bundled scene's whole state, saved after a tenth of its experiment (the pile at

@@ -214,13 +214,19 @@ def test_a_state_whose_islands_do_not_fit_is_refused_and_the_saved_one_restores_
     saved = a.slave.deSerializeFMUstate(data)
     a.slave.setFMUstate(saved)
     a.slave.freeFMUstate(saved)
-    got, expected = [], []
-    for _ in range(20):
-        a.step(step)
-        twin.step(step)
-        got.append(a.outputs())
-        expected.append(twin.outputs())
+    got, expected = side_by_side(a, twin, step, 20)
     assert got == expected
+
+
+def side_by_side(a, b, step, n):
+    """Steps instances `a` and `b` `n` times by turns; each one's outputs after every step."""
+    got_a, got_b = [], []
+    for _ in range(n):
+        a.step(step)
+        b.step(step)
+        got_a.append(a.outputs())
+        got_b.append(b.outputs())
+    return got_a, got_b
 
 
 # --------------------------------------------------------------------------------------
@@ -244,12 +250,7 @@ def test_two_instances_in_one_process_are_independent(unzipped, make_instance):
     mass = next(v for v in a.vars if v.endswith(".mass"))
     a.init()
     b.init(start_values={mass: 2.0 * float(a.vars[mass].start)})
-    got_a, got_b = [], []
-    for _ in range(200):
-        a.step(step)
-        b.step(step)
-        got_a.append(a.outputs())
-        got_b.append(b.outputs())
+    got_a, got_b = side_by_side(a, b, step, 200)
     assert got_a == reference  # b's calls, interleaved, left a untouched
     assert got_b != reference  # and b really has its own parameters
 
