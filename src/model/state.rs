@@ -118,11 +118,13 @@ fn group_section_len(m: &Model, d: &Data) -> usize {
 }
 
 /// The candidate pairs at the start of a contact-group section of model `m` (None: malformed,
-/// or a pair `m`'s groups cannot list).
+/// a pair `m`'s groups cannot list, or a list out of the broad phase's order or with a pair
+/// twice).
 fn candidates_in(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
     let n = count(*v.first()?, "candidates").ok()? as usize;
     let list = v.get(1..1 + 3 * n)?;
-    list.chunks(3)
+    let found: Vec<Candidate> = list
+        .chunks(3)
         .map(|c| {
             let k = |x: f64| count(x, "shape").ok().map(|x| x as usize);
             let c = Candidate {
@@ -132,7 +134,8 @@ fn candidates_in(m: &Model, v: &[f64]) -> Option<Vec<Candidate>> {
             };
             m.groups.is_candidate(&c).then_some(c)
         })
-        .collect()
+        .collect::<Option<_>>()?;
+    found.windows(2).all(|w| w[0] < w[1]).then_some(found)
 }
 
 /// The contact groups' candidate pairs recorded in a whole state `v` ([`FULL`]) of a model

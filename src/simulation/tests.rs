@@ -144,13 +144,23 @@ fn saved_candidate_pairs_the_groups_cannot_list_are_refused() {
     // (the first pair: its pair, sphere and other shape)
     let (pair, sphere) = (at + 1, at + 2);
     let wall = m.groups.shapes.iter().position(|s| s.body.is_none()).unwrap();
-    for (k, x, why) in [
-        (sphere, shapes as f64, "a shape past the model's"),
-        (sphere, wall as f64, "a wall as a ball"),
-        (pair, m.groups.pair_names.len() as f64, "a pair past the model's"),
-    ] {
+    let damaged = |k: usize, x: f64| {
         let mut bad = snap.clone();
         bad.state[k] = x;
+        bad
+    };
+    let mut twice = snap.clone();
+    assert!(n > 1, "two pairs to list one twice");
+    twice.state.copy_within(at + 1..at + 4, at + 4);
+    for (bad, why) in [
+        (damaged(sphere, shapes as f64), "a shape past the model's"),
+        (damaged(sphere, wall as f64), "a wall as a ball"),
+        (
+            damaged(pair, m.groups.pair_names.len() as f64),
+            "a pair past the model's",
+        ),
+        (twice, "a pair listed twice"),
+    ] {
         let e = pile_at(0.0).restore(&bad).expect_err(why).to_string();
         assert!(e.contains("candidate pairs"), "{why}: {e}");
     }
