@@ -47,9 +47,11 @@ impl Islands {
         if !super::wanted(m) {
             return Err("saved islands: this scene runs as one integrator, not as islands".into());
         }
-        // (the islands are always formed as the partition of their candidate pairs: a body
-        // cut from the bodies it is joined to would be cut into a model of its own)
-        if super::partition(m, &saved.candidates).island_of != saved.island_of {
+        // (the islands are always formed as the partition of their candidate pairs, numbered
+        // by their first bodies: a body cut from the bodies it is joined to would be cut into a
+        // model of its own)
+        let islands = super::partition(m, &saved.candidates);
+        if islands.len() != saved.count() || islands.island_of != saved.island_of {
             return Err(
                 "saved islands: the bodies' islands are not those their joints, springs, inputs \
                         and candidate pairs make"
@@ -65,17 +67,19 @@ impl Islands {
         };
         // (the memory is by the islands' own list)
         let same: Vec<usize> = (0..is.candidates.len()).collect();
-        let mut parts = Vec::with_capacity(saved.count());
-        for (k, bodies) in saved.bodies().into_iter().enumerate() {
-            let (candidates, listed) = is
-                .candidates
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| candidate_body(m, c).is_some_and(|b| saved.island_of[b] == k))
-                .map(|(i, c)| (*c, i))
-                .unzip();
+        // the candidate pairs by island, in the list's order, and their places in it
+        let mut by_island = vec![(Vec::new(), Vec::new()); islands.len()];
+        for (i, c) in is.candidates.iter().enumerate() {
+            if let Some(b) = candidate_body(m, c) {
+                let (candidates, listed) = &mut by_island[islands.island_of[b]];
+                candidates.push(*c);
+                listed.push(i);
+            }
+        }
+        let mut parts = Vec::with_capacity(islands.len());
+        for (k, (bodies, (candidates, listed))) in islands.iter().zip(by_island).enumerate() {
             let members = Members {
-                bodies,
+                bodies: bodies.to_vec(),
                 candidates,
                 listed,
             };
@@ -96,7 +100,7 @@ impl Islands {
             engine::resync(im, id);
             parts.push(built);
         }
-        is.island_of.clone_from(&saved.island_of);
+        is.island_of = islands.island_of;
         is.parts = parts;
         let head = saved.head;
         is.retired = head.retired;

@@ -76,15 +76,6 @@ impl IslandsState {
     pub fn count(&self) -> usize {
         self.records.len()
     }
-
-    /// The bodies of each island, ascending.
-    pub fn bodies(&self) -> Vec<Vec<usize>> {
-        let mut bodies = vec![Vec::new(); self.count()];
-        for (b, &k) in self.island_of.iter().enumerate() {
-            bodies[k].push(b);
-        }
-        bodies
-    }
 }
 
 /// Appends the islands' part of `s` (see the module's documentation).
@@ -114,10 +105,9 @@ pub fn get(s: &IslandsState, out: &mut Vec<f64>) {
 /// state's time `time`; gives it and the numbers it takes. Checked: counts are counts and
 /// numbers finite, the round does not end before `time` (but for rounding), the candidate pairs' numbers are
 /// of the model's group pairs and their groups' shapes (sorted, each once), the memory's flags
-/// are flags, every body is in one island and every island has bodies, numbered in the order of
-/// their first bodies, the two shapes of a candidate pair are in one island, and every record
-/// holds its energies. Whether the candidate pairs are those of the scene's
-/// groups, and the islands' own parts, are checked when the islands are built from it.
+/// are flags, every body's island is one of the part's, and every record holds its energies.
+/// Whether the bodies' islands are those the candidate pairs make, and the islands' own parts,
+/// are checked when the islands are built from it.
 pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), String> {
     let mut r = StateReader::part(v, "the saved islands");
     let mut s = IslandsState::default();
@@ -184,31 +174,8 @@ pub fn read(m: &Model, time: f64, v: &[f64]) -> Result<(IslandsState, usize), St
             impacts,
         });
     }
-    let mut seen = 0;
     for _ in 0..nb {
-        let k = r.count_to(count as u64 - 1)? as usize;
-        if k > seen {
-            return Err(format!(
-                "saved islands: island {k} before island {seen} (they are numbered by their first bodies)"
-            ));
-        }
-        seen = seen.max(k + 1);
-        s.island_of.push(k);
-    }
-    if seen < count {
-        return Err(format!("saved islands: island {seen} has no bodies"));
-    }
-    let g = &m.groups;
-    for c in &s.candidates {
-        let island = |shape: usize| g.shapes[shape].body.map(|b| s.island_of[b]);
-        if let (Some(a), Some(b)) = (island(c.sphere), island(c.other)) {
-            if a != b {
-                return Err(format!(
-                    "saved islands: candidate pair {} joins islands {a} and {b}",
-                    g.element_name(c)
-                ));
-            }
-        }
+        s.island_of.push(r.count_to(count as u64 - 1)? as usize);
     }
     for _ in 0..count {
         let len = r.count_to(r.left() as u64)? as usize;
@@ -291,13 +258,15 @@ mod tests {
     #[test]
     fn the_islands_part_reads_back_and_damage_is_refused() {
         let m = pile();
-        let g = &m.groups;
         let s = two_islands(&m);
         let mut v = Vec::new();
         get(&s, &mut v);
         let (back, len) = read(&m, 0.1, &v).unwrap();
         assert_eq!((&back, len), (&s, v.len()));
-        assert_eq!(back.bodies()[1], (10..27).collect::<Vec<_>>());
+        assert_eq!(
+            (0..27).filter(|&b| back.island_of[b] == 1).collect::<Vec<_>>(),
+            (10..27).collect::<Vec<_>>()
+        );
         // (what follows the part is not its)
         let mut followed = v.clone();
         followed.push(7.0);
@@ -340,19 +309,13 @@ mod tests {
         refused(&bad, 0.1, "an active flag that is not a flag");
         let at_bodies = at_memory + 3 * s.memory.len();
         let mut bad = v.clone();
-        bad[at_bodies] = 1.0;
-        refused(&bad, 0.1, "islands out of the order of their first bodies");
-        let mut bad = v.clone();
         bad[at_bodies + 26] = 2.0;
         refused(&bad, 0.1, "an island the part does not have");
         let mut bad = v.clone();
         bad[0] = 3.0;
-        refused(&bad, 0.1, "an island without bodies");
-        let second = g.shapes[s.candidates[0].other].body.unwrap();
-        assert_eq!(s.island_of[second], 0);
-        let mut bad = v.clone();
-        bad[at_bodies + second] = 1.0;
-        refused(&bad, 0.1, "a candidate pair of two islands");
+        refused(&bad, 0.1, "a record more than the part holds");
+        // (islands out of their order, without bodies, or not joining a candidate pair's two
+        // bodies are refused where they are built: `islands_other_than_their_partition_are_refused`)
         let at_records = at_bodies + 27;
         let mut bad = v.clone();
         bad[at_records + 1] = f64::NAN;

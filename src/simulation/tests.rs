@@ -167,26 +167,70 @@ fn saved_candidate_pairs_the_groups_cannot_list_are_refused() {
 }
 
 /// A saved state whose islands are not those the bodies' joints, springs, inputs and candidate
-/// pairs make (the pile's last island merged into its first, the records made to agree in
-/// number) is refused by that check, before an island is cut (a body cut from the bodies it is
+/// pairs make (the pile's last island merged into its first, the first two islands' numbers
+/// swapped, an island without bodies, a candidate pair added that joins two islands; the
+/// records made to agree in number) is refused by that check, before an island is cut (a body cut from the bodies it is
 /// joined to would be cut into a model that names a parent it does not hold), and so is an
 /// islands' part in the state of a scene that runs as one integrator.
 #[test]
 fn islands_other_than_their_partition_are_refused() {
     let (snap, start) = pile_state();
     let mut a = pile_at(0.0);
-    let m = a.model().unwrap();
-    let (mut saved, _) = island_state::read(m, snap.state[0], &snap.state[*start..]).unwrap();
-    let last = saved.count() - 1;
-    for k in saved.island_of.iter_mut().filter(|k| **k == last) {
-        *k = 0;
+    let m = a.model().unwrap().clone();
+    let (saved, _) = island_state::read(&m, snap.state[0], &snap.state[*start..]).unwrap();
+    assert!(saved.count() > 2, "{} islands", saved.count());
+    let with = |change: &dyn Fn(&mut IslandsState)| {
+        let mut islands = saved.clone();
+        change(&mut islands);
+        let mut bad = snap.clone();
+        bad.state.truncate(*start);
+        island_state::get(&islands, &mut bad.state);
+        bad
+    };
+    let merged = with(&|s| {
+        let last = s.count() - 1;
+        for k in s.island_of.iter_mut().filter(|k| **k == last) {
+            *k = 0;
+        }
+        s.records.pop();
+    });
+    let out_of_order = with(&|s| {
+        for k in s.island_of.iter_mut().filter(|k| **k < 2) {
+            *k = 1 - *k;
+        }
+        s.records.swap(0, 1);
+    });
+    let without_bodies = with(&|s| {
+        let first = s.records[0].clone();
+        s.records.push(first);
+    });
+    // (a pair of the first two balls, in two islands at 0.1 s, added to the list)
+    let joining = with(&|s| {
+        let g = &m.groups;
+        let ball_ball = g.pair_names.iter().position(|p| p == "ball_ball").unwrap();
+        let (a, b) = g.pair_groups[ball_ball];
+        let sphere = g.shapes.iter().position(|x| x.group == a).unwrap();
+        let other = (sphere + 1..g.shapes.len()).find(|&o| g.shapes[o].group == b).unwrap();
+        let pair = crate::model::groups::Candidate {
+            pair: ball_ball,
+            sphere,
+            other,
+        };
+        let (ba, bb) = (g.shapes[sphere].body.unwrap(), g.shapes[other].body.unwrap());
+        assert_ne!(s.island_of[ba], s.island_of[bb]);
+        let at = s.candidates.partition_point(|c| *c < pair);
+        s.candidates.insert(at, pair);
+        s.memory.insert(g.n_explicit + at, Default::default());
+    });
+    for (bad, why) in [
+        (merged, "two islands merged"),
+        (out_of_order, "islands out of the order of their first bodies"),
+        (without_bodies, "an island without bodies"),
+        (joining, "a candidate pair of two islands"),
+    ] {
+        let e = a.restore(&bad).expect_err(why).to_string();
+        assert!(e.contains("not those their joints"), "{why}: {e}");
     }
-    saved.records.pop();
-    let mut merged = snap.clone();
-    merged.state.truncate(*start);
-    island_state::get(&saved, &mut merged.state);
-    let e = a.restore(&merged).expect_err("merged islands").to_string();
-    assert!(e.contains("not those their joints"), "{e}");
 
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/two_spheres/scene.toml");
     let mut one = Simulation::new(Scene::from_file(&path).unwrap(), "two_spheres");
