@@ -95,6 +95,28 @@ pub fn candidate_element(groups: &Groups, c: &Candidate, name: String) -> Result
     )
 }
 
+/// Checks that no candidate pair of `found` new to the list (`is_new` of its index) touches
+/// at the kinematics in `d`: such a pair was found too late, after a body moved more than half
+/// the broad-phase margin within one step (the step's bounds allow that only to a body
+/// accelerated far beyond gravity). Err: the message. (A pair whose element cannot be made is
+/// left to the contact list, which reports it.)
+pub fn check_new_pairs(m: &Model, d: &Data, found: &[Candidate], is_new: impl Fn(usize) -> bool) -> Result<(), String> {
+    for c in found.iter().enumerate().filter(|&(i, _)| is_new(i)).map(|(_, c)| c) {
+        let Ok(e) = candidate_element(&m.groups, c, String::new()) else {
+            continue;
+        };
+        if crate::contact::event_function(&e, &crate::contact::gap_of(&e, d)) > 0.0 {
+            return Err(format!(
+                "contact {:?} touched before the broad phase listed it: a body moved more than half the \
+                 broad-phase margin ({} m) within one step; raise [broad_phase] margin",
+                m.groups.element_name(c),
+                m.groups.margin
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The name of contact `i` of the data's list: a declared contact's own, or for a candidate pair
 /// of the contact groups `<group pair>[<sphere>:<other>]` (1-based shape numbers; its element
 /// holds no name, so that listing it allocates none).

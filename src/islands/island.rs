@@ -4,7 +4,6 @@
 
 use super::part::Numbering;
 use crate::engine;
-use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
 use std::sync::Arc;
@@ -49,20 +48,13 @@ impl Island {
         engine::resync(&self.model, &mut self.data);
     }
 
-    /// [`Island::copy_coordinates`] for a new island: nothing is evaluated there. The advance
-    /// that starts its integrator evaluates the event values there; forming reads only the
-    /// gaps of its candidate pairs new to the list, after [`Island::evaluate_poses`].
+    /// [`Island::copy_coordinates`] for a new island: nothing is evaluated there (the advance
+    /// that starts its integrator evaluates the event values there).
     pub(super) fn take_new_coordinates(&mut self, d: &Data) {
         self.copy_coordinates(d);
         let dl = &mut self.data;
         dl.outputs_valid = false;
         dl.kinematics_valid = false;
-    }
-
-    /// The poses and velocities at the island's coordinates (what the gaps of its contacts
-    /// read).
-    pub(super) fn evaluate_poses(&mut self) {
-        poses_and_velocities_at_state(&self.model, &mut self.data);
     }
 
     /// Saves the island's state at the start of a round that ends at `t_round`, to take it

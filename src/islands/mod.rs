@@ -34,8 +34,8 @@
 //! [`Islands::record`]), so a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
-use crate::contact::elements::{contact_name, set_candidates};
-use crate::contact::{self, groups};
+use crate::contact::elements::{check_new_pairs, set_candidates};
+use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
 use crate::kinematics::poses_and_velocities_at_state;
@@ -184,10 +184,18 @@ impl Islands {
     /// data `d` (its candidate pairs and contact memory as they are).
     pub fn new(params: Parameters, m: &Model, d: &Data) -> Result<Islands, EngineError> {
         let mut is = Islands::bare(params, m, d);
-        let memory = is.memory_of_scene(m, d);
-        let candidates = is.candidates.clone();
-        is.form(m, d, &candidates, &memory, Vec::new())?;
+        is.form_from_scene(m, d)?;
         Ok(is)
+    }
+
+    /// Forms the islands of the scene's candidate pairs at its data `d`, with its contact
+    /// memory (no islands before them).
+    fn form_from_scene(&mut self, m: &Model, d: &Data) -> Result<(), EngineError> {
+        let memory = self.memory_of_scene(m, d);
+        let candidates = d.candidates.clone();
+        let mut former = Vec::new();
+        former_indices(&self.candidates, &candidates, &mut former);
+        self.form(m, d, &candidates, &former, &memory, Vec::new())
     }
 
     /// No islands yet, the rest from the scene's model and data.
@@ -229,8 +237,10 @@ impl Islands {
     /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
     /// coordinates and reference poses), keeping those of `old` whose bodies and candidate
     /// pairs are unchanged (with their integrators) and compiling the others with the
-    /// contact memory `memory` (by the former list, [`Islands::candidates`]). A candidate pair
-    /// new to the list that already touches is an error (the bounds on the step were broken).
+    /// contact memory `memory` (by the former list, [`Islands::candidates`]; `former` gives
+    /// each pair's index in it, [`former_indices`]). Should an island fail to compile (its
+    /// error is returned), the islands are left without parts, every island's counters and
+    /// energies kept as those of islands that ended.
     // (the islands are boxed: forming moves them between lists, a pointer each instead of the
     // whole island, which saved a tenth of forming's instructions on 300 spheres)
     #[allow(clippy::vec_box)]
@@ -239,10 +249,10 @@ impl Islands {
         m: &Model,
         d: &Data,
         candidates: &[Candidate],
+        former: &[usize],
         memory: &Memory,
         old: Vec<Box<Island>>,
     ) -> Result<(), EngineError> {
-        let fresh = old.is_empty();
         // per body: the step its island would have taken next (a new island starts with the
         // least of its bodies')
         let mut next_h = vec![0.0; m.bodies.len()];
@@ -282,9 +292,6 @@ impl Islands {
                 next[k] += 1;
             }
         }
-        // per pair of the list, its index in the former list
-        let mut former = Vec::new();
-        former_indices(&self.candidates, candidates, &mut former);
         // the former islands by their first body
         let mut by_first = vec![usize::MAX; m.bodies.len()];
         for (k, island) in old.iter().enumerate() {
@@ -313,9 +320,17 @@ impl Islands {
             let members = Members {
                 bodies: bodies.to_vec(),
                 candidates: cands.to_vec(),
-                listed: listed[span.clone()].to_vec(),
+                listed: listed[span].to_vec(),
             };
-            let mut island = self.compile_island(m, d, members, memory, &former)?;
+            let mut island = match self.compile_island(m, d, members, memory, former) {
+                Ok(island) => island,
+                Err(e) => {
+                    for island in out.into_iter().chain(old.into_iter().flatten()) {
+                        self.retire(island);
+                    }
+                    return Err(e);
+                }
+            };
             if h.is_finite() {
                 island.data.solver.next_h = h;
             }
@@ -324,31 +339,6 @@ impl Islands {
                 stepper.method.hold_explicit(hold);
             }
             self.compiled += 1;
-            if !fresh {
-                let n = island.numbering.explicit.len();
-                let mut posed = false;
-                for (k, &i) in listed[span].iter().enumerate() {
-                    if former[i] != NOT_LISTED {
-                        continue;
-                    }
-                    if !posed {
-                        island.evaluate_poses();
-                        posed = true;
-                    }
-                    let g = contact::gap(&island.data, n + k);
-                    if contact::event_function(&island.data.contacts[n + k], &g) > 0.0 {
-                        return Err(fail(
-                            d.time,
-                            format!(
-                                "contact {:?} touched before the broad phase listed it: a body moved more than \
-                                 half the broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                                contact_name(&island.model, &island.data, n + k),
-                                m.groups.margin
-                            ),
-                        ));
-                    }
-                }
-            }
             out.push(island);
         }
         for island in old.into_iter().flatten() {
@@ -643,9 +633,14 @@ impl Islands {
 
     /// Finds the candidate pairs again at the scene's data `d` (kinematics evaluated at the
     /// gathered coordinates), makes the present poses the reference and forms the islands
-    /// again.
+    /// again. A candidate pair new to the list that already touches is an error (the bounds on
+    /// the step were broken), found before anything changes.
     fn rebuild(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
         let found = m.groups.find(&|b| groups::pose(d, b));
+        let mut former = Vec::new();
+        former_indices(&self.candidates, &found, &mut former);
+        // (checked before anything changes: on an error the islands stay as they are)
+        check_new_pairs(m, d, &found, |i| former[i] == NOT_LISTED).map_err(|message| fail(self.time, message))?;
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }
@@ -653,7 +648,7 @@ impl Islands {
         let memory = self.memory_of_islands(m);
         let old = std::mem::take(&mut self.parts);
         self.rebuilds += 1;
-        self.form(m, d, &found, &memory, old)
+        self.form(m, d, &found, &former, &memory, old)
     }
 
     /// The parameter values the islands are compiled with.

@@ -279,9 +279,7 @@ fn shared_models_give_the_trajectories_of_own_models() {
             if !share {
                 is.cutter.alike.fill(None);
             }
-            let memory = is.memory_of_scene(&m, &d);
-            let candidates = is.candidates.clone();
-            is.form(&m, &d, &candidates, &memory, Vec::new()).unwrap();
+            is.form_from_scene(&m, &d).unwrap();
             is.advance(&m, &mut d, t, false).unwrap();
             let cuts = is.compiled - is.pooled;
             (snapshot(&mut is, &m, &mut d), cuts, plain, is.compiled)
@@ -363,4 +361,65 @@ fn islands_restored_from_their_saved_part_hold_their_whole_states() {
             );
         });
     }
+}
+
+/// A candidate pair that the broad phase finds already touching at a rebuild (a body moved
+/// more than half the margin within a step, which only a body accelerated far beyond gravity
+/// does) is refused before anything changes: the islands, their candidate pairs, the
+/// reference poses and the counters stay as they were (before, the islands formed up to the
+/// refusal were dropped with their counters and energies), and they go on from there. Here
+/// one of 64 grouped spheres is put, in the scene's data, onto a sphere it is not listed
+/// with.
+#[test]
+fn a_pair_found_touching_at_a_rebuild_is_refused_and_the_islands_stay_as_they_were() {
+    let scene = grouped(64, 0.02, 0.0015, true);
+    on_scene(&scene, "rebuild test", |m, d, is| {
+        is.advance(m, d, 0.004, false).unwrap();
+        let before = snapshot(is, m, d);
+        let (candidates, rebuilds, references) = (is.candidates.clone(), is.rebuilds, d.broad_reference.clone());
+        // two spheres on bodies a and b that are not a candidate pair
+        let shapes = &m.groups.shapes;
+        let listed = |s: usize, o: usize| {
+            is.candidates
+                .iter()
+                .any(|c| (c.sphere, c.other) == (s.min(o), s.max(o)))
+        };
+        let spheres: Vec<usize> = (0..shapes.len()).filter(|&s| shapes[s].body.is_some()).collect();
+        let (sa, sb) = spheres
+            .iter()
+            .flat_map(|&s| spheres.iter().map(move |&o| (s, o)))
+            .find(|&(s, o)| s != o && !listed(s, o))
+            .unwrap();
+        let (a, b) = (shapes[sa].body.unwrap(), shapes[sb].body.unwrap());
+        let r = |s: usize| scene.shape[s].radius.unwrap();
+        crate::kinematics::poses_and_velocities_at_state(m, d);
+        let (pa, pb) = (d.body_pos[a], d.body_pos[b]);
+        // a onto b, 1 µm deep
+        let target = pb + (pa - pb).normalize() * (r(sa) + r(sb) - 1e-6);
+        let qpos = m.joints.iter().find(|j| j.child == a).unwrap().qpos;
+        for k in 0..3 {
+            d.state[qpos + k] += target[k] - pa[k];
+        }
+        crate::kinematics::poses_and_velocities_at_state(m, d);
+        assert!(
+            (d.body_pos[a] - target).norm() < 1e-12,
+            "{} against {target}",
+            d.body_pos[a]
+        );
+
+        let e = is.rebuild(m, d).unwrap_err();
+        assert!(
+            e.message.contains("touched before the broad phase listed it"),
+            "{}",
+            e.message
+        );
+        assert_eq!(e.time, 0.004);
+        assert_eq!(is.candidates, candidates);
+        assert_eq!(is.rebuilds, rebuilds);
+        assert_eq!(d.broad_reference, references);
+        // (gathering writes the islands' coordinates back into the scene's data)
+        assert_eq!(snapshot(is, m, d), before);
+        is.advance(m, d, 0.008, false).unwrap();
+        assert_eq!(is.parts.iter().map(|i| i.data.time).fold(0.0, f64::max), 0.008);
+    });
 }

@@ -3,7 +3,7 @@
 //! change.
 
 use super::{Compiled, SimError, Simulation};
-use crate::contact::{self, elements, groups};
+use crate::contact::{elements, groups};
 use crate::engine;
 
 impl Simulation {
@@ -50,21 +50,9 @@ impl Simulation {
         let time = d.time;
         let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
         // a pair new to the list that touches already: checked before the list changes
-        let n = m.groups.n_explicit;
         let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
-        for (k, e) in found.iter().zip(&contacts[n..]).filter(|(k, _)| !before.contains(k)) {
-            if contact::event_function(e, &contact::gap_of(e, d)) > 0.0 {
-                return Err(SimError::Step {
-                    time,
-                    message: format!(
-                        "contact {:?} touched before the broad phase listed it: a body moved more than half the \
-                         broad-phase margin ({} m) within one step; raise [broad_phase] margin",
-                        m.groups.element_name(k),
-                        m.groups.margin
-                    ),
-                });
-            }
-        }
+        elements::check_new_pairs(m, d, &found, |i| !before.contains(&found[i]))
+            .map_err(|message| SimError::Step { time, message })?;
         elements::set_contact_list(m, d, &found, contacts);
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);

@@ -481,7 +481,11 @@ impl Simulation {
         };
         let result = is.advance(model, data, t_end, stop_at_events);
         is.gather(model, data);
-        if is.candidates == data.candidates {
+        if is.parts.is_empty() {
+            // (forming them failed: every island ended, its counters and energies gathered;
+            // the next step forms them anew from the scene's data)
+            *islands = None;
+        } else if is.candidates == data.candidates {
             is.gather_contacts(data);
         }
         result.map_err(step_error)
