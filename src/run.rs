@@ -64,11 +64,11 @@ pub struct VariablesOptions {
 pub struct RunSummary {
     /// Scene name.
     pub name: String,
-    /// Simulated time \[s\].
+    /// Time simulated by the run \[s\] (from the resumed state's time when it resumed).
     pub simulated: f64,
-    /// Accepted steps.
+    /// Accepted steps of the run (not those before a resumed state).
     pub steps: u64,
-    /// Right-hand-side evaluations.
+    /// Right-hand-side evaluations of the run.
     pub rhs_evals: u64,
     /// True when the energy balance drifted by more than 1 % during the run (a warning was
     /// given: the run is inaccurate).
@@ -135,6 +135,8 @@ pub fn run_simulation(
     }
     let e0 = sim.energies().map_err(|e| e.to_string())?;
     let mut scale = e0.total().abs().max(e0.kinetic);
+    // (a resumed run starts at its state's time, with its counters)
+    let (t0, c0) = (sim.time(), sim.counters());
     each(sim)?;
     let start = Instant::now();
     let cpu_start = thread_cpu_seconds();
@@ -159,9 +161,9 @@ pub fn run_simulation(
     let err = (e1.balance() - e0.balance()).abs() / scale.max(f64::MIN_POSITIVE);
     Ok(RunSummary {
         name: sim.scene().model.name.clone(),
-        simulated: stop_time,
-        steps: c.steps,
-        rhs_evals: c.rhs_evals,
+        simulated: stop_time - t0,
+        steps: c.steps - c0.steps,
+        rhs_evals: c.rhs_evals - c0.rhs_evals,
         energy_drifted: sim.energy_drifted(),
         seconds,
         cpu_seconds,

@@ -164,7 +164,9 @@ proptest! {
 }
 
 /// `simulate --save-state` then `simulate --resume` gives the rows of one uninterrupted run,
-/// digit for digit; a damaged checkpoint is refused with a message naming the file.
+/// digit for digit, and a summary of its own part: the time it simulated, and the steps and
+/// evaluations of the uninterrupted run less those before the checkpoint; a damaged checkpoint
+/// is refused with a message naming the file.
 #[test]
 fn command_line_checkpoint_resumes_bit_for_bit() {
     let exe = env!("CARGO_BIN_EXE_contact-fmu");
@@ -174,6 +176,21 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     let run = |args: &[&str]| {
         let out = std::process::Command::new(exe).args(args).output().unwrap();
         (out.status.success(), String::from_utf8_lossy(&out.stderr).to_string())
+    };
+    // the summary's simulated time, steps and evaluations
+    let summary = |stop: &str, extra: &[&str]| -> (String, u64, u64) {
+        let mut args = vec!["simulate", &scene, "--stop-time", stop];
+        args.extend_from_slice(extra);
+        let out = std::process::Command::new(exe).args(&args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        let row: Vec<&str> = text
+            .lines()
+            .find(|l| l.starts_with("bouncing_ball "))
+            .unwrap_or_else(|| panic!("no summary in {text}"))
+            .split_whitespace()
+            .collect();
+        (row[1].to_string(), row[2].parse().unwrap(), row[3].parse().unwrap())
     };
     let (full, state, rest) = (dir.join("full.csv"), dir.join("ball.state"), dir.join("rest.csv"));
     let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
@@ -191,6 +208,15 @@ fn command_line_checkpoint_resumes_bit_for_bit() {
     let tail: Vec<&str> = full.lines().skip_while(|l| !l.starts_with("0.25,")).collect();
     assert!(tail.len() > 300, "{} rows after the checkpoint", tail.len());
     assert_eq!(rest.lines().skip(1).collect::<Vec<_>>(), tail);
+    let whole = summary("0.6", &[]);
+    let before = summary("0.25", &[]);
+    let resumed = summary("0.6", &["--resume", &p(&state)]);
+    assert_eq!(
+        (whole.0.as_str(), before.0.as_str(), resumed.0.as_str()),
+        ("0.600s", "0.250s", "0.350s")
+    );
+    assert!(before.1 > 10 && before.1 < whole.1, "{before:?} of {whole:?}");
+    assert_eq!((resumed.1, resumed.2), (whole.1 - before.1, whole.2 - before.2));
     let mut bytes = std::fs::read(&state).unwrap();
     bytes[40] ^= 1;
     std::fs::write(&state, bytes).unwrap();
