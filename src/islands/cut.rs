@@ -5,6 +5,7 @@
 #[cfg(test)]
 use crate::compile::Parameters;
 use crate::model::groups::Candidate;
+use crate::model::partition::Partition;
 use crate::model::{Input, Model};
 #[cfg(test)]
 use crate::scene::{Scene, GROUND};
@@ -145,38 +146,6 @@ pub(super) fn driven_joint(m: &Model, g: usize) -> Option<usize> {
     m.dof_joint.get(drive.qvel).copied()
 }
 
-/// The islands of a model: the bodies of each, in scene order, the islands ordered by their
-/// first body, in one list (no allocation per island).
-pub struct Partition {
-    /// The bodies of island `k` are `bodies[starts[k]..starts[k + 1]]`.
-    bodies: Vec<usize>,
-    starts: Vec<usize>,
-    /// Per body, its island.
-    pub island_of: Vec<usize>,
-}
-
-impl Partition {
-    /// The number of islands.
-    pub fn len(&self) -> usize {
-        self.starts.len() - 1
-    }
-
-    /// True when there is no island (no body).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// The bodies of island `k`.
-    pub fn island(&self, k: usize) -> &[usize] {
-        &self.bodies[self.starts[k]..self.starts[k + 1]]
-    }
-
-    /// The islands' bodies, in order.
-    pub fn iter(&self) -> impl Iterator<Item = &[usize]> {
-        (0..self.len()).map(|k| self.island(k))
-    }
-}
-
 /// The islands of model `m` with the candidate pairs `candidates`.
 pub fn partition(m: &Model, candidates: &[Candidate]) -> Partition {
     let nb = m.bodies.len();
@@ -213,31 +182,17 @@ pub fn partition(m: &Model, candidates: &[Candidate]) -> Partition {
     // (a set's root is its first body: the islands are numbered in the order of their first
     // bodies, and each island's bodies are listed in scene order)
     let mut island_of = vec![0; nb];
-    let mut starts = vec![0];
+    let mut n = 0;
     for b in 0..nb {
         let r = sets.root(b);
         if r == b {
-            island_of[b] = starts.len() - 1;
-            starts.push(0);
+            island_of[b] = n;
+            n += 1;
         } else {
             island_of[b] = island_of[r];
         }
-        starts[island_of[b] + 1] += 1;
     }
-    for k in 1..starts.len() {
-        starts[k] += starts[k - 1];
-    }
-    let mut next = starts.clone();
-    let mut bodies = vec![0; nb];
-    for (b, &k) in island_of.iter().enumerate() {
-        bodies[next[k]] = b;
-        next[k] += 1;
-    }
-    Partition {
-        bodies,
-        starts,
-        island_of,
-    }
+    Partition::new(island_of, candidates, |c| candidate_body(m, c))
 }
 
 /// True when model `m` runs as islands: the scene asks for them (`solver.islands`, the

@@ -540,7 +540,7 @@ mod tests {
         let origin = "cut test";
         let (m, mut d) = compile_scene(scene, origin).unwrap();
         let src = Source { scene, origin };
-        let mut is = Islands::new(Parameters::of_scene(scene), &m, &d).unwrap();
+        let mut is = Islands::new(Parameters::of_scene(scene), &m, &mut d).unwrap();
         let all: Part = ((0..m.bodies.len()).collect(), d.candidates.clone());
         assert_same(&src, &mut is, &m, &all);
         let mut compared = 1;
@@ -641,10 +641,10 @@ mod tests {
         let mut scenes = vec![grouped(64, 0.02, 0.0015, true), bundled("pile_of_balls")];
         scenes.extend(["rail_vehicle", "slider_crank", "two_spheres"].map(bundled));
         let origin = "recycle test";
-        let compiled: Vec<_> = scenes.iter().map(|s| compile_scene(s, origin).unwrap()).collect();
+        let mut compiled: Vec<_> = scenes.iter().map(|s| compile_scene(s, origin).unwrap()).collect();
         // (per scene: its model and islands; the keys with their scene's index)
         let (mut cases, mut keyed) = (Vec::new(), Vec::new());
-        for (scene, (m, d)) in scenes.iter().zip(&compiled) {
+        for (scene, (m, d)) in scenes.iter().zip(&mut compiled) {
             let is = Islands::new(Parameters::of_scene(scene), m, d).unwrap();
             let mut keys: Vec<Vec<usize>> = partition(m, &d.candidates).iter().map(<[usize]>::to_vec).collect();
             keys.truncate(4);

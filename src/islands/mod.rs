@@ -59,7 +59,6 @@ mod saved;
 mod tests;
 
 use carry::{former_indices, Memory, NOT_LISTED};
-use cut::candidate_body;
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
@@ -131,8 +130,6 @@ pub struct Islands {
     round_end: f64,
     /// Per scene body: (first position, first velocity) index of its joint in the scene's state.
     joint_coords: Vec<(usize, usize)>,
-    /// Per scene body: the island it is in.
-    island_of: Vec<usize>,
     /// The scene's declared contacts (before the candidate pairs' contacts).
     n_explicit: usize,
     /// Cuts the islands' models from the scene's.
@@ -182,7 +179,7 @@ struct Members {
 impl Islands {
     /// Forms the islands of the scene's model `m` (compiled with `params`) at its
     /// data `d` (its candidate pairs and contact memory as they are).
-    pub fn new(params: Parameters, m: &Model, d: &Data) -> Result<Islands, EngineError> {
+    pub fn new(params: Parameters, m: &Model, d: &mut Data) -> Result<Islands, EngineError> {
         let mut is = Islands::bare(params, m, d);
         is.form_from_scene(m, d)?;
         Ok(is)
@@ -190,7 +187,7 @@ impl Islands {
 
     /// Forms the islands of the scene's candidate pairs at its data `d`, with its contact
     /// memory (no islands before them).
-    fn form_from_scene(&mut self, m: &Model, d: &Data) -> Result<(), EngineError> {
+    fn form_from_scene(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
         let memory = self.memory_of_scene(m, d);
         let candidates = d.candidates.clone();
         let mut former = Vec::new();
@@ -219,7 +216,6 @@ impl Islands {
             time: d.time,
             round_end: f64::INFINITY,
             joint_coords,
-            island_of: vec![0; m.bodies.len()],
             n_explicit: m.groups.n_explicit,
             cutter: ModelCutter::new(m),
             params: Arc::new(params),
@@ -247,7 +243,7 @@ impl Islands {
     fn form(
         &mut self,
         m: &Model,
-        d: &Data,
+        d: &mut Data,
         candidates: &[Candidate],
         former: &[usize],
         memory: &Memory,
@@ -269,29 +265,6 @@ impl Islands {
             }
         }
         let parts = partition(m, candidates);
-        // the candidate pairs by island (in their order): island k's are
-        // `by_island[cand_start[k]..cand_start[k + 1]]`
-        let mut cand_start = vec![0; parts.len() + 1];
-        for c in candidates {
-            if let Some(b) = candidate_body(m, c) {
-                cand_start[parts.island_of[b] + 1] += 1;
-            }
-        }
-        for k in 1..cand_start.len() {
-            cand_start[k] += cand_start[k - 1];
-        }
-        let mut next = cand_start.clone();
-        let mut by_island = candidates.to_vec();
-        // (and each one's index in the list)
-        let mut listed = vec![0; candidates.len()];
-        for (i, c) in candidates.iter().enumerate() {
-            if let Some(b) = candidate_body(m, c) {
-                let k = parts.island_of[b];
-                by_island[next[k]] = *c;
-                listed[next[k]] = i;
-                next[k] += 1;
-            }
-        }
         // the former islands by their first body
         let mut by_first = vec![usize::MAX; m.bodies.len()];
         for (k, island) in old.iter().enumerate() {
@@ -300,8 +273,7 @@ impl Islands {
         let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (k, bodies) in parts.iter().enumerate() {
-            let span = cand_start[k]..cand_start[k + 1];
-            let cands = &by_island[span.clone()];
+            let (cands, listed) = (parts.candidates(k), parts.listed(k));
             let previous = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
             if let Some(mut island) = previous {
                 if island.bodies == bodies && island.candidates == cands {
@@ -309,7 +281,7 @@ impl Islands {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
                     }
                     island.listed.clear();
-                    island.listed.extend_from_slice(&listed[span]);
+                    island.listed.extend_from_slice(listed);
                     engine::resync_margins(&island.model, &mut island.data);
                     out.push(island);
                     continue;
@@ -320,7 +292,7 @@ impl Islands {
             let members = Members {
                 bodies: bodies.to_vec(),
                 candidates: cands.to_vec(),
-                listed: listed[span].to_vec(),
+                listed: listed.to_vec(),
             };
             let mut island = match self.compile_island(m, d, members, memory, former) {
                 Ok(island) => island,
@@ -345,7 +317,7 @@ impl Islands {
             self.retire(island);
         }
         self.parts = out;
-        self.island_of = parts.island_of;
+        d.partition = parts;
         self.candidates = candidates.to_vec();
         Ok(())
     }
@@ -394,7 +366,7 @@ impl Islands {
             candidates,
             listed,
         } = members;
-        let limit = POOL_PER_BODY * self.island_of.len();
+        let limit = POOL_PER_BODY * self.joint_coords.len();
         let (part, pooled) = self
             .pool
             .part(&self.params, &mut self.cutter, m, &self.joint_coords, &bodies, limit);

@@ -3,7 +3,7 @@
 //! scene's state when it is restored.
 
 use super::carry::Memory;
-use super::{candidate_body, Islands, Members};
+use super::{Islands, Members};
 use crate::compile::Parameters;
 use crate::engine;
 use crate::model::island_state::{IslandsHead, ENERGIES};
@@ -29,7 +29,7 @@ impl Islands {
         s.candidates.extend_from_slice(&self.candidates);
         s.memory.extend(memory.explicit);
         s.memory.extend(memory.candidates);
-        s.island_of.extend_from_slice(&self.island_of);
+        s.island_of.extend_from_slice(&d.partition.island_of);
         for island in &self.parts {
             let mut record = vec![island.dissipated(), island.input_work()];
             state::get(&island.model, &island.data, ISLAND_OWN, &mut record);
@@ -42,7 +42,7 @@ impl Islands {
     /// their inputs are in their records). A scene that does not run as islands, bodies not in
     /// the islands their joints, springs, inputs and candidate pairs make, and records that do
     /// not fit the islands' models are refused.
-    pub fn load(params: Parameters, m: &Model, d: &Data) -> Result<Islands, String> {
+    pub fn load(params: Parameters, m: &Model, d: &mut Data) -> Result<Islands, String> {
         let saved = &d.islands;
         if !super::wanted(m) {
             return Err("saved islands: this scene runs as one integrator, not as islands".into());
@@ -67,21 +67,12 @@ impl Islands {
         };
         // (the memory is by the islands' own list)
         let same: Vec<usize> = (0..is.candidates.len()).collect();
-        // the candidate pairs by island, in the list's order, and their places in it
-        let mut by_island = vec![(Vec::new(), Vec::new()); islands.len()];
-        for (i, c) in is.candidates.iter().enumerate() {
-            if let Some(b) = candidate_body(m, c) {
-                let (candidates, listed) = &mut by_island[islands.island_of[b]];
-                candidates.push(*c);
-                listed.push(i);
-            }
-        }
         let mut parts = Vec::with_capacity(islands.len());
-        for (k, (bodies, (candidates, listed))) in islands.iter().zip(by_island).enumerate() {
+        for (k, bodies) in islands.iter().enumerate() {
             let members = Members {
                 bodies: bodies.to_vec(),
-                candidates,
-                listed,
+                candidates: islands.candidates(k).to_vec(),
+                listed: islands.listed(k).to_vec(),
             };
             let mut built = is
                 .compile_island(m, d, members, &memory, &same)
@@ -100,8 +91,8 @@ impl Islands {
             engine::resync(im, id);
             parts.push(built);
         }
-        is.island_of = islands.island_of;
         is.parts = parts;
+        d.partition = islands;
         let head = saved.head;
         is.retired = head.retired;
         is.dissipated_base = head.dissipated_base;

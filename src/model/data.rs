@@ -9,6 +9,7 @@ use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
 use crate::model::groups::Candidate;
 use crate::model::island_state::IslandsState;
+use crate::model::partition::Partition;
 use crate::model::work::{emptied, filled, ImpulseWork};
 use crate::scene::{Law, SolverSection};
 use crate::spatial::{Inertia, Spatial};
@@ -262,6 +263,8 @@ pub struct Data {
     /// The islands' own state, gathered when a scene that runs as islands saves its state,
     /// read when it restores one (empty otherwise: the islands hold it in their own data).
     pub islands: IslandsState,
+    /// The islands' partition (of the islands last formed; empty for one integrator).
+    pub partition: Partition,
     // --- the contact list (the model's at compilation; the broad phase's stage makes it anew) ---
     /// Contact elements: the declared contacts, then one per candidate pair of the contact
     /// groups.
@@ -431,6 +434,7 @@ impl Data {
                 base: Stats::default(),
             },
             islands: IslandsState::default(),
+            partition: Partition::default(),
             clamp_events: true,
             log_peaks: false,
             max_steps: None,
@@ -504,6 +508,7 @@ impl Data {
             counters,
             solver,
             islands,
+            partition,
             clamp_events,
             log_peaks,
             max_steps,
@@ -567,6 +572,7 @@ impl Data {
         take_contact_list(model, contacts, candidates, step_rtol_powers, rows);
         *counters = Counters::default();
         islands.clear();
+        partition.clear();
         let (method, mut start) = match solver.stepper.take() {
             Some(s) => (fresh.renew(s.method, &model.solver, n), s.start),
             None => (None, Vec::new()),

@@ -1,13 +1,15 @@
 //! The model and its data, in the manner of MuJoCo's `mjModel`/`mjData`: a [`Model`]
 //! compiled once and read-only afterwards (`compiled`), a [`Data`] holding everything that
 //! changes (`data`), and the declaration of the part of the data that a saved state holds
-//! (`state`, and `island_state` for a scene that runs as independent islands). Every function of the engine takes `(&Model, &mut Data)`.
+//! (`state`, and `island_state` for a scene that runs as independent islands; `partition`, which
+//! bodies and candidate pairs advance together). Every function of the engine takes `(&Model, &mut Data)`.
 
 pub mod compiled;
 pub mod contact;
 pub mod data;
 pub mod groups;
 pub mod island_state;
+pub mod partition;
 pub mod state;
 pub mod work;
 

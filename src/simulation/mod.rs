@@ -450,7 +450,7 @@ impl Simulation {
                 let Some(c) = self.compiled.as_mut().map(Compiled::settled) else {
                     return Err(SimError::NotInitialized);
                 };
-                c.islands = Some(Islands::new(params, &c.model, &c.data).map_err(step_error)?);
+                c.islands = Some(Islands::new(params, &c.model, &mut c.data).map_err(step_error)?);
             }
             let at_event = self.step_islands(t_end, stop_at_events)?;
             return self.watch_energy().map(|()| at_event);
@@ -485,6 +485,7 @@ impl Simulation {
             // (forming them failed: every island ended, its counters and energies gathered;
             // the next step forms them anew from the scene's data)
             *islands = None;
+            data.partition.clear();
         } else if is.candidates == data.candidates {
             is.gather_contacts(data);
         }
@@ -596,11 +597,16 @@ impl Simulation {
             engine::resync(&c.model, &mut c.data);
             let islands = match c.data.islands.count() {
                 0 => Ok(None),
-                _ => Islands::load(params.clone(), &c.model, &c.data).map(Some),
+                _ => Islands::load(params.clone(), &c.model, &mut c.data).map(Some),
             };
             c.data.islands.clear();
             match islands {
-                Ok(islands) => c.islands = islands,
+                Ok(islands) => {
+                    if islands.is_none() {
+                        c.data.partition.clear();
+                    }
+                    c.islands = islands;
+                }
                 Err(e) => {
                     // (the present state and islands stay; a state it saved always fits)
                     if c.data.candidates != kept.0 {

@@ -133,6 +133,7 @@ impl Simulation {
         c.direct_reads.0.clear();
         // the islands are formed again, with the new value, at the next step
         c.islands = None;
+        c.data.partition.clear();
         c.data.outputs_valid = false;
         c.data.kinematics_valid = false;
         // the right-hand side changed: the method restarts at the current state, with the
