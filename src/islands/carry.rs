@@ -6,6 +6,7 @@
 use super::Islands;
 use crate::model::contact::ContactMemory;
 use crate::model::groups::Candidate;
+use crate::model::partition::Partition;
 use crate::model::{Data, Model};
 use rustc_hash::FxHashMap as HashMap;
 
@@ -59,19 +60,20 @@ impl Islands {
         }
     }
 
-    /// The memory the islands hold.
-    pub(super) fn memory_of_islands(&self, m: &Model) -> Memory {
+    /// The memory the islands hold (their candidate pairs' places in the list by their
+    /// partition `p`).
+    pub(super) fn memory_of_islands(&self, m: &Model, p: &Partition) -> Memory {
         let mut memory = Memory {
             explicit: vec![ContactMemory::default(); m.groups.n_explicit],
             candidates: vec![ContactMemory::default(); self.candidates.len()],
         };
-        for island in &self.parts {
+        for (j, island) in self.parts.iter().enumerate() {
             let mem = &island.data.contact_memory;
             for (k, &g) in island.numbering.explicit.iter().enumerate() {
                 memory.explicit[g] = mem[k];
             }
             let n = island.numbering.explicit.len();
-            for (k, &i) in island.listed.iter().enumerate() {
+            for (k, &i) in p.listed(j).iter().enumerate() {
                 memory.candidates[i] = mem[n + k];
             }
         }

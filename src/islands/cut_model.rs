@@ -557,10 +557,9 @@ mod tests {
         }
         for &t in advances {
             is.advance(&m, &mut d, t, false).unwrap();
-            let mut keys: Vec<Part> = is
-                .parts
-                .iter()
-                .map(|i| (i.bodies.clone(), i.candidates.clone()))
+            let p = &d.partition;
+            let mut keys: Vec<Part> = (0..p.len())
+                .map(|k| (p.bodies(k).to_vec(), p.candidates(k).to_vec()))
                 .collect();
             keys.extend(is.pool.keys().map(|(_, bodies)| (bodies.clone(), Vec::new())));
             for key in &keys {

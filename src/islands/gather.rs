@@ -25,12 +25,13 @@ impl Islands {
         let mut input_work = self.input_work_base;
         let mut logged = !self.retired_log.is_empty();
         d.event_log.append(&mut self.retired_log);
-        for island in &mut self.parts {
+        for (k, island) in self.parts.iter_mut().enumerate() {
             dissipated += island.dissipated();
             input_work += island.input_work();
             counters = counters + island.data.counters;
+            let listed = d.partition.listed(k);
             for e in &island.data.event_log {
-                if let Some(g) = island.scene_contact(e.contact, n_explicit) {
+                if let Some(g) = island.scene_contact(e.contact, n_explicit, listed) {
                     d.event_log.push(ContactEvent { contact: g, ..*e });
                     logged = true;
                 }
@@ -54,12 +55,13 @@ impl Islands {
     }
 
     /// Writes the islands' contact memory into the scene's data `d`, which must have the
-    /// islands' candidate pairs.
+    /// islands' candidate pairs (and their partition).
     pub fn gather_contacts(&self, d: &mut Data) {
         debug_assert!(d.candidates == self.candidates);
-        for island in &self.parts {
+        for (j, island) in self.parts.iter().enumerate() {
+            let listed = d.partition.listed(j);
             for (k, mem) in island.data.contact_memory.iter().enumerate() {
-                if let Some(g) = island.scene_contact(k, self.n_explicit) {
+                if let Some(g) = island.scene_contact(k, self.n_explicit, listed) {
                     d.contact_memory[g] = *mem;
                 }
             }

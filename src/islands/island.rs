@@ -4,7 +4,6 @@
 
 use super::part::Numbering;
 use crate::engine;
-use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
 use std::sync::Arc;
 
@@ -14,14 +13,8 @@ pub struct Island {
     pub model: Arc<Model>,
     /// The island's data (boxed: forming and the spare data move a pointer, not the data).
     pub data: Box<Data>,
-    /// The scene's index of each of the island's bodies (its own order, sorted).
-    pub bodies: Vec<usize>,
     /// How its coordinates, inputs, declared contacts and shapes map onto the scene's.
     pub(super) numbering: Numbering,
-    /// The island's candidate pairs (the scene's shape numbering), in its contacts' order.
-    pub(super) candidates: Vec<Candidate>,
-    /// The index of each of them in the islands' list ([`super::Islands::candidates`]).
-    pub(super) listed: Vec<usize>,
     /// Its state at the start of the round: the whole state, or (`saved_light`) its time and
     /// coordinates ([`Island::save_round_start`]).
     pub(super) saved: Vec<f64>,
@@ -114,15 +107,12 @@ impl Island {
         self.model.input_work(&self.data.state)
     }
 
-    /// The scene's index of the island's contact `k` (its declared contacts', then the
-    /// candidate pairs' of the islands' list after them).
-    pub(super) fn scene_contact(&self, k: usize, n_explicit: usize) -> Option<usize> {
+    /// The scene's index of the island's contact `k` (its declared contacts', then its
+    /// candidate pairs' after them: `listed` holds their places in the islands' list).
+    pub(super) fn scene_contact(&self, k: usize, n_explicit: usize, listed: &[usize]) -> Option<usize> {
         match self.numbering.explicit.get(k) {
             Some(&g) => Some(g),
-            None => self
-                .listed
-                .get(k - self.numbering.explicit.len())
-                .map(|i| n_explicit + i),
+            None => listed.get(k - self.numbering.explicit.len()).map(|i| n_explicit + i),
         }
     }
 

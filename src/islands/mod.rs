@@ -41,6 +41,7 @@ use crate::integrator::ExplicitHold;
 use crate::kinematics::poses_and_velocities_at_state;
 use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
+use crate::model::partition::Partition;
 use crate::model::{ContactEvent, Counters, Data, Model};
 #[cfg(test)]
 use crate::scene::Scene;
@@ -168,12 +169,12 @@ pub struct Source<'a> {
     pub origin: &'a str,
 }
 
-/// What a new island holds of the scene: its bodies (sorted), its candidate pairs (in the
-/// list's order) and their indices in the list.
-struct Members {
-    bodies: Vec<usize>,
-    candidates: Vec<Candidate>,
-    listed: Vec<usize>,
+/// What a new island is made of, as its partition lists it: its bodies (sorted), its
+/// candidate pairs (in the list's order) and their indices in the list.
+struct Members<'a> {
+    bodies: &'a [usize],
+    candidates: &'a [Candidate],
+    listed: &'a [usize],
 }
 
 impl Islands {
@@ -256,10 +257,12 @@ impl Islands {
         // highest cost and the longest hold of its bodies': a stint of the merged island
         // costs at least what the costliest part's did)
         let mut held = vec![None; m.bodies.len()];
-        for island in &old {
+        // (the former islands' partition)
+        let before = std::mem::take(&mut d.partition);
+        for (k, island) in old.iter().enumerate() {
             let h = island.data.solver.pending_step();
             let hold = island.data.solver.method().and_then(|i| i.explicit_hold());
-            for &b in &island.bodies {
+            for &b in before.bodies(k) {
                 next_h[b] = h;
                 held[b] = hold;
             }
@@ -267,38 +270,41 @@ impl Islands {
         let parts = partition(m, candidates);
         // the former islands by their first body
         let mut by_first = vec![usize::MAX; m.bodies.len()];
-        for (k, island) in old.iter().enumerate() {
-            by_first[island.bodies[0]] = k;
+        for k in 0..old.len() {
+            by_first[before.bodies(k)[0]] = k;
         }
         let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
         for (k, bodies) in parts.iter().enumerate() {
             let (cands, listed) = (parts.candidates(k), parts.listed(k));
-            let previous = old.get_mut(by_first[bodies[0]]).and_then(Option::take);
-            if let Some(mut island) = previous {
-                if island.bodies == bodies && island.candidates == cands {
-                    for (lb, &gb) in island.bodies.iter().enumerate() {
+            let j = by_first[bodies[0]];
+            if let Some(mut island) = old.get_mut(j).and_then(Option::take) {
+                if before.bodies(j) == bodies && before.candidates(j) == cands {
+                    for (lb, &gb) in bodies.iter().enumerate() {
                         island.data.broad_reference[lb] = d.broad_reference[gb];
                     }
-                    island.listed.clear();
-                    island.listed.extend_from_slice(listed);
                     engine::resync_margins(&island.model, &mut island.data);
                     out.push(island);
                     continue;
                 }
-                self.retire(island);
+                self.retire(*island, before.listed(j));
             }
             let h = bodies.iter().map(|&b| next_h[b]).fold(f64::INFINITY, f64::min);
             let members = Members {
-                bodies: bodies.to_vec(),
-                candidates: cands.to_vec(),
-                listed: listed.to_vec(),
+                bodies,
+                candidates: cands,
+                listed,
             };
             let mut island = match self.compile_island(m, d, members, memory, former) {
                 Ok(island) => island,
                 Err(e) => {
-                    for island in out.into_iter().chain(old.into_iter().flatten()) {
-                        self.retire(island);
+                    for (k, island) in out.into_iter().enumerate() {
+                        self.retire(*island, parts.listed(k));
+                    }
+                    for (j, island) in old.into_iter().enumerate() {
+                        if let Some(island) = island {
+                            self.retire(*island, before.listed(j));
+                        }
                     }
                     return Err(e);
                 }
@@ -313,8 +319,10 @@ impl Islands {
             self.compiled += 1;
             out.push(island);
         }
-        for island in old.into_iter().flatten() {
-            self.retire(island);
+        for (j, island) in old.into_iter().enumerate() {
+            if let Some(island) = island {
+                self.retire(*island, before.listed(j));
+            }
         }
         self.parts = out;
         d.partition = parts;
@@ -322,14 +330,15 @@ impl Islands {
         Ok(())
     }
 
-    /// Keeps the counters and the dissipated energy of an island that ends, and its
-    /// compiled part in the pool.
-    fn retire(&mut self, island: Box<Island>) {
+    /// Keeps the counters and the dissipated energy of an island that ends (its candidate
+    /// pairs' places in the list `listed`, by which its events are numbered), and its compiled
+    /// part in the pool.
+    fn retire(&mut self, island: Island, listed: &[usize]) {
         self.retired = self.retired + island.data.counters;
         self.dissipated_base += island.dissipated();
         self.input_work_base += island.input_work();
         for e in &island.data.event_log {
-            if let Some(g) = island.scene_contact(e.contact, self.n_explicit) {
+            if let Some(g) = island.scene_contact(e.contact, self.n_explicit, listed) {
                 self.retired_log.push(ContactEvent { contact: g, ..*e });
             }
         }
@@ -369,7 +378,7 @@ impl Islands {
         let limit = POOL_PER_BODY * self.joint_coords.len();
         let (part, pooled) = self
             .pool
-            .part(&self.params, &mut self.cutter, m, &self.joint_coords, &bodies, limit);
+            .part(&self.params, &mut self.cutter, m, &self.joint_coords, bodies, limit);
         self.pooled += u64::from(pooled);
         let Compiled { model, numbering } = part;
         // (the scene's data keeps the log; an island's holds the events of one advance and
@@ -397,7 +406,7 @@ impl Islands {
             data.inputs[l] = d.inputs[g];
         }
         // the candidate pairs' contact elements, by the island's numbering of the shapes
-        let local = cut::local_candidates(&numbering.shapes, &candidates);
+        let local = cut::local_candidates(&numbering.shapes, candidates);
         set_candidates(&model, &mut data, &local).map_err(|e| fail(d.time, e))?;
         for (k, &g) in numbering.explicit.iter().enumerate() {
             data.contact_memory[k] = memory.explicit[g];
@@ -416,10 +425,7 @@ impl Islands {
         let mut island = Box::new(Island {
             model,
             data,
-            bodies,
             numbering,
-            candidates,
-            listed,
             saved,
             saved_light: false,
             saved_log: 0,
@@ -517,8 +523,8 @@ impl Islands {
                 }
                 if let Err(e) = result {
                     let n = self.parts.len();
-                    let name = self.island_name(m, k);
-                    let mut e = self.take_back(m, k, e);
+                    let name = island_name(m, &d.partition, k);
+                    let mut e = self.take_back(m, &d.partition, k, e);
                     if e.step_limit {
                         e.message = format!(
                             "solver.max_steps = {per_island} integrator steps per island and communication step \
@@ -547,7 +553,7 @@ impl Islands {
                     // (the same steps again, counted once)
                     island.data.max_steps = Some(m.solver.max_steps);
                     if let Err(e) = engine::advance(&island.model, &mut island.data, t_met) {
-                        return Err(self.take_back(m, k, e));
+                        return Err(self.take_back(m, &d.partition, k, e));
                     }
                 }
                 t_met = self.parts.iter().map(|i| i.data.time).fold(t_met, f64::min);
@@ -583,16 +589,10 @@ impl Islands {
         self.retired.steps + self.parts.iter().map(|i| i.data.counters.steps).sum::<u64>()
     }
 
-    /// The name of island `k`: that of its first body.
-    fn island_name<'m>(&self, m: &'m Model, k: usize) -> &'m str {
-        let first = self.parts[k].bodies[0];
-        m.bodies.get(first).map_or("?", |b| b.name.as_str())
-    }
-
-    /// After island `k` failed with `e`: every island back to the start of the round (its
-    /// saved state) and the error, naming the island, at that time.
-    fn take_back(&mut self, m: &Model, k: usize, e: EngineError) -> EngineError {
-        let name = self.island_name(m, k);
+    /// After island `k` of partition `p` failed with `e`: every island back to the start of
+    /// the round (its saved state) and the error, naming the island, at that time.
+    fn take_back(&mut self, m: &Model, p: &Partition, k: usize, e: EngineError) -> EngineError {
+        let name = island_name(m, p, k);
         for island in &mut self.parts {
             island.restore();
         }
@@ -617,7 +617,7 @@ impl Islands {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }
         d.time = self.time;
-        let memory = self.memory_of_islands(m);
+        let memory = self.memory_of_islands(m, &d.partition);
         let old = std::mem::take(&mut self.parts);
         self.rebuilds += 1;
         self.form(m, d, &found, &former, &memory, old)
@@ -638,6 +638,12 @@ impl Islands {
             }
         }
     }
+}
+
+/// The name of island `k` of partition `p`: that of its first body.
+fn island_name<'m>(m: &'m Model, p: &Partition, k: usize) -> &'m str {
+    let first = p.bodies(k).first();
+    first.and_then(|&b| m.bodies.get(b)).map_or("?", |b| b.name.as_str())
 }
 
 /// The outcome of one island's advance to `t_round` ([`engine::advance_with`]) and the steps
@@ -676,7 +682,7 @@ fn advance_side_by_side(
 ) -> Vec<Option<Outcome>> {
     let mut outcomes: Vec<Option<Outcome>> = (0..parts.len()).map(|_| None).collect();
     let mut order: Vec<(usize, &mut Box<Island>)> = parts.iter_mut().enumerate().collect();
-    order.sort_by_key(|(k, island)| (std::cmp::Reverse(island.bodies.len()), *k));
+    order.sort_by_key(|(k, island)| (std::cmp::Reverse(island.model.bodies.len()), *k));
     let queue = Mutex::new(order.into_iter());
     let work = || {
         let mut done = Vec::new();

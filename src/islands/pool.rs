@@ -172,7 +172,7 @@ pub(super) mod tests {
             }
             let (mut shared, mut own) = (0, 0);
             for k in 0..is.parts.len() {
-                let bodies = is.parts[k].bodies.clone();
+                let bodies = d.partition.bodies(k).to_vec();
                 let fresh = super::fresh_cut(is, m, &bodies);
                 let island = &is.parts[k];
                 let (model, unnamed_model) = (format!("{:?}", island.model), format!("{:?}", unnamed(&island.model)));

@@ -16,7 +16,7 @@ impl Islands {
     /// round's end, the candidate pairs with the contacts' memory, each body's island, and per
     /// island its energies, inputs, counters and integrator.
     pub fn record(&self, m: &Model, d: &mut Data) {
-        let memory = self.memory_of_islands(m);
+        let memory = self.memory_of_islands(m, &d.partition);
         let s = &mut d.islands;
         s.clear();
         s.head = IslandsHead {
@@ -70,9 +70,9 @@ impl Islands {
         let mut parts = Vec::with_capacity(islands.len());
         for (k, bodies) in islands.iter().enumerate() {
             let members = Members {
-                bodies: bodies.to_vec(),
-                candidates: islands.candidates(k).to_vec(),
-                listed: islands.listed(k).to_vec(),
+                bodies,
+                candidates: islands.candidates(k),
+                listed: islands.listed(k),
             };
             let mut built = is
                 .compile_island(m, d, members, &memory, &same)

@@ -206,10 +206,12 @@ impl Simulation {
         let Some(is) = c.islands.as_mut() else {
             return Vec::new();
         };
+        let partition = &c.data.partition;
         is.parts
             .iter_mut()
-            .map(|i| IslandReport {
-                bodies: i.bodies.iter().map(|&b| self.scene.body[b].name.clone()).collect(),
+            .enumerate()
+            .map(|(k, i)| IslandReport {
+                bodies: partition.bodies(k).iter().map(|&b| self.scene.body[b].name.clone()).collect(),
                 counters: i.data.counters,
                 energies: outputs::energies(&i.model, &mut i.data),
                 time: i.data.time,
