@@ -11,7 +11,7 @@ use crate::model::{Data, Model};
 use rustc_hash::FxHashMap as HashMap;
 
 /// The contacts' memory, by the scene's numbering: declared contacts by index, candidate
-/// pairs by their index in the islands' list [`Islands::candidates`].
+/// pairs by their index in the islands' list (their partition's, [`Partition::list`]).
 pub(super) struct Memory {
     /// Per declared contact.
     pub(super) explicit: Vec<ContactMemory>,
@@ -42,30 +42,30 @@ pub(super) fn former_indices(old: &[Candidate], new: &[Candidate], out: &mut Vec
     }
 }
 
-impl Islands {
-    /// The memory of the scene's data `d` (model `m`), by the islands' list of candidate pairs.
-    pub(super) fn memory_of_scene(&self, m: &Model, d: &Data) -> Memory {
-        let n = m.groups.n_explicit;
-        let mut at = Vec::new();
-        former_indices(&d.candidates, &self.candidates, &mut at);
-        Memory {
-            explicit: d.contact_memory[..n].to_vec(),
-            candidates: at
-                .iter()
-                .map(|&i| match i {
-                    NOT_LISTED => ContactMemory::default(),
-                    i => d.contact_memory.get(n + i).copied().unwrap_or_default(),
-                })
-                .collect(),
-        }
+/// The memory of the scene's data `d` (model `m`), by the list of candidate pairs `list`.
+pub(super) fn memory_of_scene(m: &Model, d: &Data, list: &[Candidate]) -> Memory {
+    let n = m.groups.n_explicit;
+    let mut at = Vec::new();
+    former_indices(&d.candidates, list, &mut at);
+    Memory {
+        explicit: d.contact_memory[..n].to_vec(),
+        candidates: at
+            .iter()
+            .map(|&i| match i {
+                NOT_LISTED => ContactMemory::default(),
+                i => d.contact_memory.get(n + i).copied().unwrap_or_default(),
+            })
+            .collect(),
     }
+}
 
-    /// The memory the islands hold (their candidate pairs' places in the list by their
-    /// partition `p`).
+impl Islands {
+    /// The memory the islands hold, by the list of their partition `p` (their candidate pairs'
+    /// places in it).
     pub(super) fn memory_of_islands(&self, m: &Model, p: &Partition) -> Memory {
         let mut memory = Memory {
             explicit: vec![ContactMemory::default(); m.groups.n_explicit],
-            candidates: vec![ContactMemory::default(); self.candidates.len()],
+            candidates: vec![ContactMemory::default(); p.list().len()],
         };
         for (j, island) in self.parts.iter().enumerate() {
             let mem = &island.data.contact_memory;

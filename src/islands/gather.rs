@@ -17,7 +17,7 @@ impl Islands {
 
     /// Writes the islands' motion into the scene's data `d` of model `m`: coordinates, time,
     /// dissipated energy, counters and the contact events logged since the last gathering
-    /// (numbered by the islands' candidate list, [`Islands::candidates`]).
+    /// (numbered by the islands' candidate list, their partition's).
     pub fn gather(&mut self, m: &Model, d: &mut Data) {
         self.put_coordinates(d);
         let n_explicit = self.n_explicit;
@@ -57,7 +57,7 @@ impl Islands {
     /// Writes the islands' contact memory into the scene's data `d`, which must have the
     /// islands' candidate pairs (and their partition).
     pub fn gather_contacts(&self, d: &mut Data) {
-        debug_assert!(d.candidates == self.candidates);
+        debug_assert!(d.candidates == d.partition.list());
         for (j, island) in self.parts.iter().enumerate() {
             let listed = d.partition.listed(j);
             for (k, mem) in island.data.contact_memory.iter().enumerate() {

@@ -59,7 +59,7 @@ mod saved;
 #[cfg(test)]
 mod tests;
 
-use carry::{former_indices, Memory, NOT_LISTED};
+use carry::{former_indices, memory_of_scene, Memory, NOT_LISTED};
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
@@ -107,9 +107,6 @@ pub struct Islands {
     dissipated_base: f64,
     /// Input work not held by a present island \[J\].
     input_work_base: f64,
-    /// The candidate pairs of the whole scene (its shape numbering), as the broad phase
-    /// found them last (sorted).
-    pub candidates: Vec<Candidate>,
     /// Contact events of islands that ended since the last gathering (the scene's contact
     /// numbering of the candidate list then).
     retired_log: Vec<ContactEvent>,
@@ -189,10 +186,10 @@ impl Islands {
     /// Forms the islands of the scene's candidate pairs at its data `d`, with its contact
     /// memory (no islands before them).
     fn form_from_scene(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
-        let memory = self.memory_of_scene(m, d);
         let candidates = d.candidates.clone();
-        let mut former = Vec::new();
-        former_indices(&self.candidates, &candidates, &mut former);
+        let memory = memory_of_scene(m, d, &candidates);
+        // (the memory is by the scene's list, which is the islands' list)
+        let former: Vec<usize> = (0..candidates.len()).collect();
         self.form(m, d, &candidates, &former, &memory, Vec::new())
     }
 
@@ -207,7 +204,6 @@ impl Islands {
             retired: d.counters,
             dissipated_base: d.state[m.dissipated_index()],
             input_work_base: m.input_work(&d.state),
-            candidates: d.candidates.clone(),
             retired_log: Vec::new(),
             rebuilds: 0,
             compiled: 0,
@@ -234,7 +230,7 @@ impl Islands {
     /// Forms the islands of the candidate pairs `candidates` at the scene's data `d` (its
     /// coordinates and reference poses), keeping those of `old` whose bodies and candidate
     /// pairs are unchanged (with their integrators) and compiling the others with the
-    /// contact memory `memory` (by the former list, [`Islands::candidates`]; `former` gives
+    /// contact memory `memory` (by the former list, the partition's; `former` gives
     /// each pair's index in it, [`former_indices`]). Should an island fail to compile (its
     /// error is returned), the islands are left without parts, every island's counters and
     /// energies kept as those of islands that ended.
@@ -326,7 +322,6 @@ impl Islands {
         }
         self.parts = out;
         d.partition = parts;
-        self.candidates = candidates.to_vec();
         Ok(())
     }
 
@@ -610,7 +605,7 @@ impl Islands {
     fn rebuild(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
         let found = m.groups.find(&|b| groups::pose(d, b));
         let mut former = Vec::new();
-        former_indices(&self.candidates, &found, &mut former);
+        former_indices(d.partition.list(), &found, &mut former);
         // (checked before anything changes: on an error the islands stay as they are)
         check_new_pairs(m, d, &found, |i| former[i] == NOT_LISTED).map_err(|message| fail(self.time, message))?;
         for b in 0..m.bodies.len() {

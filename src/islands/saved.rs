@@ -26,7 +26,7 @@ impl Islands {
             rebuilds: self.rebuilds,
             round_end: self.round_end,
         };
-        s.candidates.extend_from_slice(&self.candidates);
+        s.candidates.extend_from_slice(d.partition.list());
         s.memory.extend(memory.explicit);
         s.memory.extend(memory.candidates);
         s.island_of.extend_from_slice(&d.partition.island_of);
@@ -59,14 +59,13 @@ impl Islands {
             );
         }
         let mut is = Islands::bare(params, m, d);
-        is.candidates.clone_from(&saved.candidates);
         let n = m.groups.n_explicit;
         let memory = Memory {
             explicit: saved.memory[..n].to_vec(),
             candidates: saved.memory[n..].to_vec(),
         };
         // (the memory is by the islands' own list)
-        let same: Vec<usize> = (0..is.candidates.len()).collect();
+        let same: Vec<usize> = (0..saved.candidates.len()).collect();
         let mut parts = Vec::with_capacity(islands.len());
         for (k, bodies) in islands.iter().enumerate() {
             let members = Members {

@@ -235,7 +235,7 @@ fn a_pair_the_scene_does_not_list_carries_no_memory() {
     floor.size = Some([10.0, 10.0]);
     floor.stiffness = Some(1e7);
     scene.contact.push(floor);
-    on_scene(&scene, "memory test", |m, d, is| {
+    on_scene(&scene, "memory test", |m, d, _| {
         assert_eq!(m.groups.n_explicit, 1);
         let declared = ContactMemory {
             active: true,
@@ -256,8 +256,7 @@ fn a_pair_the_scene_does_not_list_carries_no_memory() {
         let unlisted = Candidate { other: 2, ..pair };
         d.candidates = vec![pair];
         d.contact_memory = vec![declared, listed];
-        is.candidates = vec![pair, unlisted];
-        let memory = is.memory_of_scene(m, d);
+        let memory = super::carry::memory_of_scene(m, d, &[pair, unlisted]);
         assert_eq!(memory.explicit, vec![declared]);
         assert_eq!(memory.candidates, vec![listed, ContactMemory::default()]);
     });
@@ -346,14 +345,13 @@ fn the_datas_partition_is_the_islands() {
                 assert!(shapes
                     .iter()
                     .all(|&s| m.groups.shapes[s].body.is_none_or(|b| p.island_of[b] == k)));
-                assert_eq!(island.data.candidates, super::cut::local_candidates(shapes, p.candidates(k)));
-                assert!(p
-                    .candidates(k)
-                    .iter()
-                    .zip(p.listed(k))
-                    .all(|(c, &l)| is.candidates[l] == *c));
+                assert_eq!(
+                    island.data.candidates,
+                    super::cut::local_candidates(shapes, p.candidates(k))
+                );
+                assert!(p.candidates(k).iter().zip(p.listed(k)).all(|(c, &l)| p.list()[l] == *c));
             }
-            assert_eq!(*p, super::partition(m, &is.candidates));
+            assert_eq!(*p, super::partition(m, p.list()));
         }
         assert!(is.rebuilds > rebuilds + 3, "{} rebuilds", is.rebuilds - rebuilds);
     });
@@ -411,14 +409,10 @@ fn a_pair_found_touching_at_a_rebuild_is_refused_and_the_islands_stay_as_they_we
     on_scene(&scene, "rebuild test", |m, d, is| {
         is.advance(m, d, 0.004, false).unwrap();
         let before = snapshot(is, m, d);
-        let (candidates, rebuilds, references) = (is.candidates.clone(), is.rebuilds, d.broad_reference.clone());
+        let (candidates, rebuilds, references) = (d.partition.list().to_vec(), is.rebuilds, d.broad_reference.clone());
         // two spheres on bodies a and b that are not a candidate pair
         let shapes = &m.groups.shapes;
-        let listed = |s: usize, o: usize| {
-            is.candidates
-                .iter()
-                .any(|c| (c.sphere, c.other) == (s.min(o), s.max(o)))
-        };
+        let listed = |s: usize, o: usize| candidates.iter().any(|c| (c.sphere, c.other) == (s.min(o), s.max(o)));
         let spheres: Vec<usize> = (0..shapes.len()).filter(|&s| shapes[s].body.is_some()).collect();
         let (sa, sb) = spheres
             .iter()
@@ -449,7 +443,7 @@ fn a_pair_found_touching_at_a_rebuild_is_refused_and_the_islands_stay_as_they_we
             e.message
         );
         assert_eq!(e.time, 0.004);
-        assert_eq!(is.candidates, candidates);
+        assert_eq!(d.partition.list(), candidates);
         assert_eq!(is.rebuilds, rebuilds);
         assert_eq!(d.broad_reference, references);
         // (gathering writes the islands' coordinates back into the scene's data)

@@ -5,11 +5,13 @@
 
 use super::groups::Candidate;
 
-/// The islands of a scene: the bodies of each (in scene order, the islands ordered by their
-/// first body) and the candidate pairs of each (in the list's order), each in one list (no
-/// allocation per island).
+/// The islands of a scene: the candidate pairs they were formed for (the broad phase's list),
+/// the bodies of each island (in scene order, the islands ordered by their first body) and
+/// its candidate pairs (in the list's order), each in one list (no allocation per island).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Partition {
+    /// The candidate pairs (sorted, as the broad phase lists them).
+    list: Vec<Candidate>,
     /// Per body, its island.
     pub island_of: Vec<usize>,
     /// The bodies of island `k` are `bodies[body_starts[k]..body_starts[k + 1]]`.
@@ -23,9 +25,9 @@ pub struct Partition {
 }
 
 impl Partition {
-    /// The partition whose islands `island_of` gives per body (numbered in the order of their
-    /// first bodies, from 0) and where `candidates` (the list, in its order) puts each candidate
-    /// pair: the island of its `body` (None: a pair of no body, in no island).
+    /// The partition of the list `candidates` whose islands `island_of` gives per body
+    /// (numbered in the order of their first bodies, from 0), each candidate pair in the
+    /// island of its `body` (None: a pair of no body, in no island).
     pub fn new(
         island_of: Vec<usize>,
         candidates: &[Candidate],
@@ -33,6 +35,7 @@ impl Partition {
     ) -> Partition {
         let n = island_of.iter().map(|&k| k + 1).max().unwrap_or(0);
         let mut p = Partition {
+            list: candidates.to_vec(),
             island_of,
             body_starts: vec![0; n + 1],
             candidate_starts: vec![0; n + 1],
@@ -74,6 +77,11 @@ impl Partition {
             }
         }
         p
+    }
+
+    /// The candidate pairs the islands were formed for.
+    pub fn list(&self) -> &[Candidate] {
+        &self.list
     }
 
     /// The number of islands.
@@ -118,6 +126,7 @@ impl Partition {
             v.clear();
         }
         self.candidates.clear();
+        self.list.clear();
     }
 }
 

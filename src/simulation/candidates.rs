@@ -21,10 +21,11 @@ impl Simulation {
         else {
             return Ok(());
         };
-        if is.candidates == data.candidates {
+        if data.partition.list() == data.candidates {
             return Ok(());
         }
-        elements::set_candidates(model, data, &is.candidates).map_err(|message| SimError::Step {
+        let list = data.partition.list().to_vec();
+        elements::set_candidates(model, data, &list).map_err(|message| SimError::Step {
             time: data.time,
             message,
         })?;

@@ -211,7 +211,11 @@ impl Simulation {
             .iter_mut()
             .enumerate()
             .map(|(k, i)| IslandReport {
-                bodies: partition.bodies(k).iter().map(|&b| self.scene.body[b].name.clone()).collect(),
+                bodies: partition
+                    .bodies(k)
+                    .iter()
+                    .map(|&b| self.scene.body[b].name.clone())
+                    .collect(),
                 counters: i.data.counters,
                 energies: outputs::energies(&i.model, &mut i.data),
                 time: i.data.time,
@@ -488,7 +492,7 @@ impl Simulation {
             // the next step forms them anew from the scene's data)
             *islands = None;
             data.partition.clear();
-        } else if is.candidates == data.candidates {
+        } else if data.partition.list() == data.candidates {
             is.gather_contacts(data);
         }
         result.map_err(step_error)
