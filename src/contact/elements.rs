@@ -95,16 +95,15 @@ pub fn candidate_element(groups: &Groups, c: &Candidate, name: String) -> Result
     )
 }
 
-/// Checks that no candidate pair of `found` new to the list (`is_new` of its index) touches
-/// at the kinematics in `d`: such a pair was found too late, after a body moved more than half
-/// the broad-phase margin within one step (the step's bounds allow that only to a body
-/// accelerated far beyond gravity). Err: the message. (A pair whose element cannot be made is
-/// left to the contact list, which reports it.)
+/// Checks the candidate pairs of `found` new to the list (`is_new` of its index): that their
+/// contact elements can be made, and that none touches at the kinematics in `d` (such a pair
+/// was found too late, after a body moved more than half the broad-phase margin within one
+/// step, which the step's bounds allow only to a body accelerated far beyond gravity). Err:
+/// the message. (Checked before a list changes, so that making it cannot fail halfway.)
 pub fn check_new_pairs(m: &Model, d: &Data, found: &[Candidate], is_new: impl Fn(usize) -> bool) -> Result<(), String> {
     for c in found.iter().enumerate().filter(|&(i, _)| is_new(i)).map(|(_, c)| c) {
-        let Ok(e) = candidate_element(&m.groups, c, String::new()) else {
-            continue;
-        };
+        let e = candidate_element(&m.groups, c, String::new())
+            .map_err(|message| format!("contact {:?}: {message}", m.groups.element_name(c)))?;
         if crate::contact::event_function(&e, &crate::contact::gap_of(&e, d)) > 0.0 {
             return Err(format!(
                 "contact {:?} touched before the broad phase listed it: a body moved more than half the \

@@ -396,59 +396,74 @@ fn islands_restored_from_their_saved_part_hold_their_whole_states() {
     }
 }
 
-/// A candidate pair that the broad phase finds already touching at a rebuild (a body moved
-/// more than half the margin within a step, which only a body accelerated far beyond gravity
-/// does) is refused before anything changes: the islands, their candidate pairs, the
-/// reference poses and the counters stay as they were (before, the islands formed up to the
-/// refusal were dropped with their counters and energies), and they go on from there. Here
-/// one of 64 grouped spheres is put, in the scene's data, onto a sphere it is not listed
-/// with.
+/// A candidate pair new to the list at a rebuild that the broad phase finds already touching
+/// (a body moved more than half the margin within a step, which only a body accelerated far
+/// beyond gravity does), or whose contact element cannot be made, is refused before anything
+/// changes: the islands, their partition and candidate pairs, the reference poses and the
+/// counters stay as they were (before, the touch was found while the new islands were formed,
+/// and a refusal there dropped the islands with the counters and energies of those not yet
+/// formed), and they go on from there. Here one of 64 grouped spheres is put, in the scene's
+/// data, onto a sphere it is not listed with (1 µm deep), or within the margin of it with the
+/// contact groups' laws and materials taken away from the model the rebuild is given.
 #[test]
-fn a_pair_found_touching_at_a_rebuild_is_refused_and_the_islands_stay_as_they_were() {
+fn a_new_pair_that_touches_or_cannot_be_made_is_refused_and_the_islands_stay_as_they_were() {
     let scene = grouped(64, 0.02, 0.0015, true);
-    on_scene(&scene, "rebuild test", |m, d, is| {
-        is.advance(m, d, 0.004, false).unwrap();
-        let before = snapshot(is, m, d);
-        let (candidates, rebuilds, references) = (d.partition.list().to_vec(), is.rebuilds, d.broad_reference.clone());
-        // two spheres on bodies a and b that are not a candidate pair
-        let shapes = &m.groups.shapes;
-        let listed = |s: usize, o: usize| candidates.iter().any(|c| (c.sphere, c.other) == (s.min(o), s.max(o)));
-        let spheres: Vec<usize> = (0..shapes.len()).filter(|&s| shapes[s].body.is_some()).collect();
-        let (sa, sb) = spheres
-            .iter()
-            .flat_map(|&s| spheres.iter().map(move |&o| (s, o)))
-            .find(|&(s, o)| s != o && !listed(s, o))
-            .unwrap();
-        let (a, b) = (shapes[sa].body.unwrap(), shapes[sb].body.unwrap());
-        let r = |s: usize| scene.shape[s].radius.unwrap();
-        crate::kinematics::poses_and_velocities_at_state(m, d);
-        let (pa, pb) = (d.body_pos[a], d.body_pos[b]);
-        // a onto b, 1 µm deep
-        let target = pb + (pa - pb).normalize() * (r(sa) + r(sb) - 1e-6);
-        let qpos = m.joints.iter().find(|j| j.child == a).unwrap().qpos;
-        for k in 0..3 {
-            d.state[qpos + k] += target[k] - pa[k];
-        }
-        crate::kinematics::poses_and_velocities_at_state(m, d);
-        assert!(
-            (d.body_pos[a] - target).norm() < 1e-12,
-            "{} against {target}",
-            d.body_pos[a]
-        );
+    for (depth, unmade) in [(1e-6, false), (-0.5 * 0.0015, true)] {
+        on_scene(&scene, "rebuild test", |m, d, is| {
+            is.advance(m, d, 0.004, false).unwrap();
+            let before = snapshot(is, m, d);
+            let (partition, rebuilds, references) = (d.partition.clone(), is.rebuilds, d.broad_reference.clone());
+            // two spheres on bodies a and b that are not a candidate pair
+            let shapes = &m.groups.shapes;
+            let listed = |s: usize, o: usize| {
+                partition
+                    .list()
+                    .iter()
+                    .any(|c| (c.sphere, c.other) == (s.min(o), s.max(o)))
+            };
+            let spheres: Vec<usize> = (0..shapes.len()).filter(|&s| shapes[s].body.is_some()).collect();
+            let (sa, sb) = spheres
+                .iter()
+                .flat_map(|&s| spheres.iter().map(move |&o| (s, o)))
+                .find(|&(s, o)| s != o && !listed(s, o))
+                .unwrap();
+            let (a, b) = (shapes[sa].body.unwrap(), shapes[sb].body.unwrap());
+            let r = |s: usize| scene.shape[s].radius.unwrap();
+            crate::kinematics::poses_and_velocities_at_state(m, d);
+            let (pa, pb) = (d.body_pos[a], d.body_pos[b]);
+            let target = pb + (pa - pb).normalize() * (r(sa) + r(sb) - depth);
+            let qpos = m.joints.iter().find(|j| j.child == a).unwrap().qpos;
+            for k in 0..3 {
+                d.state[qpos + k] += target[k] - pa[k];
+            }
+            crate::kinematics::poses_and_velocities_at_state(m, d);
+            assert!(
+                (d.body_pos[a] - target).norm() < 1e-12,
+                "{} against {target}",
+                d.body_pos[a]
+            );
+            let mut unmade_model = m.clone();
+            if unmade {
+                let g = &mut unmade_model.groups;
+                g.laws.iter_mut().for_each(|l| l.stiffness = None);
+                g.sphere_sides.iter_mut().for_each(|s| s.material = None);
+            }
 
-        let e = is.rebuild(m, d).unwrap_err();
-        assert!(
-            e.message.contains("touched before the broad phase listed it"),
-            "{}",
-            e.message
-        );
-        assert_eq!(e.time, 0.004);
-        assert_eq!(d.partition.list(), candidates);
-        assert_eq!(is.rebuilds, rebuilds);
-        assert_eq!(d.broad_reference, references);
-        // (gathering writes the islands' coordinates back into the scene's data)
-        assert_eq!(snapshot(is, m, d), before);
-        is.advance(m, d, 0.008, false).unwrap();
-        assert_eq!(is.parts.iter().map(|i| i.data.time).fold(0.0, f64::max), 0.008);
-    });
+            let e = is.rebuild(&unmade_model, d).unwrap_err();
+            let expected = if unmade {
+                "give stiffness"
+            } else {
+                "touched before the broad phase listed it"
+            };
+            assert!(e.message.contains(expected), "{}", e.message);
+            assert_eq!(e.time, 0.004);
+            assert_eq!(d.partition, partition);
+            assert_eq!(is.rebuilds, rebuilds);
+            assert_eq!(d.broad_reference, references);
+            // (gathering writes the islands' coordinates back into the scene's data)
+            assert_eq!(snapshot(is, m, d), before);
+            is.advance(m, d, 0.008, false).unwrap();
+            assert_eq!(is.parts.iter().map(|i| i.data.time).fold(0.0, f64::max), 0.008);
+        });
+    }
 }
