@@ -527,6 +527,12 @@ impl Simulation {
     /// returned unchanged by [`Simulation::restore`]).
     pub fn snapshot(&mut self, host: Vec<f64>) -> Snapshot {
         let mut st = Vec::new();
+        if self.initialized {
+            // (the scene's contact list made the islands', as reading a contact output makes
+            // it: the state saved does not depend on whether outputs were read; should the list
+            // not be made, the state saved with the former one continues as well)
+            let _ = self.sync_islands();
+        }
         if let (true, Some(c)) = (self.initialized, self.compiled.as_mut().map(Compiled::settled)) {
             // (the islands' own state is gathered into the data for the one state spec)
             match &c.islands {
