@@ -263,14 +263,15 @@ pub struct Data {
     /// The islands' own state, gathered when a scene that runs as islands saves its state,
     /// read when it restores one (empty otherwise: the islands hold it in their own data).
     pub islands: IslandsState,
-    /// The islands' partition (of the islands last formed; empty for one integrator).
-    pub partition: Partition,
     // --- the contact list (the model's at compilation; the broad phase's stage makes it anew) ---
     /// Contact elements: the declared contacts, then one per candidate pair of the contact
     /// groups.
     pub contacts: Vec<ContactElement>,
     /// The candidate pairs behind `contacts[m.groups.n_explicit..]`, in their order.
     pub candidates: Vec<Candidate>,
+    /// The islands' partition of the bodies and of the broad phase's candidate pairs (of the
+    /// islands last formed; empty for one integrator).
+    pub partition: Partition,
     /// Per contact, `solver.rtol` to its [`ContactElement::touch_power`] and
     /// [`ContactElement::separation_power`] (see [`crate::model::step_rtol_powers`]).
     pub step_rtol_powers: Vec<[f64; 2]>,
