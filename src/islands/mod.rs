@@ -271,6 +271,7 @@ impl Islands {
         }
         let mut old: Vec<Option<Box<Island>>> = old.into_iter().map(Some).collect();
         let mut out = Vec::with_capacity(parts.len());
+        let mut failed = None;
         for (k, bodies) in parts.iter().enumerate() {
             let (cands, listed) = (parts.candidates(k), parts.listed(k));
             let j = by_first[bodies[0]];
@@ -294,15 +295,8 @@ impl Islands {
             let mut island = match self.compile_island(m, d, members, memory, former) {
                 Ok(island) => island,
                 Err(e) => {
-                    for (k, island) in out.into_iter().enumerate() {
-                        self.retire(*island, parts.listed(k));
-                    }
-                    for (j, island) in old.into_iter().enumerate() {
-                        if let Some(island) = island {
-                            self.retire(*island, before.listed(j));
-                        }
-                    }
-                    return Err(e);
+                    failed = Some(e);
+                    break;
                 }
             };
             if h.is_finite() {
@@ -319,6 +313,12 @@ impl Islands {
             if let Some(island) = island {
                 self.retire(*island, before.listed(j));
             }
+        }
+        if let Some(e) = failed {
+            for (k, island) in out.into_iter().enumerate() {
+                self.retire(*island, parts.listed(k));
+            }
+            return Err(e);
         }
         self.parts = out;
         d.partition = parts;
