@@ -583,13 +583,20 @@ impl Simulation {
         }
         let params = self.parameters();
         let restored = self.ensure_compiled().and_then(|c| {
-            // contact groups: the contact list of the snapshot's candidate pairs (the present
-            // one put back if the state is refused)
-            let kept = (c.data.candidates.clone(), c.data.contact_memory.clone());
-            // (and the present state, put back if the snapshot's islands are refused)
+            // contact groups: the contact list of the snapshot's candidate pairs; the present
+            // list and state are put back if the snapshot is refused
+            let kept = c.data.candidates.clone();
             let mut before = Vec::new();
             engine::settle(&c.model, &mut c.data);
             state::get(&c.model, &c.data, state::FULL, &mut before);
+            let put_back = |c: &mut Compiled| {
+                if c.data.candidates != kept {
+                    // (the list was made before: it makes again)
+                    let _ = crate::contact::elements::set_candidates(&c.model, &mut c.data, &kept);
+                }
+                let _ = state::set(&c.model, &mut c.data, state::FULL, &before);
+                engine::resync(&c.model, &mut c.data);
+            };
             if let Some(found) = state::group_candidates(&c.model, &s.state) {
                 if found != c.data.candidates {
                     crate::contact::elements::set_candidates(&c.model, &mut c.data, &found)
@@ -598,11 +605,9 @@ impl Simulation {
                 }
             }
             if let Err(e) = state::set(&c.model, &mut c.data, state::FULL, &s.state) {
-                if c.data.candidates != kept.0 {
-                    // (the list was made before: it makes again)
-                    let _ = crate::contact::elements::set_candidates(&c.model, &mut c.data, &kept.0);
-                    c.data.contact_memory = kept.1;
-                    engine::resync(&c.model, &mut c.data);
+                // (a refused state changed nothing but the contact list)
+                if c.data.candidates != kept {
+                    put_back(c);
                 }
                 return Err(SimError::Variable(e));
             }
@@ -621,11 +626,7 @@ impl Simulation {
                 }
                 Err(e) => {
                     // (the present state and islands stay; a state it saved always fits)
-                    if c.data.candidates != kept.0 {
-                        let _ = crate::contact::elements::set_candidates(&c.model, &mut c.data, &kept.0);
-                    }
-                    let _ = state::set(&c.model, &mut c.data, state::FULL, &before);
-                    engine::resync(&c.model, &mut c.data);
+                    put_back(c);
                     return Err(SimError::Variable(e));
                 }
             }
