@@ -1,7 +1,8 @@
 //! The contact list: a contact element from its compiled sides and law constants (a declared
 //! contact's at compilation, a candidate pair's whenever the broad phase lists it), and the
 //! data's list made for a list of candidate pairs ([`set_candidates`]: the broad phase's
-//! stage; the model does not change).
+//! stage; the model does not change), each pair's place in the former list
+//! ([`former_indices`]) and the check of the pairs new to it ([`check_new_pairs`]).
 
 use crate::contact::laws::{hertz_stiffness, hysteresis_factor};
 use crate::model::contact::{ContactElement, ContactMemory, LawConstants, OtherSide, Shape, SphereSide};
@@ -95,13 +96,37 @@ pub fn candidate_element(groups: &Groups, c: &Candidate, name: String) -> Result
     )
 }
 
-/// Checks the candidate pairs of `found` new to the list (`is_new` of its index): that their
-/// contact elements can be made, and that none touches at the kinematics in `d` (such a pair
-/// was found too late, after a body moved more than half the broad-phase margin within one
-/// step, which the step's bounds allow only to a body accelerated far beyond gravity). Err:
-/// the message. (Checked before a list changes, so that making it cannot fail halfway.)
-pub fn check_new_pairs(m: &Model, d: &Data, found: &[Candidate], is_new: impl Fn(usize) -> bool) -> Result<(), String> {
-    for c in found.iter().enumerate().filter(|&(i, _)| is_new(i)).map(|(_, c)| c) {
+/// [`former_indices`]: a candidate pair not in the former list.
+pub const NOT_LISTED: usize = usize::MAX;
+
+/// Per candidate pair of the list `new`, its index in the list `old` ([`NOT_LISTED`]: none),
+/// into `out`: by one walk through both when both are sorted (the broad phase's lists are),
+/// by a map of `old` otherwise (a pair listed twice: its last index).
+pub fn former_indices(old: &[Candidate], new: &[Candidate], out: &mut Vec<usize>) {
+    out.clear();
+    let sorted = |l: &[Candidate]| l.windows(2).all(|w| w[0] < w[1]);
+    if sorted(old) && sorted(new) {
+        let mut i = 0;
+        for c in new {
+            while i < old.len() && old[i] < *c {
+                i += 1;
+            }
+            out.push(if old.get(i) == Some(c) { i } else { NOT_LISTED });
+        }
+    } else {
+        let index: rustc_hash::FxHashMap<Candidate, usize> = old.iter().enumerate().map(|(i, c)| (*c, i)).collect();
+        out.extend(new.iter().map(|c| index.get(c).copied().unwrap_or(NOT_LISTED)));
+    }
+}
+
+/// Checks the candidate pairs of `found` new to the list (those whose index in the former list,
+/// `former` of [`former_indices`], is [`NOT_LISTED`]): that their contact elements can be made,
+/// and that none touches at the kinematics in `d` (such a pair was found too late, after a body
+/// moved more than half the broad-phase margin within one step, which the step's bounds allow
+/// only to a body accelerated far beyond gravity). Err: the message. (Checked before a list
+/// changes, so that making it cannot fail halfway.)
+pub fn check_new_pairs(m: &Model, d: &Data, found: &[Candidate], former: &[usize]) -> Result<(), String> {
+    for (c, _) in found.iter().zip(former).filter(|&(_, &i)| i == NOT_LISTED) {
         let e = candidate_element(&m.groups, c, String::new())
             .map_err(|message| format!("contact {:?}: {message}", m.groups.element_name(c)))?;
         if crate::contact::event_function(&e, &crate::contact::gap_of(&e, d)) > 0.0 {

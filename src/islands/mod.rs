@@ -34,7 +34,7 @@
 //! [`Islands::record`]), so a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
-use crate::contact::elements::{check_new_pairs, set_candidates};
+use crate::contact::elements::{check_new_pairs, former_indices, set_candidates};
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
@@ -59,7 +59,7 @@ mod saved;
 #[cfg(test)]
 mod tests;
 
-use carry::{former_indices, memory_of_scene, Memory, NOT_LISTED};
+use carry::{memory_of_scene, Memory};
 pub use cut::{partition, wanted};
 use cut_model::ModelCutter;
 pub use island::Island;
@@ -607,7 +607,7 @@ impl Islands {
         let mut former = Vec::new();
         former_indices(d.partition.list(), &found, &mut former);
         // (checked before anything changes: on an error the islands stay as they are)
-        check_new_pairs(m, d, &found, |i| former[i] == NOT_LISTED).map_err(|message| fail(self.time, message))?;
+        check_new_pairs(m, d, &found, &former).map_err(|message| fail(self.time, message))?;
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
         }

@@ -172,7 +172,7 @@ fn islands_side_by_side_stop_at_the_step_budget_as_one_after_the_other() {
 /// by the map of an unsorted one, against a search of each pair, over 300 random lists.
 #[test]
 fn former_indices_are_the_pairs_places_in_the_former_list() {
-    use super::carry::{former_indices, NOT_LISTED};
+    use crate::contact::elements::{former_indices, NOT_LISTED};
     use crate::model::groups::Candidate;
     // (a small linear congruential generator: the lists are the same every run)
     let mut seed = 0x2545_f491_4f6c_dd1d_u64;

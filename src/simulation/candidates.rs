@@ -51,9 +51,9 @@ impl Simulation {
         let time = d.time;
         let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
         // a pair new to the list that touches already: checked before the list changes
-        let before: rustc_hash::FxHashSet<_> = d.candidates.iter().collect();
-        elements::check_new_pairs(m, d, &found, |i| !before.contains(&found[i]))
-            .map_err(|message| SimError::Step { time, message })?;
+        let mut former = Vec::new();
+        elements::former_indices(&d.candidates, &found, &mut former);
+        elements::check_new_pairs(m, d, &found, &former).map_err(|message| SimError::Step { time, message })?;
         elements::set_contact_list(m, d, &found, contacts);
         for b in 0..m.bodies.len() {
             d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
