@@ -149,6 +149,9 @@ pub struct Islands {
     light_saves: bool,
     /// Of the islands formed anew, those whose data was an ended island's (a diagnostic).
     pub reused: u64,
+    /// False once a forming failed: every island ended (their counters and energies kept),
+    /// and the caller drops the islands, to form them anew from the scene's data.
+    pub formed: bool,
     /// Makes the spare data's integrators fresh.
     fresh: FreshIntegrators,
 }
@@ -223,6 +226,7 @@ impl Islands {
             light_saves: true,
             threads: side_by_side(m.solver.threads),
             reused: 0,
+            formed: true,
             fresh: FreshIntegrators::default(),
         }
     }
@@ -318,6 +322,7 @@ impl Islands {
             for (k, island) in out.into_iter().enumerate() {
                 self.retire(*island, parts.listed(k));
             }
+            self.formed = false;
             return Err(e);
         }
         self.parts = out;

@@ -467,3 +467,37 @@ fn a_new_pair_that_touches_or_cannot_be_made_is_refused_and_the_islands_stay_as_
         });
     }
 }
+
+/// A forming that fails ends every island, the kept ones too, with their steps counted, and
+/// says so (`formed` false: the caller drops the islands and forms them anew). The rebuild's
+/// check refuses what would make forming fail before anything changes (above), so forming is
+/// called here directly: one island's candidate pairs less one, under laws that cannot make
+/// an element.
+#[test]
+fn a_forming_that_fails_ends_every_island_and_says_so() {
+    let scene = grouped(64, 0.02, 0.0015, true);
+    on_scene(&scene, "forming test", |m, d, is| {
+        is.advance(m, d, 0.012, false).unwrap();
+        assert!(is.formed);
+        let (steps, n) = (is.total_steps(), is.parts.len());
+        let k = (0..n)
+            .find(|&k| d.partition.candidates(k).len() >= 2)
+            .expect("an island of two pairs");
+        let dropped = d.partition.candidates(k)[0];
+        let found: Vec<_> = d.partition.list().iter().copied().filter(|&c| c != dropped).collect();
+        let mut former = Vec::new();
+        crate::contact::elements::former_indices(d.partition.list(), &found, &mut former);
+        let memory = is.memory_of_islands(m, &d.partition);
+        let mut unmade = m.clone();
+        unmade.groups.laws.iter_mut().for_each(|l| l.stiffness = None);
+        unmade.groups.sphere_sides.iter_mut().for_each(|s| s.material = None);
+        // (the pool's models were cut from the scene's: cut them anew from these laws)
+        is.pool = super::Pool::default();
+        let old = std::mem::take(&mut is.parts);
+        let e = is.form(&unmade, d, &found, &former, &memory, old).unwrap_err();
+        assert!(e.message.contains("give stiffness"), "{}", e.message);
+        assert!(!is.formed);
+        assert!(is.parts.is_empty(), "{} islands left", is.parts.len());
+        assert_eq!(is.total_steps(), steps, "the ended islands' steps");
+    });
+}

@@ -487,9 +487,9 @@ impl Simulation {
         };
         let result = is.advance(model, data, t_end, stop_at_events);
         is.gather(model, data);
-        if is.parts.is_empty() {
-            // (forming them failed: every island ended, its counters and energies gathered;
-            // the next step forms them anew from the scene's data)
+        if !is.formed {
+            // (every island ended, its counters and energies gathered; the next step forms
+            // them anew from the scene's data)
             *islands = None;
             data.partition.clear();
         } else if data.partition.list() == data.candidates {
