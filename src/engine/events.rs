@@ -11,7 +11,7 @@ use super::modes;
 use crate::contact;
 use crate::contact::any_resting;
 use crate::forward::{evaluate, planned_kinematics};
-use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path, poses_and_velocities};
+use crate::kinematics::{free_body_kinematics, kinematics, kinematics_path};
 use crate::model::{ContactEventKind, Data, Model};
 use crate::scene::Law;
 
@@ -34,6 +34,14 @@ enum Probe {
 /// (the evaluation when a contact rests).
 pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
     event_values_after(m, d, at_step_end, kinematics);
+}
+
+/// The event values at the end of the method's last step (`d.eval_state` its end state), on
+/// the plan's kinematics, as [`first_event`] evaluates them when it checks the step: what a
+/// restored state that continues the step holds there (the full kinematics round a free
+/// body's velocity, and so a contact's δ̇, differently).
+pub fn step_end_values(m: &Model, d: &mut Data) {
+    event_values_after(m, d, true, planned_kinematics);
 }
 
 /// [`event_values`] after `kinematics_of` (the evaluation when a contact rests): the full
@@ -116,11 +124,11 @@ fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
 }
 
 /// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
-/// phase's reference poses changed: the contacts' entries do not depend on them), on the poses
-/// and velocities there ([`poses_and_velocities`]: the whole kinematics' numbers, without what
-/// the margin values do not read).
+/// phase's reference poses changed: the contacts' entries do not depend on them), on the
+/// plan's kinematics there, as [`first_event`] and [`step_end_values`] evaluate it at a step's
+/// end (the whole kinematics round a free body's velocity differently).
 pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
-    poses_and_velocities(m, d);
+    planned_kinematics(m, d);
     store_margin_values(m, d, at_step_end);
 }
 

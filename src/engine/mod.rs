@@ -77,9 +77,23 @@ pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
 
 /// Re-evaluates the event functions after the state was set from outside (restored): at the
 /// current state, or, when the method continues its last step, at the step's start and end
-/// (as they were when the step was taken).
+/// (the end as the step's check evaluated it, [`events::step_end_values`]: the values the
+/// continued step goes on with). The workspace then holds those evaluations: the outputs and
+/// kinematics at the state are evaluated again when read.
 pub fn resync(m: &Model, d: &mut Data) {
-    resync_with(m, d, events::event_values);
+    d.outputs_valid = false;
+    d.kinematics_valid = false;
+    let Some(i) = d.solver.method().filter(|_| d.solver.started) else {
+        d.eval_state.copy_from_slice(&d.state);
+        events::event_values(m, d, false);
+        return;
+    };
+    d.eval_state.copy_from_slice(&i.core().y_prev);
+    events::event_values(m, d, false);
+    if let Some(i) = d.solver.method() {
+        d.eval_state.copy_from_slice(i.y());
+    }
+    events::step_end_values(m, d);
 }
 
 /// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
@@ -109,35 +123,6 @@ fn settle_margins(m: &Model, d: &mut Data) {
         events::margin_event_values(m, d, true);
     }
     d.events.margin_pending = false;
-}
-
-/// Evaluates `values` at the ends of the method's last step (`d.state` when it has none). The
-/// workspace then holds those evaluations: the outputs and kinematics at the state are
-/// evaluated again when read.
-fn resync_with(m: &Model, d: &mut Data, values: fn(&Model, &mut Data, bool)) {
-    d.outputs_valid = false;
-    d.kinematics_valid = false;
-    let step_ends = d
-        .solver
-        .started
-        .then(|| d.solver.method().map(|i| i.t_prev()))
-        .flatten();
-    match step_ends {
-        Some(_) => {
-            if let Some(i) = d.solver.method() {
-                d.eval_state.copy_from_slice(&i.core().y_prev);
-            }
-            values(m, d, false);
-            if let Some(i) = d.solver.method() {
-                d.eval_state.copy_from_slice(i.y());
-            }
-            values(m, d, true);
-        }
-        None => {
-            d.eval_state.copy_from_slice(&d.state);
-            values(m, d, false);
-        }
-    }
 }
 
 /// After a host moved a driven joint (its coordinate or rate written into `d.state`): the rest
