@@ -485,7 +485,9 @@ impl Islands {
             let mut t_round = t_end;
             let mut ends_round = false;
             if self.round_end < t_end - t_close {
-                t_round = self.round_end;
+                // (a round's end a rounding error before the islands' time, which a stop at a
+                // contact event past it can leave, see `model::island_state`: the round ends now)
+                t_round = self.round_end.max(self.time);
                 ends_round = true;
             } else if self.round_end <= t_end + t_close {
                 ends_round = true;

@@ -287,3 +287,27 @@ fn saved_states_do_not_depend_on_the_outputs_read() {
     assert_eq!(read.0, unread.0, "saved at 0.1 s");
     assert_eq!(read.1, unread.1, "saved at 0.15 s");
 }
+
+/// A saved state whose round ends a rounding error before its time (which a stop at a contact
+/// event past a round's end within rounding of the communication point leaves, and which the
+/// reader accepts for that) restores and runs on: the round ends at once, where an advance to
+/// a later point integrated the islands backwards to the round's end and failed.
+#[test]
+fn a_round_that_ended_a_rounding_error_before_the_state_runs_on() {
+    let (snap, start) = pile_state();
+    let mut a = pile_at(0.0);
+    let m = a.model().unwrap().clone();
+    let time = snap.state[0];
+    let (mut saved, _) = island_state::read(&m, time, &snap.state[*start..]).unwrap();
+    for round_end in [time.next_down(), time - 16.0 * f64::EPSILON * time] {
+        saved.head.round_end = round_end;
+        let mut early = snap.clone();
+        early.state.truncate(*start);
+        island_state::get(&saved, &mut early.state);
+        let mut b = pile_at(0.0);
+        b.restore(&early).unwrap();
+        b.step_to(time + 0.01)
+            .unwrap_or_else(|e| panic!("round end {round_end}: {e}"));
+        assert_eq!(b.time(), time + 0.01);
+    }
+}
