@@ -4,6 +4,7 @@
 
 use super::part::Numbering;
 use crate::engine;
+use crate::model::groups::Candidate;
 use crate::model::{state, Data, Model};
 use std::sync::Arc;
 
@@ -114,6 +115,31 @@ impl Island {
             Some(&g) => Some(g),
             None => listed.get(k - self.numbering.explicit.len()).map(|i| n_explicit + i),
         }
+    }
+
+    /// `message` of the island's engine with the names of its candidate pairs' contacts
+    /// (quoted, by the island's numbering of the shapes) by the scene's numbering, as the scene
+    /// names them.
+    pub(super) fn in_scene_names(&self, message: &str) -> String {
+        let (g, shapes) = (&self.model.groups, &self.numbering.shapes);
+        let mut out = String::with_capacity(message.len());
+        for (k, part) in message.split('"').enumerate() {
+            if k > 0 {
+                out.push('"');
+            }
+            let local = (k % 2 == 1)
+                .then(|| self.data.candidates.iter().find(|c| g.element_name(c) == part))
+                .flatten();
+            match local {
+                Some(c) => out.push_str(&g.element_name(&Candidate {
+                    sphere: shapes[c.sphere],
+                    other: shapes[c.other],
+                    ..*c
+                })),
+                None => out.push_str(part),
+            }
+        }
+        out
     }
 
     /// Takes the island back to its state at the start of the round.

@@ -595,12 +595,13 @@ impl Islands {
     /// the round (its saved state) and the error, naming the island, at that time.
     fn take_back(&mut self, m: &Model, p: &Partition, k: usize, e: EngineError) -> EngineError {
         let name = island_name(m, p, k);
+        let message = self.parts[k].in_scene_names(&e.message);
         for island in &mut self.parts {
             island.restore();
         }
         EngineError {
             time: self.time,
-            message: format!("in the island of body {name:?}: {}", e.message),
+            message: format!("in the island of body {name:?}: {message}"),
             step_limit: e.step_limit,
         }
     }

@@ -317,3 +317,28 @@ fn ten_thousand_free_bodies_run_as_islands() {
     }
     assert!(worst < 1e-12, "free flight off the straight line by {worst:e} m");
 }
+
+/// A contact's error inside an island names the contact as the scene does (not by the
+/// island's own numbering of its shapes): a sphere thrown at 30 m/s into a soft wall, as an
+/// island and with one integrator, fails at the same contact.
+#[test]
+fn an_islands_errors_name_contacts_as_the_scene_does() {
+    let mut names = Vec::new();
+    for islands in [true, false] {
+        let mut scene = sphere_box_groups(3, 0.05);
+        scene.broad_phase.margin = Some(0.0015);
+        scene.body[2].velocity = [-30.0, 0.0, 0.0];
+        let wall = scene.contact_group.iter_mut().find(|g| g.name == "ball_wall").unwrap();
+        wall.stiffness = Some(1000.0);
+        scene.solver.islands = islands;
+        let mut s = start(scene);
+        let e = (1..=50)
+            .find_map(|k| s.step_to(k as f64 * 1e-3).err())
+            .expect("the wall gives way")
+            .to_string();
+        assert!(e.contains("max_penetration"), "{e}");
+        let name = e.split('"').find(|p| p.starts_with("ball_wall[")).map(str::to_string);
+        names.push(name.unwrap_or_else(|| panic!("no contact named: {e}")));
+    }
+    assert_eq!(names[0], names[1], "islands against one integrator");
+}
