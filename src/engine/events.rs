@@ -125,10 +125,15 @@ fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
 
 /// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
 /// phase's reference poses changed: the contacts' entries do not depend on them), on the
-/// plan's kinematics there, as [`first_event`] and [`step_end_values`] evaluate it at a step's
-/// end (the whole kinematics round a free body's velocity differently).
+/// kinematics [`first_event`] and [`step_end_values`] evaluate it on at a step's end: the
+/// whole while a contact rests, else the plan's (they round a free body's velocity
+/// differently).
 pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
-    planned_kinematics(m, d);
+    if any_resting(d) {
+        kinematics(m, d);
+    } else {
+        planned_kinematics(m, d);
+    }
     store_margin_values(m, d, at_step_end);
 }
 
