@@ -48,11 +48,7 @@ pub fn step_end_values(m: &Model, d: &mut Data) {
 /// kinematics, or the plan's ([`planned_kinematics`]) where nothing after reads more than the
 /// poses and velocities of the free bodies.
 fn event_values_after(m: &Model, d: &mut Data, at_step_end: bool, kinematics_of: fn(&Model, &mut Data)) {
-    if any_resting(d) {
-        evaluate(m, d);
-    } else {
-        kinematics_of(m, d);
-    }
+    event_kinematics(m, d, kinematics_of);
     // (the active continuous contacts' gaps are the right-hand side's when it evaluated these
     // kinematics: `d.planned_kinematics` still holds after `kinematics_of`)
     let stage_gaps = d.planned_kinematics;
@@ -123,17 +119,22 @@ fn store_margin_values(m: &Model, d: &mut Data, at_step_end: bool) {
     aux[d.contacts.len()] = (time, moved);
 }
 
-/// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
-/// phase's reference poses changed: the contacts' entries do not depend on them), on the
-/// kinematics [`first_event`] and [`step_end_values`] evaluate it on at a step's end: the
-/// whole while a contact rests, else the plan's (they round a free body's velocity
-/// differently).
-pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
+/// What the event values are evaluated on at `d.eval_state`: the whole evaluation while a
+/// contact rests (its mode function reads the resting force), else `kinematics_of`.
+fn event_kinematics(m: &Model, d: &mut Data, kinematics_of: fn(&Model, &mut Data)) {
     if any_resting(d) {
-        kinematics(m, d);
+        evaluate(m, d);
     } else {
-        planned_kinematics(m, d);
+        kinematics_of(m, d);
     }
+}
+
+/// The contact groups' entry of the event values alone at `d.eval_state` (after the broad
+/// phase's reference poses changed: the contacts' entries do not depend on them), on what
+/// [`first_event`] and [`step_end_values`] evaluate it on at a step's end (the plan's
+/// kinematics and the whole ones round a free body's velocity differently).
+pub fn margin_event_values(m: &Model, d: &mut Data, at_step_end: bool) {
+    event_kinematics(m, d, planned_kinematics);
     store_margin_values(m, d, at_step_end);
 }
 
