@@ -80,7 +80,7 @@ pub fn needs(target: VarRef) -> Needs {
     match target {
         VarRef::BodyPosition(..) | VarRef::BodyVelocity(..) | VarRef::BodyQuaternion(..) => Needs::State,
         VarRef::BodyAngularVelocity(..) => Needs::Kinematics,
-        VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::Stiffness(_) => Needs::Nothing,
+        VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::SolverEvents | VarRef::Stiffness(_) => Needs::Nothing,
         _ => Needs::Everything,
     }
 }
@@ -307,6 +307,7 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         VarRef::DriveForce(k) => dynamics::drive_force(m, d, k),
         VarRef::SolverSteps => d.counters.steps as f64,
         VarRef::SolverRhsEvals => d.counters.rhs_evals as f64,
+        VarRef::SolverEvents => d.counters.events as f64,
         VarRef::BodyContactForce(b, k) => d.body_contact[b][k],
         VarRef::BodyContactTorque(b, k) => d.body_contact[b][3 + k],
         VarRef::GroupActive(p) => d.group_out[p].0,

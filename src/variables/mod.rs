@@ -188,6 +188,8 @@ pub enum VarRef {
     SolverSteps,
     /// solver.rhs_evals
     SolverRhsEvals,
+    /// solver.events
+    SolverEvents,
     /// contact group pair index, key: a law constant of every contact of the pair
     Group(usize, GroupKey),
     /// body index, component: total contact force on the body, world frame
@@ -437,6 +439,7 @@ impl VariableTable {
         table::later_parameters(scene, &mut v);
         groups::group_variables(scene, &mut v);
         motion::motion_outputs(scene, &mut v);
+        table::later_outputs(&mut v);
         let moved_by = motion::moved_by(scene, &v);
         VariableTable { vars: v, moved_by }
     }
@@ -586,6 +589,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::DriveForce(_)
         | VarRef::SolverSteps
         | VarRef::SolverRhsEvals
+        | VarRef::SolverEvents
         | VarRef::BodyContactForce(..)
         | VarRef::BodyContactTorque(..)
         | VarRef::GroupActive(_)

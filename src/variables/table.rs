@@ -653,3 +653,17 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         }
     }
 }
+
+/// The outputs added last (after the contact groups' and the drives' variables: the value
+/// references before them do not move): the count of located contact events.
+pub(super) fn later_outputs(v: &mut Vec<Variable>) {
+    v.push(out(
+        "solver.events".into(),
+        VarType::Integer,
+        None,
+        VarRef::SolverEvents,
+        "contact events located since initialisation (the instants at which the integration stopped for a \
+         touch, separation, impact, rest or release; several contacts changing at one instant count once)"
+            .into(),
+    ));
+}

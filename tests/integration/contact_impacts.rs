@@ -255,6 +255,9 @@ fn impulse_ball_comes_to_rest_on_the_floor() {
         s.counters().steps
     );
     assert_eq!(impacts.len(), k_last + 1);
+    // one event per impact (the plastic last one is the rest, at the same instant), as
+    // the output `solver.events` counts them
+    assert_eq!(get(&mut s, "solver.events"), (k_last + 1) as f64);
     for (k, x) in impacts.iter().enumerate() {
         assert!(
             rel(x.delta_dot, v0 * e.powi(k as i32)) < 1e-6,

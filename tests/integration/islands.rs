@@ -123,7 +123,7 @@ fn islands_agree_with_one_integrator_and_do_less_work() {
     ];
     let names = ["a", "b", "c"];
     let (split, mut si) = run(scene(&balls, true), &names, t_end, dt);
-    let (whole, sw) = run(scene(&balls, false), &names, t_end, dt);
+    let (whole, mut sw) = run(scene(&balls, false), &names, t_end, dt);
     let diff = (0..3)
         .map(|k| largest_difference(&split[k], &whole[k]))
         .fold(0.0, f64::max);
@@ -141,6 +141,9 @@ fn islands_agree_with_one_integrator_and_do_less_work() {
         ci.steps, ci.rhs_evals, ci.events, cw.steps, cw.rhs_evals, cw.events
     );
     assert_eq!(ci.events, cw.events, "the same impacts");
+    // the output counts them too, the islands' summed into the scene's
+    assert_eq!(get(&mut si, "solver.events"), ci.events as f64);
+    assert_eq!(get(&mut sw, "solver.events"), cw.events as f64);
     assert!(diff < 1e-6, "difference {diff}");
     assert!(
         2 * work_split < work_whole,

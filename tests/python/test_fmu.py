@@ -503,6 +503,8 @@ def test_restitution_set_between_steps_gives_each_bounce_its_closed_form(unzippe
             inst.set("ball_floor.restitution", e)
             assert inst.get("ball_floor.restitution") == e
     assert inst.get("ball_floor.impacts") == 4
+    # each impact stopped the integration once: the FMU's event counter says so
+    assert inst.get("solver.events") == 4
 
 
 def test_a_tunable_change_equals_the_same_change_after_a_restore_and_a_state_keeps_its_values(

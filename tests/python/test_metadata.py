@@ -318,11 +318,11 @@ FRICTION = (".friction", ".static_friction", ".stribeck_velocity", ".viscous_fri
 
 
 def added_after_the_twins(name):
-    """The friction, inertia and contact-geometry variables, added after the Integer twins, and
-    the input work (added last)."""
+    """The friction, inertia and contact-geometry variables, added after the Integer twins, the
+    input work and the count of contact events (added last)."""
     return (".inertia[" in name or ".size[" in name or ".friction_force[" in name
             or name.endswith((".radius", ".other_radius", ".cylinder_radius", ".length") + FRICTION)
-            or name == "energy.input_work")
+            or name in ("energy.input_work", "solver.events"))
 
 
 def added_with_groups(name, groups):
