@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Work-precision plots: one PNG per scene (docs/img/wp_<scene>.png) from
-docs/work_precision.csv (written by `contact-fmu bench work-precision`), and the scaling
-plot (docs/img/scaling.png) from docs/scaling.csv when present.
+docs/work_precision.csv (written by `contact-fmu bench work-precision`), the scaling
+plot (docs/img/scaling.png) from docs/scaling.csv and the pile's windows
+(docs/img/pile.png) from docs/pile.csv (`contact-fmu bench pile`) when present.
 
     .venv/bin/python scripts/bench_plot.py
 """
@@ -71,12 +72,19 @@ def summary(data):
             print(f"| {scene} | {target:.0e} | {w} | " + " | ".join(cells) + " |")
 
 
-def scaling():
-    path = os.path.join(DOCS, "scaling.csv")
+def rows_of(name):
+    """The rows of docs/<name> (None when it is not there)."""
+    path = os.path.join(DOCS, name)
     if not os.path.exists(path):
-        return
+        return None
     with open(path) as f:
-        rows = list(csv.DictReader(f))
+        return list(csv.DictReader(f))
+
+
+def scaling():
+    rows = rows_of("scaling.csv")
+    if rows is None:
+        return
     n = [int(r["n"]) for r in rows]
     t = [float(r["seconds_per_simulated_second"]) for r in rows]
     rhs = [float(r["rhs_seconds"]) for r in rows]
@@ -96,7 +104,40 @@ def scaling():
     print("wrote", out)
 
 
+def pile():
+    rows = rows_of("pile.csv")
+    if rows is None:
+        return
+    mid = [0.5 * (float(r["start"]) + float(r["end"])) for r in rows]
+    width = [0.9 * (float(r["end"]) - float(r["start"])) for r in rows]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 6.4), sharex=True)
+    top.bar(mid, [float(r["real_time_factor"]) for r in rows], width=width, color="tab:blue")
+    top.axhline(1.0, color="gray", ls="--", label="real time")
+    top.set_ylabel("simulated s per CPU s")
+    top.set_title("pile_of_balls by windows")
+    top.legend()
+    length = [float(r["end"]) - float(r["start"]) for r in rows]
+    bottom.plot(mid, [float(r["largest_island"]) for r in rows], "s-", label="largest island [bodies]")
+    bottom.plot(mid, [float(r["largest_cluster"]) for r in rows], "o-", label="largest touching cluster (mean)")
+    right = bottom.twinx()
+    right.plot(mid, [int(r["events"]) / x for r, x in zip(rows, length)], "^:", color="tab:red",
+               label="contact events per simulated s")
+    right.set_ylabel("events per simulated s", color="tab:red")
+    bottom.set_ylabel("spheres")
+    bottom.set_xlabel("time [s]")
+    lines = bottom.get_legend_handles_labels()
+    more = right.get_legend_handles_labels()
+    bottom.legend(lines[0] + more[0], lines[1] + more[1], loc="center right", fontsize=8)
+    bottom.grid(True, alpha=0.3)
+    fig.tight_layout()
+    out = os.path.join(IMG, "pile.png")
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    print("wrote", out)
+
+
 if __name__ == "__main__":
     os.makedirs(IMG, exist_ok=True)
     work_precision()
     scaling()
+    pile()

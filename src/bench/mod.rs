@@ -15,6 +15,7 @@
 //! - `lu`: dense and sparse LU of the implicit methods' iteration matrices ([`lu`]); with
 //!   `--scenes`, N spheres in a box with sdirk and radau5 on the dense and the sparse path.
 //! - `rhs`: the cost of one right-hand-side evaluation of each bundled scene ([`rhs`]).
+//! - `pile`: the pile's phase by windows, with the touching spheres and islands ([`pile`]).
 //! - `run`: one scene, repeated, with its median time, counters and a trajectory CSV (used by
 //!   the Python peer comparison in `scripts/`).
 //!
@@ -26,6 +27,7 @@ pub mod defaults;
 pub mod groups;
 pub mod islands;
 pub mod lu;
+pub mod pile;
 pub mod rhs;
 pub mod scaling;
 pub mod scenes;
@@ -159,6 +161,9 @@ pub enum BenchCommand {
         #[arg(long)]
         write_scene: Option<PathBuf>,
     },
+    /// The pile's phase by windows (by default `pile_of_balls`, 0.5-1.5 s): CPU time against
+    /// real time, steps, events, and the touching spheres and islands that set them.
+    Pile(pile::Settings),
     /// Contact groups against the explicit pair list (spheres in a box): compile time, one
     /// RHS, broad phase by sweep and prune and by grid.
     Groups {
@@ -302,6 +307,7 @@ pub fn bench_command(cmd: BenchCommand) -> Result<(), String> {
             csv,
             write_scene: None,
         } => islands::run(&n, &settings, &csv),
+        BenchCommand::Pile(settings) => pile::run(&settings),
         BenchCommand::Groups {
             n,
             repeats,
