@@ -63,8 +63,9 @@ pub const ENERGY_DRIFT_WARNING: f64 = 0.01;
 pub const ENERGY_BLOW_UP: f64 = 10.0;
 
 /// The energy balance is checked at a communication point when at least this many RHS
-/// evaluations were made since the last check (a check costs one evaluation: at most 1 %
-/// more work).
+/// evaluations were made since the last check, per island when the scene runs as islands (a
+/// check costs one evaluation of the whole scene, as many as there are islands of theirs: at
+/// most 1 % more work).
 const ENERGY_CHECK_EVALS: u64 = 100;
 
 impl Simulation {
@@ -94,8 +95,10 @@ impl Simulation {
     #[inline]
     pub(super) fn watch_energy(&mut self) -> Result<(), SimError> {
         let evals = self.counters().rhs_evals;
+        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
+        let every = ENERGY_CHECK_EVALS.saturating_mul(islands.map_or(1, |is| is.parts.len().max(1)) as u64);
         // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
-        if evals < self.watch.checked_at.saturating_add(ENERGY_CHECK_EVALS) {
+        if evals < self.watch.checked_at.saturating_add(every) {
             return Ok(());
         }
         self.check_energy(evals)
