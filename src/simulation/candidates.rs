@@ -1,10 +1,12 @@
 //! Contact groups and islands seen from the facade: the data's contact list made anew for
-//! new candidate pairs (found again by the broad phase, or the islands'). The model does not
-//! change.
+//! new candidate pairs (found again by the broad phase, or the islands'), the islands'
+//! advance and what they report. The model does not change.
 
-use super::{Compiled, SimError, Simulation};
+use super::{step_error, Compiled, SimError, Simulation};
 use crate::contact::{elements, groups};
 use crate::engine;
+use crate::model::Counters;
+use crate::outputs::{self, Energies};
 
 impl Simulation {
     /// With islands: when the islands' candidate pairs changed since the scene's data last took
@@ -67,4 +69,82 @@ impl Simulation {
         self.refreshes += 1;
         Ok(())
     }
+
+    /// Contact groups: how often the candidate pairs were found again since this simulation
+    /// was created (a diagnostic, not part of the state).
+    pub fn candidate_refreshes(&self) -> u64 {
+        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
+        self.refreshes + islands.map_or(0, |is| is.rebuilds)
+    }
+
+    /// Diagnostics of the islands: (rounds, islands formed, models cut for them: the others
+    /// took a model from the pool, shared with islands of alike bodies).
+    pub fn island_diagnostics(&self) -> (u64, u64, u64) {
+        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
+        islands.map_or((0, 0, 0), |is| (is.rounds, is.compiled, is.compiled - is.pooled))
+    }
+
+    /// The independent islands the scene runs as (empty when it runs as one: a single
+    /// island, or `solver.islands = false`, or before the first step).
+    pub fn islands(&mut self) -> Vec<IslandReport> {
+        let Some(c) = self.compiled.as_mut() else {
+            return Vec::new();
+        };
+        let Some(is) = c.islands.as_mut() else {
+            return Vec::new();
+        };
+        let partition = &c.data.partition;
+        is.parts
+            .iter_mut()
+            .enumerate()
+            .map(|(k, i)| IslandReport {
+                bodies: partition
+                    .bodies(k)
+                    .iter()
+                    .map(|&b| self.scene.body[b].name.clone())
+                    .collect(),
+                counters: i.data.counters,
+                energies: outputs::energies(&i.model, &mut i.data),
+                time: i.data.time,
+            })
+            .collect()
+    }
+
+    /// [`Simulation::step_to`] for a scene that runs as islands: they advance, and the scene's
+    /// data gets their state (and their contacts' memory when it lists their candidate pairs).
+    pub(super) fn step_islands(&mut self, t_end: f64, stop_at_events: bool) -> Result<bool, SimError> {
+        let Some(Compiled {
+            model, data, islands, ..
+        }) = self.compiled.as_mut().map(Compiled::settled)
+        else {
+            return Err(SimError::NotInitialized);
+        };
+        let Some(is) = islands.as_mut() else {
+            return Err(SimError::NotInitialized);
+        };
+        let result = is.advance(model, data, t_end, stop_at_events);
+        is.gather(model, data);
+        if !is.formed {
+            // (every island ended, its counters and energies gathered; the next step forms
+            // them anew from the scene's data)
+            *islands = None;
+            data.partition.clear();
+        } else if data.partition.list() == data.candidates {
+            is.gather_contacts(data);
+        }
+        result.map_err(step_error)
+    }
+}
+
+/// One independent island at the current state (see [`Simulation::islands`]).
+#[derive(Debug, Clone)]
+pub struct IslandReport {
+    /// Its bodies, in scene order.
+    pub bodies: Vec<String>,
+    /// Its work counters since it was formed.
+    pub counters: Counters,
+    /// Its energies (its dissipated energy: since it was formed).
+    pub energies: Energies,
+    /// Its time \[s\].
+    pub time: f64,
 }

@@ -20,6 +20,7 @@ mod energy;
 mod tests;
 mod values;
 
+pub use candidates::IslandReport;
 use energy::{Drift, EnergyWatch};
 pub use energy::{ENERGY_BLOW_UP, ENERGY_DRIFT_WARNING};
 
@@ -181,46 +182,6 @@ impl Simulation {
             drift: None,
             refreshes: 0,
         }
-    }
-
-    /// Contact groups: how often the candidate pairs were found again since this simulation
-    /// was created (a diagnostic, not part of the state).
-    pub fn candidate_refreshes(&self) -> u64 {
-        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
-        self.refreshes + islands.map_or(0, |is| is.rebuilds)
-    }
-
-    /// Diagnostics of the islands: (rounds, islands formed, models cut for them: the others
-    /// took a model from the pool, shared with islands of alike bodies).
-    pub fn island_diagnostics(&self) -> (u64, u64, u64) {
-        let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
-        islands.map_or((0, 0, 0), |is| (is.rounds, is.compiled, is.compiled - is.pooled))
-    }
-
-    /// The independent islands the scene runs as (empty when it runs as one: a single
-    /// island, or `solver.islands = false`, or before the first step).
-    pub fn islands(&mut self) -> Vec<IslandReport> {
-        let Some(c) = self.compiled.as_mut() else {
-            return Vec::new();
-        };
-        let Some(is) = c.islands.as_mut() else {
-            return Vec::new();
-        };
-        let partition = &c.data.partition;
-        is.parts
-            .iter_mut()
-            .enumerate()
-            .map(|(k, i)| IslandReport {
-                bodies: partition
-                    .bodies(k)
-                    .iter()
-                    .map(|&b| self.scene.body[b].name.clone())
-                    .collect(),
-                counters: i.data.counters,
-                energies: outputs::energies(&i.model, &mut i.data),
-                time: i.data.time,
-            })
-            .collect()
     }
 
     /// Reads, parses and validates a scene file.
@@ -471,31 +432,6 @@ impl Simulation {
             self.refresh_candidates()?;
         };
         self.watch_energy().map(|()| at_event)
-    }
-
-    /// [`Simulation::step_to`] for a scene that runs as islands: they advance, and the scene's
-    /// data gets their state (and their contacts' memory when it lists their candidate pairs).
-    fn step_islands(&mut self, t_end: f64, stop_at_events: bool) -> Result<bool, SimError> {
-        let Some(Compiled {
-            model, data, islands, ..
-        }) = self.compiled.as_mut().map(Compiled::settled)
-        else {
-            return Err(SimError::NotInitialized);
-        };
-        let Some(is) = islands.as_mut() else {
-            return Err(SimError::NotInitialized);
-        };
-        let result = is.advance(model, data, t_end, stop_at_events);
-        is.gather(model, data);
-        if !is.formed {
-            // (every island ended, its counters and energies gathered; the next step forms
-            // them anew from the scene's data)
-            *islands = None;
-            data.partition.clear();
-        } else if data.partition.list() == data.candidates {
-            is.gather_contacts(data);
-        }
-        result.map_err(step_error)
     }
 
     /// Runs from the current state over the communication points (the multiples of
@@ -773,19 +709,6 @@ fn step_error(e: EngineError) -> SimError {
     } else {
         SimError::Step { time, message }
     }
-}
-
-/// One independent island at the current state (see [`Simulation::islands`]).
-#[derive(Debug, Clone)]
-pub struct IslandReport {
-    /// Its bodies, in scene order.
-    pub bodies: Vec<String>,
-    /// Its work counters since it was formed.
-    pub counters: Counters,
-    /// Its energies (its dissipated energy: since it was formed).
-    pub energies: Energies,
-    /// Its time \[s\].
-    pub time: f64,
 }
 
 /// A failed [`Simulation::run`].
