@@ -3,7 +3,7 @@
 //! every output, energy and saved state reads them as with one integrator.
 
 use super::Islands;
-use crate::model::data::EVENT_LOG_CAPACITY;
+use crate::model::log::EVENT_LOG_CAPACITY;
 use crate::model::{ContactEvent, Data, Model};
 
 impl Islands {
