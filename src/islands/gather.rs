@@ -95,17 +95,18 @@ impl Islands {
     }
 }
 
-/// Moves each entry of `log` from `sorted` on, in turn, to its place among those before it, by
-/// time and then by contact (`log[..sorted]` in that order): the whole log in that order, the
-/// entries of one time and contact in the order they were logged (an impact before the rest
-/// it ends in). Allocates nothing; the new entries of a communication step mostly follow the
-/// former ones, so each moves past few.
+/// Puts the entries of `log` from `sorted` on in order among those before it (`log[..sorted]`,
+/// in order), by time and then by contact: they are sorted among themselves, then each moves
+/// back past the former entries that come after it, which are few, as the events of a
+/// communication step follow those gathered before (an entry of the same time and contact
+/// stays after the former ones). Allocates nothing.
 fn insert_in_order(log: &mut [ContactEvent], sorted: usize) {
-    let after = |a: &ContactEvent, b: &ContactEvent| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact)).is_gt();
+    let order = |a: &ContactEvent, b: &ContactEvent| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact));
+    log[sorted..].sort_unstable_by(order);
     for i in sorted..log.len() {
         let e = log[i];
         let mut j = i;
-        while j > 0 && after(&log[j - 1], &e) {
+        while j > 0 && order(&log[j - 1], &e).is_gt() {
             log[j] = log[j - 1];
             j -= 1;
         }
@@ -118,17 +119,20 @@ mod tests {
     use super::*;
     use crate::model::ContactEventKind;
 
-    /// The insertion gives what a stable sort of the whole log gives (by time, then contact;
-    /// ties in the order logged), for sorted logs with new entries that interleave with the
-    /// former ones, repeat their keys and come in any order.
+    /// The insertion leaves the whole log in order (by time, then contact), with every entry
+    /// it had, the former entries in their order and before the new ones of the same time and
+    /// contact: sorted logs with new entries that interleave with the former ones, repeat their
+    /// keys and come in any order.
     #[test]
-    fn new_events_go_where_a_stable_sort_puts_them() {
+    fn new_events_go_in_order_among_the_former_ones() {
         let mut seed = 12345u64;
         let mut next = move |n: u64| {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 33) % n
         };
+        let key = |a: &ContactEvent, b: &ContactEvent| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact));
         for _ in 0..200 {
+            // (`delta` numbers the entries: the former ones below 100)
             let event = |time: f64, contact: usize, k: u64| ContactEvent {
                 time,
                 contact,
@@ -141,12 +145,28 @@ mod tests {
             let mut log: Vec<ContactEvent> = (0..old)
                 .map(|k| event(next(6) as f64, next(3) as usize, k as u64))
                 .collect();
-            log.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact)));
+            log.sort_by(key);
+            let former = log.clone();
             log.extend((0..new).map(|k| event(next(8) as f64, next(3) as usize, 100 + k as u64)));
-            let mut expected = log.clone();
-            expected.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact)));
+            let every = log.clone();
             insert_in_order(&mut log, old);
-            assert_eq!(log, expected);
+            assert!(log.windows(2).all(|w| key(&w[0], &w[1]).is_le()), "{log:?}");
+            let numbers = |v: &[ContactEvent]| {
+                let mut n: Vec<u64> = v.iter().map(|e| e.delta as u64).collect();
+                n.sort_unstable();
+                n
+            };
+            assert_eq!(numbers(&log), numbers(&every));
+            let kept: Vec<ContactEvent> = log.iter().copied().filter(|e| e.delta < 100.0).collect();
+            assert_eq!(kept, former, "the former entries in their order");
+            for w in log.windows(2) {
+                if key(&w[0], &w[1]).is_eq() && w[1].delta < 100.0 {
+                    assert!(
+                        w[0].delta < 100.0,
+                        "a new entry before a former one of its time and contact"
+                    );
+                }
+            }
         }
     }
 }
