@@ -152,9 +152,16 @@ pub fn run(s: &Settings) -> Result<(), String> {
     sim.initialize(0.0).map_err(|e| e.to_string())?;
     let interval = sim.scene().model.interval;
     let spheres = centred_spheres(&sim);
-    if spheres.len() < 2 || !(s.to > s.from && s.window > 0.0 && s.sample > 0.0) {
+    if !(s.to > s.from && s.from >= 0.0 && s.window > 0.0 && s.sample > 0.0) {
         return Err(format!(
-            "{origin}: needs two spheres centred on their bodies and --to > --from, --window > 0, --sample > 0"
+            "--from {}, --to {}, --window {}, --sample {}: needs 0 <= from < to and window, sample > 0",
+            s.from, s.to, s.window, s.sample
+        ));
+    }
+    if spheres.len() < 2 {
+        return Err(format!(
+            "{origin}: {} [[shape]] sphere(s) centred on their bodies (no `center` of their own); the bench needs two or more",
+            spheres.len()
         ));
     }
     println!("{origin}: {} spheres; to {} s first", spheres.len(), s.from);
