@@ -37,9 +37,9 @@ pub fn event_values(m: &Model, d: &mut Data, at_step_end: bool) {
 }
 
 /// The event values at the end of the method's last step (`d.eval_state` its end state), on
-/// the plan's kinematics, as [`first_event`] evaluates them when it checks the step: what a
-/// restored state that continues the step holds there (the full kinematics round a free
-/// body's velocity, and so a contact's δ̇, differently).
+/// the plan's kinematics: how [`first_event`] evaluates them when it checks the step, and so
+/// what a restored state that continues the step must hold there (the full kinematics round a
+/// free body's velocity, and so a contact's δ̇, differently).
 pub fn step_end_values(m: &Model, d: &mut Data) {
     event_values_after(m, d, true, planned_kinematics);
 }
@@ -463,7 +463,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         event_values_after(m, d, true, |_, _| {});
     } else {
         d.eval_state.copy_from_slice(method.y());
-        event_values_after(m, d, true, planned_kinematics);
+        step_end_values(m, d);
     }
     if !anything_to_check(d) {
         return None;
