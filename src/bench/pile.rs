@@ -46,20 +46,17 @@ pub struct Settings {
 }
 
 /// The spheres centred on their bodies' centres of mass (no `center` of their own): (the
-/// variable index of the body's `r[1]`, radius).
-fn centred_spheres(sim: &Simulation) -> Vec<(usize, f64)> {
-    let scene = sim.scene();
+/// variable indices of the body's `r[1..3]`, radius).
+fn centred_spheres(sim: &Simulation) -> Vec<([usize; 3], f64)> {
     let mut out = Vec::new();
-    for s in &scene.shape {
+    for s in &sim.scene().shape {
         // (a sphere given a centre of its own may lie off its body's centre of mass)
         let (ShapeType::Sphere, None, Some(radius)) = (s.kind, s.center, s.radius) else {
             continue;
         };
-        if s.body == GROUND {
-            continue;
-        }
-        if let Some(k) = sim.table().index_of(&format!("{}.r[1]", s.body)) {
-            out.push((k, radius));
+        let r = |k: usize| sim.table().index_of(&format!("{}.r[{k}]", s.body));
+        if let (false, Some(x), Some(y), Some(z)) = (s.body == GROUND, r(1), r(2), r(3)) {
+            out.push(([x, y, z], radius));
         }
     }
     out
@@ -107,41 +104,37 @@ struct Window {
     island: f64,
 }
 
-/// Steps `sim` to `t_end` at the scene's communication interval.
-fn step_to(sim: &mut Simulation, t_end: f64, interval: f64) -> Result<(), String> {
-    while sim.time() < t_end - 1e-12 * t_end.abs().max(1.0) {
-        let t = (sim.time() + interval).min(t_end);
-        sim.step_to(t).map_err(|e| e.to_string())?;
+/// Runs `sim` to `t_end` over the communication points of `interval` ([`Simulation::run`];
+/// nothing when it is there).
+fn run_to(sim: &mut Simulation, t_end: f64, interval: f64) -> Result<(), String> {
+    if t_end <= sim.time() {
+        return Ok(());
     }
-    Ok(())
+    sim.run(t_end, interval, |_| Ok(())).map_err(|e| e.to_string())
 }
 
-/// The means over the samples of a window (from its start, every `dt`): touching pairs,
-/// largest cluster, largest island.
-fn sample(sim: &mut Simulation, spheres: &[(usize, f64)], end: f64, dt: f64) -> Result<[f64; 3], String> {
+/// The means over the samples of a window (at its start, then every `dt` to `end`): touching
+/// pairs, largest cluster, largest island (all the spheres when the scene does not run as
+/// islands).
+fn sample(sim: &mut Simulation, spheres: &[([usize; 3], f64)], end: f64, dt: f64) -> Result<[f64; 3], String> {
     let radii: Vec<f64> = spheres.iter().map(|s| s.1).collect();
-    let vrs: Vec<usize> = spheres.iter().flat_map(|s| [s.0, s.0 + 1, s.0 + 2]).collect();
+    let vrs: Vec<usize> = spheres.iter().flat_map(|s| s.0).collect();
     let (mut values, mut root) = (vec![0.0; vrs.len()], Vec::new());
     let (mut sums, mut n) = ([0.0; 3], 0.0);
-    loop {
+    let mut add = |sim: &mut Simulation| -> Result<(), String> {
         sim.get_many(&vrs, &mut values).map_err(|e| e.to_string())?;
         let p: Vec<[f64; 3]> = values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
         let (pairs, cluster) = touching(&p, &radii, &mut root);
-        let island = sim
-            .islands()
-            .iter()
-            .map(|i| i.bodies.len())
-            .max()
-            .unwrap_or(spheres.len());
-        for (s, x) in sums.iter_mut().zip([pairs, cluster, island]) {
+        let partition = &sim.data().ok_or("not initialised")?.partition;
+        let island = (0..partition.len()).map(|k| partition.bodies(k).len()).max();
+        for (s, x) in sums.iter_mut().zip([pairs, cluster, island.unwrap_or(spheres.len())]) {
             *s += x as f64;
         }
         n += 1.0;
-        if sim.time() >= end - 1e-12 {
-            break;
-        }
-        step_to(sim, (sim.time() + dt).min(end), dt)?;
-    }
+        Ok(())
+    };
+    add(sim)?;
+    sim.run(end, dt, &mut add).map_err(|e| e.to_string())?;
     Ok(sums.map(|s| s / n))
 }
 
@@ -165,7 +158,7 @@ pub fn run(s: &Settings) -> Result<(), String> {
         ));
     }
     println!("{origin}: {} spheres; to {} s first", spheres.len(), s.from);
-    step_to(&mut sim, s.from, interval)?;
+    run_to(&mut sim, s.from, interval)?;
     let mut windows = Vec::new();
     let mut start = s.from;
     while start < s.to - 1e-12 {
@@ -176,7 +169,7 @@ pub fn run(s: &Settings) -> Result<(), String> {
         for _ in 0..s.repeats.max(1) {
             sim.restore(&at_start).map_err(|e| e.to_string())?;
             let c0 = thread_cpu_seconds();
-            step_to(&mut sim, end, interval)?;
+            run_to(&mut sim, end, interval)?;
             cpu.push(thread_cpu_seconds() - c0);
         }
         let c1 = sim.counters();
@@ -326,9 +319,9 @@ mod tests {
         let mut sim = Simulation::from_file(&scene).unwrap();
         sim.initialize(0.0).unwrap();
         let interval = sim.scene().model.interval;
-        step_to(&mut sim, 0.2, interval).unwrap();
+        run_to(&mut sim, 0.2, interval).unwrap();
         let c0 = sim.counters();
-        step_to(&mut sim, 0.26, interval).unwrap();
+        run_to(&mut sim, 0.26, interval).unwrap();
         let c1 = sim.counters();
         let sum = |k: usize| rows.iter().map(|r| r[k]).sum::<f64>();
         assert_eq!(sum(4), (c1.steps - c0.steps) as f64);
