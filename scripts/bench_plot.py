@@ -104,33 +104,46 @@ def scaling():
     print("wrote", out)
 
 
-def pile():
-    rows = rows_of("pile.csv")
+def pile(name="pile"):
+    rows = rows_of(name + ".csv")
     if rows is None:
         return
     mid = [0.5 * (float(r["start"]) + float(r["end"])) for r in rows]
     width = [0.9 * (float(r["end"]) - float(r["start"])) for r in rows]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 6.4), sharex=True)
+    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(6.4, 8.4), sharex=True)
     top.bar(mid, [float(r["real_time_factor"]) for r in rows], width=width, color="tab:blue")
     top.axhline(1.0, color="gray", ls="--", label="real time")
     top.set_ylabel("simulated s per CPU s")
     top.set_title("pile_of_balls by windows")
     top.legend()
     length = [float(r["end"]) - float(r["start"]) for r in rows]
-    bottom.plot(mid, [float(r["largest_island"]) for r in rows], "s-", label="largest island [bodies]")
-    bottom.plot(mid, [float(r["largest_cluster"]) for r in rows], "o-", label="largest touching cluster (mean)")
-    right = bottom.twinx()
+    middle.plot(mid, [float(r["largest_island"]) for r in rows], "s-", label="largest island [bodies]")
+    middle.plot(mid, [float(r["largest_cluster"]) for r in rows], "o-", label="largest touching cluster (mean)")
+    right = middle.twinx()
     right.plot(mid, [int(r["events"]) / x for r, x in zip(rows, length)], "^:", color="tab:red",
                label="contact events per simulated s")
     right.set_ylabel("events per simulated s", color="tab:red")
-    bottom.set_ylabel("spheres")
-    bottom.set_xlabel("time [s]")
-    lines = bottom.get_legend_handles_labels()
+    middle.set_ylabel("spheres")
+    lines = middle.get_legend_handles_labels()
     more = right.get_legend_handles_labels()
-    bottom.legend(lines[0] + more[0], lines[1] + more[1], loc="center right", fontsize=8)
-    bottom.grid(True, alpha=0.3)
+    middle.legend(lines[0] + more[0], lines[1] + more[1], loc="center right", fontsize=8)
+    middle.grid(True, alpha=0.3)
+    if "kinetic_energy_end" in rows[0]:
+        # (zero changes are left out of the logarithmic axis)
+        def positive(key, sign=1.0):
+            pts = [(x, sign * float(r[key])) for x, r in zip(mid, rows)]
+            return [x for x, v in pts if v > 0], [v for x, v in pts if v > 0]
+        bottom.semilogy(*positive("kinetic_energy_end"), "o-", label="kinetic energy at the end")
+        bottom.semilogy(*positive("potential_energy_change", -1.0), "v-",
+                        label="potential energy lost in the window")
+        bottom.semilogy(mid, [max(abs(float(r["energy_balance_change"])), 1e-16) for r in rows], "x:",
+                        color="tab:gray", label="|change of the energy balance| (error)")
+        bottom.set_ylabel("J")
+        bottom.legend(fontsize=8)
+        bottom.grid(True, alpha=0.3)
+    bottom.set_xlabel("time [s]")
     fig.tight_layout()
-    out = os.path.join(IMG, "pile.png")
+    out = os.path.join(IMG, name + ".png")
     fig.savefig(out, dpi=110)
     plt.close(fig)
     print("wrote", out)
@@ -141,3 +154,4 @@ if __name__ == "__main__":
     work_precision()
     scaling()
     pile()
+    pile("pile_to_rest")

@@ -3,7 +3,9 @@
 //! start, `--repeats` times, the thread's CPU time, median), with the work counters (steps,
 //! RHS evaluations, contact events) and what sets them: sampled every `--sample` seconds in
 //! one more run from the same start, the pairs of spheres that touch, the largest cluster of
-//! touching spheres and the largest island.
+//! touching spheres and the largest island; and the energies: the kinetic energy at each
+//! window's end, the change of the potential energy over it (how far the pile still falls
+//! together) and of the energy balance (the integration's error).
 //!
 //! An island advances all its bodies with one step; a cluster of touching spheres is what
 //! the contact forces couple at that instant. Per window, `steps × largest island` is the
@@ -102,6 +104,12 @@ struct Window {
     pairs: f64,
     cluster: f64,
     island: f64,
+    /// Kinetic energy at the end \[J\].
+    kinetic: f64,
+    /// Change of the potential energy over the window \[J\].
+    potential_change: f64,
+    /// Change of the energy balance (total + dissipated − input work) over the window \[J\].
+    balance_change: f64,
 }
 
 /// Runs `sim` to `t_end` over the communication points of `interval` ([`Simulation::run`];
@@ -165,6 +173,7 @@ pub fn run(s: &Settings) -> Result<(), String> {
         let end = (start + s.window).min(s.to);
         let at_start = sim.snapshot(Vec::new());
         let c0 = sim.counters();
+        let e0 = sim.energies().map_err(|e| e.to_string())?;
         let mut cpu = Vec::new();
         for _ in 0..s.repeats.max(1) {
             sim.restore(&at_start).map_err(|e| e.to_string())?;
@@ -175,6 +184,7 @@ pub fn run(s: &Settings) -> Result<(), String> {
         let c1 = sim.counters();
         sim.restore(&at_start).map_err(|e| e.to_string())?;
         let [pairs, cluster, island] = sample(&mut sim, &spheres, end, s.sample)?;
+        let e1 = sim.energies().map_err(|e| e.to_string())?;
         if sim.counters().steps != c1.steps {
             return Err(format!(
                 "{origin}: the sampled run took {} steps to {end} s, the timed one {}: the samples changed the trajectory",
@@ -192,6 +202,9 @@ pub fn run(s: &Settings) -> Result<(), String> {
             pairs,
             cluster,
             island,
+            kinetic: e1.kinetic,
+            potential_change: e1.potential - e0.potential,
+            balance_change: e1.balance() - e0.balance(),
         });
         start = end;
     }
@@ -211,17 +224,32 @@ fn report(windows: &[Window], csv_path: &Path) -> Result<(), String> {
         "touching_pairs",
         "largest_cluster",
         "largest_island",
+        "kinetic_energy_end",
+        "potential_energy_change",
+        "energy_balance_change",
     ]);
     println!(
-        "{:>15} {:>8} {:>6} {:>8} {:>9} {:>7} {:>9} {:>6} {:>8} {:>7}",
-        "window [s]", "CPU [s]", "RT", "steps", "rhs", "events", "events/s", "pairs", "cluster", "island"
+        "{:>15} {:>8} {:>6} {:>8} {:>9} {:>7} {:>9} {:>6} {:>8} {:>7} {:>10} {:>10} {:>10}",
+        "window [s]",
+        "CPU [s]",
+        "RT",
+        "steps",
+        "rhs",
+        "events",
+        "events/s",
+        "pairs",
+        "cluster",
+        "island",
+        "KE end [J]",
+        "dPE [J]",
+        "dbal [J]"
     );
     let (mut cpu, mut span, mut steps, mut events) = (0.0, 0.0, 0, 0);
     let (mut work_island, mut work_cluster) = (0.0, 0.0);
     for w in windows {
         let length = w.end - w.start;
         println!(
-            "{:>7.3}-{:<7.3} {:>8.3} {:>6.2} {:>8} {:>9} {:>7} {:>9.0} {:>6.1} {:>8.1} {:>7.1}",
+            "{:>7.3}-{:<7.3} {:>8.3} {:>6.2} {:>8} {:>9} {:>7} {:>9.0} {:>6.1} {:>8.1} {:>7.1} {:>10.3e} {:>10.3e} {:>10.3e}",
             w.start,
             w.end,
             w.cpu,
@@ -232,7 +260,10 @@ fn report(windows: &[Window], csv_path: &Path) -> Result<(), String> {
             w.events as f64 / length,
             w.pairs,
             w.cluster,
-            w.island
+            w.island,
+            w.kinetic,
+            w.potential_change,
+            w.balance_change
         );
         csv.push(vec![
             f(w.start),
@@ -245,6 +276,9 @@ fn report(windows: &[Window], csv_path: &Path) -> Result<(), String> {
             f(w.pairs),
             f(w.cluster),
             f(w.island),
+            f(w.kinetic),
+            f(w.potential_change),
+            f(w.balance_change),
         ]);
         cpu += w.cpu;
         span += length;
@@ -320,13 +354,33 @@ mod tests {
         sim.initialize(0.0).unwrap();
         let interval = sim.scene().model.interval;
         run_to(&mut sim, 0.2, interval).unwrap();
-        let c0 = sim.counters();
+        let (c0, e0) = (sim.counters(), sim.energies().unwrap());
         run_to(&mut sim, 0.26, interval).unwrap();
-        let c1 = sim.counters();
+        let (c1, e1) = (sim.counters(), sim.energies().unwrap());
         let sum = |k: usize| rows.iter().map(|r| r[k]).sum::<f64>();
         assert_eq!(sum(4), (c1.steps - c0.steps) as f64);
         assert_eq!(sum(6), (c1.events - c0.events) as f64);
         assert!(sum(6) > 0.0, "the balls land on the floor before 0.26 s");
+        // the windows' energies are those of the same trajectory: their potential energy
+        // changes add up to the straight run's (to the CSV's 7 digits), the last kinetic
+        // energy is its own
+        let drop = e1.potential - e0.potential;
+        assert!(
+            (sum(11) - drop).abs() <= 1e-6 * drop.abs(),
+            "{} against {drop}",
+            sum(11)
+        );
+        assert!((rows[2][10] - e1.kinetic).abs() <= 1e-6 * e1.kinetic);
+        // the balls fall (gravity's work turns into motion and the contacts' losses) and the
+        // energy balance holds in each window: its change is far below the energy that moved
+        for r in &rows {
+            assert!(r[11] < 0.0 && r[10] > 0.0, "{r:?}");
+            assert!(
+                r[12].abs() <= 1e-5 * r[11].abs(),
+                "energy balance changed by {} J in {r:?}",
+                r[12]
+            );
+        }
         // touching balls share an island: the largest island holds the largest cluster (means
         // over the samples), and at most all 27 balls
         for r in &rows {
