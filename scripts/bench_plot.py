@@ -129,7 +129,8 @@ def pile(name="pile"):
     middle.legend(lines[0] + more[0], lines[1] + more[1], loc="center right", fontsize=8)
     middle.grid(True, alpha=0.3)
     if "kinetic_energy_end" in rows[0]:
-        # (zero changes are left out of the logarithmic axis)
+        # (what is not positive, a zero change or a rise of the potential energy, is left out of
+        # the logarithmic axis)
         def positive(key, sign=1.0):
             pts = [(x, sign * float(r[key])) for x, r in zip(mid, rows)]
             return [x for x, v in pts if v > 0], [v for x, v in pts if v > 0]
