@@ -5,6 +5,8 @@
 //! with a message or runs; none panics.
 //!
 //! `cargo test --release --test integration scene_fuzz:: -- --nocapture` prints the tally.
+//! `SCENE_FUZZ_COUNT` and `SCENE_FUZZ_SEED` (environment) ask for more scenes and other
+//! mutations than CI's 1,000 from its fixed seed, for a deeper search by hand.
 
 use crate::common;
 use common::Rng;
@@ -13,7 +15,21 @@ use contact_fmu::simulation::Simulation;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use toml::Value;
 
+/// Scenes mutated in CI, from this seed of the random numbers.
 const SCENES: usize = 1000;
+const SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// `name` from the environment (a decimal or `0x` hexadecimal number), or `default`.
+fn from_env(name: &str, default: u64) -> u64 {
+    let Ok(text) = std::env::var(name) else {
+        return default;
+    };
+    let parsed = match text.strip_prefix("0x") {
+        Some(hex) => u64::from_str_radix(&hex.replace('_', ""), 16),
+        None => text.replace('_', "").parse(),
+    };
+    parsed.unwrap_or_else(|e| panic!("{name}={text:?}: {e}"))
+}
 
 /// The arrays of tables of a scene (`[[body]]`, `[[shape]]`, ...), by key.
 fn table_arrays(v: &Value) -> Vec<String> {
@@ -156,10 +172,14 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
             (name, text.parse::<Value>().unwrap())
         })
         .collect();
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
+    let seed = from_env("SCENE_FUZZ_SEED", SEED);
+    // (the generator, xorshift, stays at 0 from 0)
+    assert!(seed != 0, "SCENE_FUZZ_SEED must not be 0");
+    let mut rng = Rng(seed);
     let mut tally = [0usize; 3];
     let mut panics = Vec::new();
-    for k in 0..SCENES {
+    for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
         let text = mutated(base, &mut rng);
         match catch_unwind(AssertUnwindSafe(|| exercise(&text))) {
@@ -178,7 +198,7 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     }
     let _ = std::panic::take_hook();
     println!(
-        "{SCENES} mutated scenes: {} refused with a message, {} ran, {} stopped with a step error, {} panicked",
+        "{scenes} mutated scenes: {} refused with a message, {} ran, {} stopped with a step error, {} panicked",
         tally[0],
         tally[1],
         tally[2],
