@@ -18,6 +18,7 @@ use super::{f, Csv};
 use crate::run::thread_cpu_seconds;
 use crate::scene::{ShapeType, GROUND};
 use crate::simulation::Simulation;
+use crate::union_find::UnionFind;
 use std::path::{Path, PathBuf};
 
 /// Settings of a run (the options of `contact-fmu bench pile`).
@@ -65,30 +66,21 @@ fn centred_spheres(sim: &Simulation) -> Vec<([usize; 3], f64)> {
 }
 
 /// (touching pairs, size of the largest cluster of touching spheres) at the centres `p`.
-fn touching(p: &[[f64; 3]], radii: &[f64], root: &mut Vec<usize>) -> (usize, usize) {
-    root.clear();
-    root.extend(0..p.len());
-    fn find(root: &mut [usize], mut i: usize) -> usize {
-        while root[i] != i {
-            root[i] = root[root[i]];
-            i = root[i];
-        }
-        i
-    }
+fn touching(p: &[[f64; 3]], radii: &[f64]) -> (usize, usize) {
+    let mut sets = UnionFind::new(p.len());
     let mut pairs = 0;
     for i in 0..p.len() {
         for j in i + 1..p.len() {
             let d2: f64 = (0..3).map(|k| (p[i][k] - p[j][k]).powi(2)).sum();
             if d2 < (radii[i] + radii[j]).powi(2) {
                 pairs += 1;
-                let (a, b) = (find(root, i), find(root, j));
-                root[a] = b;
+                sets.join(Some(i), Some(j));
             }
         }
     }
     let mut size = vec![0usize; p.len()];
     for i in 0..p.len() {
-        size[find(root, i)] += 1;
+        size[sets.root(i)] += 1;
     }
     (pairs, size.into_iter().max().unwrap_or(0))
 }
@@ -127,12 +119,12 @@ fn run_to(sim: &mut Simulation, t_end: f64, interval: f64) -> Result<(), String>
 fn sample(sim: &mut Simulation, spheres: &[([usize; 3], f64)], end: f64, dt: f64) -> Result<[f64; 3], String> {
     let radii: Vec<f64> = spheres.iter().map(|s| s.1).collect();
     let vrs: Vec<usize> = spheres.iter().flat_map(|s| s.0).collect();
-    let (mut values, mut root) = (vec![0.0; vrs.len()], Vec::new());
+    let mut values = vec![0.0; vrs.len()];
     let (mut sums, mut n) = ([0.0; 3], 0.0);
     let mut add = |sim: &mut Simulation| -> Result<(), String> {
         sim.get_many(&vrs, &mut values).map_err(|e| e.to_string())?;
         let p: Vec<[f64; 3]> = values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
-        let (pairs, cluster) = touching(&p, &radii, &mut root);
+        let (pairs, cluster) = touching(&p, &radii);
         let partition = &sim.data().ok_or("not initialised")?.partition;
         let island = (0..partition.len()).map(|k| partition.bodies(k).len()).max();
         for (s, x) in sums.iter_mut().zip([pairs, cluster, island.unwrap_or(spheres.len())]) {
@@ -316,12 +308,12 @@ mod tests {
             [11.25, 0.0, 0.0],
         ];
         let radii = [0.6; 5];
-        assert_eq!(touching(&p, &radii, &mut Vec::new()), (2, 3));
+        assert_eq!(touching(&p, &radii), (2, 3));
         // radii of their own: the fourth's larger one (0.7) reaches the fifth
         let radii = [0.6, 0.6, 0.6, 0.7, 0.6];
-        assert_eq!(touching(&p, &radii, &mut Vec::new()), (3, 3));
+        assert_eq!(touching(&p, &radii), (3, 3));
         let apart = [[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]];
-        assert_eq!(touching(&apart, &[1.0, 1.0], &mut Vec::new()), (0, 1));
+        assert_eq!(touching(&apart, &[1.0, 1.0]), (0, 1));
     }
 
     #[test]
