@@ -118,53 +118,56 @@ fn insert_in_order(log: &mut [ContactEvent], sorted: usize) {
 mod tests {
     use super::*;
     use crate::model::ContactEventKind;
+    use proptest::collection::vec;
+    use proptest::prop_assert;
 
-    /// The insertion leaves the whole log in order (by time, then contact), with every entry
-    /// it had, the former entries in their order and before the new ones of the same time and
-    /// contact: sorted logs with new entries that interleave with the former ones, repeat their
-    /// keys and come in any order.
-    #[test]
-    fn new_events_go_in_order_among_the_former_ones() {
-        let mut seed = 12345u64;
-        let mut next = move |n: u64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
-        let key = |a: &ContactEvent, b: &ContactEvent| a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact));
-        for _ in 0..200 {
-            // (`delta` numbers the entries: the former ones below 100)
-            let event = |time: f64, contact: usize, k: u64| ContactEvent {
-                time,
-                contact,
-                kind: ContactEventKind::Touch,
-                delta: k as f64,
-                delta_dot: 0.0,
-                force: 0.0,
-            };
-            let (old, new) = (next(20) as usize, next(20) as usize);
-            let mut log: Vec<ContactEvent> = (0..old)
-                .map(|k| event(next(6) as f64, next(3) as usize, k as u64))
-                .collect();
+    fn key(a: &ContactEvent, b: &ContactEvent) -> std::cmp::Ordering {
+        a.time.total_cmp(&b.time).then(a.contact.cmp(&b.contact))
+    }
+
+    /// An event at `time` of `contact`, numbered `k` (in `delta`: the former entries below 100).
+    fn event(time: u8, contact: usize, k: usize) -> ContactEvent {
+        ContactEvent {
+            time: f64::from(time),
+            contact,
+            kind: ContactEventKind::Touch,
+            delta: k as f64,
+            delta_dot: 0.0,
+            force: 0.0,
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 200, ..Default::default() })]
+
+        /// The insertion leaves the whole log in order (by time, then contact), with every
+        /// entry it had, the former entries in their order and before the new ones of the same
+        /// time and contact: sorted logs with new entries that interleave with the former
+        /// ones, repeat their keys and come in any order.
+        #[test]
+        fn new_events_go_in_order_among_the_former_ones(
+            former in vec((0u8..6, 0usize..3), 0..20),
+            new in vec((0u8..8, 0usize..3), 0..20),
+        ) {
+            let mut log: Vec<ContactEvent> =
+                former.iter().enumerate().map(|(k, &(t, c))| event(t, c, k)).collect();
             log.sort_by(key);
-            let former = log.clone();
-            log.extend((0..new).map(|k| event(next(8) as f64, next(3) as usize, 100 + k as u64)));
+            let before = log.clone();
+            log.extend(new.iter().enumerate().map(|(k, &(t, c))| event(t, c, 100 + k)));
             let every = log.clone();
-            insert_in_order(&mut log, old);
-            assert!(log.windows(2).all(|w| key(&w[0], &w[1]).is_le()), "{log:?}");
+            insert_in_order(&mut log, before.len());
+            prop_assert!(log.windows(2).all(|w| key(&w[0], &w[1]).is_le()), "{:?}", log);
             let numbers = |v: &[ContactEvent]| {
                 let mut n: Vec<u64> = v.iter().map(|e| e.delta as u64).collect();
                 n.sort_unstable();
                 n
             };
-            assert_eq!(numbers(&log), numbers(&every));
+            prop_assert!(numbers(&log) == numbers(&every));
             let kept: Vec<ContactEvent> = log.iter().copied().filter(|e| e.delta < 100.0).collect();
-            assert_eq!(kept, former, "the former entries in their order");
+            prop_assert!(kept == before, "the former entries in their order");
             for w in log.windows(2) {
                 if key(&w[0], &w[1]).is_eq() && w[1].delta < 100.0 {
-                    assert!(
-                        w[0].delta < 100.0,
-                        "a new entry before a former one of its time and contact"
-                    );
+                    prop_assert!(w[0].delta < 100.0, "a new entry before a former one of its time and contact");
                 }
             }
         }
