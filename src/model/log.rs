@@ -12,7 +12,8 @@ pub struct Counters {
     pub rhs_evals: u64,
     /// Jacobian evaluations (implicit methods).
     pub jac_evals: u64,
-    /// Events located (touch, separation).
+    /// Events located: the instants the integration stopped (touch, separation, impact,
+    /// rest, release, a damping force cut at zero or its end, stick, slip).
     pub events: u64,
 }
 

@@ -1,8 +1,9 @@
 //! The model and its data, in the manner of MuJoCo's `mjModel`/`mjData`: a [`Model`]
 //! compiled once and read-only afterwards (`compiled`), a [`Data`] holding everything that
-//! changes (`data`; what it counts and logs: `log`), and the declaration of the part of the data that a saved state holds
-//! (`state`, and `island_state` for a scene that runs as independent islands; `partition`, which
-//! bodies and candidate pairs advance together). Every function of the engine takes `(&Model, &mut Data)`.
+//! changes (`data`; what it counts and logs: `log`), and the declaration of the part of the
+//! data that a saved state holds (`state`, and `island_state` for a scene that runs as
+//! independent islands; `partition`, which bodies and candidate pairs advance together).
+//! Every function of the engine takes `(&Model, &mut Data)`.
 
 pub mod compiled;
 pub mod contact;

@@ -663,7 +663,8 @@ pub(super) fn later_outputs(v: &mut Vec<Variable>) {
         None,
         VarRef::SolverEvents,
         "contact events located since initialisation (the instants at which the integration stopped for a \
-         touch, separation, impact, rest or release; several contacts changing at one instant count once)"
+         touch, separation, impact, rest or release, a damping force cut at zero or its end, or a change \
+         between sticking and slipping; several contacts changing at one instant count once)"
             .into(),
     ));
 }
