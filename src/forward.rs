@@ -116,10 +116,16 @@ pub fn evaluate_rhs(m: &Model, d: &mut Data) -> bool {
         } else if m.fixed_rows() > 0 {
             // A loop never touches a free body (the plan leaves such a body on the general
             // path), so the free bodies' columns of Φ_q are zero, and the solve over every block
-            // leaves the general dofs as the solve over the general blocks would: the free
-            // bodies' blocks always hold a valid factor (their constant M̄ from `Data::new`, or
-            // the general path's at the last full evaluation), and their entries of q̈ are
-            // overwritten below.
+            // leaves the general dofs as the solve over the general blocks would, given zeros
+            // in the free bodies' entries of q̈ and a valid factor in their blocks (their entries
+            // are overwritten below). Both are written here: a full evaluation since the last
+            // one of these leaves its own factor there, or, should it fail (a body's inertia
+            // near singular, whose world-frame block then has a negative pivot), a broken one
+            // and NaN in q̈, which 0 × NaN would carry into every general dof.
+            for fb in &plan.free {
+                m.write_free_block(fb, &mut d.mass_blocks);
+                d.qacc[fb.qvel..fb.qvel + 6].fill(0.0);
+            }
             constrained_accelerations(m, d);
         } else {
             dynamics::solve_mass_trees(m, &general.trees, &d.mass_blocks, &mut d.qacc);

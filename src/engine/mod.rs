@@ -76,10 +76,12 @@ pub fn start(m: &Model, d: &mut Data) -> Result<(), EngineError> {
 }
 
 /// Re-evaluates the event functions after the state was set from outside (restored): at the
-/// current state, or, when the method continues its last step, at the step's start and end
-/// (the end as the step's check evaluated it, [`events::step_end_values`]: the values the
-/// continued step goes on with). The workspace then holds those evaluations: the outputs and
-/// kinematics at the state are evaluated again when read.
+/// current state, or, when the method has a last step, at the step's start and end (the end as
+/// the step's check evaluated it, [`events::step_end_values`]: the values the continued step
+/// goes on with), in the places the step left them: the end's as the next values while the
+/// step reaches past the data's time, as the current ones once it ended there (accepted). The
+/// workspace then holds those evaluations: the outputs and kinematics at the state are
+/// evaluated again when read.
 pub fn resync(m: &Model, d: &mut Data) {
     d.outputs_valid = false;
     d.kinematics_valid = false;
@@ -88,12 +90,20 @@ pub fn resync(m: &Model, d: &mut Data) {
         events::event_values(m, d, false);
         return;
     };
+    // (a step that ended at the data's time, or a rounding error short of it, was accepted:
+    // its end values are the current ones and its start values the former ones, as
+    // `accept_step` leaves them; a restart took no step)
+    let accepted = i.t() <= d.time && i.t() > i.t_prev();
     d.eval_state.copy_from_slice(&i.core().y_prev);
     events::event_values(m, d, false);
     if let Some(i) = d.solver.method() {
         d.eval_state.copy_from_slice(i.y());
     }
     events::step_end_values(m, d);
+    if accepted {
+        std::mem::swap(&mut d.events.g, &mut d.events.g_new);
+        std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
+    }
 }
 
 /// [`resync`] after the broad phase's reference poses changed and nothing else did: while the

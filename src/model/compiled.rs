@@ -583,6 +583,20 @@ pub struct Model {
 }
 
 impl Model {
+    /// Writes free body `fb`'s block of M̄ into `mass_blocks`: diag(m, m, m, I₁, I₂, I₃) in
+    /// its body frame, its own `LᵀDL` factor. The lean right-hand side never assembles it; a
+    /// solve over every block finds a valid factor there (see `forward::evaluate_rhs`).
+    pub fn write_free_block(&self, fb: &FreeBody, mass_blocks: &mut [f64]) {
+        let b = &self.bodies[fb.body];
+        let off = self.tree_block[self.joints[b.joint].tree];
+        let block = &mut mass_blocks[off..off + 36];
+        block.fill(0.0);
+        let diag = [b.mass, b.mass, b.mass, b.inertia[0], b.inertia[1], b.inertia[2]];
+        for (k, x) in diag.into_iter().enumerate() {
+            block[7 * k] = x;
+        }
+    }
+
     /// Size of the state vector: positions, velocities, dissipated energy, and with inputs the
     /// work they did (a scene without inputs integrates no zero, so that its steps are those
     /// of a state without it).

@@ -520,18 +520,9 @@ impl Data {
         emptied(path_joints, model.joints.len());
         filled(composite, nb, Inertia::zero());
         filled(body_wrench, nb, Spatial::zero());
-        // A free body's block of M̄ is diag(m, m, m, I₁, I₂, I₃), its own LᵀDL factor: the
-        // lean right-hand side never assembles it, and a solve over every block must find a
-        // valid factor there (see `forward::evaluate_rhs`).
         filled(mass_blocks, mass_len, 0.0);
         for fb in &model.plan.free {
-            let t = model.joints[model.bodies[fb.body].joint].tree;
-            let off = model.tree_block[t];
-            let b = &model.bodies[fb.body];
-            let diag = [b.mass, b.mass, b.mass, b.inertia[0], b.inertia[1], b.inertia[2]];
-            for (k, x) in diag.into_iter().enumerate() {
-                mass_blocks[off + 7 * k] = x;
-            }
+            model.write_free_block(fb, mass_blocks);
         }
         // the rotors' constant rows of the factor, never assembled (`Plan::leaves`)
         for (t, leaves) in model.plan.leaves.iter().enumerate() {

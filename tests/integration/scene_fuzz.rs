@@ -11,7 +11,7 @@
 use crate::common;
 use common::Rng;
 
-use contact_fmu::simulation::Simulation;
+use contact_fmu::simulation::{SimError, Simulation};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use toml::Value;
 
@@ -126,6 +126,25 @@ fn mutated(base: &Value, rng: &mut Rng) -> String {
     toml::to_string(&v).unwrap_or_default()
 }
 
+/// The bundled scenes as TOML values, by name.
+fn bundled_bases() -> Vec<(String, Value)> {
+    common::bundled_scenes()
+        .into_iter()
+        .map(|(name, path)| {
+            let text = std::fs::read_to_string(&path).unwrap();
+            (name, text.parse::<Value>().unwrap())
+        })
+        .collect()
+}
+
+/// The seed of the mutations: `SCENE_FUZZ_SEED`, or CI's.
+fn seed() -> u64 {
+    let seed = from_env("SCENE_FUZZ_SEED", SEED);
+    // (the generator, xorshift, stays at 0 from 0)
+    assert!(seed != 0, "SCENE_FUZZ_SEED must not be 0");
+    seed
+}
+
 /// What became of one scene.
 #[derive(Debug, PartialEq)]
 enum Outcome {
@@ -165,18 +184,9 @@ fn exercise(text: &str) -> Outcome {
 fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     // no panic message on standard error for the ones caught: the test reports them itself
     std::panic::set_hook(Box::new(|_| {}));
-    let bases: Vec<(String, Value)> = common::bundled_scenes()
-        .into_iter()
-        .map(|(name, path)| {
-            let text = std::fs::read_to_string(&path).unwrap();
-            (name, text.parse::<Value>().unwrap())
-        })
-        .collect();
+    let bases = bundled_bases();
     let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
-    let seed = from_env("SCENE_FUZZ_SEED", SEED);
-    // (the generator, xorshift, stays at 0 from 0)
-    assert!(seed != 0, "SCENE_FUZZ_SEED must not be 0");
-    let mut rng = Rng(seed);
+    let mut rng = Rng(seed());
     let mut tally = [0usize; 3];
     let mut panics = Vec::new();
     for k in 0..scenes {
@@ -207,4 +217,116 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     assert!(panics.is_empty(), "{}", panics.join("\n"));
     // the mutations reach every stage: some are refused, some run
     assert!(tally[0] > 50 && tally[1] > 50, "{tally:?}");
+}
+
+/// Span over which a mutated scene's continuation is checked \[s\], and the step budget of
+/// each call.
+const CONTINUED_SPAN: f64 = 0.02;
+const CONTINUED_MAX_STEPS: f64 = 20_000.0;
+
+/// The outputs of `sim`, as bits.
+fn output_bits(sim: &mut Simulation) -> Result<Vec<u64>, String> {
+    let outputs = sim.output_indices();
+    let mut values = vec![0.0; outputs.len()];
+    sim.get_many(&outputs, &mut values).map_err(|e| e.to_string())?;
+    Ok(values.iter().map(|v| v.to_bits()).collect())
+}
+
+/// `text` initialised with a step budget of [`CONTINUED_MAX_STEPS`] a call; `None` when it
+/// is refused.
+fn initialised(text: &str) -> Option<Simulation> {
+    let mut sim = Simulation::from_scene_str(text, "mutated.toml").ok()?;
+    if let Some(vr) = sim.table().index_of("solver.max_steps") {
+        sim.set(vr, CONTINUED_MAX_STEPS).ok()?;
+    }
+    sim.initialize(0.0).ok()?;
+    Some(sim)
+}
+
+/// The first output whose bits differ between `a` and `b`, named.
+fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
+    let outputs = sim.output_indices();
+    let k = a.iter().zip(b).position(|(x, y)| x != y)?;
+    let name = &sim.variables()[outputs[k]].name;
+    Some(format!(
+        "{name} {:e} against {:e}",
+        f64::from_bits(a[k]),
+        f64::from_bits(b[k])
+    ))
+}
+
+/// Runs `text` over [`CONTINUED_SPAN`] with communication points at `save` and halfway from
+/// there to the end, reading its outputs at each and saving its state at `save`; then the
+/// saved state restored into a fresh simulation of the same text and run over the same points
+/// without reading anything, and a third simulation run to the end in one call. `None` when
+/// the scene is refused or the first run fails; otherwise what differs at the end (nothing:
+/// `Some(None)`). The third run is not compared when it ran out of its budget, which is per
+/// call.
+fn continuation_differs(text: &str, save: f64) -> Option<Option<String>> {
+    let (t_end, t_mid) = (CONTINUED_SPAN, 0.5 * (save + CONTINUED_SPAN));
+    let mut run = initialised(text)?;
+    run.step_to(save).ok()?;
+    output_bits(&mut run).ok()?;
+    let saved = run.snapshot(Vec::new());
+    run.step_to(t_mid).ok()?;
+    output_bits(&mut run).ok()?;
+    run.step_to(t_end).ok()?;
+    let end = output_bits(&mut run).ok()?;
+    let mut restored = initialised(text)?;
+    let resumed = restored
+        .restore(&saved)
+        .and_then(|()| restored.step_to(t_mid))
+        .and_then(|()| restored.step_to(t_end))
+        .map_err(|e| e.to_string())
+        .and_then(|()| output_bits(&mut restored));
+    let mut differences = match resumed {
+        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("restored at {save}: {d}")),
+        Err(e) => Some(format!("restored at {save}: {e}")),
+    };
+    let mut straight = initialised(text)?;
+    match straight.step_to(t_end) {
+        Err(SimError::StepLimit { .. }) => {}
+        Err(e) => differences = Some(format!("in one call: {e}")),
+        Ok(()) => {
+            let bits = output_bits(&mut straight).ok()?;
+            if let Some(d) = first_difference(&run, &end, &bits) {
+                differences = Some(format!("in one call: {d}"));
+            }
+        }
+    }
+    Some(differences)
+}
+
+/// Mutated scenes that run continue bit for bit: saved at a communication point (one of nine
+/// across the span) and restored into a fresh simulation, and run to the end in one call
+/// instead of over the points (the method's steps do not depend on them, nor on whether the
+/// outputs were read there), every output at the end is the uninterrupted run's, counters
+/// included.
+#[test]
+fn mutated_scenes_that_run_continue_bit_for_bit() {
+    let bases = bundled_bases();
+    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
+    // (other mutations than the test above's)
+    let mut rng = Rng(seed().rotate_left(17));
+    let (mut compared, mut differing) = (0, Vec::new());
+    for k in 0..scenes {
+        let (name, base) = &bases[k % bases.len()];
+        let text = mutated(base, &mut rng);
+        let save = CONTINUED_SPAN * (1 + k % 9) as f64 / 10.0;
+        let Some(difference) = continuation_differs(&text, save) else {
+            continue;
+        };
+        compared += 1;
+        if let Some(d) = difference {
+            let file = std::env::temp_dir().join(format!("scene_continued_{k}.toml"));
+            let _ = std::fs::write(&file, &text);
+            differing.push(format!("scene {k} (from {name}, written to {}): {d}", file.display()));
+        }
+    }
+    println!(
+        "{scenes} mutated scenes: {compared} ran and were compared, {} differ",
+        differing.len()
+    );
+    assert!(differing.is_empty(), "{}", differing.join("\n"));
+    assert!(compared > 100, "only {compared} of {scenes} scenes ran");
 }
