@@ -219,9 +219,9 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     assert!(tally[0] > 50 && tally[1] > 50, "{tally:?}");
 }
 
-/// Span over which a mutated scene's continuation is checked \[s\], and the step budget of
-/// each call.
-const CONTINUED_SPAN: f64 = 0.02;
+/// Span over which a mutated scene's continuation is checked in CI \[ms\] (`SCENE_FUZZ_SPAN_MS`
+/// asks for another), and the step budget of each call.
+const CONTINUED_SPAN_MS: u64 = 20;
 const CONTINUED_MAX_STEPS: f64 = 20_000.0;
 
 /// The outputs of `sim`, as bits.
@@ -255,15 +255,15 @@ fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
     ))
 }
 
-/// Runs `text` over [`CONTINUED_SPAN`] with communication points at `save` and halfway from
+/// Runs `text` over `span` with communication points at `save` and halfway from
 /// there to the end, reading its outputs at each and saving its state at `save`; then the
 /// saved state restored into a fresh simulation of the same text and run over the same points
 /// without reading anything, and a third simulation run to the end in one call. `None` when
 /// the scene is refused or the first run fails; otherwise what differs at the end (nothing:
 /// `Some(None)`). The third run is not compared when it ran out of its budget, which is per
 /// call.
-fn continuation_differs(text: &str, save: f64) -> Option<Option<String>> {
-    let (t_end, t_mid) = (CONTINUED_SPAN, 0.5 * (save + CONTINUED_SPAN));
+fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
+    let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
     run.step_to(save).ok()?;
     output_bits(&mut run).ok()?;
@@ -306,14 +306,15 @@ fn continuation_differs(text: &str, save: f64) -> Option<Option<String>> {
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let bases = bundled_bases();
     let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
+    let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
     // (other mutations than the test above's)
     let mut rng = Rng(seed().rotate_left(17));
     let (mut compared, mut differing) = (0, Vec::new());
     for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
         let text = mutated(base, &mut rng);
-        let save = CONTINUED_SPAN * (1 + k % 9) as f64 / 10.0;
-        let Some(difference) = continuation_differs(&text, save) else {
+        let save = span * (1 + k % 9) as f64 / 10.0;
+        let Some(difference) = continuation_differs(&text, save, span) else {
             continue;
         };
         compared += 1;
