@@ -255,13 +255,14 @@ fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
     ))
 }
 
-/// Runs `text` over `span` with communication points at `save` and halfway from
-/// there to the end, reading its outputs at each and saving its state at `save`; then the
-/// saved state restored into a fresh simulation of the same text and run over the same points
-/// without reading anything, and a third simulation run to the end in one call. `None` when
-/// the scene is refused or the first run fails; otherwise what differs at the end (nothing:
-/// `Some(None)`). The third run is not compared when it ran out of its budget, which is per
-/// call.
+/// Runs `text` over `span` with communication points at `save` and halfway from there to the
+/// end, reading its outputs at each and saving its state at `save`; then the saved state
+/// restored into a fresh simulation of the same text and run over the same points without
+/// reading anything, a third simulation run to the end in one call, and the first taken back
+/// to the saved state (a host's rollback, its workspace that of the end) and run again. `None`
+/// when the scene is refused or the first run fails; otherwise what differs at the end
+/// (nothing: `Some(None)`). The third run is not compared when it ran out of its budget, which
+/// is per call.
 fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
     let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
@@ -272,36 +273,39 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     output_bits(&mut run).ok()?;
     run.step_to(t_end).ok()?;
     let end = output_bits(&mut run).ok()?;
-    let mut restored = initialised(text)?;
-    let resumed = restored
-        .restore(&saved)
-        .and_then(|()| restored.step_to(t_mid))
-        .and_then(|()| restored.step_to(t_end))
-        .map_err(|e| e.to_string())
-        .and_then(|()| output_bits(&mut restored));
-    let mut differences = match resumed {
-        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("restored at {save}: {d}")),
-        Err(e) => Some(format!("restored at {save}: {e}")),
+    let resume = |sim: &mut Simulation| {
+        sim.restore(&saved)
+            .and_then(|()| sim.step_to(t_mid))
+            .and_then(|()| sim.step_to(t_end))
+            .map_err(|e| e.to_string())
+            .and_then(|()| output_bits(sim))
     };
+    let mut runs = Vec::new();
+    let mut restored = initialised(text)?;
+    runs.push((format!("restored at {save}"), resume(&mut restored)));
     let mut straight = initialised(text)?;
     match straight.step_to(t_end) {
         Err(SimError::StepLimit { .. }) => {}
-        Err(e) => differences = Some(format!("in one call: {e}")),
-        Ok(()) => {
-            let bits = output_bits(&mut straight).ok()?;
-            if let Some(d) = first_difference(&run, &end, &bits) {
-                differences = Some(format!("in one call: {d}"));
-            }
-        }
+        other => runs.push((
+            "in one call".into(),
+            other
+                .map_err(|e| e.to_string())
+                .and_then(|()| output_bits(&mut straight)),
+        )),
     }
-    Some(differences)
+    runs.push((format!("taken back to {save}"), resume(&mut run)));
+    let difference = runs.into_iter().find_map(|(label, bits)| match bits {
+        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
+        Err(e) => Some(format!("{label}: {e}")),
+    });
+    Some(difference)
 }
 
 /// Mutated scenes that run continue bit for bit: saved at a communication point (one of nine
-/// across the span) and restored into a fresh simulation, and run to the end in one call
-/// instead of over the points (the method's steps do not depend on them, nor on whether the
-/// outputs were read there), every output at the end is the uninterrupted run's, counters
-/// included.
+/// across the span) and restored into a fresh simulation or into the same one later (taken
+/// back), and run to the end in one call instead of over the points (the method's steps do not
+/// depend on them, nor on whether the outputs were read there), every output at the end is the
+/// uninterrupted run's, counters included.
 #[test]
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let bases = bundled_bases();
