@@ -422,14 +422,28 @@ impl Simulation {
             let at_event = self.step_islands(t_end, stop_at_events)?;
             return self.watch_energy().map(|()| at_event);
         }
+        // solver.max_steps bounds the steps of this call, across the advances between which
+        // the contact groups' candidate pairs are found again (with a small margin, after
+        // every step)
+        let (mut steps_before, mut refreshes) = (None, 0u64);
         let at_event = loop {
             let c = self.running_deferred()?;
-            let at_event =
-                engine::advance_deferring(&c.model, &mut c.data, t_end, stop_at_events, true).map_err(step_error)?;
+            let budget = c.model.solver.max_steps;
+            let taken = c.data.counters.steps - *steps_before.get_or_insert(c.data.counters.steps);
+            c.data.max_steps = Some(budget - taken.min(budget));
+            let advanced = engine::advance_deferring(&c.model, &mut c.data, t_end, stop_at_events, true);
+            c.data.max_steps = None;
+            let at_event = match advanced {
+                Err(e) if e.step_limit && refreshes > 0 => {
+                    return Err(refreshes_over_budget(&c.model, e.time, t_end, refreshes))
+                }
+                other => other.map_err(step_error)?,
+            };
             if at_event || !groups::stale(&c.model, &c.data) {
                 break at_event;
             }
             self.refresh_candidates()?;
+            refreshes += 1;
         };
         self.watch_energy().map(|()| at_event)
     }
@@ -708,6 +722,29 @@ fn step_error(e: EngineError) -> SimError {
         SimError::StepLimit { time, message }
     } else {
         SimError::Step { time, message }
+    }
+}
+
+/// One integrator's budget ran out over advances between which the contact groups' candidate
+/// pairs were found again `refreshes` times: when that was after most steps, the margin is too
+/// small for the bodies' speeds.
+fn refreshes_over_budget(m: &Model, time: f64, t_end: f64, refreshes: u64) -> SimError {
+    let budget = m.solver.max_steps;
+    let advice = if refreshes >= budget / 2 {
+        format!(
+            "each time a body had moved {} of broad_phase.margin = {:e} m: raise the margin (or \
+             solver.max_steps)",
+            m.groups.stale_fraction, m.groups.margin
+        )
+    } else {
+        "take shorter communication steps or raise solver.max_steps".to_string()
+    };
+    SimError::StepLimit {
+        time,
+        message: format!(
+            "solver.max_steps = {budget} integrator steps did not reach t = {t_end} (stopped at t = {time}); \
+             the contact groups' candidate pairs were found again {refreshes} times in them, {advice}"
+        ),
     }
 }
 

@@ -16,7 +16,7 @@ use contact_fmu::scene::{
     BodySpec, BroadPhaseMethod, ContactGroupSpec, Law, MaterialSpec, Scene, ShapeSpec, Side, GROUND,
 };
 use contact_fmu::scene_builder::{Cylinder, Plane, SceneBuilder};
-use contact_fmu::simulation::Simulation;
+use contact_fmu::simulation::{SimError, Simulation};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The scene with its groups replaced by the explicit `[[contact]]` list they stand for.
@@ -647,4 +647,38 @@ fn body_outputs_add_the_friction_force_and_its_torque() {
     assert!((total - expect).norm() < 1e-12 * expect.norm());
     assert!((torque - expect_torque).norm() < 1e-12 * expect_torque.norm());
     assert_eq!(get(&mut s, "ball_ball.active_contacts"), 0.0);
+}
+
+/// A broad-phase margin far too small for the bodies' speeds (2e-15 m: the candidate pairs are
+/// found again after every step, each step bounded to the time to move a part of the margin)
+/// stops a communication step at `solver.max_steps` steps with a message that names the
+/// margin, as one integrator and as islands, instead of running on without end (one
+/// integrator's budget once applied to each advance between two searches, not to the step).
+#[test]
+fn a_margin_far_too_small_stops_at_the_step_budget() {
+    for islands in [false, true] {
+        let mut scene = Scene::from_file(&common::bundled("pile_of_balls")).unwrap();
+        scene.broad_phase.margin = Some(2e-15);
+        scene.solver.islands = islands;
+        scene.solver.max_steps = 500;
+        let mut s = start(scene);
+        let before = s.counters().steps;
+        match s.step_to(1e-3) {
+            Err(SimError::StepLimit { message, time }) => {
+                assert!(time < 1e-3, "islands = {islands}: stopped at {time}");
+                assert!(
+                    message.contains("solver.max_steps = 500"),
+                    "islands = {islands}: {message}"
+                );
+                if !islands {
+                    assert!(message.contains("broad_phase.margin = 2e-15 m"), "{message}");
+                }
+            }
+            other => panic!("islands = {islands}: {other:?}"),
+        }
+        // one integrator: at most the budget; islands: at most the budget per island
+        let steps = s.counters().steps - before;
+        let bound = if islands { 500 * 27 } else { 500 };
+        assert!(steps <= bound, "islands = {islands}: {steps} steps");
+    }
 }

@@ -258,11 +258,11 @@ fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
 /// Runs `text` over `span` with communication points at `save` and halfway from there to the
 /// end, reading its outputs at each and saving its state at `save`; then the saved state
 /// restored into a fresh simulation of the same text and run over the same points without
-/// reading anything, a third simulation run to the end in one call, and the first taken back
-/// to the saved state (a host's rollback, its workspace that of the end) and run again. `None`
-/// when the scene is refused or the first run fails; otherwise what differs at the end
-/// (nothing: `Some(None)`). The third run is not compared when it ran out of its budget, which
-/// is per call.
+/// reading anything, a third simulation run to the end in one call (with continuation only),
+/// and the first taken back to the saved state (a host's rollback, its workspace that of the
+/// end) and run again. `None` when the scene is refused or the first run fails; otherwise what
+/// differs at the end (nothing: `Some(None)`). The third run is not compared when it ran out
+/// of its budget, which is per call.
 fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
     let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
@@ -284,7 +284,10 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     let mut restored = initialised(text)?;
     runs.push((format!("restored at {save}"), resume(&mut restored)));
     let mut straight = initialised(text)?;
+    // (without continuation the method restarts at every point: its steps depend on them)
+    let continues = straight.scene().solver.continuation;
     match straight.step_to(t_end) {
+        _ if !continues => {}
         Err(SimError::StepLimit { .. }) => {}
         other => runs.push((
             "in one call".into(),
@@ -301,11 +304,31 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     Some(difference)
 }
 
+/// Variant `which` of a bundled scene: as it is, with `[solver] islands = false` (one
+/// integrator), or with `continuation = false` (the method restarts at every communication
+/// point), so that the mutations reach those paths too.
+fn variant(base: &Value, which: usize) -> Value {
+    let mut v = base.clone();
+    let key = match which {
+        1 => "islands",
+        2 => "continuation",
+        _ => return v,
+    };
+    if let Some(t) = v.as_table_mut() {
+        let solver = t.entry("solver").or_insert_with(|| Value::Table(Default::default()));
+        if let Some(solver) = solver.as_table_mut() {
+            solver.insert(key.into(), Value::Boolean(false));
+        }
+    }
+    v
+}
+
 /// Mutated scenes that run continue bit for bit: saved at a communication point (one of nine
 /// across the span) and restored into a fresh simulation or into the same one later (taken
 /// back), and run to the end in one call instead of over the points (the method's steps do not
-/// depend on them, nor on whether the outputs were read there), every output at the end is the
-/// uninterrupted run's, counters included.
+/// depend on them, nor on whether the outputs were read there; with continuation), every
+/// output at the end is the uninterrupted run's, counters included. A third of the scenes run
+/// as one integrator, a third without continuation.
 #[test]
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let bases = bundled_bases();
@@ -316,7 +339,7 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
     let (mut compared, mut differing) = (0, Vec::new());
     for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
-        let text = mutated(base, &mut rng);
+        let text = mutated(&variant(base, k / bases.len() % 3), &mut rng);
         let save = span * (1 + k % 9) as f64 / 10.0;
         let Some(difference) = continuation_differs(&text, save, span) else {
             continue;
