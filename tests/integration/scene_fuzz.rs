@@ -305,19 +305,21 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
 }
 
 /// Variant `which` of a bundled scene: as it is, with `[solver] islands = false` (one
-/// integrator), or with `continuation = false` (the method restarts at every communication
-/// point), so that the mutations reach those paths too.
+/// integrator), with `continuation = false` (the method restarts at every communication
+/// point), or with `threads = 2` (the islands of a round advance side by side), so that the
+/// mutations reach those paths too.
 fn variant(base: &Value, which: usize) -> Value {
     let mut v = base.clone();
-    let key = match which {
-        1 => "islands",
-        2 => "continuation",
+    let (key, value) = match which {
+        1 => ("islands", Value::Boolean(false)),
+        2 => ("continuation", Value::Boolean(false)),
+        3 => ("threads", Value::Integer(2)),
         _ => return v,
     };
     if let Some(t) = v.as_table_mut() {
         let solver = t.entry("solver").or_insert_with(|| Value::Table(Default::default()));
         if let Some(solver) = solver.as_table_mut() {
-            solver.insert(key.into(), Value::Boolean(false));
+            solver.insert(key.into(), value);
         }
     }
     v
@@ -327,8 +329,8 @@ fn variant(base: &Value, which: usize) -> Value {
 /// across the span) and restored into a fresh simulation or into the same one later (taken
 /// back), and run to the end in one call instead of over the points (the method's steps do not
 /// depend on them, nor on whether the outputs were read there; with continuation), every
-/// output at the end is the uninterrupted run's, counters included. A third of the scenes run
-/// as one integrator, a third without continuation.
+/// output at the end is the uninterrupted run's, counters included. A quarter of the scenes
+/// run as one integrator, a quarter without continuation, a quarter on two threads.
 #[test]
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let bases = bundled_bases();
@@ -339,7 +341,7 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
     let (mut compared, mut differing) = (0, Vec::new());
     for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
-        let text = mutated(&variant(base, k / bases.len() % 3), &mut rng);
+        let text = mutated(&variant(base, k / bases.len() % 4), &mut rng);
         let save = span * (1 + k % 9) as f64 / 10.0;
         let Some(difference) = continuation_differs(&text, save, span) else {
             continue;
