@@ -101,9 +101,15 @@ pub fn resync(m: &Model, d: &mut Data) {
     }
     events::step_end_values(m, d);
     if accepted {
-        std::mem::swap(&mut d.events.g, &mut d.events.g_new);
-        std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
+        take_step_end_values(d);
     }
+}
+
+/// The event values at the end of the step just accepted become the current ones (the
+/// current ones the step's start's).
+fn take_step_end_values(d: &mut Data) {
+    std::mem::swap(&mut d.events.g, &mut d.events.g_new);
+    std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
 }
 
 /// [`resync`] after the broad phase's reference poses changed and nothing else did: while the
@@ -414,8 +420,7 @@ fn accept_step(m: &Model, d: &mut Data) -> Result<(), EngineError> {
         d.time = method.t();
     }
     settle_margins(m, d);
-    std::mem::swap(&mut d.events.g, &mut d.events.g_new);
-    std::mem::swap(&mut d.events.aux, &mut d.events.aux_new);
+    take_step_end_values(d);
     project_after_step(m, d)
 }
 

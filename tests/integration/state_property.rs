@@ -163,6 +163,33 @@ proptest! {
     }
 }
 
+/// `scene` run to `save`, its serialised state restored into a fresh simulation, and both run
+/// over `points` after it: their outputs equal at every point and their counters at the last,
+/// bit for bit. `check_saved` looks at the first at `save` first. Returns the points compared.
+fn restored_run_continues(
+    scene: &Scene,
+    save: f64,
+    points: &[f64],
+    what: &str,
+    check_saved: impl Fn(&mut Simulation),
+) -> usize {
+    let mut a = common::open(scene.clone());
+    a.initialize(0.0).unwrap();
+    a.step_to(save).unwrap();
+    check_saved(&mut a);
+    let bytes = a.snapshot(Vec::new()).to_bytes(17);
+    let mut b = common::open(scene.clone());
+    b.initialize(0.0).unwrap();
+    b.restore(&Snapshot::from_bytes(&bytes, 17).unwrap()).unwrap();
+    for &t in points {
+        a.step_to(t).unwrap();
+        b.step_to(t).unwrap();
+        assert_eq!(outputs(&mut a), outputs(&mut b), "{what}: differs at t = {t}");
+    }
+    assert_eq!(a.counters(), b.counters(), "{what}");
+    points.len()
+}
+
 /// A state saved where the method's last step ended exactly at the save point (its step was
 /// accepted there, not continued past it) continues bit for bit. Two spheres whose paths run
 /// through each other deeper than the contact's largest penetration (the large sphere's
@@ -174,38 +201,22 @@ proptest! {
 /// its positions differed in the last bits.
 #[test]
 fn a_state_saved_at_the_end_of_a_step_continues_bit_for_bit() {
+    let points: Vec<f64> = (1..=30).map(|k| 0.02 + k as f64 * 1e-3).collect();
     for islands in [false, true] {
         let mut scene = bundled("two_spheres");
         scene.contact[0].other_center = Some([0.0; 3]);
         scene.solver.islands = islands;
-        let mut a = common::open(scene.clone());
-        a.initialize(0.0).unwrap();
-        a.step_to(0.02).unwrap();
-        {
+        let what = format!("islands = {islands}");
+        restored_run_continues(&scene, 0.02, &points, &what, |a| {
             let d = a.data().unwrap();
             let m = d.solver.method().unwrap();
             assert!(
                 m.t() == 0.02 && m.t_prev() < m.t(),
-                "islands = {islands}: the last step should end at the save point: [{}, {}]",
+                "{what}: the last step should end at the save point: [{}, {}]",
                 m.t_prev(),
                 m.t()
             );
-        }
-        let bytes = a.snapshot(Vec::new()).to_bytes(17);
-        let mut b = common::open(scene);
-        b.initialize(0.0).unwrap();
-        b.restore(&Snapshot::from_bytes(&bytes, 17).unwrap()).unwrap();
-        for k in 1..=30 {
-            let t = 0.02 + k as f64 * 1e-3;
-            a.step_to(t).unwrap();
-            b.step_to(t).unwrap();
-            assert_eq!(
-                outputs(&mut a),
-                outputs(&mut b),
-                "islands = {islands}: differs at t = {t}"
-            );
-        }
-        assert_eq!(a.counters(), b.counters(), "islands = {islands}");
+        });
     }
 }
 
@@ -226,23 +237,10 @@ fn a_loop_beside_a_near_singular_free_body_continues_bit_for_bit_after_a_restore
     block.inertia = [1.2e-5, 1.2e-17, 1.2e-5];
     let mut compared = 0;
     for save in [0.005, 0.01, 0.015] {
-        let mut a = common::open(scene.clone());
-        a.initialize(0.0).unwrap();
-        a.step_to(save).unwrap();
-        let bytes = a.snapshot(Vec::new()).to_bytes(17);
-        let mut b = common::open(scene.clone());
-        b.initialize(0.0).unwrap();
-        b.restore(&Snapshot::from_bytes(&bytes, 17).unwrap()).unwrap();
         // (points 5 ms apart: the restored run takes steps before an output read evaluates
         // the whole model again, which would overwrite what the restore's evaluation left)
-        for k in 1..=10 {
-            let t = save + k as f64 * 5e-3;
-            a.step_to(t).unwrap();
-            b.step_to(t).unwrap();
-            assert_eq!(outputs(&mut a), outputs(&mut b), "saved at {save}: differs at t = {t}");
-            compared += 1;
-        }
-        assert_eq!(a.counters(), b.counters(), "saved at {save}");
+        let points: Vec<f64> = (1..=10).map(|k| save + k as f64 * 5e-3).collect();
+        compared += restored_run_continues(&scene, save, &points, &format!("saved at {save}"), |_| {});
     }
     assert_eq!(compared, 30);
 }
