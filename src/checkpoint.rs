@@ -29,7 +29,7 @@ pub struct Snapshot {
 }
 
 const MAGIC: &[u8; 8] = b"CFMUSTAT";
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8;
 const SECTION_HEADER_LEN: usize = 4 + 4 + 8;
 

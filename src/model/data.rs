@@ -4,7 +4,7 @@
 //! [`super::state`]; the rest is workspace, recomputed from it.
 
 use super::compiled::Model;
-use super::log::{ContactEvent, ContactEventKind, Counters, EVENT_LOG_CAPACITY};
+use super::log::{ContactEvent, ContactEventKind, Counters, EnergyWatch, EVENT_LOG_CAPACITY};
 use crate::integrator::second_order::SecondOrder;
 use crate::integrator::{self, Integrator, Stats};
 use crate::model::contact::{ContactElement, ContactMemory, ContactOutput};
@@ -171,6 +171,9 @@ pub struct Data {
     pub contact_memory: Vec<ContactMemory>,
     /// Counters.
     pub counters: Counters,
+    /// The facade's watch of the energy balance (its reference, scale and checks): saved with
+    /// the state, so that a restored run warns and refuses where the uninterrupted one does.
+    pub energy_watch: EnergyWatch,
     /// The integrator with its memory.
     pub solver: Solver,
     /// The islands' own state, gathered when a scene that runs as islands saves its state,
@@ -340,6 +343,7 @@ impl Data {
             step_rtol_powers: Vec::new(),
             nc: 0,
             counters: Counters::default(),
+            energy_watch: EnergyWatch::default(),
             solver: Solver {
                 stepper: None,
                 started: false,
@@ -420,6 +424,7 @@ impl Data {
             step_rtol_powers,
             nc: rows,
             counters,
+            energy_watch,
             solver,
             islands,
             partition,
@@ -485,6 +490,7 @@ impl Data {
         filled(contact_memory, ncontacts, ContactMemory::default());
         take_contact_list(model, contacts, candidates, step_rtol_powers, rows);
         *counters = Counters::default();
+        *energy_watch = EnergyWatch::default();
         islands.clear();
         partition.clear();
         let (method, mut start) = match solver.stepper.take() {

@@ -1,5 +1,6 @@
-//! What the data counts and logs: the work counters since initialisation (saved with the
-//! state) and the located contact events (a diagnostic log, not saved).
+//! What the data counts and logs: the work counters since initialisation and the watch of the
+//! energy balance (both saved with the state), and the located contact events (a diagnostic
+//! log, not saved).
 
 /// Work counters since initialisation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -30,6 +31,26 @@ impl std::ops::Add for Counters {
             events: self.events + b.events,
         }
     }
+}
+
+/// The watch of the energy balance `energy.total + energy.dissipated − energy.input_work` at
+/// communication points (kept by the facade, `simulation/energy.rs`): its value at the first
+/// step, relative to the larger of `|energy.total|` there and the largest kinetic energy seen
+/// (the scale of the command line's energy error). Saved with the state
+/// ([`super::state::StatePart::EnergyWatch`]), so that a restored run checks, warns and refuses
+/// a blow-up where the uninterrupted one does.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EnergyWatch {
+    /// The reference was taken.
+    pub started: bool,
+    /// The balance at the start \[J\].
+    pub reference: f64,
+    /// The scale of the relative drift \[J\].
+    pub scale: f64,
+    /// RHS evaluations (since initialisation) at the last check.
+    pub checked_at: u64,
+    /// The warning was given (once per run).
+    pub warned: bool,
 }
 
 /// What happened at a contact event (see [`ContactEvent`]).

@@ -20,4 +20,4 @@ pub use compiled::{
     Plan, Rotor, SpringDamper, TreeJoint,
 };
 pub use data::Data;
-pub use log::{ContactEvent, ContactEventKind, Counters};
+pub use log::{ContactEvent, ContactEventKind, Counters, EnergyWatch};

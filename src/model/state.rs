@@ -8,7 +8,7 @@
 //! the data as it was.
 
 use super::island_state::{self, IslandsState};
-use super::{Data, Model};
+use super::{Data, EnergyWatch, Model};
 use crate::integrator::Stats;
 use crate::model::groups::Candidate;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -37,14 +37,18 @@ named_enum! {
         /// state and that state (`Integrator::save_state`: its last step, dense output,
         /// controller and Newton memory, counters; length 0: none, the method restarts cold).
         Solver = 32 => "integrator",
+        /// `Data::energy_watch`: started (0/1), reference \[J\], scale \[J\], the RHS
+        /// evaluations at the last check, warned (0/1).
+        EnergyWatch = 64 => "energy watch",
         /// `Data::islands`: what a scene that runs as independent islands holds beyond the parts
         /// above (see [`super::island_state`]; 1 number, 0, when it runs as one integrator).
-        Islands = 64 => "islands",
+        /// Last: its length is read from its numbers.
+        Islands = 128 => "islands",
     }
 }
 
 /// The mask of the whole state: what continues a simulation bit for bit.
-pub const FULL: u32 = 127;
+pub const FULL: u32 = 255;
 
 /// The parts of an island's own model and data that its record in the islands' part holds
 /// ([`super::island_state`]; its coordinates, time and reference poses are the scene's, its
@@ -55,6 +59,8 @@ pub const ISLAND_OWN: u32 = StatePart::Inputs as u32 | StatePart::Counters as u3
 const MEMORY_LEN: usize = 3;
 /// Numbers in [`StatePart::Counters`].
 const COUNTERS_LEN: usize = 5;
+/// Numbers in [`StatePart::EnergyWatch`].
+const WATCH_LEN: usize = 5;
 /// Fixed numbers of [`StatePart::Solver`] before the method's state: started, next step,
 /// pending event, length of the method's state.
 const SOLVER_HEAD: usize = 4;
@@ -103,6 +109,16 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
                 out[at] = (out.len() - at - 1) as f64;
             }
             StatePart::Islands => island_state::get(&d.islands, out),
+            StatePart::EnergyWatch => {
+                let w = &d.energy_watch;
+                out.extend_from_slice(&[
+                    w.started as u8 as f64,
+                    w.reference,
+                    w.scale,
+                    w.checked_at as f64,
+                    w.warned as u8 as f64,
+                ]);
+            }
         }
     }
 }
@@ -167,7 +183,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
     }
     // Pass 1: locate and check every part.
     let mut at = 0;
-    let mut spans = [(0usize, 0usize); 7];
+    let mut spans = [(0usize, 0usize); StatePart::ALL.len()];
     let mut islands: Option<IslandsState> = None;
     for (k, part) in StatePart::ALL.iter().enumerate() {
         if mask & *part as u32 == 0 {
@@ -179,6 +195,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Inputs => m.input_values(),
             StatePart::ContactMemory => group_section_len(m, d) + MEMORY_LEN * d.contacts.len(),
             StatePart::Counters => COUNTERS_LEN,
+            StatePart::EnergyWatch => WATCH_LEN,
             StatePart::Solver => {
                 let head = v
                     .get(at..at + SOLVER_HEAD)
@@ -206,7 +223,8 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
         };
         let checked = match part {
             StatePart::Solver => &slice[1..2],
-            StatePart::Counters | StatePart::Islands => &[],
+            // (the watch's numbers are what the energies were, whatever they were)
+            StatePart::Counters | StatePart::Islands | StatePart::EnergyWatch => &[],
             _ => slice,
         };
         if let Some(x) = checked.iter().find(|x| !x.is_finite()) {
@@ -232,6 +250,14 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 for x in slice {
                     count(*x, "counter")?;
                 }
+            }
+            StatePart::EnergyWatch => {
+                for (x, what) in [(slice[0], "started"), (slice[4], "warned")] {
+                    if x != 0.0 && x != 1.0 {
+                        return Err(format!("state: energy watch {what} flag {x} is not 0 or 1"));
+                    }
+                }
+                count(slice[3], "energy watch check")?;
             }
             StatePart::Solver => {
                 if slice[0] != 0.0 && slice[0] != 1.0 {
@@ -311,6 +337,15 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             }
             StatePart::Solver => {}
             StatePart::Islands => d.islands = islands.take().unwrap_or_default(),
+            StatePart::EnergyWatch => {
+                d.energy_watch = EnergyWatch {
+                    started: s[0] == 1.0,
+                    reference: s[1],
+                    scale: s[2],
+                    checked_at: s[3] as u64,
+                    warned: s[4] == 1.0,
+                }
+            }
         }
     }
     if let Some((started, h, pending)) = solver_head {

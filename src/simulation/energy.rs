@@ -4,24 +4,7 @@
 
 use super::{SimError, Simulation};
 use crate::engine;
-
-/// The energy-balance watch: `energy.total + energy.dissipated − energy.input_work` against its value at
-/// initialisation (or at the restored state), relative to the larger of `|energy.total|` there
-/// and the largest kinetic energy seen (the scale of the command line's energy error). It
-/// starts at the first step (initialising evaluates nothing that a step would not).
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct EnergyWatch {
-    /// The reference was taken.
-    pub(super) started: bool,
-    /// The balance at the start \[J\].
-    pub(super) reference: f64,
-    /// The scale of the relative drift \[J\].
-    pub(super) scale: f64,
-    /// RHS evaluations (since initialisation) at the last check.
-    pub(super) checked_at: u64,
-    /// The warning was given (once per run).
-    pub(super) warned: bool,
-}
+use crate::model::EnergyWatch;
 
 /// The energy balance found drifted at a communication point.
 #[derive(Debug, Clone, Copy)]
@@ -75,15 +58,21 @@ impl Simulation {
         Ok(self.energies()?.balance())
     }
 
+    /// The energy watch (in the data: saved with the state; unstarted before initialisation).
+    pub(super) fn watch(&self) -> EnergyWatch {
+        self.compiled.as_ref().map(|c| c.data.energy_watch).unwrap_or_default()
+    }
+
     /// Starts watching the energy balance from the current state (the first step after
     /// initialisation or a restore).
     pub(super) fn start_watch(&mut self) -> Result<(), SimError> {
         let e = self.energies()?;
-        self.watch = EnergyWatch {
+        let evals = self.counters().rhs_evals;
+        self.running()?.data.energy_watch = EnergyWatch {
             started: true,
             reference: e.balance(),
             scale: e.total().abs().max(e.kinetic),
-            checked_at: self.counters().rhs_evals,
+            checked_at: evals,
             warned: false,
         };
         Ok(())
@@ -98,7 +87,7 @@ impl Simulation {
         let islands = self.compiled.as_ref().and_then(|c| c.islands.as_ref());
         let every = ENERGY_CHECK_EVALS.saturating_mul(islands.map_or(1, |is| is.parts.len().max(1)) as u64);
         // (checked on after the warning too: a drift beyond ENERGY_BLOW_UP stops the run)
-        if evals < self.watch.checked_at.saturating_add(every) {
+        if evals < self.watch().checked_at.saturating_add(every) {
             return Ok(());
         }
         self.check_energy(evals)
@@ -106,10 +95,10 @@ impl Simulation {
 
     /// [`Simulation::watch_energy`]'s check, after `evals` RHS evaluations.
     fn check_energy(&mut self, evals: u64) -> Result<(), SimError> {
-        self.watch.checked_at = evals;
         let e = self.energies()?;
         let time = self.time();
-        let w = &mut self.watch;
+        let w = &mut self.running()?.data.energy_watch;
+        w.checked_at = evals;
         w.scale = w.scale.max(e.kinetic);
         let balance = e.balance();
         let drift = (balance - w.reference).abs() / w.scale.max(f64::MIN_POSITIVE);
@@ -125,7 +114,7 @@ impl Simulation {
             });
         }
         if drift > ENERGY_BLOW_UP {
-            let w = &self.watch;
+            let w = self.watch();
             let what = format!(
                 "the energy balance drifted by {:.0} times its scale {:.6e} J",
                 drift, w.scale
@@ -140,7 +129,7 @@ impl Simulation {
     /// True when the energy balance drifted beyond [`ENERGY_DRIFT_WARNING`] in this run (the
     /// warning was given, or is waiting in [`Simulation::take_warnings`]).
     pub fn energy_drifted(&self) -> bool {
-        self.watch.warned
+        self.watch().warned
     }
 
     /// The warnings of the run since the last call (the energy-balance drift), oldest first.

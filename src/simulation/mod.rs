@@ -8,7 +8,7 @@ use crate::compile::compile_with;
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::islands::Islands;
-use crate::model::{state, ContactEvent, Counters, Data, Model};
+use crate::model::{state, ContactEvent, Counters, Data, EnergyWatch, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
 use crate::variables::{Causality, VarRef, Variable, VariableTable};
@@ -21,7 +21,7 @@ mod tests;
 mod values;
 
 pub use candidates::IslandReport;
-use energy::{Drift, EnergyWatch};
+use energy::Drift;
 pub use energy::{ENERGY_BLOW_UP, ENERGY_DRIFT_WARNING};
 
 /// An error from the simulation facade, with a message for the user.
@@ -74,8 +74,6 @@ pub struct Simulation {
     /// `<contact>.radius`, `<contact>.static_friction` follows `<contact>.friction` (and a
     /// group pair's `static_friction` its `friction`).
     follows: Vec<Option<usize>>,
-    /// The energy balance, watched at communication points.
-    watch: EnergyWatch,
     /// The energy drift found and not yet taken by the host ([`Simulation::take_warnings`]).
     drift: Option<Drift>,
     /// Contact groups: how often the candidate pairs were found again (a diagnostic).
@@ -178,7 +176,6 @@ impl Simulation {
             initialized: false,
             log_peaks: false,
             follows,
-            watch: EnergyWatch::default(),
             drift: None,
             refreshes: 0,
         }
@@ -384,8 +381,8 @@ impl Simulation {
         self.compiled_fresh = false;
         let c = self.ensure_compiled()?;
         engine::set_start_time(&mut c.data, start_time);
+        c.data.energy_watch = EnergyWatch::default();
         self.initialized = true;
-        self.watch = EnergyWatch::default();
         Ok(())
     }
 
@@ -407,7 +404,7 @@ impl Simulation {
         if !self.initialized {
             return Err(SimError::NotInitialized);
         }
-        if !self.watch.started {
+        if !self.watch().started {
             self.start_watch()?;
         }
         let c = self.running_deferred()?;
@@ -591,7 +588,6 @@ impl Simulation {
             return Err(e);
         }
         self.initialized = true;
-        self.watch = EnergyWatch::default();
         Ok(())
     }
 

@@ -98,7 +98,7 @@ impl Simulation {
         if self.values[vr] == value {
             return Ok(());
         }
-        let before = if self.watch.started { self.balance()? } else { 0.0 };
+        let before = if self.watch().started { self.balance()? } else { 0.0 };
         // the islands end here: the data first gets their candidate pairs and memory
         self.sync_islands()?;
         let old = std::mem::replace(&mut self.values[vr], value);
@@ -140,9 +140,9 @@ impl Simulation {
         // step size it would have tried next
         c.data.solver.next_h = c.data.solver.pending_step();
         c.data.solver.started = false;
-        if self.watch.started {
+        if self.watch().started {
             let after = self.balance()?;
-            self.watch.reference += after - before;
+            self.running()?.data.energy_watch.reference += after - before;
         }
         Ok(())
     }

@@ -12,6 +12,7 @@ use crate::common;
 use common::Rng;
 
 use contact_fmu::simulation::{SimError, Simulation};
+use contact_fmu::variables::{Causality, Variability};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use toml::Value;
 
@@ -325,6 +326,25 @@ fn variant(base: &Value, which: usize) -> Value {
     v
 }
 
+/// Calls `each` with every scene of a continuation check (`SCENE_FUZZ_COUNT` of them): its
+/// number k, the bundled scene it is made from, its text (that scene's variant k, mutated by
+/// the generator seeded from [`seed`] rotated by `rotation`), its save point (one of nine
+/// across the span) and the span (`SCENE_FUZZ_SPAN_MS`), and the generator. Returns how many
+/// scenes there were.
+fn each_continued_scene(rotation: u32, mut each: impl FnMut(usize, &str, &str, f64, f64, &mut Rng)) -> usize {
+    let bases = bundled_bases();
+    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
+    let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
+    let mut rng = Rng(seed().rotate_left(rotation));
+    for k in 0..scenes {
+        let (name, base) = &bases[k % bases.len()];
+        let text = mutated(&variant(base, k / bases.len() % 4), &mut rng);
+        let save = span * (1 + k % 9) as f64 / 10.0;
+        each(k, name, &text, save, span, &mut rng);
+    }
+    scenes
+}
+
 /// Mutated scenes that run continue bit for bit: saved at a communication point (one of nine
 /// across the span) and restored into a fresh simulation or into the same one later (taken
 /// back), and run to the end in one call instead of over the points (the method's steps do not
@@ -333,30 +353,159 @@ fn variant(base: &Value, which: usize) -> Value {
 /// run as one integrator, a quarter without continuation, a quarter on two threads.
 #[test]
 fn mutated_scenes_that_run_continue_bit_for_bit() {
-    let bases = bundled_bases();
-    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
-    let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
-    // (other mutations than the test above's)
-    let mut rng = Rng(seed().rotate_left(17));
     let (mut compared, mut differing) = (0, Vec::new());
-    for k in 0..scenes {
-        let (name, base) = &bases[k % bases.len()];
-        let text = mutated(&variant(base, k / bases.len() % 4), &mut rng);
-        let save = span * (1 + k % 9) as f64 / 10.0;
-        let Some(difference) = continuation_differs(&text, save, span) else {
-            continue;
+    // (other mutations than the test above's)
+    let scenes = each_continued_scene(17, |k, name, text, save, span, _| {
+        let Some(difference) = continuation_differs(text, save, span) else {
+            return;
         };
         compared += 1;
         if let Some(d) = difference {
             let file = std::env::temp_dir().join(format!("scene_continued_{k}.toml"));
-            let _ = std::fs::write(&file, &text);
+            let _ = std::fs::write(&file, text);
             differing.push(format!("scene {k} (from {name}, written to {}): {d}", file.display()));
         }
-    }
+    });
     println!(
         "{scenes} mutated scenes: {compared} ran and were compared, {} differ",
         differing.len()
     );
     assert!(differing.is_empty(), "{}", differing.join("\n"));
     assert!(compared > 100, "only {compared} of {scenes} scenes ran");
+}
+
+/// The variables a host may set after initialisation: the tunable parameters and the inputs.
+fn settable(sim: &Simulation) -> Vec<usize> {
+    sim.variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| {
+            v.causality == Causality::Input
+                || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
+        })
+        .map(|(vr, _)| vr)
+        .collect()
+}
+
+/// A host's values at a communication point: up to three settable variables of `sim`, each
+/// a multiple of its start value or a small number (some of them refused).
+fn host_values(sim: &Simulation, rng: &mut Rng) -> Vec<(usize, f64)> {
+    let vrs = settable(sim);
+    if vrs.is_empty() {
+        return Vec::new();
+    }
+    (0..1 + rng.below(3))
+        .map(|_| {
+            let vr = vrs[rng.below(vrs.len())];
+            let start = sim.variables()[vr].start.unwrap_or(0.0);
+            let value = match rng.below(4) {
+                0 => start * [0.0, 0.5, 0.9, 1.1, 2.0, -1.0][rng.below(6)],
+                1 => start + rng.range(-1.0, 1.0),
+                2 => [0.0, 0.1, 1.0, 10.0][rng.below(4)],
+                _ => start * rng.range(0.5, 1.5),
+            };
+            (vr, value)
+        })
+        .collect()
+}
+
+/// Sets `values` in turn; what each call returned (a refused value is part of the run).
+fn set_values(sim: &mut Simulation, values: &[(usize, f64)]) -> Vec<bool> {
+    values.iter().map(|&(vr, v)| sim.set(vr, v).is_ok()).collect()
+}
+
+/// Runs `text` over `span`, a host setting `before` at a quarter of the way to `save` and
+/// `after` just after the state is saved at `save`, outputs read at `save` and halfway to the
+/// end; then the saved state restored into a fresh simulation and taken back in the first,
+/// each given `after` and run on. `None` when the scene is refused or the first run fails;
+/// otherwise what differs at the end (the outputs, bit for bit, and which values were
+/// refused; nothing: `Some(None)`).
+fn continuation_with_host_values_differs(
+    text: &str,
+    save: f64,
+    span: f64,
+    before: &[(usize, f64)],
+    after: &[(usize, f64)],
+) -> Option<Option<String>> {
+    let (t_end, t_mid) = (span, 0.5 * (save + span));
+    let mut run = initialised(text)?;
+    run.step_to(0.25 * save).ok()?;
+    set_values(&mut run, before);
+    run.step_to(save).ok()?;
+    output_bits(&mut run).ok()?;
+    let saved = run.snapshot(Vec::new());
+    let accepted = set_values(&mut run, after);
+    run.step_to(t_mid).ok()?;
+    output_bits(&mut run).ok()?;
+    run.step_to(t_end).ok()?;
+    let end = output_bits(&mut run).ok()?;
+    let resume = |sim: &mut Simulation| -> Result<Vec<u64>, String> {
+        sim.restore(&saved).map_err(|e| e.to_string())?;
+        let again = set_values(sim, after);
+        if again != accepted {
+            return Err(format!("values accepted {again:?} against {accepted:?}"));
+        }
+        sim.step_to(t_mid)
+            .and_then(|()| sim.step_to(t_end))
+            .map_err(|e| e.to_string())?;
+        output_bits(sim)
+    };
+    let mut restored = initialised(text)?;
+    let runs = [
+        (format!("restored at {save}"), resume(&mut restored)),
+        (format!("taken back to {save}"), resume(&mut run)),
+    ];
+    let difference = runs.into_iter().find_map(|(label, bits)| match bits {
+        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
+        Err(e) => Some(format!("{label}: {e}")),
+    });
+    Some(difference)
+}
+
+/// Mutated scenes whose tunable parameters and inputs a host sets between communication
+/// points continue bit for bit: values set before the state is saved are restored with it,
+/// and values set after it act alike in the uninterrupted run, in a fresh simulation restored
+/// from the state and in the first taken back to it (the same values accepted and refused,
+/// every output at the end the same). The variants as in the test above.
+#[test]
+fn mutated_scenes_given_host_values_continue_bit_for_bit() {
+    let (mut compared, mut with_values, mut differing) = (0, 0, Vec::new());
+    let scenes = each_continued_scene(29, |k, name, text, save, span, rng| {
+        let Some(sim) = initialised(text) else {
+            return;
+        };
+        let before = host_values(&sim, rng);
+        let after = host_values(&sim, rng);
+        let Some(difference) = continuation_with_host_values_differs(text, save, span, &before, &after) else {
+            return;
+        };
+        compared += 1;
+        with_values += usize::from(!after.is_empty());
+        if let Some(d) = difference {
+            let file = std::env::temp_dir().join(format!("scene_host_values_{k}.toml"));
+            let _ = std::fs::write(&file, text);
+            let names = |values: &[(usize, f64)]| {
+                values
+                    .iter()
+                    .map(|&(vr, v)| format!("{} = {v:e}", sim.variables()[vr].name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            differing.push(format!(
+                "scene {k} (from {name}, written to {}; before [{}], after [{}]): {d}",
+                file.display(),
+                names(&before),
+                names(&after)
+            ));
+        }
+    });
+    println!(
+        "{scenes} mutated scenes: {compared} ran and were compared ({with_values} given values after the save), {} differ",
+        differing.len()
+    );
+    assert!(differing.is_empty(), "{}", differing.join("\n"));
+    assert!(
+        with_values > 100,
+        "only {with_values} of {scenes} scenes were given values"
+    );
 }

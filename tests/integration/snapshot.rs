@@ -131,20 +131,27 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     // integrator part: started, next step, pending event, length, then sdirk's own state
     // (tag, 7 + 3n of the step, 3n dense output, 10 Newton numbers, the n² Jacobian)
     let memory = 1 + 7 + 3 * n + 3 * n + 10 + n * n;
-    // (then the islands' part: one number, 0, for a scene that runs as one integrator)
+    // (then the energy watch's five numbers, and the islands' part: one number, 0, for a
+    // scene that runs as one integrator)
     let end = len - 1;
+    let watch = end - 5;
     assert_eq!(snap.state[end], 0.0, "no islands");
-    assert_eq!(head + 4 + memory, end, "the integrator part ends the scene's parts");
+    assert_eq!(snap.state[watch], 1.0, "the energy watch started");
     assert_eq!(
-        snap.state[end - memory - 1],
+        head + 4 + memory,
+        watch,
+        "the integrator part ends the scene's physical parts"
+    );
+    assert_eq!(
+        snap.state[watch - memory - 1],
         memory as f64,
         "length prefix, then the method's state with J"
     );
     let mut old = snap.clone();
-    old.state.truncate(end - memory);
-    old.state[end - memory - 1] = 0.0;
+    old.state.truncate(watch - memory);
+    old.state[watch - memory - 1] = 0.0;
     old.state[head] = 0.0; // not continuing a step
-    old.state.push(0.0);
+    old.state.extend_from_slice(&snap.state[watch..]);
     let mut runs = Vec::new();
     for _ in 0..2 {
         let mut b = open(path, None);
@@ -156,7 +163,7 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     }
     assert_eq!(runs[0], runs[1]);
     let mut bad = snap.clone();
-    bad.state[end - memory - 1] += 1.0;
+    bad.state[watch - memory - 1] += 1.0;
     assert!(open(path, None).restore(&bad).is_err());
     let mut bad = snap;
     bad.state.pop();

@@ -291,6 +291,52 @@ fn a_coarse_fixed_step_on_a_stiff_contact_warns_once_of_the_energy_drift() {
     assert!(s.take_warnings().is_empty());
 }
 
+/// The warning's time (its text begins "at t = ...:").
+fn warning_time(warning: &str) -> f64 {
+    warning["at t = ".len()..].split(':').next().unwrap().parse().unwrap()
+}
+
+/// Runs to 1 s at the scene's interval from where `s` is: the warnings, and how it ended.
+fn warnings_and_end(s: &mut Simulation) -> (Vec<String>, Result<(), String>) {
+    let interval = s.scene().model.interval;
+    let ended = s.run(1.0, interval, |_| Ok(())).map_err(|e| e.to_string());
+    (s.take_warnings(), ended)
+}
+
+#[test]
+fn a_restored_run_warns_and_stops_where_the_uninterrupted_one_does() {
+    // the coarse rk4 runs above: the energy watch (its reference, scale, last check and
+    // warning) is saved with the state, so that a run restored from a state saved before the
+    // drift warns with the same words and stops at the same step, and one restored from a
+    // state saved after the warning does not warn again
+    let interval = ball().model.interval;
+    for (step, blows_up) in [(3e-5, false), (1e-4, true)] {
+        let settings = [("solver.method", 3.0), ("solver.max_step", step)];
+        let mut straight = start(&ball(), &settings);
+        let (warnings, ended) = warnings_and_end(&mut straight);
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert_eq!(ended.is_err(), blows_up, "{ended:?}");
+        let warned_at = warning_time(&warnings[0]);
+        let mut saves = vec![(0.1, false)];
+        if !blows_up {
+            saves.push((warned_at + 3.0 * interval, true));
+        }
+        for (save, warned) in saves {
+            let mut first = start(&ball(), &settings);
+            first.run(save, interval, |_| Ok(())).unwrap();
+            let _ = first.take_warnings();
+            let bytes = first.snapshot(Vec::new()).to_bytes(7);
+            let mut restored = Simulation::new(ball(), "scene");
+            restored.restore(&Snapshot::from_bytes(&bytes, 7).unwrap()).unwrap();
+            assert_eq!(restored.energy_drifted(), warned, "step {step}, saved at {save}");
+            let (again, ended_again) = warnings_and_end(&mut restored);
+            let expected = if warned { Vec::new() } else { warnings.clone() };
+            assert_eq!(again, expected, "step {step}, saved at {save}");
+            assert_eq!(ended_again, ended, "step {step}, saved at {save}");
+        }
+    }
+}
+
 #[test]
 fn default_settings_and_a_retuned_loaded_contact_do_not_warn() {
     for (name, path) in common::bundled_scenes() {
