@@ -14,6 +14,7 @@ use common::Rng;
 use contact_fmu::simulation::{SimError, Simulation};
 use contact_fmu::variables::{Causality, Variability};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use toml::Value;
 
 /// Scenes mutated in CI, from this seed of the random numbers.
@@ -261,9 +262,10 @@ fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
 /// restored into a fresh simulation of the same text and run over the same points without
 /// reading anything, a third simulation run to the end in one call (with continuation only),
 /// and the first taken back to the saved state (a host's rollback, its workspace that of the
-/// end) and run again. `None` when the scene is refused or the first run fails; otherwise what
-/// differs at the end (nothing: `Some(None)`). The third run is not compared when it ran out
-/// of its budget, which is per call.
+/// end) and run again, and (with continuation) a fifth run to the end by steps that return
+/// early at contact events. `None` when the scene is refused or the first run fails;
+/// otherwise what differs at the end (nothing: `Some(None)`). The third and fifth runs are not
+/// compared when a call ran out of its budget, which is per call.
 fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
     let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
@@ -298,11 +300,48 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
         )),
     }
     runs.push((format!("taken back to {save}"), resume(&mut run)));
+    if continues {
+        if let Some(bits) = with_early_returns(text, t_end) {
+            runs.push(("with early returns at events".into(), bits));
+        }
+    }
     let difference = runs.into_iter().find_map(|(label, bits)| match bits {
         Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
         Err(e) => Some(format!("{label}: {e}")),
     });
     Some(difference)
+}
+
+/// Most early returns a run of the continuation check may take.
+const EARLY_RETURNS: usize = 2_000;
+
+/// Early returns taken by the continuation check's runs (its tally).
+static EARLY_RETURNS_TAKEN: AtomicUsize = AtomicUsize::new(0);
+
+/// `text` run to `t_end` by steps that return early at contact events (FMI 3.0's early
+/// return: [`Simulation::step_to_event`]), each going on from where the last ended: its
+/// outputs at the end, or an error. `None` when a call ran out of its budget or the run took
+/// more than [`EARLY_RETURNS`] returns (not compared).
+fn with_early_returns(text: &str, t_end: f64) -> Option<Result<Vec<u64>, String>> {
+    let mut sim = initialised(text)?;
+    for _ in 0..EARLY_RETURNS {
+        let before = sim.time();
+        match sim.step_to_event(t_end) {
+            Err(SimError::StepLimit { .. }) => return None,
+            Err(e) => return Some(Err(e.to_string())),
+            Ok(false) => return Some(output_bits(&mut sim)),
+            Ok(true) if !(before < sim.time() && sim.time() < t_end) => {
+                return Some(Err(format!(
+                    "an early return at t = {} outside ({before}, {t_end})",
+                    sim.time()
+                )))
+            }
+            Ok(true) => {
+                EARLY_RETURNS_TAKEN.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+    None
 }
 
 /// Variant `which` of a bundled scene: as it is, with `[solver] islands = false` (one
@@ -366,12 +405,14 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
             differing.push(format!("scene {k} (from {name}, written to {}): {d}", file.display()));
         }
     });
+    let early = EARLY_RETURNS_TAKEN.load(Ordering::Relaxed);
     println!(
-        "{scenes} mutated scenes: {compared} ran and were compared, {} differ",
+        "{scenes} mutated scenes: {compared} ran and were compared ({early} early returns at events), {} differ",
         differing.len()
     );
     assert!(differing.is_empty(), "{}", differing.join("\n"));
     assert!(compared > 100, "only {compared} of {scenes} scenes ran");
+    assert!(early > 10, "only {early} early returns");
 }
 
 /// The variables a host may set after initialisation: the tunable parameters and the inputs.
