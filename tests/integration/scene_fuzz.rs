@@ -2,7 +2,9 @@
 //! (items removed, among them shapes, contact groups, bodies and joints; values negated,
 //! zeroed, made huge or non-finite; names swapped; keys removed), are parsed, validated,
 //! initialised and stepped a little through the facade every host uses. Each is either refused
-//! with a message or runs; none panics.
+//! with a message or runs; none panics. Those that run continue bit for bit when their state is
+//! saved and restored, taken back, run in one call, by early returns or on one thread, and
+//! when a host sets tunable parameters and inputs between communication points.
 //!
 //! `cargo test --release --test integration scene_fuzz:: -- --nocapture` prints the tally.
 //! `SCENE_FUZZ_COUNT` and `SCENE_FUZZ_SEED` (environment) ask for more scenes and other
@@ -11,6 +13,8 @@
 use crate::common;
 use common::Rng;
 
+use contact_fmu::checkpoint::Snapshot;
+use contact_fmu::scene::Scene;
 use contact_fmu::simulation::{SimError, Simulation};
 use contact_fmu::variables::{Causality, Variability};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -237,7 +241,12 @@ fn output_bits(sim: &mut Simulation) -> Result<Vec<u64>, String> {
 /// `text` initialised with a step budget of [`CONTINUED_MAX_STEPS`] a call; `None` when it
 /// is refused.
 fn initialised(text: &str) -> Option<Simulation> {
-    let mut sim = Simulation::from_scene_str(text, "mutated.toml").ok()?;
+    initialised_scene(Scene::from_str(text, "mutated.toml").ok()?)
+}
+
+/// [`initialised`] for a parsed scene.
+fn initialised_scene(scene: Scene) -> Option<Simulation> {
+    let mut sim = Simulation::new(scene, "mutated.toml");
     if let Some(vr) = sim.table().index_of("solver.max_steps") {
         sim.set(vr, CONTINUED_MAX_STEPS).ok()?;
     }
@@ -258,20 +267,27 @@ fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
 }
 
 /// Runs `text` over `span` with communication points at `save` and halfway from there to the
-/// end, reading its outputs at each and saving its state at `save`; then the saved state
-/// restored into a fresh simulation of the same text and run over the same points without
-/// reading anything, a third simulation run to the end in one call (with continuation only),
-/// and the first taken back to the saved state (a host's rollback, its workspace that of the
-/// end) and run again, and (with continuation) a fifth run to the end by steps that return
-/// early at contact events. `None` when the scene is refused or the first run fails;
-/// otherwise what differs at the end (nothing: `Some(None)`). The third and fifth runs are not
-/// compared when a call ran out of its budget, which is per call.
+/// end, reading its outputs at each and saving its state at `save` (through its bytes); then
+/// compares its outputs at the end with those of
+/// 1. the saved state restored into a fresh simulation of the same text and run over the same
+///    points without reading anything;
+/// 2. (with continuation) a simulation run to the end in one call, and, for a scene on
+///    several threads, one on one thread;
+/// 3. the first simulation taken back to the saved state (a host's rollback, its workspace
+///    that of the end) and run again;
+/// 4. (with continuation) a simulation run to the end by steps that return early at contact
+///    events.
+///
+/// `None` when the scene is refused or the first run fails; otherwise what differs at the end
+/// (nothing: `Some(None)`). A run with a call that ran out of its budget, which is per call,
+/// is not compared.
 fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
     let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
     run.step_to(save).ok()?;
     output_bits(&mut run).ok()?;
-    let saved = run.snapshot(Vec::new());
+    // (through its bytes, as a host that serializes it)
+    let saved = Snapshot::from_bytes(&run.snapshot(Vec::new()).to_bytes(0), 0).ok()?;
     run.step_to(t_mid).ok()?;
     output_bits(&mut run).ok()?;
     run.step_to(t_end).ok()?;
@@ -286,18 +302,27 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     let mut runs = Vec::new();
     let mut restored = initialised(text)?;
     runs.push((format!("restored at {save}"), resume(&mut restored)));
-    let mut straight = initialised(text)?;
+    let straight = initialised(text)?;
     // (without continuation the method restarts at every point: its steps depend on them)
     let continues = straight.scene().solver.continuation;
-    match straight.step_to(t_end) {
-        _ if !continues => {}
-        Err(SimError::StepLimit { .. }) => {}
-        other => runs.push((
-            "in one call".into(),
-            other
-                .map_err(|e| e.to_string())
-                .and_then(|()| output_bits(&mut straight)),
-        )),
+    if continues {
+        // islands advanced side by side give the results of one thread
+        let mut one_thread = straight.scene().clone();
+        one_thread.solver.threads = 1;
+        let mut calls = Vec::new();
+        if straight.scene().solver.threads != 1 {
+            calls.push(("on one thread", initialised_scene(one_thread)?));
+        }
+        calls.push(("in one call", straight));
+        for (label, mut sim) in calls {
+            match sim.step_to(t_end) {
+                Err(SimError::StepLimit { .. }) => {}
+                other => runs.push((
+                    label.into(),
+                    other.map_err(|e| e.to_string()).and_then(|()| output_bits(&mut sim)),
+                )),
+            }
+        }
     }
     runs.push((format!("taken back to {save}"), resume(&mut run)));
     if continues {
@@ -386,10 +411,11 @@ fn each_continued_scene(rotation: u32, mut each: impl FnMut(usize, &str, &str, f
 
 /// Mutated scenes that run continue bit for bit: saved at a communication point (one of nine
 /// across the span) and restored into a fresh simulation or into the same one later (taken
-/// back), and run to the end in one call instead of over the points (the method's steps do not
-/// depend on them, nor on whether the outputs were read there; with continuation), every
-/// output at the end is the uninterrupted run's, counters included. A quarter of the scenes
-/// run as one integrator, a quarter without continuation, a quarter on two threads.
+/// back), run to the end in one call instead of over the points (the method's steps do not
+/// depend on them, nor on whether the outputs were read there; with continuation), by steps
+/// that return early at contact events, and on one thread instead of two, every output at the
+/// end is the uninterrupted run's, counters included. A quarter of the scenes run as one
+/// integrator, a quarter without continuation, a quarter on two threads.
 #[test]
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let (mut compared, mut differing) = (0, Vec::new());
