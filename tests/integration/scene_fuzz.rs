@@ -481,10 +481,15 @@ fn set_values(sim: &mut Simulation, values: &[(usize, f64)]) -> Vec<bool> {
     values.iter().map(|&(vr, v)| sim.set(vr, v).is_ok()).collect()
 }
 
+/// Runs of the host-values check in which a value set after the save was refused (its tally).
+static WITH_REFUSED_VALUES: AtomicUsize = AtomicUsize::new(0);
+
 /// Runs `text` over `span`, a host setting `before` at a quarter of the way to `save` and
 /// `after` just after the state is saved at `save`, outputs read at `save` and halfway to the
 /// end; then the saved state restored into a fresh simulation and taken back in the first,
-/// each given `after` and run on. `None` when the scene is refused or the first run fails;
+/// each given `after` and run on, and (when some of `after` were refused) restored into
+/// another, given only the values of `after` that were accepted (a refused value changes
+/// nothing). `None` when the scene is refused or the first run fails;
 /// otherwise what differs at the end (the outputs, bit for bit, and which values were
 /// refused; nothing: `Some(None)`).
 fn continuation_with_host_values_differs(
@@ -506,11 +511,17 @@ fn continuation_with_host_values_differs(
     output_bits(&mut run).ok()?;
     run.step_to(t_end).ok()?;
     let end = output_bits(&mut run).ok()?;
-    let resume = |sim: &mut Simulation| -> Result<Vec<u64>, String> {
+    // (a refused value changes nothing: the same run given only the values accepted)
+    let only_accepted: Vec<(usize, f64)> = after
+        .iter()
+        .zip(&accepted)
+        .filter_map(|(&value, &ok)| ok.then_some(value))
+        .collect();
+    let resume = |sim: &mut Simulation, values: &[(usize, f64)], expected: &[bool]| -> Result<Vec<u64>, String> {
         sim.restore(&saved).map_err(|e| e.to_string())?;
-        let again = set_values(sim, after);
-        if again != accepted {
-            return Err(format!("values accepted {again:?} against {accepted:?}"));
+        let again = set_values(sim, values);
+        if again != expected {
+            return Err(format!("values accepted {again:?} against {expected:?}"));
         }
         sim.step_to(t_mid)
             .and_then(|()| sim.step_to(t_end))
@@ -518,10 +529,17 @@ fn continuation_with_host_values_differs(
         output_bits(sim)
     };
     let mut restored = initialised(text)?;
-    let runs = [
-        (format!("restored at {save}"), resume(&mut restored)),
-        (format!("taken back to {save}"), resume(&mut run)),
+    let mut runs = vec![
+        (format!("restored at {save}"), resume(&mut restored, after, &accepted)),
+        (format!("taken back to {save}"), resume(&mut run, after, &accepted)),
     ];
+    if only_accepted.len() < after.len() {
+        WITH_REFUSED_VALUES.fetch_add(1, Ordering::Relaxed);
+        let mut fresh = initialised(text)?;
+        let label = format!("restored at {save}, given only the values accepted");
+        let all = vec![true; only_accepted.len()];
+        runs.push((label, resume(&mut fresh, &only_accepted, &all)));
+    }
     let difference = runs.into_iter().find_map(|(label, bits)| match bits {
         Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
         Err(e) => Some(format!("{label}: {e}")),
@@ -566,8 +584,10 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
             ));
         }
     });
+    let refused = WITH_REFUSED_VALUES.load(Ordering::Relaxed);
     println!(
-        "{scenes} mutated scenes: {compared} ran and were compared ({with_values} given values after the save), {} differ",
+        "{scenes} mutated scenes: {compared} ran and were compared ({with_values} given values after the save, \
+         {refused} of them with a value refused), {} differ",
         differing.len()
     );
     assert!(differing.is_empty(), "{}", differing.join("\n"));
