@@ -13,7 +13,7 @@ import subprocess
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import BINARY, ROOT, scene_path
+from conftest import BINARY, ROOT, LogCapture, scene_path
 
 
 def real_outputs(inst):
@@ -73,3 +73,56 @@ def test_simulate_exits_non_zero_on_energy_drift_unless_allowed(tmp_path):
     assert allowed.returncode == 0, allowed.stderr
     assert "warning" in allowed.stderr and "drifted" in allowed.stderr
     assert (tmp_path / "drift.csv").stat().st_size > 0
+
+
+def steps_until(inst, log, stop, h=1e-3):
+    """Steps `inst` to `stop` (or until a step is refused): the time of the refused step (None:
+    none), and the warnings and errors logged on the way (their texts)."""
+    log.clear()
+    refused_at = None
+    while inst.time < stop - h / 2:
+        try:
+            inst.step(h)
+        except FMICallException as e:
+            assert e.status == 3  # fmi2Error
+            refused_at = inst.time
+            break
+    said = lambda status: [m[2] for m in log.messages if m[0] == status]
+    return refused_at, said(1), said(3)  # fmi2Warning, fmi2Error
+
+
+@pytest.mark.parametrize("max_step,saved_at", [(3e-5, 0.15), (1e-4, 0.1)])
+def test_a_restored_fmu_state_warns_and_refuses_where_the_saving_run_does(unzipped, make_instance, max_step, saved_at):
+    # the bouncing ball under rk4: at a 30 us step it warns of the energy drift at its first
+    # impact (0.143 s) and runs on, at 100 us it blows up there. The energy watch is part of the
+    # FMU state: an instance given the state (saved after the warning, or before the impact)
+    # warns and refuses exactly where the one that saved it does
+    settings = {"solver.method": 3, "solver.max_step": max_step}
+    # (one logger at a time: fmpy's proxy formats the messages of the last one registered)
+    logs = [LogCapture()]
+    a = make_instance(unzipped["bouncing_ball"], "a", callbacks=logs[0].callbacks)
+    a.init(settings)
+    for _ in range(round(saved_at / 1e-3)):
+        a.step(1e-3)
+    state = a.slave.getFMUstate()
+    data = a.slave.serializeFMUstate(state)
+    a.slave.freeFMUstate(state)
+    t_saved = a.time
+    expected = steps_until(a, logs[0], 1.0)
+    expected_outputs = a.outputs()
+
+    logs.append(LogCapture())
+    b = make_instance(unzipped["bouncing_ball"], "b", callbacks=logs[1].callbacks)
+    restored = b.slave.deSerializeFMUstate(data)
+    b.slave.setFMUstate(restored)
+    b.slave.freeFMUstate(restored)
+    b.time = t_saved
+    got = steps_until(b, logs[1], 1.0)
+    assert got == expected
+    assert b.outputs() == expected_outputs  # bit for bit
+    refused_at, warnings, errors = got
+    if max_step == 1e-4:
+        assert refused_at is not None and any("blew up" in e for e in errors), got
+    else:
+        # warned before the save: not again
+        assert refused_at is None and warnings == [] and errors == [], got
