@@ -4,7 +4,9 @@ it) or whose energy balance grows beyond ten times its scale (the bouncing ball 
 tolerances allowed, rtol = atol = 1e-2)
 ends the step with fmi2Error and a message naming the cause and the remedy, before any output
 carries inf; `contact-fmu simulate` stops there, writes no row of inf, and exits non-zero; a run
-that drifts by more than 1 % exits non-zero unless --allow-energy-drift."""
+that drifts by more than 1 % exits non-zero unless --allow-energy-drift. The energy watch is part
+of the FMU state: an instance given a serialized state warns and refuses where the one that saved
+it does."""
 
 import csv
 import math
