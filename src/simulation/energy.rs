@@ -63,8 +63,8 @@ impl Simulation {
         self.compiled.as_ref().map(|c| c.data.energy_watch).unwrap_or_default()
     }
 
-    /// Starts watching the energy balance from the current state (the first step after
-    /// initialisation or a restore).
+    /// Starts watching the energy balance from the current state (at the first step after
+    /// initialisation; a restored state carries the watch it was saved with).
     pub(super) fn start_watch(&mut self) -> Result<(), SimError> {
         let e = self.energies()?;
         let evals = self.counters().rhs_evals;

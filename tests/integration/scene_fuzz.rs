@@ -186,6 +186,17 @@ fn exercise(text: &str) -> Outcome {
     Outcome::Ran
 }
 
+/// `f()`, or the message of its panic.
+fn caught<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    catch_unwind(AssertUnwindSafe(f)).map_err(|payload| {
+        payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default()
+    })
+}
+
 #[test]
 fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     // no panic message on standard error for the ones caught: the test reports them itself
@@ -198,14 +209,9 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
         let text = mutated(base, &mut rng);
-        match catch_unwind(AssertUnwindSafe(|| exercise(&text))) {
+        match caught(|| exercise(&text)) {
             Ok(o) => tally[o as usize] += 1,
-            Err(payload) => {
-                let why = payload
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_default();
+            Err(why) => {
                 let file = std::env::temp_dir().join(format!("scene_fuzz_{k}.toml"));
                 let _ = std::fs::write(&file, &text);
                 panics.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
@@ -595,4 +601,96 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
         with_values > 100,
         "only {with_values} of {scenes} scenes were given values"
     );
+}
+
+/// `base` with one to three items of its arrays of tables copied (a body, a shape, a contact,
+/// a group pair, a joint, ...): each copy named anew (`<name>_copy<k>`) and its position,
+/// centre, origin and anchor moved by up to a millimetre, a centimetre, a decimetre or a metre
+/// in each direction, so that scenes reach what no bundled one has (more bodies and contacts,
+/// a body with two shapes, a contact declared twice, two joints on one child, ...).
+fn with_copies(base: &Value, rng: &mut Rng) -> Value {
+    let mut v = base.clone();
+    for k in 0..1 + rng.below(3) {
+        let arrays = table_arrays(&v);
+        if arrays.is_empty() {
+            break;
+        }
+        let key = &arrays[rng.below(arrays.len())];
+        let Some(items) = v.get_mut(key).and_then(Value::as_array_mut) else {
+            continue;
+        };
+        if items.is_empty() {
+            continue;
+        }
+        let mut copy = items[rng.below(items.len())].clone();
+        let reach = [1e-3, 1e-2, 0.1, 1.0][rng.below(4)];
+        if let Some(t) = copy.as_table_mut() {
+            if let Some(Value::String(name)) = t.get_mut("name") {
+                *name = format!("{name}_copy{k}");
+            }
+            for place in ["position", "center", "origin", "anchor"] {
+                if let Some(Value::Array(xyz)) = t.get_mut(place) {
+                    for x in xyz.iter_mut() {
+                        if let Value::Float(x) = x {
+                            *x += reach * rng.range(-1.0, 1.0);
+                        }
+                    }
+                }
+            }
+        }
+        items.push(copy);
+    }
+    v
+}
+
+/// Bundled scenes with copied items ([`with_copies`]), mutated further as above (or, one in
+/// four, not), are refused with a message or run, never panic; and those that run continue
+/// bit for bit ([`continuation_differs`], the variants as above).
+#[test]
+fn scenes_with_copied_items_never_panic_and_continue_bit_for_bit() {
+    let bases = bundled_bases();
+    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
+    let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
+    let mut rng = Rng(seed().rotate_left(41));
+    let (mut tally, mut compared, mut failures) = ([0usize; 3], 0, Vec::new());
+    for k in 0..scenes {
+        let (name, base) = &bases[k % bases.len()];
+        let copied = with_copies(&variant(base, k / bases.len() % 4), &mut rng);
+        let text = match rng.below(4) {
+            0 => toml::to_string(&copied).unwrap_or_default(),
+            _ => mutated(&copied, &mut rng),
+        };
+        let save = span * (1 + k % 9) as f64 / 10.0;
+        let checked = caught(|| {
+            let outcome = exercise(&text);
+            let difference = match outcome {
+                Outcome::Ran => continuation_differs(&text, save, span),
+                _ => None,
+            };
+            (outcome, difference)
+        });
+        let failure = match checked {
+            Ok((outcome, difference)) => {
+                tally[outcome as usize] += 1;
+                compared += usize::from(difference.is_some());
+                difference.flatten()
+            }
+            Err(why) => Some(format!("panicked: {why}")),
+        };
+        if let Some(why) = failure {
+            let file = std::env::temp_dir().join(format!("scene_copied_{k}.toml"));
+            let _ = std::fs::write(&file, &text);
+            failures.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
+        }
+    }
+    println!(
+        "{scenes} scenes with copied items: {} refused with a message, {} ran, {} stopped with a step error; \
+         {compared} compared; {} panicked or differ",
+        tally[0],
+        tally[1],
+        tally[2],
+        failures.len()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(tally[0] > 50 && compared > 100, "{tally:?}, {compared} compared");
 }
