@@ -135,8 +135,9 @@ pub fn run_simulation(
     }
     let e0 = sim.energies().map_err(|e| e.to_string())?;
     let mut scale = e0.total().abs().max(e0.kinetic);
-    // (a resumed run starts at its state's time, with its counters)
-    let (t0, c0) = (sim.time(), sim.counters());
+    // (a resumed run starts at its state's time, with its counters and its energy watch: a
+    // drift warned of before it was saved is not this run's)
+    let (t0, c0, drifted_before) = (sim.time(), sim.counters(), sim.energy_drifted());
     each(sim)?;
     let start = Instant::now();
     let cpu_start = thread_cpu_seconds();
@@ -164,7 +165,7 @@ pub fn run_simulation(
         simulated: stop_time - t0,
         steps: c.steps - c0.steps,
         rhs_evals: c.rhs_evals - c0.rhs_evals,
-        energy_drifted: sim.energy_drifted(),
+        energy_drifted: sim.energy_drifted() && !drifted_before,
         seconds,
         cpu_seconds,
         energy_error: err,
@@ -193,6 +194,14 @@ fn simulate(scene: &Path, o: &RunOptions, progress: bool) -> Result<RunSummary, 
         sim.restore(&snapshot).map_err(|e| format!("{}: {e}", path.display()))?;
         if !sim.is_initialized() {
             sim.initialize(0.0).map_err(|e| e.to_string())?;
+        }
+        if sim.energy_drifted() {
+            // (the watch is saved with the state and warns once: not again in this run)
+            eprintln!(
+                "note: {}: the energy balance had drifted by more than {} % before this state was saved",
+                path.display(),
+                100.0 * crate::simulation::ENERGY_DRIFT_WARNING
+            );
         }
     }
     apply_settings(&mut sim, &o.experiment.set)?;

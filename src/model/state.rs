@@ -42,7 +42,7 @@ named_enum! {
         EnergyWatch = 64 => "energy watch",
         /// `Data::islands`: what a scene that runs as independent islands holds beyond the parts
         /// above (see [`super::island_state`]; 1 number, 0, when it runs as one integrator).
-        /// Last: its length is read from its numbers.
+        /// Last, so that the scene's other parts are one prefix of the whole state.
         Islands = 128 => "islands",
     }
 }
@@ -64,6 +64,11 @@ const WATCH_LEN: usize = 5;
 /// Fixed numbers of [`StatePart::Solver`] before the method's state: started, next step,
 /// pending event, length of the method's state.
 const SOLVER_HEAD: usize = 4;
+
+/// The place of `part` in [`StatePart::ALL`] (the bit it is).
+fn part_index(part: StatePart) -> usize {
+    (part as u32).trailing_zeros() as usize
+}
 
 /// Appends the parts of `mask` to `out`.
 pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
@@ -108,7 +113,6 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
                 }
                 out[at] = (out.len() - at - 1) as f64;
             }
-            StatePart::Islands => island_state::get(&d.islands, out),
             StatePart::EnergyWatch => {
                 let w = &d.energy_watch;
                 out.extend_from_slice(&[
@@ -119,6 +123,7 @@ pub fn get(m: &Model, d: &Data, mask: u32, out: &mut Vec<f64>) {
                     w.warned as u8 as f64,
                 ]);
             }
+            StatePart::Islands => island_state::get(&d.islands, out),
         }
     }
 }
@@ -174,8 +179,9 @@ fn count(x: f64, what: &str) -> Result<u64, String> {
 }
 
 /// Writes the parts of `mask` from `v` (as [`get`] wrote them for this model). Checks the
-/// length of every part, that numbers are finite and counts are counts, before it writes
-/// anything; on an error the data is unchanged. The integrator continues from its restored
+/// length of every part, that numbers are finite (but the energy watch's reference and scale,
+/// which are what the energies were) and counts are counts, before it writes anything; on an
+/// error the data is unchanged. The integrator continues from its restored
 /// state exactly as it would have.
 pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> {
     if mask & !FULL != 0 {
@@ -195,7 +201,6 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             StatePart::Inputs => m.input_values(),
             StatePart::ContactMemory => group_section_len(m, d) + MEMORY_LEN * d.contacts.len(),
             StatePart::Counters => COUNTERS_LEN,
-            StatePart::EnergyWatch => WATCH_LEN,
             StatePart::Solver => {
                 let head = v
                     .get(at..at + SOLVER_HEAD)
@@ -203,9 +208,10 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 let own = count(head[SOLVER_HEAD - 1], "integrator state length")? as usize;
                 SOLVER_HEAD + own
             }
+            StatePart::EnergyWatch => WATCH_LEN,
             StatePart::Islands => {
                 let time = if mask & StatePart::Time as u32 != 0 {
-                    v[spans[0].0]
+                    v[spans[part_index(StatePart::Time)].0]
                 } else {
                     d.time
                 };
@@ -251,14 +257,6 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                     count(*x, "counter")?;
                 }
             }
-            StatePart::EnergyWatch => {
-                for (x, what) in [(slice[0], "started"), (slice[4], "warned")] {
-                    if x != 0.0 && x != 1.0 {
-                        return Err(format!("state: energy watch {what} flag {x} is not 0 or 1"));
-                    }
-                }
-                count(slice[3], "energy watch check")?;
-            }
             StatePart::Solver => {
                 if slice[0] != 0.0 && slice[0] != 1.0 {
                     return Err(format!("state: integrator started flag {} is not 0 or 1", slice[0]));
@@ -266,6 +264,14 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 if slice[2].is_nan() || slice[2] == f64::NEG_INFINITY {
                     return Err(format!("state: pending event time {} is not a time", slice[2]));
                 }
+            }
+            StatePart::EnergyWatch => {
+                for (x, what) in [(slice[0], "started"), (slice[4], "warned")] {
+                    if x != 0.0 && x != 1.0 {
+                        return Err(format!("state: energy watch {what} flag {x} is not 0 or 1"));
+                    }
+                }
+                count(slice[3], "energy watch check")?;
             }
             _ => {}
         }
@@ -281,7 +287,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
     // The method's state may still be refused by the method: restore it first.
     let mut solver_head = None;
     if mask & StatePart::Solver as u32 != 0 {
-        let (a, b) = spans[5];
+        let (a, b) = spans[part_index(StatePart::Solver)];
         let s = &v[a..b];
         let stepper = d
             .solver
@@ -336,7 +342,6 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                 c.events = s[4] as u64;
             }
             StatePart::Solver => {}
-            StatePart::Islands => d.islands = islands.take().unwrap_or_default(),
             StatePart::EnergyWatch => {
                 d.energy_watch = EnergyWatch {
                     started: s[0] == 1.0,
@@ -346,6 +351,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                     warned: s[4] == 1.0,
                 }
             }
+            StatePart::Islands => d.islands = islands.take().unwrap_or_default(),
         }
     }
     if let Some((started, h, pending)) = solver_head {

@@ -60,7 +60,10 @@ impl Simulation {
 
     /// The energy watch (in the data: saved with the state; unstarted before initialisation).
     pub(super) fn watch(&self) -> EnergyWatch {
-        self.compiled.as_ref().map(|c| c.data.energy_watch).unwrap_or_default()
+        match (&self.compiled, self.initialized) {
+            (Some(c), true) => c.data.energy_watch,
+            _ => EnergyWatch::default(),
+        }
     }
 
     /// Starts watching the energy balance from the current state (at the first step after

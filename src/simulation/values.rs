@@ -98,6 +98,12 @@ impl Simulation {
         if self.values[vr] == value {
             return Ok(());
         }
+        // the value it has (a parameter that follows another has the other's): nothing to
+        // compile, and the method goes on undisturbed; it no longer follows
+        if value.to_bits() == self.value(vr).to_bits() {
+            self.values[vr] = value;
+            return Ok(());
+        }
         let before = if self.watch().started { self.balance()? } else { 0.0 };
         // the islands end here: the data first gets their candidate pairs and memory
         self.sync_islands()?;

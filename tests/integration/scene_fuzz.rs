@@ -17,8 +17,8 @@ use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::Scene;
 use contact_fmu::simulation::{SimError, Simulation};
 use contact_fmu::variables::{Causality, Variability};
+use std::cell::Cell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use toml::Value;
 
 /// Scenes mutated in CI, from this seed of the random numbers.
@@ -236,12 +236,15 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
 const CONTINUED_SPAN_MS: u64 = 20;
 const CONTINUED_MAX_STEPS: f64 = 20_000.0;
 
-/// The outputs of `sim`, as bits.
+/// The outputs of `sim`, as bits, and last whether the energy watch warned (its state is
+/// saved with the rest).
 fn output_bits(sim: &mut Simulation) -> Result<Vec<u64>, String> {
     let outputs = sim.output_indices();
     let mut values = vec![0.0; outputs.len()];
     sim.get_many(&outputs, &mut values).map_err(|e| e.to_string())?;
-    Ok(values.iter().map(|v| v.to_bits()).collect())
+    let mut bits: Vec<u64> = values.iter().map(|v| v.to_bits()).collect();
+    bits.push(u64::from(sim.energy_drifted()));
+    Ok(bits)
 }
 
 /// `text` initialised with a step budget of [`CONTINUED_MAX_STEPS`] a call; `None` when it
@@ -260,16 +263,28 @@ fn initialised_scene(scene: Scene) -> Option<Simulation> {
     Some(sim)
 }
 
-/// The first output whose bits differ between `a` and `b`, named.
+/// The first output whose bits differ between `a` and `b` ([`output_bits`]), named.
 fn first_difference(sim: &Simulation, a: &[u64], b: &[u64]) -> Option<String> {
     let outputs = sim.output_indices();
     let k = a.iter().zip(b).position(|(x, y)| x != y)?;
-    let name = &sim.variables()[outputs[k]].name;
+    let Some(&vr) = outputs.get(k) else {
+        return Some(format!("the energy watch warned: {} against {}", a[k], b[k]));
+    };
     Some(format!(
-        "{name} {:e} against {:e}",
+        "{} {:e} against {:e}",
+        sim.variables()[vr].name,
         f64::from_bits(a[k]),
         f64::from_bits(b[k])
     ))
+}
+
+/// What the first of `runs` (labelled) that differs from the outputs `end` of `sim`, or
+/// failed, says; `None` when every one gave `end`.
+fn first_differing(sim: &Simulation, end: &[u64], runs: Vec<(String, Result<Vec<u64>, String>)>) -> Option<String> {
+    runs.into_iter().find_map(|(label, bits)| match bits {
+        Ok(bits) => first_difference(sim, end, &bits).map(|d| format!("{label}: {d}")),
+        Err(e) => Some(format!("{label}: {e}")),
+    })
 }
 
 /// Runs `text` over `span` with communication points at `save` and halfway from there to the
@@ -293,7 +308,10 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     run.step_to(save).ok()?;
     output_bits(&mut run).ok()?;
     // (through its bytes, as a host that serializes it)
-    let saved = Snapshot::from_bytes(&run.snapshot(Vec::new()).to_bytes(0), 0).ok()?;
+    let saved = match Snapshot::from_bytes(&run.snapshot(Vec::new()).to_bytes(0), 0) {
+        Ok(saved) => saved,
+        Err(e) => return Some(Some(format!("its saved state's bytes: {e}"))),
+    };
     run.step_to(t_mid).ok()?;
     output_bits(&mut run).ok()?;
     run.step_to(t_end).ok()?;
@@ -317,7 +335,10 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
         one_thread.solver.threads = 1;
         let mut calls = Vec::new();
         if straight.scene().solver.threads != 1 {
-            calls.push(("on one thread", initialised_scene(one_thread)?));
+            let Some(single) = initialised_scene(one_thread) else {
+                return Some(Some("on one thread: refused".into()));
+            };
+            calls.push(("on one thread", single));
         }
         calls.push(("in one call", straight));
         for (label, mut sim) in calls {
@@ -336,18 +357,20 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
             runs.push(("with early returns at events".into(), bits));
         }
     }
-    let difference = runs.into_iter().find_map(|(label, bits)| match bits {
-        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
-        Err(e) => Some(format!("{label}: {e}")),
-    });
-    Some(difference)
+    Some(first_differing(&run, &end, runs))
 }
 
 /// Most early returns a run of the continuation check may take.
 const EARLY_RETURNS: usize = 2_000;
 
-/// Early returns taken by the continuation check's runs (its tally).
-static EARLY_RETURNS_TAKEN: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    /// Early returns taken by the continuation check's runs on this thread (its tally: each
+    /// test runs on a thread of its own).
+    static EARLY_RETURNS_TAKEN: Cell<usize> = const { Cell::new(0) };
+    /// Runs of the host-values check on this thread in which a value set after the save was
+    /// refused (its tally).
+    static WITH_REFUSED_VALUES: Cell<usize> = const { Cell::new(0) };
+}
 
 /// `text` run to `t_end` by steps that return early at contact events (FMI 3.0's early
 /// return: [`Simulation::step_to_event`]), each going on from where the last ended: its
@@ -368,7 +391,7 @@ fn with_early_returns(text: &str, t_end: f64) -> Option<Result<Vec<u64>, String>
                 )))
             }
             Ok(true) => {
-                EARLY_RETURNS_TAKEN.fetch_add(1, Ordering::Relaxed);
+                EARLY_RETURNS_TAKEN.with(|n| n.set(n.get() + 1));
             }
         }
     }
@@ -396,21 +419,40 @@ fn variant(base: &Value, which: usize) -> Value {
     v
 }
 
-/// Calls `each` with every scene of a continuation check (`SCENE_FUZZ_COUNT` of them): its
-/// number k, the bundled scene it is made from, its text (that scene's variant k, mutated by
-/// the generator seeded from [`seed`] rotated by `rotation`), its save point (one of nine
-/// across the span) and the span (`SCENE_FUZZ_SPAN_MS`), and the generator. Returns how many
-/// scenes there were.
-fn each_continued_scene(rotation: u32, mut each: impl FnMut(usize, &str, &str, f64, f64, &mut Rng)) -> usize {
+/// One scene of a continuation check.
+struct Case<'a> {
+    /// Its number.
+    k: usize,
+    /// The bundled scene it is made from.
+    base: &'a str,
+    /// Its text.
+    text: String,
+    /// Its save point: one of nine across the span.
+    save: f64,
+    /// The span it runs over (`SCENE_FUZZ_SPAN_MS`).
+    span: f64,
+}
+
+/// Calls `each` with every scene of a check (`SCENE_FUZZ_COUNT` of them) and the generator:
+/// scene k is `make` of bundled scene k's variant k, `make` drawing from the generator seeded
+/// from [`seed`] rotated by `rotation`. Returns how many scenes there were.
+fn each_case(rotation: u32, make: impl Fn(&Value, &mut Rng) -> String, mut each: impl FnMut(&Case, &mut Rng)) -> usize {
     let bases = bundled_bases();
     let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
     let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
     let mut rng = Rng(seed().rotate_left(rotation));
     for k in 0..scenes {
         let (name, base) = &bases[k % bases.len()];
-        let text = mutated(&variant(base, k / bases.len() % 4), &mut rng);
+        let text = make(&variant(base, k / bases.len() % 4), &mut rng);
         let save = span * (1 + k % 9) as f64 / 10.0;
-        each(k, name, &text, save, span, &mut rng);
+        let case = Case {
+            k,
+            base: name,
+            text,
+            save,
+            span,
+        };
+        each(&case, &mut rng);
     }
     scenes
 }
@@ -426,7 +468,14 @@ fn each_continued_scene(rotation: u32, mut each: impl FnMut(usize, &str, &str, f
 fn mutated_scenes_that_run_continue_bit_for_bit() {
     let (mut compared, mut differing) = (0, Vec::new());
     // (other mutations than the test above's)
-    let scenes = each_continued_scene(17, |k, name, text, save, span, _| {
+    let scenes = each_case(17, mutated, |case, _| {
+        let Case {
+            k,
+            base: name,
+            ref text,
+            save,
+            span,
+        } = *case;
         let Some(difference) = continuation_differs(text, save, span) else {
             return;
         };
@@ -437,7 +486,7 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
             differing.push(format!("scene {k} (from {name}, written to {}): {d}", file.display()));
         }
     });
-    let early = EARLY_RETURNS_TAKEN.load(Ordering::Relaxed);
+    let early = EARLY_RETURNS_TAKEN.with(Cell::get);
     println!(
         "{scenes} mutated scenes: {compared} ran and were compared ({early} early returns at events), {} differ",
         differing.len()
@@ -486,9 +535,6 @@ fn host_values(sim: &Simulation, rng: &mut Rng) -> Vec<(usize, f64)> {
 fn set_values(sim: &mut Simulation, values: &[(usize, f64)]) -> Vec<bool> {
     values.iter().map(|&(vr, v)| sim.set(vr, v).is_ok()).collect()
 }
-
-/// Runs of the host-values check in which a value set after the save was refused (its tally).
-static WITH_REFUSED_VALUES: AtomicUsize = AtomicUsize::new(0);
 
 /// Runs `text` over `span`, a host setting `before` at a quarter of the way to `save` and
 /// `after` just after the state is saved at `save`, outputs read at `save` and halfway to the
@@ -540,17 +586,13 @@ fn continuation_with_host_values_differs(
         (format!("taken back to {save}"), resume(&mut run, after, &accepted)),
     ];
     if only_accepted.len() < after.len() {
-        WITH_REFUSED_VALUES.fetch_add(1, Ordering::Relaxed);
+        WITH_REFUSED_VALUES.with(|n| n.set(n.get() + 1));
         let mut fresh = initialised(text)?;
         let label = format!("restored at {save}, given only the values accepted");
         let all = vec![true; only_accepted.len()];
         runs.push((label, resume(&mut fresh, &only_accepted, &all)));
     }
-    let difference = runs.into_iter().find_map(|(label, bits)| match bits {
-        Ok(bits) => first_difference(&run, &end, &bits).map(|d| format!("{label}: {d}")),
-        Err(e) => Some(format!("{label}: {e}")),
-    });
-    Some(difference)
+    Some(first_differing(&run, &end, runs))
 }
 
 /// Mutated scenes whose tunable parameters and inputs a host sets between communication
@@ -561,7 +603,14 @@ fn continuation_with_host_values_differs(
 #[test]
 fn mutated_scenes_given_host_values_continue_bit_for_bit() {
     let (mut compared, mut with_values, mut differing) = (0, 0, Vec::new());
-    let scenes = each_continued_scene(29, |k, name, text, save, span, rng| {
+    let scenes = each_case(29, mutated, |case, rng| {
+        let Case {
+            k,
+            base: name,
+            ref text,
+            save,
+            span,
+        } = *case;
         let Some(sim) = initialised(text) else {
             return;
         };
@@ -590,7 +639,7 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
             ));
         }
     });
-    let refused = WITH_REFUSED_VALUES.load(Ordering::Relaxed);
+    let refused = WITH_REFUSED_VALUES.with(Cell::get);
     println!(
         "{scenes} mutated scenes: {compared} ran and were compared ({with_values} given values after the save, \
          {refused} of them with a value refused), {} differ",
@@ -648,23 +697,26 @@ fn with_copies(base: &Value, rng: &mut Rng) -> Value {
 /// bit for bit ([`continuation_differs`], the variants as above).
 #[test]
 fn scenes_with_copied_items_never_panic_and_continue_bit_for_bit() {
-    let bases = bundled_bases();
-    let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
-    let span = from_env("SCENE_FUZZ_SPAN_MS", CONTINUED_SPAN_MS) as f64 * 1e-3;
-    let mut rng = Rng(seed().rotate_left(41));
     let (mut tally, mut compared, mut failures) = ([0usize; 3], 0, Vec::new());
-    for k in 0..scenes {
-        let (name, base) = &bases[k % bases.len()];
-        let copied = with_copies(&variant(base, k / bases.len() % 4), &mut rng);
-        let text = match rng.below(4) {
+    let copied_and_mutated = |base: &Value, rng: &mut Rng| {
+        let copied = with_copies(base, rng);
+        match rng.below(4) {
             0 => toml::to_string(&copied).unwrap_or_default(),
-            _ => mutated(&copied, &mut rng),
-        };
-        let save = span * (1 + k % 9) as f64 / 10.0;
+            _ => mutated(&copied, rng),
+        }
+    };
+    let scenes = each_case(41, copied_and_mutated, |case, _| {
+        let Case {
+            k,
+            base: name,
+            ref text,
+            save,
+            span,
+        } = *case;
         let checked = caught(|| {
-            let outcome = exercise(&text);
+            let outcome = exercise(text);
             let difference = match outcome {
-                Outcome::Ran => continuation_differs(&text, save, span),
+                Outcome::Ran => continuation_differs(text, save, span),
                 _ => None,
             };
             (outcome, difference)
@@ -679,10 +731,10 @@ fn scenes_with_copied_items_never_panic_and_continue_bit_for_bit() {
         };
         if let Some(why) = failure {
             let file = std::env::temp_dir().join(format!("scene_copied_{k}.toml"));
-            let _ = std::fs::write(&file, &text);
+            let _ = std::fs::write(&file, text);
             failures.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
         }
-    }
+    });
     println!(
         "{scenes} scenes with copied items: {} refused with a message, {} ran, {} stopped with a step error; \
          {compared} compared; {} panicked or differ",

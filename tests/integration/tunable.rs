@@ -385,14 +385,57 @@ fn a_tunable_value_changes_after_the_candidate_list_changed() {
     s.step_to(t + 0.01).unwrap();
 }
 
+#[test]
+fn a_command_line_run_resumed_after_the_drift_warning_notes_it_and_is_not_refused_for_it() {
+    // the watch is saved with the checkpoint and warns once per run: the resumed part gives no
+    // warning of its own, and says the state had drifted before
+    let scene = common::bundled("bouncing_ball");
+    let dir = std::env::temp_dir().join(format!("contact_fmu_drift_resume_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let state = dir.join("drifted.state");
+    let (scene, state) = (scene.to_str().unwrap(), state.to_str().unwrap());
+    let rk4 = ["--set", "solver.method=rk4", "--set", "solver.max_step=3e-5", "--quiet"];
+    let simulate = |extra: &[&str]| {
+        let mut args = vec!["simulate", scene];
+        args.extend_from_slice(&rk4);
+        args.extend_from_slice(extra);
+        common::run_command(&args)
+    };
+    // the first impact (0.143 s) drifts: refused without --allow-energy-drift
+    let (ok, err) = simulate(&["--stop-time", "0.2"]);
+    assert!(!ok && err.contains("the warning above"), "{err}");
+    let (ok, err) = simulate(&["--stop-time", "0.2", "--allow-energy-drift", "--save-state", state]);
+    assert!(ok, "{err}");
+    // (the method and its step come with the state)
+    let (ok, err) = common::run_command(&["simulate", scene, "--quiet", "--stop-time", "0.3", "--resume", state]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("note:") && err.contains("had drifted") && !err.contains("warning"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every output's bits at the end of a run of bundled scene `path` to `stop` over its
-/// communication points, a host setting each of `settable` to the value it has at every point
-/// (or not, with an empty list).
-fn run_setting_present_values(path: &std::path::Path, stop: f64, settable: &[usize]) -> Vec<u64> {
+/// communication points: at the first point a host sets `changed`, and at every later point it
+/// sets each of `settable` to the value it has then (or not, with an empty list).
+fn run_setting_present_values(
+    path: &std::path::Path,
+    stop: f64,
+    changed: &[(usize, f64)],
+    settable: &[usize],
+) -> Vec<u64> {
     let mut s = Simulation::from_file(path).unwrap();
     s.initialize(0.0).unwrap();
     let interval = s.scene().model.interval;
+    let mut first = true;
     s.run(stop, interval, |s| {
+        if std::mem::take(&mut first) {
+            for &(vr, value) in changed {
+                s.set(vr, value).map_err(|e| e.to_string())?;
+            }
+            return Ok(());
+        }
         for &vr in settable {
             let value = s.get(vr).map_err(|e| e.to_string())?;
             s.set(vr, value).map_err(|e| e.to_string())?;
@@ -407,33 +450,46 @@ fn run_setting_present_values(path: &std::path::Path, stop: f64, settable: &[usi
 #[test]
 fn a_host_that_sets_the_present_values_again_changes_nothing() {
     // co-simulation masters set every input (and may set the tunable parameters) at every
-    // communication point, unchanged or not: a value set to what it is changes no bit. (Not a
-    // driven joint's coordinate or rate, `<drive>.q` and `.qd`: setting one moves the joint to
-    // it, and the joint's coordinate, integrated with the rest of the state, differs from the
-    // value set by rounding, about 1e-15 m on the track scene's rails held at 0; so setting the
-    // value again is a move, and the method restarts.)
-    use contact_fmu::variables::{Causality, Variability};
+    // communication point, unchanged or not: a value set to what it is changes no bit, also
+    // a parameter that follows another (`static_friction` follows `friction`, here changed at
+    // the first point). Not a driven joint's coordinate or rate (`<drive>.q`, `.qd`): setting
+    // one moves the joint to it, and the joint's coordinate, integrated with the rest of the
+    // state, differs from the value set by rounding (about 1e-15 m on the track scene's rails
+    // held at 0), so setting the value again is a move and the method restarts.
+    use contact_fmu::variables::{Causality, VarRef, Variability};
     let mut with_values = 0;
     for (name, path) in common::bundled_scenes() {
-        let sim = Simulation::from_file(&path).unwrap();
-        let settable: Vec<usize> = sim
-            .variables()
+        let mut sim = Simulation::from_file(&path).unwrap();
+        sim.initialize(0.0).unwrap();
+        let drives: Vec<usize> = sim
+            .model()
+            .unwrap()
+            .drives
             .iter()
-            .enumerate()
-            .filter(|(_, v)| {
-                let drive = v.name.ends_with(".q") || v.name.ends_with(".qd");
+            .flat_map(|d| [d.value, d.value + 1])
+            .collect();
+        let vars = sim.variables();
+        let settable: Vec<usize> = (0..vars.len())
+            .filter(|&vr| {
+                let v = &vars[vr];
+                let drive = matches!(v.target, VarRef::Input(i) if drives.contains(&i));
                 (v.causality == Causality::Input && !drive)
                     || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
             })
-            .map(|(vr, _)| vr)
             .collect();
         if settable.is_empty() {
             continue;
         }
         with_values += 1;
+        let changed: Vec<(usize, f64)> = settable
+            .iter()
+            .filter(|&&vr| vars[vr].name.ends_with(".friction"))
+            .map(|&vr| (vr, 0.8 * vars[vr].start.unwrap()))
+            .collect();
         let stop = sim.scene().model.stop_time.min(0.4);
         assert!(
-            run_setting_present_values(&path, stop, &settable) == run_setting_present_values(&path, stop, &[]),
+            run_setting_present_values(&path, stop, &changed, &settable)
+                == run_setting_present_values(&path, stop, &changed, &[]),
             "{name}: setting {} values to what they are changed the run",
             settable.len()
         );

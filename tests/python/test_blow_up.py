@@ -89,7 +89,10 @@ def steps_until(inst, log, stop, h=1e-3):
             assert e.status == 3  # fmi2Error
             refused_at = inst.time
             break
-    said = lambda status: [m[2] for m in log.messages if m[0] == status]
+
+    def said(status):
+        return [m[2] for m in log.messages if m[0] == status]
+
     return refused_at, said(1), said(3)  # fmi2Warning, fmi2Error
 
 
@@ -106,6 +109,8 @@ def test_a_restored_fmu_state_warns_and_refuses_where_the_saving_run_does(unzipp
     a.init(settings)
     for _ in range(round(saved_at / 1e-3)):
         a.step(1e-3)
+    warned_before = any(m[0] == 1 and "drifted" in m[2] for m in logs[0].messages)
+    assert warned_before == (max_step == 3e-5), logs[0].text()  # the premise of each case
     state = a.slave.getFMUstate()
     data = a.slave.serializeFMUstate(state)
     a.slave.freeFMUstate(state)
