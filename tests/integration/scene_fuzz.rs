@@ -469,13 +469,7 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
     let (mut compared, mut differing) = (0, Vec::new());
     // (other mutations than the test above's)
     let scenes = each_case(17, mutated, |case, _| {
-        let Case {
-            k,
-            base: name,
-            ref text,
-            save,
-            span,
-        } = *case;
+        let (k, name, text, save, span) = (case.k, case.base, case.text.as_str(), case.save, case.span);
         let Some(difference) = continuation_differs(text, save, span) else {
             return;
         };
@@ -604,13 +598,7 @@ fn continuation_with_host_values_differs(
 fn mutated_scenes_given_host_values_continue_bit_for_bit() {
     let (mut compared, mut with_values, mut differing) = (0, 0, Vec::new());
     let scenes = each_case(29, mutated, |case, rng| {
-        let Case {
-            k,
-            base: name,
-            ref text,
-            save,
-            span,
-        } = *case;
+        let (k, name, text, save, span) = (case.k, case.base, case.text.as_str(), case.save, case.span);
         let Some(sim) = initialised(text) else {
             return;
         };
@@ -706,13 +694,7 @@ fn scenes_with_copied_items_never_panic_and_continue_bit_for_bit() {
         }
     };
     let scenes = each_case(41, copied_and_mutated, |case, _| {
-        let Case {
-            k,
-            base: name,
-            ref text,
-            save,
-            span,
-        } = *case;
+        let (k, name, text, save, span) = (case.k, case.base, case.text.as_str(), case.save, case.span);
         let checked = caught(|| {
             let outcome = exercise(text);
             let difference = match outcome {
