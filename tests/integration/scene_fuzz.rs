@@ -199,8 +199,6 @@ fn caught<T>(f: impl FnOnce() -> T) -> Result<T, String> {
 
 #[test]
 fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
-    // no panic message on standard error for the ones caught: the test reports them itself
-    std::panic::set_hook(Box::new(|_| {}));
     let bases = bundled_bases();
     let scenes = from_env("SCENE_FUZZ_COUNT", SCENES as u64) as usize;
     let mut rng = Rng(seed());
@@ -218,7 +216,6 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
             }
         }
     }
-    let _ = std::panic::take_hook();
     println!(
         "{scenes} mutated scenes: {} refused with a message, {} ran, {} stopped with a step error, {} panicked",
         tally[0],
