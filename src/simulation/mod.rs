@@ -8,7 +8,7 @@ use crate::compile::compile_with;
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::islands::Islands;
-use crate::model::{state, ContactEvent, Counters, Data, EnergyWatch, Model};
+use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
 use crate::scene::{Scene, SceneError};
 use crate::variables::{Causality, VarRef, Variable, VariableTable};
@@ -380,8 +380,8 @@ impl Simulation {
         }
         self.compiled_fresh = false;
         let c = self.ensure_compiled()?;
+        // (compiled anew: the data, its energy watch included, is fresh)
         engine::set_start_time(&mut c.data, start_time);
-        c.data.energy_watch = EnergyWatch::default();
         self.initialized = true;
         Ok(())
     }

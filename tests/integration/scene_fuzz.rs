@@ -16,7 +16,6 @@ use common::Rng;
 use contact_fmu::checkpoint::Snapshot;
 use contact_fmu::scene::Scene;
 use contact_fmu::simulation::{SimError, Simulation};
-use contact_fmu::variables::{Causality, Variability};
 use std::cell::Cell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use toml::Value;
@@ -197,6 +196,14 @@ fn caught<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     })
 }
 
+/// Writes the text of failing scene `k` (made from bundled scene `base`) to the temporary
+/// directory as `<kind>_<k>.toml`; the words that name it in a failure.
+fn kept(kind: &str, k: usize, base: &str, text: &str) -> String {
+    let file = std::env::temp_dir().join(format!("{kind}_{k}.toml"));
+    let _ = std::fs::write(&file, text);
+    format!("scene {k} (from {base}, written to {})", file.display())
+}
+
 #[test]
 fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
     let bases = bundled_bases();
@@ -210,9 +217,7 @@ fn mutated_bundled_scenes_are_refused_or_run_never_panic() {
         match caught(|| exercise(&text)) {
             Ok(o) => tally[o as usize] += 1,
             Err(why) => {
-                let file = std::env::temp_dir().join(format!("scene_fuzz_{k}.toml"));
-                let _ = std::fs::write(&file, &text);
-                panics.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
+                panics.push(format!("{}: {why}", kept("scene_fuzz", k, name, &text)));
             }
         }
     }
@@ -328,10 +333,10 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     let continues = straight.scene().solver.continuation;
     if continues {
         // islands advanced side by side give the results of one thread
-        let mut one_thread = straight.scene().clone();
-        one_thread.solver.threads = 1;
         let mut calls = Vec::new();
         if straight.scene().solver.threads != 1 {
+            let mut one_thread = straight.scene().clone();
+            one_thread.solver.threads = 1;
             let Some(single) = initialised_scene(one_thread) else {
                 return Some(Some("on one thread: refused".into()));
             };
@@ -347,13 +352,11 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
                 )),
             }
         }
-    }
-    runs.push((format!("taken back to {save}"), resume(&mut run)));
-    if continues {
         if let Some(bits) = with_early_returns(text, t_end) {
             runs.push(("with early returns at events".into(), bits));
         }
     }
+    runs.push((format!("taken back to {save}"), resume(&mut run)));
     Some(first_differing(&run, &end, runs))
 }
 
@@ -472,9 +475,7 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
         };
         compared += 1;
         if let Some(d) = difference {
-            let file = std::env::temp_dir().join(format!("scene_continued_{k}.toml"));
-            let _ = std::fs::write(&file, text);
-            differing.push(format!("scene {k} (from {name}, written to {}): {d}", file.display()));
+            differing.push(format!("{}: {d}", kept("scene_continued", k, name, text)));
         }
     });
     let early = EARLY_RETURNS_TAKEN.with(Cell::get);
@@ -487,23 +488,10 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
     assert!(early > 10, "only {early} early returns");
 }
 
-/// The variables a host may set after initialisation: the tunable parameters and the inputs.
-fn settable(sim: &Simulation) -> Vec<usize> {
-    sim.variables()
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| {
-            v.causality == Causality::Input
-                || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
-        })
-        .map(|(vr, _)| vr)
-        .collect()
-}
-
 /// A host's values at a communication point: up to three settable variables of `sim`, each
 /// a multiple of its start value or a small number (some of them refused).
 fn host_values(sim: &Simulation, rng: &mut Rng) -> Vec<(usize, f64)> {
-    let vrs = settable(sim);
+    let vrs = common::settable(sim);
     if vrs.is_empty() {
         return Vec::new();
     }
@@ -607,8 +595,6 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
         compared += 1;
         with_values += usize::from(!after.is_empty());
         if let Some(d) = difference {
-            let file = std::env::temp_dir().join(format!("scene_host_values_{k}.toml"));
-            let _ = std::fs::write(&file, text);
             let names = |values: &[(usize, f64)]| {
                 values
                     .iter()
@@ -617,8 +603,8 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
                     .join(", ")
             };
             differing.push(format!(
-                "scene {k} (from {name}, written to {}; before [{}], after [{}]): {d}",
-                file.display(),
+                "{} (before [{}], after [{}]): {d}",
+                kept("scene_host_values", k, name, text),
                 names(&before),
                 names(&after)
             ));
@@ -635,6 +621,7 @@ fn mutated_scenes_given_host_values_continue_bit_for_bit() {
         with_values > 100,
         "only {with_values} of {scenes} scenes were given values"
     );
+    assert!(refused > 10, "only {refused} runs with a value refused");
 }
 
 /// `base` with one to three items of its arrays of tables copied (a body, a shape, a contact,
@@ -709,9 +696,7 @@ fn scenes_with_copied_items_never_panic_and_continue_bit_for_bit() {
             Err(why) => Some(format!("panicked: {why}")),
         };
         if let Some(why) = failure {
-            let file = std::env::temp_dir().join(format!("scene_copied_{k}.toml"));
-            let _ = std::fs::write(&file, text);
-            failures.push(format!("scene {k} (from {name}, written to {}): {why}", file.display()));
+            failures.push(format!("{}: {why}", kept("scene_copied", k, name, text)));
         }
     });
     println!(

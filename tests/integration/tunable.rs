@@ -253,9 +253,9 @@ fn fixed_parameters_stay_refused_and_a_refused_value_changes_nothing() {
 
 /// Runs to `stop` at the scene's interval; returns the warnings.
 fn warnings_of_run(s: &mut Simulation, stop: f64) -> Vec<String> {
-    let interval = s.scene().model.interval;
-    s.run(stop, interval, |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
-    s.take_warnings()
+    let (warnings, ended) = warnings_and_end(s, stop);
+    ended.unwrap_or_else(|e| panic!("{e}"));
+    warnings
 }
 
 #[test]
@@ -279,12 +279,7 @@ fn a_coarse_fixed_step_on_a_stiff_contact_warns_once_of_the_energy_drift() {
         warnings[0]
     );
     // the first impact (t = 0.1428 s) is where it goes wrong
-    let t: f64 = warnings[0]["at t = ".len()..]
-        .split(':')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let t = warning_time(&warnings[0]);
     assert!((0.1428..0.25).contains(&t), "warned at t = {t}");
     // once per run
     let _ = s.run(1.5, interval, |_| Ok(()));
@@ -296,10 +291,10 @@ fn warning_time(warning: &str) -> f64 {
     warning["at t = ".len()..].split(':').next().unwrap().parse().unwrap()
 }
 
-/// Runs to 1 s at the scene's interval from where `s` is: the warnings, and how it ended.
-fn warnings_and_end(s: &mut Simulation) -> (Vec<String>, Result<(), String>) {
+/// Runs to `stop` at the scene's interval from where `s` is: the warnings, and how it ended.
+fn warnings_and_end(s: &mut Simulation, stop: f64) -> (Vec<String>, Result<(), String>) {
     let interval = s.scene().model.interval;
-    let ended = s.run(1.0, interval, |_| Ok(())).map_err(|e| e.to_string());
+    let ended = s.run(stop, interval, |_| Ok(())).map_err(|e| e.to_string());
     (s.take_warnings(), ended)
 }
 
@@ -313,7 +308,7 @@ fn a_restored_run_warns_and_stops_where_the_uninterrupted_one_does() {
     for (step, blows_up) in [(3e-5, false), (1e-4, true)] {
         let settings = [("solver.method", 3.0), ("solver.max_step", step)];
         let mut straight = start(&ball(), &settings);
-        let (warnings, ended) = warnings_and_end(&mut straight);
+        let (warnings, ended) = warnings_and_end(&mut straight, 1.0);
         assert_eq!(warnings.len(), 1, "{warnings:?}");
         assert_eq!(ended.is_err(), blows_up, "{ended:?}");
         let warned_at = warning_time(&warnings[0]);
@@ -329,7 +324,7 @@ fn a_restored_run_warns_and_stops_where_the_uninterrupted_one_does() {
             let mut restored = Simulation::new(ball(), "scene");
             restored.restore(&Snapshot::from_bytes(&bytes, 7).unwrap()).unwrap();
             assert_eq!(restored.energy_drifted(), warned, "step {step}, saved at {save}");
-            let (again, ended_again) = warnings_and_end(&mut restored);
+            let (again, ended_again) = warnings_and_end(&mut restored, 1.0);
             let expected = if warned { Vec::new() } else { warnings.clone() };
             assert_eq!(again, expected, "step {step}, saved at {save}");
             assert_eq!(ended_again, ended, "step {step}, saved at {save}");
@@ -456,7 +451,7 @@ fn a_host_that_sets_the_present_values_again_changes_nothing() {
     // one moves the joint to it, and the joint's coordinate, integrated with the rest of the
     // state, differs from the value set by rounding (about 1e-15 m on the track scene's rails
     // held at 0), so setting the value again is a move and the method restarts.
-    use contact_fmu::variables::{Causality, VarRef, Variability};
+    use contact_fmu::variables::VarRef;
     let mut with_values = 0;
     for (name, path) in common::bundled_scenes() {
         let mut sim = Simulation::from_file(&path).unwrap();
@@ -469,13 +464,9 @@ fn a_host_that_sets_the_present_values_again_changes_nothing() {
             .flat_map(|d| [d.value, d.value + 1])
             .collect();
         let vars = sim.variables();
-        let settable: Vec<usize> = (0..vars.len())
-            .filter(|&vr| {
-                let v = &vars[vr];
-                let drive = matches!(v.target, VarRef::Input(i) if drives.contains(&i));
-                (v.causality == Causality::Input && !drive)
-                    || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
-            })
+        let settable: Vec<usize> = common::settable(&sim)
+            .into_iter()
+            .filter(|&vr| !matches!(vars[vr].target, VarRef::Input(i) if drives.contains(&i)))
             .collect();
         if settable.is_empty() {
             continue;

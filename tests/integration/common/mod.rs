@@ -8,6 +8,7 @@
 use contact_fmu::model::{Data, Model};
 use contact_fmu::scene::Scene;
 use contact_fmu::simulation::Simulation;
+use contact_fmu::variables::{Causality, Variability};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
 
@@ -199,4 +200,17 @@ impl Rng {
             }
         }
     }
+}
+
+/// The variables a host may set after initialisation: the tunable parameters and the inputs.
+pub fn settable(sim: &Simulation) -> Vec<usize> {
+    sim.variables()
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| {
+            v.causality == Causality::Input
+                || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
+        })
+        .map(|(vr, _)| vr)
+        .collect()
 }
