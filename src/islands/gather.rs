@@ -69,23 +69,10 @@ impl Islands {
         d.outputs_valid = false;
     }
 
-    /// The energies of the scene: the islands' summed, the dissipated energy of islands that
-    /// ended added.
-    pub fn energies(&mut self) -> crate::outputs::Energies {
-        let mut e = crate::outputs::Energies {
-            dissipated: self.dissipated_base,
-            input_work: self.input_work_base,
-            ..Default::default()
-        };
-        for island in &mut self.parts {
-            let i = crate::outputs::energies(&island.model, &mut island.data);
-            e.kinetic += i.kinetic;
-            e.potential += i.potential;
-            e.contact += i.contact;
-            e.dissipated += i.dissipated;
-            e.input_work += i.input_work;
-        }
-        e
+    /// The dissipated energy and the input work \[J\] that no present island holds: those
+    /// of islands that ended, and the work of a host moving a driven joint.
+    pub fn work_not_in_islands(&self) -> (f64, f64) {
+        (self.dissipated_base, self.input_work_base)
     }
 
     /// Adds work of the inputs done outside the islands' integration (a host moving a driven

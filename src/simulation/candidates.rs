@@ -5,6 +5,7 @@
 use super::{step_error, Compiled, SimError, Simulation};
 use crate::contact::{elements, groups};
 use crate::engine;
+use crate::islands::Islands;
 use crate::model::Counters;
 use crate::outputs::{self, Energies};
 
@@ -147,4 +148,24 @@ pub struct IslandReport {
     pub energies: Energies,
     /// Its time \[s\].
     pub time: f64,
+}
+
+/// The energies of a scene that runs as islands: the islands' summed, the work that no
+/// present island holds added ([`Islands::work_not_in_islands`]).
+pub(super) fn islands_energies(is: &mut Islands) -> Energies {
+    let (dissipated, input_work) = is.work_not_in_islands();
+    let mut e = Energies {
+        dissipated,
+        input_work,
+        ..Default::default()
+    };
+    for island in &mut is.parts {
+        let i = outputs::energies(&island.model, &mut island.data);
+        e.kinetic += i.kinetic;
+        e.potential += i.potential;
+        e.contact += i.contact;
+        e.dissipated += i.dissipated;
+        e.input_work += i.input_work;
+    }
+    e
 }

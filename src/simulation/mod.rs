@@ -631,7 +631,7 @@ impl Simulation {
     pub fn energies(&mut self) -> Result<Energies, SimError> {
         let c = self.ensure_compiled()?;
         if let Some(is) = c.islands.as_mut() {
-            return Ok(is.energies());
+            return Ok(candidates::islands_energies(is));
         }
         Ok(outputs::energies(&c.model, &mut c.data))
     }
