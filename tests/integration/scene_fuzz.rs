@@ -257,9 +257,15 @@ fn initialised(text: &str) -> Option<Simulation> {
 
 /// [`initialised`] for a parsed scene.
 fn initialised_scene(scene: Scene) -> Option<Simulation> {
+    initialised_with_budget(scene, CONTINUED_MAX_STEPS)
+}
+
+/// [`initialised_scene`] with a step budget of `max_steps` a call (the budget only stops a
+/// run: a run within it takes the same steps under any budget).
+fn initialised_with_budget(scene: Scene, max_steps: f64) -> Option<Simulation> {
     let mut sim = Simulation::new(scene, "mutated.toml");
     if let Some(vr) = sim.table().index_of("solver.max_steps") {
-        sim.set(vr, CONTINUED_MAX_STEPS).ok()?;
+        sim.set(vr, max_steps).ok()?;
     }
     sim.initialize(0.0).ok()?;
     Some(sim)
@@ -302,8 +308,9 @@ fn first_differing(sim: &Simulation, end: &[u64], runs: Vec<(String, Result<Vec<
 ///    events.
 ///
 /// `None` when the scene is refused or the first run fails; otherwise what differs at the end
-/// (nothing: `Some(None)`). A run with a call that ran out of its budget, which is per call,
-/// is not compared.
+/// (nothing: `Some(None)`). The runs in one call have the budget of the first run's three
+/// calls together; a run with a call that still ran out of its budget, which is per call, is
+/// not compared (counted in `ONE_CALL_OVER_BUDGET`).
 fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<String>> {
     let (t_end, t_mid) = (span, 0.5 * (save + span));
     let mut run = initialised(text)?;
@@ -328,7 +335,9 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
     let mut runs = Vec::new();
     let mut restored = initialised(text)?;
     runs.push((format!("restored at {save}"), resume(&mut restored)));
-    let straight = initialised(text)?;
+    // (the first run's three calls' budgets in one)
+    let one_call_budget = 3.0 * CONTINUED_MAX_STEPS;
+    let straight = initialised_with_budget(Scene::from_str(text, "mutated.toml").ok()?, one_call_budget)?;
     // (without continuation the method restarts at every point: its steps depend on them)
     let continues = straight.scene().solver.continuation;
     if continues {
@@ -337,7 +346,7 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
         if straight.scene().solver.threads != 1 {
             let mut one_thread = straight.scene().clone();
             one_thread.solver.threads = 1;
-            let Some(single) = initialised_scene(one_thread) else {
+            let Some(single) = initialised_with_budget(one_thread, one_call_budget) else {
                 return Some(Some("on one thread: refused".into()));
             };
             calls.push(("on one thread", single));
@@ -345,7 +354,7 @@ fn continuation_differs(text: &str, save: f64, span: f64) -> Option<Option<Strin
         calls.push(("in one call", straight));
         for (label, mut sim) in calls {
             match sim.step_to(t_end) {
-                Err(SimError::StepLimit { .. }) => {}
+                Err(SimError::StepLimit { .. }) => ONE_CALL_OVER_BUDGET.with(|n| n.set(n.get() + 1)),
                 other => runs.push((
                     label.into(),
                     other.map_err(|e| e.to_string()).and_then(|()| output_bits(&mut sim)),
@@ -367,6 +376,9 @@ thread_local! {
     /// Early returns taken by the continuation check's runs on this thread (its tally: each
     /// test runs on a thread of its own).
     static EARLY_RETURNS_TAKEN: Cell<usize> = const { Cell::new(0) };
+    /// Runs in one call of the continuation check on this thread that ran out of their budget
+    /// (not compared).
+    static ONE_CALL_OVER_BUDGET: Cell<usize> = const { Cell::new(0) };
     /// Runs of the host-values check on this thread in which a value set after the save was
     /// refused (its tally).
     static WITH_REFUSED_VALUES: Cell<usize> = const { Cell::new(0) };
@@ -479,8 +491,10 @@ fn mutated_scenes_that_run_continue_bit_for_bit() {
         }
     });
     let early = EARLY_RETURNS_TAKEN.with(Cell::get);
+    let over = ONE_CALL_OVER_BUDGET.with(Cell::get);
     println!(
-        "{scenes} mutated scenes: {compared} ran and were compared ({early} early returns at events), {} differ",
+        "{scenes} mutated scenes: {compared} ran and were compared ({early} early returns at events, \
+         {over} runs in one call over their budget), {} differ",
         differing.len()
     );
     assert!(differing.is_empty(), "{}", differing.join("\n"));
