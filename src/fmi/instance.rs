@@ -321,10 +321,10 @@ impl Instance {
     /// `fmi2SetDebugLogging`
     pub fn set_debug_logging(&mut self, logging_on: bool, categories: &[String]) -> FmiResult {
         if categories.is_empty() {
+            // (with no categories named, the switch applies to every category: off, nothing
+            // is logged, not even errors)
             self.logging_on = logging_on;
-            if logging_on {
-                self.enabled = [true; LOG_CATEGORIES.len()];
-            }
+            self.enabled = [logging_on; LOG_CATEGORIES.len()];
             return Ok(());
         }
         for c in categories {
@@ -374,12 +374,33 @@ impl Instance {
             }
             let vr = self.sim.table().index_of("solver.rtol").unwrap_or(usize::MAX);
             let scene_rtol = self.sim.get(vr)?;
+            let setup = match self.version {
+                Version::Fmi2 => "fmi2SetupExperiment",
+                Version::Fmi3 => "fmi3EnterInitializationMode",
+            };
+            // (a co-simulation FMU may ignore the host's tolerance: one outside solver.rtol's
+            // range is taken as the nearest bound rather than failing the initialisation)
+            let (lo, hi) = self
+                .sim
+                .variables()
+                .get(vr)
+                .and_then(|v| v.range)
+                .map_or((tol, tol), |r| (r.min, r.max));
+            let tol = if (lo..=hi).contains(&tol) {
+                tol
+            } else {
+                let taken = tol.clamp(lo, hi);
+                self.log(
+                    fmi2Status::fmi2Warning,
+                    &format!(
+                        "{setup}: the host's tolerance {tol:e} is outside solver.rtol's range [{lo:e}, {hi:e}]; \
+                         solver.rtol = {taken:e} is taken"
+                    ),
+                );
+                taken
+            };
             self.sim.set_by_name("solver.rtol", tol)?;
             if tol != scene_rtol {
-                let setup = match self.version {
-                    Version::Fmi2 => "fmi2SetupExperiment",
-                    Version::Fmi3 => "fmi3EnterInitializationMode",
-                };
                 self.log_event(&format!(
                     "{setup}: the host's tolerance {tol:e} replaces solver.rtol = {scene_rtol:e} of \
                          the scene (set solver.rtol after {setup} to keep another value)"
@@ -643,15 +664,24 @@ impl Instance {
                 t_end = Num(t_end),
                 time = Num(time)
             ))),
-            Err(SimError::StepLimit { time, message }) => Err(Failure {
-                status: fmi2Status::fmi2Discard,
-                message: format!(
+            Err(SimError::StepLimit { time, message }) => {
+                let message = format!(
                     "the step from t = {current} to {t_end} stopped at t = {time} ({last_time}): {message}",
                     current = Num(current),
                     t_end = Num(t_end),
                     time = Num(time)
-                ),
-            }),
+                );
+                // FMI 2.0: fmi2Discard, the subinterval computed (the instance goes to step
+                // failed). FMI 3.0 allows fmi3Discard only for an FMU in the state it was in
+                // before the call: with early return the step returns early there with a warning
+                // (and the host goes on from lastSuccessfulTime), otherwise it fails.
+                let status = match (self.version, self.early_return) {
+                    (Version::Fmi2, _) => fmi2Status::fmi2Discard,
+                    (Version::Fmi3, true) => fmi2Status::fmi2Warning,
+                    (Version::Fmi3, false) => fmi2Status::fmi2Error,
+                };
+                Err(Failure { status, message })
+            }
             Err(e) => Err(e.into()),
         }
     }

@@ -4,9 +4,11 @@
 //!
 //! FMI 3.0 Co-Simulation without event mode, intermediate update and configuration mode (what
 //! this FMU declares) has the same states under other names: 3.0's Step Mode is *step
-//! complete*, the state after a discarded step *step failed*; `fmi3EnterInitializationMode`
-//! (which takes the experiment's times) is allowed where `fmi2SetupExperiment` is. So both
-//! versions share these masks; [`LifeState::name_in`] names a state as each version does.
+//! complete* (an FMI 3.0 instance never discards a step, so it is never in *step failed*);
+//! `fmi3EnterInitializationMode` (which takes the experiment's times) is allowed where
+//! `fmi2SetupExperiment` is. So both versions share these masks (FMI 3.0's getters also read
+//! in the instantiated state: [`FMI3_GET_VALUES`]); [`LifeState::name_in`] names a state as
+//! each version does.
 
 use crate::variables::VarType;
 
@@ -71,7 +73,7 @@ named_enum! {
         InitializationMode = 1 << 1 => "initialization mode",
         /// Ready for `fmi2DoStep`.
         StepComplete = 1 << 2 => "step complete",
-        /// A step returned `fmi2Discard` (not produced by this library, restorable from a state).
+        /// A step returned `fmi2Discard` (FMI 2.0: a step stopped by `solver.max_steps`).
         StepFailed = 1 << 3 => "step failed",
         /// A step was canceled (not produced by this library).
         StepCanceled = 1 << 4 => "step canceled",
@@ -135,6 +137,9 @@ pub const TERMINATE: u32 = COMPLETE | FAILED;
 pub const RESET: u32 = ANY_BUT_FATAL;
 /// `fmi2GetReal` and the other getters.
 pub const GET_VALUES: u32 = INIT | COMPLETE | FAILED | CANCELED | TERMINATED | ERROR;
+/// `fmi3GetFloat64` and the other getters of FMI 3.0, which also reads the start values in
+/// the instantiated state (FMI 3.0 section 2.3.2; FMI 2.0 does not list the getters there).
+pub const FMI3_GET_VALUES: u32 = INSTANTIATED | GET_VALUES;
 /// `fmi2SetReal` and the other setters (which variables may be set is checked per state).
 pub const SET_VALUES: u32 = INSTANTIATED | INIT | COMPLETE;
 /// `fmi2GetFMUstate`, `fmi2SetFMUstate`, `fmi2FreeFMUstate` and (de)serialization.

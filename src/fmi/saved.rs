@@ -92,15 +92,48 @@ impl SavedState {
         if !start_time.is_finite() || !stop.is_finite() || (has_stop != 0.0 && has_stop != 1.0) {
             return Err("FMU state: start or stop time is not a finite number".into());
         }
+        let stop_time = (has_stop == 1.0).then_some(stop);
+        check_lifecycle(lifecycle, start_time, stop_time, &snapshot)?;
         Ok(SavedState::new(
-            model_hash,
-            version,
-            lifecycle,
-            start_time,
-            (has_stop == 1.0).then_some(stop),
-            snapshot,
+            model_hash, version, lifecycle, start_time, stop_time, snapshot,
         ))
     }
+}
+
+/// Refuses lifecycle fields no instance saves: the fatal state (no state is saved there), a
+/// model initialised before initialisation mode ended or not initialised after it, a time
+/// before the start time or past the stop time (by more than a step ending there may pass it).
+fn check_lifecycle(
+    lifecycle: LifeState,
+    start_time: f64,
+    stop_time: Option<f64>,
+    snapshot: &Snapshot,
+) -> Result<(), String> {
+    let initialised = match lifecycle {
+        LifeState::Fatal => return Err("FMU state in the fatal state: no state is saved there".into()),
+        LifeState::Instantiated | LifeState::InitializationMode => Some(false),
+        LifeState::Error => None,
+        _ => Some(true),
+    };
+    if initialised.is_some_and(|i| i != snapshot.initialized) {
+        return Err(format!(
+            "FMU state in the {} state holds a model that is {}initialised",
+            lifecycle.name(),
+            if snapshot.initialized { "" } else { "not " }
+        ));
+    }
+    // (an initialised model's state begins with its time)
+    let Some(&time) = snapshot.state.first().filter(|_| snapshot.initialized) else {
+        return Ok(());
+    };
+    let past_stop = stop_time.is_some_and(|stop| time > stop + 1e-9 * stop.abs().max(time - start_time));
+    if time < start_time || past_stop {
+        return Err(format!(
+            "FMU state at t = {time} outside its experiment's times (start {start_time}, stop {})",
+            stop_time.map_or("none".to_string(), |s| s.to_string())
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -193,5 +226,56 @@ mod tests {
         assert!(SavedState::from_bytes(&snap.to_bytes(h), h)
             .unwrap_err()
             .contains("lifecycle"));
+    }
+
+    /// Lifecycle fields no instance writes, in bytes that pass every check of the format (a
+    /// host that crafts them, or a damage the checksum misses), are refused: before, the
+    /// fatal state was restored (every later call refused), and a model initialised in the
+    /// instantiated state or a time past the stop time left an instance no step could move.
+    #[test]
+    fn lifecycle_fields_no_instance_saves_are_refused() {
+        let h = sample().model_hash;
+        let refused = |s: SavedState| SavedState::from_bytes(&s.to_bytes(), h).unwrap_err();
+        let mut s = sample();
+        s.lifecycle = LifeState::Fatal;
+        assert!(refused(s).contains("fatal"));
+        for lifecycle in [LifeState::Instantiated, LifeState::InitializationMode] {
+            let mut s = sample();
+            s.lifecycle = lifecycle;
+            assert!(refused(s).contains("is initialised"), "{lifecycle:?}");
+        }
+        for lifecycle in [LifeState::StepComplete, LifeState::Terminated] {
+            let mut s = sample();
+            s.lifecycle = lifecycle;
+            s.snapshot.initialized = false;
+            s.snapshot.state.clear();
+            assert!(refused(s).contains("not initialised"), "{lifecycle:?}");
+        }
+        // (the state's time is 0.1)
+        let mut s = sample();
+        s.stop_time = Some(0.05);
+        assert!(refused(s).contains("outside its experiment's times"));
+        let mut s = sample();
+        s.start_time = 0.2;
+        assert!(refused(s).contains("outside its experiment's times"));
+        // what instances do save is read back: the error state with a model initialised or
+        // not, a step that ended a rounding error past the stop time
+        for initialized in [true, false] {
+            let mut s = sample();
+            s.lifecycle = LifeState::Error;
+            s.snapshot.initialized = initialized;
+            if !initialized {
+                s.snapshot.state.clear();
+            }
+            assert!(SavedState::from_bytes(&s.to_bytes(), h).is_ok());
+        }
+        let mut s = sample();
+        s.stop_time = Some(0.1 - 1e-12);
+        assert!(SavedState::from_bytes(&s.to_bytes(), h).is_ok());
+        let mut s = sample();
+        s.lifecycle = LifeState::Instantiated;
+        s.snapshot.initialized = false;
+        s.snapshot.state.clear();
+        assert!(SavedState::from_bytes(&s.to_bytes(), h).is_ok());
     }
 }

@@ -234,7 +234,7 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
     fn fmi3GetFloat64(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Float64, n_values: usize)
-        [GET_VALUES] |inst| unsafe {
+        [FMI3_GET_VALUES] |inst| unsafe {
             glue::get_values(inst, Access::Real, vr, nvr, values.cast(), n_values, |x: f64| x)
         };
 
@@ -252,7 +252,7 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
     fn fmi3GetInt32(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Int32, n_values: usize)
-        [GET_VALUES] |inst| unsafe {
+        [FMI3_GET_VALUES] |inst| unsafe {
             glue::get_values(inst, Access::Integer, vr, nvr, values.cast(), n_values, |x: f64| x.round() as i32)
         };
 
@@ -270,7 +270,7 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
     fn fmi3GetInt64(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Int64, n_values: usize)
-        [GET_VALUES] |inst| unsafe {
+        [FMI3_GET_VALUES] |inst| unsafe {
             glue::get_values(inst, Access::Int64, vr, nvr, values.cast(), n_values, |x: f64| x.round() as i64)
         };
 
@@ -288,7 +288,7 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements and `values` `n_values` writable ones.
     fn fmi3GetBoolean(vr: *const fmi3ValueReference, nvr: usize, values: *mut fmi3Boolean, n_values: usize)
-        [GET_VALUES] |inst| unsafe {
+        [FMI3_GET_VALUES] |inst| unsafe {
             glue::get_values(inst, Access::Boolean, vr, nvr, values.cast(), n_values, |x: f64| byte(x != 0.0))
         };
 
@@ -327,7 +327,7 @@ forward! {
     /// # Safety
     /// `vr` holds `nvr` elements.
     fn fmi3GetString(vr: *const fmi3ValueReference, nvr: usize, _values: *mut fmi3String, _n_values: usize)
-        [GET_VALUES] |_| unsafe { glue::none_of("String", vr, nvr) };
+        [FMI3_GET_VALUES] |_| unsafe { glue::none_of("String", vr, nvr) };
 
     /// `fmi3SetString` (this model has no String variables: only an empty list succeeds)
     ///
@@ -388,9 +388,11 @@ forward! {
 /// `current_communication_point + communication_step_size`, or, when the instance was made
 /// with `earlyReturnAllowed`, to the first contact event (touch, separation, impact, rest,
 /// release) before that: then `*early_return` is true and `*last_successful_time` the event's
-/// time, from which the host's next step goes on. `*last_successful_time` is the time reached
-/// after every call (also a discarded or failed one); `*event_handling_needed` and
-/// `*terminate_simulation` are always false.
+/// time, from which the host's next step goes on. A step that reaches `solver.max_steps`
+/// integrator steps returns early too, with `fmi3Warning` (it fails without early return:
+/// FMI 3.0 allows `fmi3Discard` only for an FMU left as it was before the call).
+/// `*last_successful_time` is the time reached after every call (also a failed one);
+/// `*event_handling_needed` and `*terminate_simulation` are always false.
 ///
 /// # Safety
 /// The four output pointers are NULL (refused) or writable.
@@ -414,7 +416,11 @@ pub unsafe extern "C" fn fmi3DoStep(
             ));
         }
         let result = inst.do_step(current_communication_point, communication_step_size);
-        let stopped_early = matches!(result, Ok(true));
+        // (at a contact event, or, with a warning, at the step budget: see `Instance::do_step`)
+        let stopped_early = match &result {
+            Ok(at_event) => *at_event,
+            Err(f) => f.status == crate::fmi::types::fmi2Status::fmi2Warning,
+        };
         // SAFETY: the pointers are not NULL and writable (this function's contract); the
         // booleans are written as the bytes 0 and 1.
         unsafe {

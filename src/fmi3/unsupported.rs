@@ -35,21 +35,21 @@ macro_rules! no_variables {
 }
 
 no_variables! {
-    fmi3GetFloat32(_values: *mut fmi3Float32, _n_values: usize) => "Float32", GET_VALUES;
+    fmi3GetFloat32(_values: *mut fmi3Float32, _n_values: usize) => "Float32", FMI3_GET_VALUES;
     fmi3SetFloat32(_values: *const fmi3Float32, _n_values: usize) => "Float32", SET_VALUES;
-    fmi3GetInt8(_values: *mut fmi3Int8, _n_values: usize) => "Int8", GET_VALUES;
+    fmi3GetInt8(_values: *mut fmi3Int8, _n_values: usize) => "Int8", FMI3_GET_VALUES;
     fmi3SetInt8(_values: *const fmi3Int8, _n_values: usize) => "Int8", SET_VALUES;
-    fmi3GetUInt8(_values: *mut fmi3UInt8, _n_values: usize) => "UInt8", GET_VALUES;
+    fmi3GetUInt8(_values: *mut fmi3UInt8, _n_values: usize) => "UInt8", FMI3_GET_VALUES;
     fmi3SetUInt8(_values: *const fmi3UInt8, _n_values: usize) => "UInt8", SET_VALUES;
-    fmi3GetInt16(_values: *mut fmi3Int16, _n_values: usize) => "Int16", GET_VALUES;
+    fmi3GetInt16(_values: *mut fmi3Int16, _n_values: usize) => "Int16", FMI3_GET_VALUES;
     fmi3SetInt16(_values: *const fmi3Int16, _n_values: usize) => "Int16", SET_VALUES;
-    fmi3GetUInt16(_values: *mut fmi3UInt16, _n_values: usize) => "UInt16", GET_VALUES;
+    fmi3GetUInt16(_values: *mut fmi3UInt16, _n_values: usize) => "UInt16", FMI3_GET_VALUES;
     fmi3SetUInt16(_values: *const fmi3UInt16, _n_values: usize) => "UInt16", SET_VALUES;
-    fmi3GetUInt32(_values: *mut fmi3UInt32, _n_values: usize) => "UInt32", GET_VALUES;
+    fmi3GetUInt32(_values: *mut fmi3UInt32, _n_values: usize) => "UInt32", FMI3_GET_VALUES;
     fmi3SetUInt32(_values: *const fmi3UInt32, _n_values: usize) => "UInt32", SET_VALUES;
-    fmi3GetUInt64(_values: *mut fmi3UInt64, _n_values: usize) => "UInt64", GET_VALUES;
+    fmi3GetUInt64(_values: *mut fmi3UInt64, _n_values: usize) => "UInt64", FMI3_GET_VALUES;
     fmi3SetUInt64(_values: *const fmi3UInt64, _n_values: usize) => "UInt64", SET_VALUES;
-    fmi3GetBinary(_value_sizes: *mut usize, _values: *mut fmi3Binary, _n_values: usize) => "Binary", GET_VALUES;
+    fmi3GetBinary(_value_sizes: *mut usize, _values: *mut fmi3Binary, _n_values: usize) => "Binary", FMI3_GET_VALUES;
     fmi3SetBinary(_value_sizes: *const usize, _values: *const fmi3Binary, _n_values: usize) => "Binary", SET_VALUES;
     fmi3GetClock(_values: *mut fmi3Clock) => "Clock", GET_VALUES;
     fmi3SetClock(_values: *const fmi3Clock) => "Clock", SET_VALUES;

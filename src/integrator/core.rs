@@ -186,7 +186,13 @@ impl StepCore {
     /// it with [`StepCore::restore`].
     pub fn read_state<'a>(&self, r: &mut StateReader<'a>) -> Result<SavedCore<'a>, String> {
         let n = self.y.len();
-        let [t, t_prev, h] = [r.value()?, r.value()?, r.value()?];
+        let [t, t_prev] = [r.finite_value("the time")?, r.finite_value("the time")?];
+        if t_prev > t {
+            return Err(format!(
+                "the method's last step ends at t = {t} before it begins, at {t_prev}"
+            ));
+        }
+        let h = r.step_size()?;
         let stats = Stats {
             steps: r.count()?,
             rejected: r.count()?,
@@ -198,9 +204,9 @@ impl StepCore {
             t_prev,
             h,
             stats,
-            y: r.take(n)?,
-            y_prev: r.take(n)?,
-            f: r.take(n)?,
+            y: r.finite(n, "the state")?,
+            y_prev: r.finite(n, "the state")?,
+            f: r.finite(n, "the state's derivative")?,
         })
     }
 
@@ -365,6 +371,26 @@ impl<'a> StateReader<'a> {
         let s = &self.v[self.pos..end];
         self.pos = end;
         Ok(s)
+    }
+
+    /// The next `k` numbers, each finite (what a method computed from a finite state).
+    pub fn finite(&mut self, k: usize, what: &str) -> Result<&'a [f64], String> {
+        let start = self.pos;
+        let s = self.take(k)?;
+        match s.iter().position(|x| !x.is_finite()) {
+            Some(i) => Err(format!(
+                "{} holds {} at {} where a finite number ({what}) belongs",
+                self.subject,
+                s[i],
+                start + i
+            )),
+            None => Ok(s),
+        }
+    }
+
+    /// The next number, finite.
+    pub fn finite_value(&mut self, what: &str) -> Result<f64, String> {
+        Ok(self.finite(1, what)?[0])
     }
 
     /// The next number.

@@ -305,8 +305,13 @@ impl Integrator for Dopri5 {
         let n = self.core.y.len();
         let mut r = StateReader::new(v, Method::Dopri5)?;
         let core = self.core.read_state(&mut r)?;
-        let err_old = r.value()?;
-        let cont = r.take(4 * n)?;
+        let err_old = r.finite_value("the last error norm")?;
+        if err_old <= 0.0 {
+            return Err(format!(
+                "the dopri5 integrator state holds the error norm {err_old}, not above 0"
+            ));
+        }
+        let cont = r.finite(4 * n, "the dense output")?;
         r.finish()?;
         self.core.restore(&core);
         self.err_old = err_old;

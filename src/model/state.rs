@@ -178,6 +178,30 @@ fn count(x: f64, what: &str) -> Result<u64, String> {
     }
 }
 
+/// Whether a method that continues its last step (`started`), from `t_prev` to `t`, with its
+/// first event in that step at `pending` (infinite: none), fits the state's `time`: the step
+/// began at or before it, ends after it or a few rounding errors short of it (an advance that
+/// ended that close to its end takes the end), and an event it has not yet stopped at comes
+/// at or after it. The engine interpolates the state there and steps on from the step's end.
+fn continued_step_fits(started: bool, t_prev: f64, t: f64, pending: f64, time: f64) -> Result<(), String> {
+    if !started {
+        return Ok(());
+    }
+    let close = 16.0 * f64::EPSILON * time.abs().max(1e-300);
+    if !(t_prev <= time && time <= t + close) {
+        return Err(format!(
+            "state: the integrator continues a step from t = {t_prev} to {t}, which does not hold the state's \
+             time {time}"
+        ));
+    }
+    if t > time && pending < time {
+        return Err(format!(
+            "state: the integrator's next event, at t = {pending}, comes before the state's time {time}"
+        ));
+    }
+    Ok(())
+}
+
 /// Writes the parts of `mask` from `v` (as [`get`] wrote them for this model). Checks the
 /// length of every part, that numbers are finite (but the energy watch's reference and scale,
 /// which are what the energies were) and counts are counts, before it writes anything; on an
@@ -240,6 +264,17 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             ));
         }
         match part {
+            StatePart::Coordinates => {
+                // (a joint quaternion is kept at unit length: one far from it is no orientation)
+                for &q in &m.quaternions {
+                    let norm = slice[q..q + 4].iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !(0.5..2.0).contains(&norm) {
+                        return Err(format!(
+                            "state: a joint quaternion of length {norm} (at coordinate {q}) is no orientation"
+                        ));
+                    }
+                }
+            }
             StatePart::ContactMemory => {
                 let groups = group_section_len(m, d);
                 if groups > 0 && candidates_in(m, &slice[..groups]) != Some(d.candidates.clone()) {
@@ -271,7 +306,17 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
                         return Err(format!("state: energy watch {what} flag {x} is not 0 or 1"));
                     }
                 }
-                count(slice[3], "energy watch check")?;
+                let checked_at = count(slice[3], "energy watch check")?;
+                // (it checked at a number of evaluations the run had made)
+                if mask & StatePart::Counters as u32 != 0 {
+                    let rhs_evals = v[spans[part_index(StatePart::Counters)].0 + 2];
+                    if checked_at as f64 > rhs_evals {
+                        return Err(format!(
+                            "state: the energy watch last checked at {checked_at} evaluations, the counters \
+                             hold {rhs_evals}"
+                        ));
+                    }
+                }
             }
             _ => {}
         }
@@ -295,16 +340,31 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             .as_mut()
             .ok_or("state: the integrator was lost after an internal error")?;
         let own = &s[SOLVER_HEAD..];
+        let (started, pending) = (s[0] == 1.0, s[2]);
         if own.is_empty() {
             // no method state: the method restarts cold at the state's time
-            if s[0] != 0.0 {
+            if started {
                 return Err("state: the integrator continues a step but its state is missing".into());
             }
             stepper.method.set_warm_state(&[])?;
         } else {
+            // (the method's present state, put back if the restored one does not fit the time)
+            let mut present = Vec::new();
+            stepper.method.save_state(&mut present);
             stepper.method.load_state(own)?;
+            let time = if mask & StatePart::Time as u32 != 0 {
+                v[spans[part_index(StatePart::Time)].0]
+            } else {
+                d.time
+            };
+            let method = &stepper.method;
+            if let Err(e) = continued_step_fits(started, method.t_prev(), method.t(), pending, time) {
+                // (it loaded from these numbers just now)
+                let _ = stepper.method.load_state(&present);
+                return Err(e);
+            }
         }
-        solver_head = Some((s[0] == 1.0, s[1], s[2]));
+        solver_head = Some((started, s[1], pending));
     }
     // Pass 2: write (nothing below fails).
     for (k, part) in StatePart::ALL.iter().enumerate() {

@@ -470,8 +470,9 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         start: Some(s.max_steps as f64),
         unit: None,
         display_unit: None,
-        description: "most integrator steps one communication step may take; beyond them fmi2DoStep returns \
-                      fmi2Discard at the last time reached (fmi2LastSuccessfulTime)"
+        description: "most integrator steps one communication step may take; beyond them the step stops at the \
+                      last time reached (FMI 2.0: fmi2Discard, fmi2LastSuccessfulTime; FMI 3.0: an early return \
+                      with fmi3Warning where early return is allowed, else fmi3Error)"
             .into(),
         range: Some(Range {
             min: 1.0,

@@ -169,3 +169,118 @@ fn state_without_integrator_memory_restores_cold_and_bad_memory_is_refused() {
     bad.state.pop();
     assert!(open(path, None).restore(&bad).is_err());
 }
+
+/// Where the numbers of a one-integrator scene's saved state are: the integrator part's
+/// start (started, next step, pending event, length, then the method's own state) and the
+/// counters' start.
+fn solver_part(sim: &mut Simulation) -> (usize, usize) {
+    let ncontacts = sim.contacts().unwrap().len();
+    let m = sim.model().unwrap();
+    let counters = 1 + m.nstate() + m.input_values() + 3 * ncontacts;
+    (counters + 5, counters)
+}
+
+/// Saved states that no run can have written, though each number passes the checks of its
+/// own part, are refused, and the simulation they were given to goes on as if they had not
+/// been. Before, each was accepted: the method's time infinite froze the ball for 70 ms, a
+/// NaN in its dense output gave rows of NaN outputs, a scene time before the method's step
+/// had the ball 3 cm inside the floor without a contact, an event time in the past cost a 36 %
+/// energy drift, an energy watch that had checked at more evaluations than the run had made
+/// never checked again, and a joint quaternion far from unit length gave NaN orientations.
+#[test]
+fn states_no_run_saves_are_refused_and_change_nothing() {
+    let path = &common::bundled("bouncing_ball");
+    let start = |sim: &mut Simulation| {
+        sim.initialize(0.0).unwrap();
+        sim.step_to(0.3).unwrap();
+    };
+    let mut a = open(path, Some(Method::Dopri5));
+    start(&mut a);
+    let (solver, counters) = solver_part(&mut a);
+    let n = a.model().unwrap().nstate();
+    let snap = a.snapshot(Vec::new());
+    // dopri5's own state: tag, t, t_prev, h, four counters, y, y_prev, f (n each), the last
+    // error norm, the dense output (4n)
+    let own = solver + 4;
+    let (t, t_prev) = (own + 1, own + 2);
+    assert_eq!(
+        snap.state[solver + 3],
+        (8 + 3 * n + 1 + 4 * n) as f64,
+        "the method's state's length"
+    );
+    assert_eq!(snap.state[solver], 1.0, "the method continues its step");
+    let time = snap.state[0];
+    assert!(
+        snap.state[t_prev] <= time && time < snap.state[t],
+        "the point lies inside the method's step"
+    );
+    let watch = own + 8 + 3 * n + 1 + 4 * n;
+    assert_eq!(snap.state[watch], 1.0, "the energy watch started");
+    let rhs_evals = snap.state[counters + 2];
+    // (the coordinates follow the time)
+    let quaternion = 1 + a.model().unwrap().quaternions[0];
+    let damaged: Vec<(&str, usize, f64)> = vec![
+        ("a finite number (the time)", t, f64::INFINITY),
+        ("a finite number (the time)", t, f64::NAN),
+        ("a finite number (the dense output)", watch - 1, f64::NAN),
+        ("a finite number (the state)", own + 8, f64::NEG_INFINITY),
+        ("before it begins", t_prev, snap.state[t] + 0.01),
+        ("does not hold the state's time", 0, snap.state[t_prev] - 0.1),
+        ("does not hold the state's time", 0, snap.state[t] + 0.01),
+        ("comes before the state's time", solver + 2, time - 1.0),
+        ("the energy watch last checked", watch + 3, rhs_evals + 1.0),
+        ("is no orientation", quaternion, 10.0),
+    ];
+    let mut reference = open(path, None);
+    start(&mut reference);
+    let mut k = 0.3;
+    for (what, at, x) in damaged {
+        let mut bad = snap.clone();
+        bad.state[at] = x;
+        let e = a.restore(&bad).unwrap_err().to_string();
+        assert!(e.contains(what), "{what} ({at} = {x}): {e}");
+        // (refused into a fresh simulation as well)
+        assert!(open(path, None).restore(&bad).is_err());
+        k += 0.05;
+        a.step_to(k).unwrap();
+        reference.step_to(k).unwrap();
+        assert_eq!(outputs(&mut a), outputs(&mut reference), "after the refused {what}");
+    }
+    // what the run did save is restored
+    let mut b = open(path, None);
+    b.restore(&snap).unwrap();
+}
+
+/// An input's value in a saved state's values is the host's: one that is not finite, or
+/// differs from the input in the model's state, is refused (before, `fmi2GetReal` read back
+/// a NaN the engine did not apply), and the simulation goes on as it was.
+#[test]
+fn a_state_whose_input_values_disagree_is_refused() {
+    let path = &common::bundled("rail_vehicle");
+    let mut a = open(path, None);
+    a.initialize(0.0).unwrap();
+    a.step_to(0.05).unwrap();
+    let vr = a
+        .table()
+        .index_of("traction")
+        .expect("the rail vehicle's traction input");
+    a.set(vr, 1500.0).unwrap();
+    a.step_to(0.1).unwrap();
+    let snap = a.snapshot(Vec::new());
+    assert_eq!(snap.values[vr], 1500.0);
+    let mut reference = open(path, None);
+    reference.initialize(0.0).unwrap();
+    reference.step_to(0.05).unwrap();
+    reference.set(vr, 1500.0).unwrap();
+    reference.step_to(0.1).unwrap();
+    for (x, what) in [(f64::NAN, "not a finite number"), (1600.0, "among its values")] {
+        let mut bad = snap.clone();
+        bad.values[vr] = x;
+        let e = a.restore(&bad).unwrap_err().to_string();
+        assert!(e.contains(what), "{x}: {e}");
+        assert_eq!(a.get(vr).unwrap(), 1500.0);
+    }
+    a.step_to(0.15).unwrap();
+    reference.step_to(0.15).unwrap();
+    assert_eq!(outputs(&mut a), outputs(&mut reference));
+}

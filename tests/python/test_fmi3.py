@@ -52,6 +52,8 @@ class Host3:
             v = next(v for v in self.md.modelVariables if v.name == name)
             if v.type == "Enumeration":
                 self.slave.setInt64([v.valueReference], [int(value)])
+            elif v.type == "Int32":
+                self.slave.setInt32([v.valueReference], [int(value)])
             else:
                 self.slave.setFloat64([v.valueReference], [value])
         self.slave.exitInitializationMode()
@@ -285,3 +287,114 @@ def test_the_log_callback_is_fmi3s(fmus3, tmp_path):
         host.slave.setDebugLogging(True, ["100%s"])
     assert host.messages[-1][0] == 3 and '"100%s"' in host.messages[-1][2]
     host.free()
+
+
+def test_the_step_budget_returns_early_with_a_warning_or_fails(fmus3, tmp_path):
+    """FMI 3.0 allows fmi3Discard only for an FMU left as it was before the call. A step that
+    reaches solver.max_steps integrator steps returns early, with fmi3Warning, when early
+    return is allowed: the host goes on from lastSuccessfulTime and reaches the run of an
+    unbudgeted host, bit for bit. Without early return the step fails (fmi3Error). Before, it
+    returned fmi3Discard after moving on, and every later step was refused."""
+    fmu, stop, h = fmus3["bouncing_ball"], 0.5, 0.05
+    free = Host3(fmu, tmp_path, name="free", early_return=True)
+    free.init()
+    free_grid, _ = run_on_grid(free, stop, h)
+    free.free()
+    budget = Host3(fmu, tmp_path, name="budget", early_return=True)
+    budget.init(**{"solver.max_steps": 3})
+    grid, t, n, warned = [], 0.0, 0, 0
+    while n < round(stop / h):
+        target = (n + 1) * h
+        before = len(budget.messages)
+        _, terminate, early, last = budget.slave.doStep(t, target - t)
+        assert not terminate
+        if early:
+            assert t < last < target
+            new = budget.messages[before:]
+            warned += any(s == 1 and "solver.max_steps = 3" in m for s, _, m in new)
+            t = last
+        else:
+            t, n = target, n + 1
+            grid.append(budget.outputs())
+    assert warned > 10, warned
+    assert grid == free_grid
+    budget.free()
+    strict = Host3(fmu, tmp_path, name="strict")
+    strict.init(**{"solver.max_steps": 3})
+    with pytest.raises(FMICallException):
+        strict.slave.doStep(0.0, stop)
+    assert strict.messages[-1][0] == 3 and "solver.max_steps = 3" in strict.messages[-1][2]
+    strict.free()
+
+
+def test_getters_read_start_values_before_initialisation(fmus3, fmus, unzipped, tmp_path):
+    """FMI 3.0 lets a host read the start values in the instantiated state (section 2.3.2);
+    before, the getters were refused there (FMI 2.0's rule) and the instance went to the error
+    state. An FMI 2.0 instance still refuses them."""
+    host = Host3(fmus3["bouncing_ball"], tmp_path)
+    assert host.slave.getFloat64([host.vr["ball_floor.restitution"]]) == [0.8]
+    height = host.slave.getFloat64([host.vr["ball.r[3]"]])[0]
+    assert math.isfinite(height) and height > 0
+    host.init()
+    assert host.slave.getFloat64([host.vr["ball.r[3]"]]) == [height]
+    host.slave.doStep(0.0, 0.1)
+    host.free()
+    md2 = read_model_description(str(unzipped["bouncing_ball"]))
+    two = FMU2Slave(guid=md2.guid, unzipDirectory=str(unzipped["bouncing_ball"]),
+                    modelIdentifier=md2.coSimulation.modelIdentifier, instanceName="two")
+    two.instantiate()
+    with pytest.raises(FMICallException):
+        two.getReal([md2.modelVariables[0].valueReference])
+    two.freeInstance()
+
+
+def test_debug_logging_switched_off_for_all_categories_logs_nothing(fmus3, tmp_path):
+    """fmi3SetDebugLogging(false, 0, NULL) switches every category off (FMI: with no
+    categories named, the switch applies to all), errors too; naming logStatusFatal then
+    switches that one on alone; (true, 0, NULL) switches all on again. Before, errors were
+    still logged after the first call."""
+    host = Host3(fmus3["bouncing_ball"], tmp_path)
+    host.init()
+    f = host.slave
+
+    def refused_step():
+        before = len(host.messages)
+        with pytest.raises(FMICallException):
+            f.doStep(1.0, 0.1)  # not the current time: refused
+        f.reset()
+        host.init()
+        return host.messages[before:]
+
+    assert any(s == 3 for s, _, _ in refused_step())
+    f.setDebugLogging(False, [])
+    assert refused_step() == []
+    f.setDebugLogging(True, ["logStatusFatal"])
+    assert refused_step() == []
+    f.setDebugLogging(True, [])
+    assert any(s == 3 for s, _, _ in refused_step())
+    host.free()
+
+
+def test_a_tolerance_outside_the_range_of_solver_rtol_is_taken_at_its_bound(fmus3, fmus, unzipped, tmp_path):
+    """A co-simulation FMU may ignore the host's tolerance (FMI 3.0 section 4.2.1): one
+    outside solver.rtol's range [1e-14, 0.01] is taken as the nearest bound, with a warning,
+    in both FMI versions. Before, the initialisation failed."""
+    for tolerance, taken in [(0.1, 1e-2), (1e-16, 1e-14), (1e-5, 1e-5)]:
+        host = Host3(fmus3["bouncing_ball"], tmp_path, name="tol")
+        host.slave.enterInitializationMode(tolerance=tolerance, startTime=0.0)
+        host.slave.exitInitializationMode()
+        assert host.slave.getFloat64([host.vr["solver.rtol"]]) == [taken]
+        warned = [m for s, _, m in host.messages if s == 1 and "solver.rtol's range" in m]
+        assert len(warned) == (tolerance != taken), host.text()
+        host.slave.doStep(0.0, 0.1)
+        host.free()
+    md2 = read_model_description(str(unzipped["bouncing_ball"]))
+    rtol = next(v.valueReference for v in md2.modelVariables if v.name == "solver.rtol")
+    two = FMU2Slave(guid=md2.guid, unzipDirectory=str(unzipped["bouncing_ball"]),
+                    modelIdentifier=md2.coSimulation.modelIdentifier, instanceName="two")
+    two.instantiate()
+    two.setupExperiment(tolerance=0.1, startTime=0.0)
+    two.enterInitializationMode()
+    two.exitInitializationMode()
+    assert two.getReal([rtol]) == [1e-2]
+    two.freeInstance()
