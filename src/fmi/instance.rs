@@ -58,6 +58,15 @@ pub struct Failure {
 }
 
 impl Failure {
+    /// An `fmi2Warning` with a message, for a call that did what it was asked (the status
+    /// and the log say what was not quite as asked; the state does not change).
+    pub fn warning_after(message: impl Into<String>) -> Failure {
+        Failure {
+            status: fmi2Status::fmi2Warning,
+            message: message.into(),
+        }
+    }
+
     /// An `fmi2Error` with a message.
     pub fn error(message: impl Into<String>) -> Failure {
         Failure {
@@ -310,7 +319,8 @@ impl Instance {
     pub fn fail(&mut self, func: &str, failure: Failure) -> fmi2Status {
         self.log(failure.status, &format!("{func}: {}", failure.message));
         match failure.status {
-            fmi2Status::fmi2Discard => self.state = LifeState::StepFailed,
+            // (FMI 3.0's discarded step leaves the instance in Step Mode, as it was)
+            fmi2Status::fmi2Discard if self.version == Version::Fmi2 => self.state = LifeState::StepFailed,
             fmi2Status::fmi2Error if self.state != LifeState::Fatal => self.state = LifeState::Error,
             fmi2Status::fmi2Fatal => self.state = LifeState::Fatal,
             _ => {}
@@ -351,7 +361,9 @@ impl Instance {
     }
 
     /// `fmi2SetupExperiment`. A defined tolerance becomes `solver.rtol` (a later explicit
-    /// `fmi2SetReal` of `solver.rtol` wins).
+    /// `fmi2SetReal` of `solver.rtol` wins); one outside its range is taken at the nearest
+    /// bound, and the setup ends with a warning that says so (after it was done: see
+    /// [`Failure::warning_after`]).
     pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> FmiResult {
         if !start_time.is_finite() {
             return Err(Failure::error(format!(
@@ -368,6 +380,7 @@ impl Instance {
                 )));
             }
         }
+        let mut warning = None;
         if let Some(tol) = tolerance {
             if !(tol.is_finite() && tol > 0.0) {
                 return Err(Failure::error(format!("tolerance = {tol} must be > 0", tol = Num(tol))));
@@ -386,19 +399,14 @@ impl Instance {
                 .get(vr)
                 .and_then(|v| v.range)
                 .map_or((tol, tol), |r| (r.min, r.max));
-            let tol = if (lo..=hi).contains(&tol) {
-                tol
-            } else {
-                let taken = tol.clamp(lo, hi);
-                self.log(
-                    fmi2Status::fmi2Warning,
-                    &format!(
-                        "{setup}: the host's tolerance {tol:e} is outside solver.rtol's range [{lo:e}, {hi:e}]; \
-                         solver.rtol = {taken:e} is taken"
-                    ),
-                );
-                taken
-            };
+            let taken = tol.clamp(lo, hi);
+            if taken != tol {
+                warning = Some(format!(
+                    "the host's tolerance {tol:e} is outside solver.rtol's range [{lo:e}, {hi:e}]; solver.rtol = \
+                     {taken:e} is taken"
+                ));
+            }
+            let tol = taken;
             self.sim.set_by_name("solver.rtol", tol)?;
             if tol != scene_rtol {
                 self.log_event(&format!(
@@ -409,7 +417,7 @@ impl Instance {
         }
         self.start_time = start_time;
         self.stop_time = stop_time;
-        Ok(())
+        warning.map_or(Ok(()), |w| Err(Failure::warning_after(w)))
     }
 
     /// `fmi2EnterInitializationMode`
@@ -673,12 +681,15 @@ impl Instance {
                 );
                 // FMI 2.0: fmi2Discard, the subinterval computed (the instance goes to step
                 // failed). FMI 3.0 allows fmi3Discard only for an FMU in the state it was in
-                // before the call: with early return the step returns early there with a warning
-                // (and the host goes on from lastSuccessfulTime), otherwise it fails.
-                let status = match (self.version, self.early_return) {
-                    (Version::Fmi2, _) => fmi2Status::fmi2Discard,
-                    (Version::Fmi3, true) => fmi2Status::fmi2Warning,
-                    (Version::Fmi3, false) => fmi2Status::fmi2Error,
+                // before the call, which one that reached no further is (islands whose first
+                // round ran out of steps are taken back to its start): the host may try a
+                // shorter step. One that went on returns early there with a warning where the
+                // host allows early returns (and goes on from lastSuccessfulTime), else fails.
+                let status = match (self.version, self.early_return, time > now) {
+                    (Version::Fmi2, _, _) => fmi2Status::fmi2Discard,
+                    (Version::Fmi3, _, false) => fmi2Status::fmi2Discard,
+                    (Version::Fmi3, true, true) => fmi2Status::fmi2Warning,
+                    (Version::Fmi3, false, true) => fmi2Status::fmi2Error,
                 };
                 Err(Failure { status, message })
             }

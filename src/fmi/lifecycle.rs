@@ -4,7 +4,7 @@
 //!
 //! FMI 3.0 Co-Simulation without event mode, intermediate update and configuration mode (what
 //! this FMU declares) has the same states under other names: 3.0's Step Mode is *step
-//! complete* (an FMI 3.0 instance never discards a step, so it is never in *step failed*);
+//! complete* (an FMI 3.0 instance that discards a step stays in Step Mode: never in *step failed*);
 //! `fmi3EnterInitializationMode` (which takes the experiment's times) is allowed where
 //! `fmi2SetupExperiment` is. So both versions share these masks (FMI 3.0's getters also read
 //! in the instantiated state: [`FMI3_GET_VALUES`]); [`LifeState::name_in`] names a state as

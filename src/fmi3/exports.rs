@@ -201,12 +201,20 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
         "fmi3EnterInitializationMode",
         lifecycle::ENTER_INITIALIZATION_MODE,
         |inst| {
-            inst.setup_experiment(
+            // (a warning of the setup is returned once initialisation mode is entered)
+            let setup = inst.setup_experiment(
                 tolerance_defined.then_some(tolerance),
                 start_time,
                 stop_time_defined.then_some(stop_time),
-            )?;
-            inst.enter_initialization_mode()
+            );
+            if setup
+                .as_ref()
+                .is_err_and(|f| f.status != crate::fmi::types::fmi2Status::fmi2Warning)
+            {
+                return setup;
+            }
+            inst.enter_initialization_mode()?;
+            setup
         },
     )
 }

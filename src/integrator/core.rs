@@ -192,7 +192,7 @@ impl StepCore {
                 "the method's last step ends at t = {t} before it begins, at {t_prev}"
             ));
         }
-        let h = r.step_size()?;
+        let h = r.value()?;
         let stats = Stats {
             steps: r.count()?,
             rejected: r.count()?,
@@ -204,9 +204,11 @@ impl StepCore {
             t_prev,
             h,
             stats,
-            y: r.finite(n, "the state")?,
-            y_prev: r.finite(n, "the state")?,
-            f: r.finite(n, "the state's derivative")?,
+            // (not checked here: a method that failed holds what it failed on, and a saved
+            // state with it restarts cold; `model::state::set` checks a continued step's state)
+            y: r.take(n)?,
+            y_prev: r.take(n)?,
+            f: r.take(n)?,
         })
     }
 
@@ -373,24 +375,14 @@ impl<'a> StateReader<'a> {
         Ok(s)
     }
 
-    /// The next `k` numbers, each finite (what a method computed from a finite state).
-    pub fn finite(&mut self, k: usize, what: &str) -> Result<&'a [f64], String> {
-        let start = self.pos;
-        let s = self.take(k)?;
-        match s.iter().position(|x| !x.is_finite()) {
-            Some(i) => Err(format!(
-                "{} holds {} at {} where a finite number ({what}) belongs",
-                self.subject,
-                s[i],
-                start + i
-            )),
-            None => Ok(s),
-        }
-    }
-
-    /// The next number, finite.
+    /// The next number, finite (`what` it is, for the message).
     pub fn finite_value(&mut self, what: &str) -> Result<f64, String> {
-        Ok(self.finite(1, what)?[0])
+        let x = self.value()?;
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.misplaced(x, &format!("a finite number ({what})")))
+        }
     }
 
     /// The next number.

@@ -311,7 +311,7 @@ impl Integrator for Dopri5 {
                 "the dopri5 integrator state holds the error norm {err_old}, not above 0"
             ));
         }
-        let cont = r.finite(4 * n, "the dense output")?;
+        let cont = r.take(4 * n)?;
         r.finish()?;
         self.core.restore(&core);
         self.err_old = err_old;

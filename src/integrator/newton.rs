@@ -521,7 +521,7 @@ impl<M: ImplicitMethod> Integrator for M {
         let (core, newton) = self.parts();
         let saved_core = core.read_state(&mut r)?;
         let dense_len = self.dense_coefficients().iter().map(Vec::len).sum();
-        let dense = r.finite(dense_len, "the dense output")?;
+        let dense = r.take(dense_len)?;
         let saved_newton = newton.read_state(&mut r)?;
         r.finish()?;
         let (core, newton) = self.parts_mut();

@@ -103,7 +103,7 @@ impl Integrator for Rk4 {
         let n = self.core.y.len();
         let mut r = StateReader::new(v, Method::Rk4)?;
         let core = self.core.read_state(&mut r)?;
-        let f_prev = r.finite(n, "the derivative at the step's start")?;
+        let f_prev = r.take(n)?;
         r.finish()?;
         self.core.restore(&core);
         self.f_prev.copy_from_slice(f_prev);

@@ -8,8 +8,8 @@
 //! the data as it was.
 
 use super::island_state::{self, IslandsState};
-use super::{Data, EnergyWatch, Model};
-use crate::integrator::Stats;
+use super::{Counters, Data, EnergyWatch, Model};
+use crate::integrator::{Integrator, Stats};
 use crate::model::groups::Candidate;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
@@ -178,15 +178,29 @@ fn count(x: f64, what: &str) -> Result<u64, String> {
     }
 }
 
-/// Whether a method that continues its last step (`started`), from `t_prev` to `t`, with its
-/// first event in that step at `pending` (infinite: none), fits the state's `time`: the step
-/// began at or before it, ends after it or a few rounding errors short of it (an advance that
-/// ended that close to its end takes the end), and an event it has not yet stopped at comes
-/// at or after it. The engine interpolates the state there and steps on from the step's end.
-fn continued_step_fits(started: bool, t_prev: f64, t: f64, pending: f64, time: f64) -> Result<(), String> {
+/// The base of the method's counters `stats` at which the data's counters are `c` (counters
+/// since initialisation = the method's − base).
+fn counter_base(stats: &Stats, c: &Counters) -> Stats {
+    Stats {
+        steps: stats.steps.saturating_sub(c.steps),
+        rejected: stats.rejected.saturating_sub(c.rejected),
+        rhs_evals: stats.rhs_evals.saturating_sub(c.rhs_evals),
+        jac_evals: stats.jac_evals.saturating_sub(c.jac_evals),
+    }
+}
+
+/// Whether the method `method` that continues its last step (`started`; one that does not
+/// restarts cold from the state), with its first event in that step at `pending` (infinite:
+/// none), fits the state's `time`: the step began at or before it, ends after it or a few
+/// rounding errors short of it (an advance that ended that close to its end takes the end),
+/// an event it has not yet stopped at comes at or after it, and the step's end, the next step
+/// size and the dense output at `time` are finite (an accepted step's are). The engine
+/// interpolates the state there and steps on from the step's end.
+fn continued_step_fits(started: bool, method: &(dyn Integrator + Send), pending: f64, time: f64) -> Result<(), String> {
     if !started {
         return Ok(());
     }
+    let (t_prev, t) = (method.t_prev(), method.t());
     let close = 16.0 * f64::EPSILON * time.abs().max(1e-300);
     if !(t_prev <= time && time <= t + close) {
         return Err(format!(
@@ -197,6 +211,17 @@ fn continued_step_fits(started: bool, t_prev: f64, t: f64, pending: f64, time: f
     if t > time && pending < time {
         return Err(format!(
             "state: the integrator's next event, at t = {pending}, comes before the state's time {time}"
+        ));
+    }
+    let h = method.next_step();
+    if !(h.is_finite() && h >= 0.0) {
+        return Err(format!("state: the integrator's next step {h} is not a step size"));
+    }
+    let mut at_time = vec![0.0; method.y().len()];
+    method.interpolate(time.min(t), &mut at_time);
+    if method.y().iter().chain(&at_time).any(|x| !x.is_finite()) {
+        return Err(format!(
+            "state: the integrator continues a step whose state at t = {time} or at its end is not finite"
         ));
     }
     Ok(())
@@ -357,10 +382,14 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
             } else {
                 d.time
             };
-            let method = &stepper.method;
-            if let Err(e) = continued_step_fits(started, method.t_prev(), method.t(), pending, time) {
-                // (it loaded from these numbers just now)
-                let _ = stepper.method.load_state(&present);
+            if let Err(e) = continued_step_fits(started, &*stepper.method, pending, time) {
+                // (it was saved from the method: it loads; if it did not, the method would
+                // restart cold from the data's state, its counters counting on from there)
+                if stepper.method.load_state(&present).is_err() {
+                    d.solver.started = false;
+                    let stats = d.solver.method().map(|i| i.stats()).unwrap_or_default();
+                    d.solver.base = counter_base(&stats, &d.counters);
+                }
                 return Err(e);
             }
         }
@@ -417,13 +446,7 @@ pub fn set(m: &Model, d: &mut Data, mask: u32, v: &[f64]) -> Result<(), String> 
     if let Some((started, h, pending)) = solver_head {
         // counters since initialisation = the method's counters − base
         let stats = d.solver.method().map(|i| i.stats()).unwrap_or_default();
-        let c = &d.counters;
-        d.solver.base = Stats {
-            steps: stats.steps.saturating_sub(c.steps),
-            rejected: stats.rejected.saturating_sub(c.rejected),
-            rhs_evals: stats.rhs_evals.saturating_sub(c.rhs_evals),
-            jac_evals: stats.jac_evals.saturating_sub(c.jac_evals),
-        };
+        d.solver.base = counter_base(&stats, &d.counters);
         d.solver.next_h = h;
         d.solver.pending_event = pending;
         d.solver.started = started;

@@ -43,8 +43,8 @@ impl Simulation {
                         var.name
                     )));
                 }
-                self.values[vr] = value;
                 let VarRef::Input(i) = var.target else {
+                    self.values[vr] = value;
                     return Ok(());
                 };
                 let moves_a_drive = self
@@ -52,8 +52,13 @@ impl Simulation {
                     .as_ref()
                     .is_some_and(|c| c.model.drives.iter().any(|dr| i == dr.value || i == dr.value + 1));
                 if moves_a_drive && self.initialized {
-                    return self.move_drive(i, value);
+                    // (the value is the host's once the joint moved: a refused move changes
+                    // nothing, and the value and the model's input stay equal)
+                    self.move_drive(i, value)?;
+                    self.values[vr] = value;
+                    return Ok(());
                 }
+                self.values[vr] = value;
                 // (no settling: an input that moves no drive changes no state, and a changed
                 // value restarts the method, which settles first)
                 if let Some(c) = self.compiled.as_mut() {

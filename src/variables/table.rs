@@ -472,7 +472,8 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
         display_unit: None,
         description: "most integrator steps one communication step may take; beyond them the step stops at the \
                       last time reached (FMI 2.0: fmi2Discard, fmi2LastSuccessfulTime; FMI 3.0: an early return \
-                      with fmi3Warning where early return is allowed, else fmi3Error)"
+                      with fmi3Warning where early return is allowed, else fmi3Error; fmi3Discard, the \
+                      instance unchanged, when it reached no further)"
             .into(),
         range: Some(Range {
             min: 1.0,

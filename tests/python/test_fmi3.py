@@ -398,3 +398,27 @@ def test_a_tolerance_outside_the_range_of_solver_rtol_is_taken_at_its_bound(fmus
     two.exitInitializationMode()
     assert two.getReal([rtol]) == [1e-2]
     two.freeInstance()
+
+
+def test_a_step_that_reaches_no_further_is_discarded_and_the_instance_goes_on(fmus3, tmp_path):
+    """Islands whose first round runs out of solver.max_steps are taken back to its start,
+    the step's: the FMU is as it was before the call, which is when FMI 3.0 allows
+    fmi3Discard. The instance stays in Step Mode, and a shorter step then gives what it gives
+    in an instance that never tried the long one, bit for bit. (Before the first mend above,
+    fmi3Discard left the instance unable to step; after it, an early return at the same time
+    would have had the host repeat the same step for ever.)"""
+    fmu = fmus3["pile_of_balls"]
+    results = []
+    for tried_first in (True, False):
+        host = Host3(fmu, tmp_path, name="pile", early_return=True)
+        host.init(**{"solver.max_steps": 1})
+        if tried_first:
+            with pytest.raises(FMICallException) as e:
+                host.slave.doStep(0.0, 0.1)
+            assert "status 2" in str(e.value)
+            assert host.messages[-1][0] == 2 and "stopped at t = 0" in host.messages[-1][2]
+        _, _, early, last = host.slave.doStep(0.0, 1e-4)
+        assert (early, last) == (False, 1e-4)
+        results.append(host.outputs())
+        host.free()
+    assert results[0] == results[1]
