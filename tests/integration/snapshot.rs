@@ -257,22 +257,11 @@ fn states_no_run_saves_are_refused_and_change_nothing() {
 /// a NaN the engine did not apply), and the simulation goes on as it was.
 #[test]
 fn a_state_whose_input_values_disagree_is_refused() {
-    let path = &common::bundled("rail_vehicle");
-    let mut a = open(path, None);
-    a.initialize(0.0).unwrap();
-    a.step_to(0.05).unwrap();
-    let vr = a
-        .table()
-        .index_of("traction")
-        .expect("the rail vehicle's traction input");
-    a.set(vr, 1500.0).unwrap();
+    let (mut a, vr) = rail_vehicle_with_traction(0.05, 1500.0);
     a.step_to(0.1).unwrap();
     let snap = a.snapshot(Vec::new());
     assert_eq!(snap.values[vr], 1500.0);
-    let mut reference = open(path, None);
-    reference.initialize(0.0).unwrap();
-    reference.step_to(0.05).unwrap();
-    reference.set(vr, 1500.0).unwrap();
+    let (mut reference, _) = rail_vehicle_with_traction(0.05, 1500.0);
     reference.step_to(0.1).unwrap();
     for (x, what) in [(f64::NAN, "not a finite number"), (1600.0, "among its values")] {
         let mut bad = snap.clone();
@@ -292,15 +281,24 @@ fn a_state_whose_input_values_disagree_is_refused() {
 /// run fails at the same step again. (A first form of the checks above refused it.)
 #[test]
 fn a_state_saved_after_a_failed_step_restores_and_fails_alike() {
-    let path = &common::bundled("rail_vehicle");
-    let mut a = open(path, None);
-    a.initialize(0.0).unwrap();
-    a.step_to(0.01).unwrap();
-    let vr = a.table().index_of("traction").unwrap();
-    a.set(vr, 1e308).unwrap();
+    let (mut a, _) = rail_vehicle_with_traction(0.01, 1e308);
     let failed = a.step_to(0.02).unwrap_err().to_string();
     let snap = a.snapshot(Vec::new());
-    let mut b = open(path, None);
+    let mut b = open(&common::bundled("rail_vehicle"), None);
     b.restore(&snap).unwrap();
     assert_eq!(b.step_to(0.02).unwrap_err().to_string(), failed);
+}
+
+/// The bundled rail vehicle run to `t`, its traction input then set to `traction` \[N\], and
+/// that input's value reference.
+fn rail_vehicle_with_traction(t: f64, traction: f64) -> (Simulation, usize) {
+    let mut sim = open(&common::bundled("rail_vehicle"), None);
+    sim.initialize(0.0).unwrap();
+    sim.step_to(t).unwrap();
+    let vr = sim
+        .table()
+        .index_of("traction")
+        .expect("the rail vehicle's traction input");
+    sim.set(vr, traction).unwrap();
+    (sim, vr)
 }
