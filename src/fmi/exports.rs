@@ -168,11 +168,12 @@ forward! {
         stop_time: fmi2Real,
     )
         [SETUP_EXPERIMENT] |inst| {
-            inst.setup_experiment(
+            let warning = inst.setup_experiment(
                 (tolerance_defined != FMI2_FALSE).then_some(tolerance),
                 start_time,
                 (stop_time_defined != FMI2_FALSE).then_some(stop_time),
-            )
+            )?;
+            Failure::warn_of(warning)
         };
 
     /// `fmi2EnterInitializationMode`

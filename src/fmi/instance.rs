@@ -58,12 +58,15 @@ pub struct Failure {
 }
 
 impl Failure {
-    /// An `fmi2Warning` with a message, for a call that did what it was asked (the status
-    /// and the log say what was not quite as asked; the state does not change).
-    pub fn warning_after(message: impl Into<String>) -> Failure {
-        Failure {
-            status: fmi2Status::fmi2Warning,
-            message: message.into(),
+    /// The result of a call that did what it was asked, with the `warning` (when there is one)
+    /// of what was not quite as asked: `fmi2Warning`, logged, and the state does not change.
+    pub fn warn_of(warning: Option<String>) -> FmiResult {
+        match warning {
+            Some(message) => Err(Failure {
+                status: fmi2Status::fmi2Warning,
+                message,
+            }),
+            None => Ok(()),
         }
     }
 
@@ -362,9 +365,13 @@ impl Instance {
 
     /// `fmi2SetupExperiment`. A defined tolerance becomes `solver.rtol` (a later explicit
     /// `fmi2SetReal` of `solver.rtol` wins); one outside its range is taken at the nearest
-    /// bound, and the setup ends with a warning that says so (after it was done: see
-    /// [`Failure::warning_after`]).
-    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> FmiResult {
+    /// bound. Returns the warning that says so (for [`Failure::warn_of`]).
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> FmiResult<Option<String>> {
         if !start_time.is_finite() {
             return Err(Failure::error(format!(
                 "startTime must be finite (got {start_time})",
@@ -417,7 +424,7 @@ impl Instance {
         }
         self.start_time = start_time;
         self.stop_time = stop_time;
-        warning.map_or(Ok(()), |w| Err(Failure::warning_after(w)))
+        Ok(warning)
     }
 
     /// `fmi2EnterInitializationMode`

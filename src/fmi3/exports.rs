@@ -201,20 +201,13 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
         "fmi3EnterInitializationMode",
         lifecycle::ENTER_INITIALIZATION_MODE,
         |inst| {
-            // (a warning of the setup is returned once initialisation mode is entered)
-            let setup = inst.setup_experiment(
+            let warning = inst.setup_experiment(
                 tolerance_defined.then_some(tolerance),
                 start_time,
                 stop_time_defined.then_some(stop_time),
-            );
-            if setup
-                .as_ref()
-                .is_err_and(|f| f.status != crate::fmi::types::fmi2Status::fmi2Warning)
-            {
-                return setup;
-            }
+            )?;
             inst.enter_initialization_mode()?;
-            setup
+            Failure::warn_of(warning)
         },
     )
 }
@@ -397,8 +390,9 @@ forward! {
 /// with `earlyReturnAllowed`, to the first contact event (touch, separation, impact, rest,
 /// release) before that: then `*early_return` is true and `*last_successful_time` the event's
 /// time, from which the host's next step goes on. A step that reaches `solver.max_steps`
-/// integrator steps returns early too, with `fmi3Warning` (it fails without early return:
-/// FMI 3.0 allows `fmi3Discard` only for an FMU left as it was before the call).
+/// integrator steps returns early too, with `fmi3Warning` (without early return it fails:
+/// FMI 3.0 allows `fmi3Discard` only for an FMU left as it was before the call, which is one
+/// that reached no further, see `Instance::do_step`).
 /// `*last_successful_time` is the time reached after every call (also a failed one);
 /// `*event_handling_needed` and `*terminate_simulation` are always false.
 ///

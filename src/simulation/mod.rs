@@ -519,19 +519,7 @@ impl Simulation {
             self.initialized = false;
             return Ok(());
         }
-        // (an input's value is the host's: finite, and in the state as the host set it)
-        if let Some((var, x)) = self
-            .table
-            .vars
-            .iter()
-            .zip(&s.values)
-            .find(|(var, x)| var.causality == Causality::Input && !x.is_finite())
-        {
-            return Err(SimError::Variable(format!(
-                "state holds input {} = {x}, not a finite number",
-                var.name
-            )));
-        }
+        // (an input's value is the host's: the one in the model's state, which is finite)
         let input_values: Vec<(usize, f64, String)> = (self.table.vars.iter().zip(&s.values))
             .filter_map(|(var, &x)| match (var.causality, var.target) {
                 (Causality::Input, VarRef::Input(i)) => Some((i, x, var.name.clone())),
@@ -578,11 +566,11 @@ impl Simulation {
                 return Err(SimError::Variable(e));
             }
             if let Some((i, x, name)) = input_values.iter().find(|(i, x, _)| c.data.inputs.get(*i) != Some(x)) {
-                let (i, x) = (*i, *x);
-                let held = c.data.inputs.get(i).copied().unwrap_or(f64::NAN);
+                let held = c.data.inputs.get(*i).copied().unwrap_or(f64::NAN);
+                let what = if x.is_finite() { "" } else { ", not a finite number," };
                 put_back(c);
                 return Err(SimError::Variable(format!(
-                    "state holds input {name} = {x} among its values and {held} in the model's state"
+                    "state holds input {name} = {x}{what} among its values and {held} in the model's state"
                 )));
             }
             engine::resync(&c.model, &mut c.data);
