@@ -15,8 +15,9 @@
 #![allow(non_snake_case)]
 
 use super::glue::{self, call, string_arg};
-use super::instance::{fmi2_sink, log_raw, Access, Failure, Instance, InstantiateArgs};
+use super::instance::{Access, Instance, InstantiateArgs};
 use super::lifecycle::{self, LifeState, Version};
+use super::log::{fmi2_sink, log_raw, Failure};
 use super::types::*;
 use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};

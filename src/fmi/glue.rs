@@ -7,8 +7,9 @@
 //! two threads at once (FMI 2.0 and 3.0 alike). Each function's `# Safety` names its other
 //! pointers.
 
-use super::instance::{Access, Failure, FmiResult, Instance, InstantiateArgs};
+use super::instance::{Access, Instance, InstantiateArgs};
 use super::lifecycle::Version;
+use super::log::{Failure, FmiResult};
 use super::registry::{INSTANCES, STATES};
 use super::saved::SavedState;
 use super::types::fmi2Status;

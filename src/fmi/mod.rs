@@ -8,7 +8,8 @@
 //!
 //! - `types`: the C types of `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h`.
 //! - `lifecycle`: the state machine, one bit mask of allowed states per function.
-//! - `instance`: one instance in safe Rust (logging, values, steps, states).
+//! - `instance`: one instance in safe Rust (values, steps, states).
+//! - `log`: the log categories, the host's logger as a sink, a failed call's status and message.
 //! - `saved`: `fmi2FMUstate` and its serialized bytes.
 //! - `registry`: the live instance and state handles, checked before any is dereferenced.
 //! - `uri`: decoding `fmuResourceLocation`.
@@ -19,10 +20,12 @@ pub mod exports;
 pub(crate) mod glue;
 pub mod instance;
 pub mod lifecycle;
+pub mod log;
 mod registry;
 pub mod saved;
 pub mod types;
 pub mod uri;
 
-pub use instance::{Instance, LOG_CATEGORIES};
+pub use instance::Instance;
+pub use log::LOG_CATEGORIES;
 pub use types::fmi2Status;

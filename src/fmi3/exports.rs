@@ -16,8 +16,9 @@
 
 use super::types::*;
 use crate::fmi::glue::{self, call, string_arg};
-use crate::fmi::instance::{Access, Failure, FmiResult, Instance, InstantiateArgs, Sink};
+use crate::fmi::instance::{Access, Instance, InstantiateArgs};
 use crate::fmi::lifecycle::{self, LifeState, Version};
+use crate::fmi::log::{Failure, FmiResult, Sink};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};

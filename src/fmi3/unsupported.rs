@@ -10,8 +10,8 @@
 use super::exports::{report, with};
 use super::types::*;
 use crate::fmi::glue;
-use crate::fmi::instance::Failure;
 use crate::fmi::lifecycle;
+use crate::fmi::log::Failure;
 
 /// Getters and setters of the FMI 3.0 types this model does not use: `(instance, vr, nvr,`
 /// then the type's own arguments, which are not read.
