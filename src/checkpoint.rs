@@ -12,8 +12,8 @@
 //! FNV-1a 64 checksum of everything before it, u64
 //! ```
 //!
-//! A state that is truncated, corrupted, of another version or of another model is refused
-//! with a message.
+//! A state that is truncated, corrupted, of another version or of another model, or that
+//! lacks a section, repeats one or sets a reserved word is refused with a message.
 
 /// Everything needed to continue a simulation from where it was saved.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,7 +121,9 @@ impl Snapshot {
         let mut seen = 0u32;
         for _ in 0..nsections {
             let tag = r.u32()?;
-            let _reserved = r.u32()?;
+            if r.u32()? != 0 {
+                return Err(format!("serialized state: section {tag} has a non-zero reserved word"));
+            }
             let count = r.u64()?;
             let available = (body.len() - r.pos) / 8;
             if count > available as u64 {
@@ -144,6 +146,9 @@ impl Snapshot {
                 }
                 STATE => s.state = values,
                 _ => return Err(format!("serialized state: unknown section {tag}")),
+            }
+            if seen & (1 << tag) != 0 {
+                return Err(format!("serialized state: section {tag} appears twice"));
             }
             seen |= 1 << tag;
         }
@@ -217,5 +222,38 @@ mod tests {
             assert!(Snapshot::from_bytes(&c, 7).is_err(), "byte {i} flipped");
         }
         assert!(Snapshot::from_bytes(&b, 8).unwrap_err().contains("different model"));
+    }
+
+    /// `b` with its checksum written anew (as a crafted state would carry it).
+    fn resealed(mut b: Vec<u8>) -> Vec<u8> {
+        b.truncate(b.len() - 8);
+        let sum = checksum(&b);
+        b.extend_from_slice(&sum.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn a_repeated_section_or_a_reserved_word_set_is_refused_with_a_sound_checksum() {
+        let s = sample();
+        let b = s.to_bytes(7);
+        // the values section (tag, reserved, count, 3 numbers) written a second time, the
+        // section count raised to 5: every section is there, the second copy differs
+        let start = HEADER_LEN + SECTION_HEADER_LEN + 8 * s.host.len();
+        let end = start + SECTION_HEADER_LEN + 8 * s.values.len();
+        let mut again = b[start..end].to_vec();
+        again[SECTION_HEADER_LEN..SECTION_HEADER_LEN + 8].copy_from_slice(&9.0f64.to_le_bytes());
+        let mut twice = b[..end].to_vec();
+        twice.extend_from_slice(&again);
+        twice.extend_from_slice(&b[end..]);
+        twice[12..16].copy_from_slice(&5u32.to_le_bytes());
+        let err = Snapshot::from_bytes(&resealed(twice), 7).unwrap_err();
+        assert!(err.contains("section 2 appears twice"), "{err}");
+
+        let mut reserved = b.clone();
+        reserved[HEADER_LEN + 4] = 1;
+        let err = Snapshot::from_bytes(&resealed(reserved), 7).unwrap_err();
+        assert!(err.contains("reserved word"), "{err}");
+        // (the sealing itself keeps a sound state sound)
+        assert_eq!(Snapshot::from_bytes(&resealed(b), 7).unwrap(), s);
     }
 }
