@@ -4,6 +4,7 @@
 use crate::checkpoint::Snapshot;
 use crate::export::{export_command, fmu_folder};
 use crate::fmi::lifecycle::Version;
+use crate::scene::{short, MAX_COMMUNICATION_POINTS};
 use crate::simulation::{RunError, SimError, Simulation};
 use crate::variables::VarType;
 use std::io::Write;
@@ -128,10 +129,26 @@ pub fn run_simulation(
     mut progress: impl FnMut(f64),
 ) -> Result<RunSummary, String> {
     if !(stop_time > 0.0 && stop_time.is_finite()) {
-        return Err(format!("stop time must be > 0 (got {stop_time})"));
+        return Err(format!("stop time must be > 0 (got {})", short(stop_time)));
+    }
+    if !(interval > 0.0 && interval.is_finite()) {
+        return Err(format!(
+            "the communication interval must be > 0 (got {})",
+            short(interval)
+        ));
     }
     if !sim.is_initialized() {
         sim.initialize(0.0).map_err(|e| e.to_string())?;
+    }
+    // (the scene's own experiment is checked with the scene; overrides are checked here)
+    let points = (stop_time - sim.time()) / interval;
+    if points > MAX_COMMUNICATION_POINTS {
+        return Err(format!(
+            "interval {} gives {points:.3e} communication points from t = {} s to the stop time {} s; at most {MAX_COMMUNICATION_POINTS:e}",
+            short(interval),
+            short(sim.time()),
+            short(stop_time)
+        ));
     }
     let e0 = sim.energies().map_err(|e| e.to_string())?;
     let mut scale = e0.total().abs().max(e0.kinetic);

@@ -52,7 +52,8 @@ impl Scene {
                 "interval",
                 format!(
                     "{} gives {points:.3e} communication points up to stop_time = {}; at most {MAX_COMMUNICATION_POINTS:e}",
-                    m.interval, m.stop_time
+                    short(m.interval),
+                    short(m.stop_time)
                 ),
             ));
         }
@@ -562,7 +563,7 @@ pub(super) const DEVICE_NAMES: [&str; 22] = [
 ];
 
 /// A number as messages show it: the shorter of plain and scientific notation (`0.5`, `1e-15`).
-pub(super) fn short(x: f64) -> String {
+pub fn short(x: f64) -> String {
     let (plain, sci) = (format!("{x}"), format!("{x:e}"));
     if sci.len() < plain.len() {
         sci

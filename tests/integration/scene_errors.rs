@@ -251,3 +251,35 @@ fn command_line_reports_bad_scenes_in_one_line() {
     let (ok, err) = simulate(&temp_scene("good.toml", &good()));
     assert!(ok, "{err}");
 }
+
+#[test]
+fn a_run_of_more_communication_points_than_a_scene_may_declare_is_refused_before_it_starts() {
+    // `simulate --interval 1e-300` (or `--stop-time 1e300`) ran on for ever at t = 0: the
+    // scene's own experiment is checked for at most 1e9 points, the overrides were not
+    let mut sim = Simulation::from_scene_str(&good(), ORIGIN).unwrap();
+    for (stop, interval) in [(1.0, 1e-300), (1e300, 1e-3), (1.0, 0.0), (1.0, f64::NAN)] {
+        let mut points = 0;
+        let err = contact_fmu::run::run_simulation(
+            &mut sim,
+            stop,
+            interval,
+            |_| {
+                points += 1;
+                if points > 1000 {
+                    return Err("ran on".into());
+                }
+                Ok(())
+            },
+            |_| {},
+        )
+        .unwrap_err();
+        assert!(
+            err.contains("communication") && points == 0,
+            "stop {stop}, interval {interval}: {err} after {points} points"
+        );
+    }
+    // and the command line says so in one line
+    let p = temp_scene("long_run.toml", &good());
+    let (ok, err) = common::run_command(&["simulate", p.to_str().unwrap(), "--interval", "1e-300", "--quiet"]);
+    assert!(!ok && err.lines().count() == 1 && err.contains("at most 1e9"), "{err}");
+}
