@@ -122,10 +122,26 @@ pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResul
         Ok(&[])
     } else if p.is_null() {
         Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
+    } else if n > max_len::<T>() {
+        Err(too_long(n, what))
     } else {
         // SAFETY: `p` is not NULL and points to `n` valid elements (this function's contract).
         Ok(unsafe { std::slice::from_raw_parts(p, n) })
     }
+}
+
+/// The most elements of type `T` an array can hold (its bytes at most `isize::MAX`): a larger
+/// count is a host's mistake (a negative size passed as `size_t`), refused before a slice is
+/// made of it.
+fn max_len<T>() -> usize {
+    isize::MAX as usize / std::mem::size_of::<T>().max(1)
+}
+
+/// The refusal of a count of `n` elements that no array holds.
+fn too_long(n: usize, what: &str) -> Failure {
+    Failure::error(format!(
+        "{what}: {n} values are more than memory can hold (a negative size passed as size_t?)"
+    ))
 }
 
 /// A mutable slice from a C array (see [`fn@slice`]).
@@ -138,6 +154,8 @@ pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> FmiRes
         Ok(&mut [])
     } else if p.is_null() {
         Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
+    } else if n > max_len::<T>() {
+        Err(too_long(n, what))
     } else {
         // SAFETY: `p` is not NULL and points to `n` writable elements (this function's
         // contract).

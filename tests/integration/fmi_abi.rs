@@ -330,6 +330,15 @@ fn saved_states_restore_values_and_lifecycle_and_serialize_plainly() {
         let mut bad: fmi2FMUstate = ptr::null_mut();
         assert_eq!(fmi2DeSerializeFMUstate(b.0, bytes.as_ptr(), size, &mut bad), ERROR);
         assert!(bad.is_null());
+        // So is a negative size passed as size_t (it was read as that many bytes: a
+        // segmentation fault).
+        bytes[0] ^= 0x55;
+        for size in [usize::MAX, usize::MAX - 7, isize::MAX as usize + 1] {
+            let b2 = u.instantiate();
+            let mut none: fmi2FMUstate = ptr::null_mut();
+            assert_eq!(fmi2DeSerializeFMUstate(b2.0, bytes.as_ptr(), size, &mut none), ERROR);
+            assert!(none.is_null());
+        }
     }
 }
 
