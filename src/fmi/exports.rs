@@ -297,8 +297,9 @@ forward! {
     /// before use).
     fn fmi2GetFMUstate(state: *mut fmi2FMUstate)
         [FMU_STATE] |inst| {
+            let saved = inst.save();
             // SAFETY: `state` points to NULL or to a live state (this function's contract).
-            unsafe { glue::store_state(state, inst.save()) }
+            unsafe { glue::store_state(state, saved, inst) }
         };
 
     /// `fmi2SetFMUstate`: copies the state into the instance (the state stays valid), including
@@ -427,7 +428,7 @@ forward! {
     /// See the module docs (only `c`, which is looked up before use).
     fn fmi2GetStatus(_kind: c_int, _value: *mut c_int)
         [GET_STATUS] |_| {
-            Err(Failure::error(
+            Err(Failure::discard(
                 "not supported: fmi2DoStep is synchronous and never returns fmi2Pending",
             ))
         };
@@ -445,13 +446,14 @@ forward! {
             Ok(())
         };
 
-    /// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always an error.
+    /// `fmi2GetIntegerStatus`: FMI 2.0 defines no Integer status; always `fmi2Discard` (the
+    /// instance stays as it was).
     ///
     /// # Safety
     /// See the module docs (only `c`, which is looked up before use).
     fn fmi2GetIntegerStatus(kind: c_int, _value: *mut fmi2Integer)
         [GET_STATUS] |_| {
-            Err(Failure::error(format!("status kind {kind} has no Integer value")))
+            Err(Failure::discard(format!("status kind {kind} has no Integer value")))
         };
 
     /// `fmi2GetBooleanStatus`: answers `fmi2Terminated`.
@@ -473,7 +475,7 @@ forward! {
     /// See the module docs (only `c`, which is looked up before use).
     fn fmi2GetStringStatus(kind: c_int, _value: *mut fmi2String)
         [GET_STATUS] |_| {
-            Err(Failure::error(format!(
+            Err(Failure::discard(format!(
                 "not supported (status kind {kind}; fmi2PendingStatus needs an asynchronous step)"
             )))
         };

@@ -75,6 +75,11 @@ pub(crate) unsafe fn free_instance(c: *mut c_void, version: Version) {
         if unsafe { instance(c, version) }.is_some() {
             // SAFETY: as above; the borrow has ended.
             drop(unsafe { INSTANCES.release(c as *mut Instance) });
+            // The states it made go with it (FreeInstance "frees all the allocated memory
+            // and other resources that have been allocated by the functions of the FMU
+            // interface"): the host's handles to them are stale from now on, and refused.
+            // SAFETY: the host uses none of its states while it frees the instance.
+            drop(unsafe { STATES.release_owned_by(c as usize) });
         }
     }));
 }
@@ -201,19 +206,22 @@ pub(crate) unsafe fn saved_state<'a>(s: *mut c_void) -> FmiResult<&'a SavedState
 ///
 /// # Safety
 /// `slot` is NULL or valid for reading and writing; no other thread uses `*slot` meanwhile.
-pub(crate) unsafe fn store_state(slot: *mut *mut c_void, state: SavedState) -> FmiResult {
+pub(crate) unsafe fn store_state(slot: *mut *mut c_void, state: SavedState, owner: &Instance) -> FmiResult {
+    // (the instance's address is its handle: its states are freed with it)
+    let owner = owner as *const Instance as usize;
     if slot.is_null() {
         return Err(Failure::error("the FMUstate pointer is NULL"));
     }
     // SAFETY: `slot` is not NULL and readable (this function's contract).
     let existing = unsafe { *slot } as *mut SavedState;
     if existing.is_null() {
-        let p = STATES.register(Box::new(state)) as *mut c_void;
+        let p = STATES.register_owned(Box::new(state), owner) as *mut c_void;
         // SAFETY: `slot` is not NULL and writable (this function's contract).
         unsafe { *slot = p };
     } else if STATES.contains(existing) {
         // SAFETY: a live `Box<SavedState>` (see `saved_state`) that nothing else uses.
         unsafe { *existing = state };
+        STATES.set_owner(existing, owner);
     } else {
         return Err(Failure::error(
             "*FMUstate is neither NULL nor a live FMU state of this FMU",
@@ -395,5 +403,5 @@ pub(crate) unsafe fn deserialize(
     let saved = SavedState::from_bytes(bytes, inst.model_hash()).map_err(Failure::error)?;
     inst.check_version(&saved)?;
     // SAFETY: `state` points to NULL or to a live state (this function's contract).
-    unsafe { store_state(state, saved) }
+    unsafe { store_state(state, saved, inst) }
 }

@@ -213,9 +213,10 @@ impl Instance {
     /// Logs a failure of `func`, moves to the error (or fatal) state and returns the status.
     pub fn fail(&mut self, func: &str, failure: Failure) -> fmi2Status {
         self.log(failure.status, &format!("{func}: {}", failure.message));
+        // (a discarded call leaves the state as it is: FMI 2.0's discarded step has moved the
+        // instance to step failed itself, FMI 3.0's leaves it in Step Mode, and a status no
+        // query can answer is discarded with the instance as it was)
         match failure.status {
-            // (FMI 3.0's discarded step leaves the instance in Step Mode, as it was)
-            fmi2Status::fmi2Discard if self.version == Version::Fmi2 => self.state = LifeState::StepFailed,
             fmi2Status::fmi2Error if self.state != LifeState::Fatal => self.state = LifeState::Error,
             fmi2Status::fmi2Fatal => self.state = LifeState::Fatal,
             _ => {}
@@ -585,7 +586,10 @@ impl Instance {
                 // shorter step. One that went on returns early there with a warning where the
                 // host allows early returns (and goes on from lastSuccessfulTime), else fails.
                 let status = match (self.version, self.early_return, time > now) {
-                    (Version::Fmi2, _, _) => fmi2Status::fmi2Discard,
+                    (Version::Fmi2, _, _) => {
+                        self.state = LifeState::StepFailed;
+                        fmi2Status::fmi2Discard
+                    }
                     (Version::Fmi3, _, false) => fmi2Status::fmi2Discard,
                     (Version::Fmi3, true, true) => fmi2Status::fmi2Warning,
                     (Version::Fmi3, false, true) => fmi2Status::fmi2Error,
@@ -602,7 +606,7 @@ impl Instance {
             // the simulation's time: after a failed step, the last good one
             Ok(self.time())
         } else {
-            Err(Failure::error(format!(
+            Err(Failure::discard(format!(
                 "status kind {kind} has no Real value (only fmi2LastSuccessfulTime = 2)"
             )))
         }
@@ -613,7 +617,7 @@ impl Instance {
         if kind == status_kind::TERMINATED {
             Ok(self.state == LifeState::Terminated)
         } else {
-            Err(Failure::error(format!(
+            Err(Failure::discard(format!(
                 "status kind {kind} has no Boolean value (only fmi2Terminated = 3)"
             )))
         }

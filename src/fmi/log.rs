@@ -59,6 +59,16 @@ impl Failure {
         }
     }
 
+    /// An `fmi2Discard` with a message: what a status query answers that it cannot answer
+    /// (FMI 2.0, co-simulation: "If a status is required which cannot be retrieved by the
+    /// slave it returns fmi2Discard"); the instance stays as it was.
+    pub fn discard(message: impl Into<String>) -> Failure {
+        Failure {
+            status: fmi2Status::fmi2Discard,
+            message: message.into(),
+        }
+    }
+
     /// An `fmi2Error` with a message.
     pub fn error(message: impl Into<String>) -> Failure {
         Failure {

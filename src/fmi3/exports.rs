@@ -342,7 +342,11 @@ forward! {
     ///
     /// # Safety
     /// `state` is NULL or valid for reading and writing one handle (looked up before use).
-    fn fmi3GetFMUState(state: *mut fmi3FMUState) [FMU_STATE] |inst| unsafe { glue::store_state(state, inst.save()) };
+    fn fmi3GetFMUState(state: *mut fmi3FMUState) [FMU_STATE] |inst| {
+        let saved = inst.save();
+        // SAFETY: `state` points to NULL or to a live state (this function's contract).
+        unsafe { glue::store_state(state, saved, inst) }
+    };
 
     /// `fmi3SetFMUState`: restores a state of this FMU saved by an FMI 3.0 instance (an FMI
     /// 2.0 state is refused with a message).

@@ -668,3 +668,76 @@ fn overlong_communication_steps_are_discarded_after_max_steps() {
         unsafe { assert_eq!(fmi2FreeFMUstate(a.0, &mut saved), OK) };
     }
 }
+
+#[test]
+fn a_status_no_query_can_answer_is_discarded_and_the_instance_goes_on() {
+    // FMI 2.0 (co-simulation): "If a status is required which cannot be retrieved by the
+    // slave it returns fmi2Discard" — they returned fmi2Error and ended the run
+    let _handles = shared();
+    let u = Unpacked::new("status kinds");
+    let c = u.instantiate();
+    c.init();
+    assert_eq!(c.step(0.0, 1e-3), OK);
+    let discard = fmi2Status::fmi2Discard;
+    let (mut int, mut real, mut boolean) = (7, 7.0, 7);
+    let mut string: fmi2String = ptr::null();
+    // SAFETY: `c` is live and every output pointer is valid.
+    unsafe {
+        for kind in [0, 1, 2, 3, -1, 99, i32::MAX] {
+            assert_eq!(fmi2GetStatus(c.0, kind, &mut int), discard, "kind {kind}");
+            assert_eq!(fmi2GetIntegerStatus(c.0, kind, &mut int), discard, "kind {kind}");
+            assert_eq!(fmi2GetStringStatus(c.0, kind, &mut string), discard, "kind {kind}");
+            if kind != 2 {
+                assert_eq!(fmi2GetRealStatus(c.0, kind, &mut real), discard, "kind {kind}");
+            }
+            if kind != 3 {
+                assert_eq!(fmi2GetBooleanStatus(c.0, kind, &mut boolean), discard, "kind {kind}");
+            }
+            assert_eq!(c.state(), LifeState::StepComplete, "kind {kind}");
+        }
+        assert_eq!((int, real, boolean), (7, 7.0, 7), "nothing was written");
+        assert!(string.is_null());
+        // the answerable ones answer, and the run goes on
+        assert_eq!(fmi2GetRealStatus(c.0, 2, &mut real), OK);
+        assert_eq!(real, 1e-3);
+        assert_eq!(fmi2GetBooleanStatus(c.0, 3, &mut boolean), OK);
+        assert_eq!(boolean, FMI2_FALSE);
+    }
+    assert_eq!(c.step(1e-3, 1e-3), OK);
+}
+
+#[test]
+fn the_states_an_instance_made_are_freed_with_it() {
+    // FreeInstance "frees all the allocated memory and other resources that have been
+    // allocated by the functions of the FMU interface": states the host had not freed leaked
+    // (and could be freed only through another live instance)
+    let _handles = shared();
+    let u = Unpacked::new("states freed with it");
+    let (a, b) = (u.instantiate(), u.instantiate());
+    a.init();
+    b.init();
+    assert_eq!(a.step(0.0, 1e-3), OK);
+    let mut states: Vec<fmi2FMUstate> = vec![ptr::null_mut(); 3];
+    let mut of_b: fmi2FMUstate = ptr::null_mut();
+    // SAFETY: the instances are live and every slot is valid.
+    unsafe {
+        for s in &mut states {
+            assert_eq!(fmi2GetFMUstate(a.0, s), OK);
+        }
+        assert_eq!(fmi2GetFMUstate(b.0, &mut of_b), OK);
+        // while `a` lives, its states restore into `b` too
+        assert_eq!(fmi2SetFMUstate(b.0, states[0]), OK);
+        // a state of `b` written over by `a` is `a`'s from then on
+        assert_eq!(fmi2GetFMUstate(a.0, &mut of_b), OK);
+        drop(a);
+        for s in states.iter_mut().chain([&mut of_b]) {
+            let stale = *s;
+            assert_eq!(
+                fmi2FreeFMUstate(b.0, s),
+                ERROR,
+                "a state of the freed instance is stale"
+            );
+            assert_eq!(*s, stale, "the host's handle is left as it was");
+        }
+    }
+}
