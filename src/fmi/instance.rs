@@ -9,7 +9,7 @@
 //! `fmi3Status`.
 
 use super::lifecycle::{LifeState, Version};
-use super::log::{category_of, Failure, FmiResult, Sink, LOG_ALL, LOG_CATEGORIES};
+use super::log::{category_of, Failure, FmiResult, Sink, LOG_ALL, LOG_CATEGORIES, LOG_EVENTS};
 use super::saved::SavedState;
 use super::types::*;
 use super::uri::{resource_dir, resource_folder};
@@ -113,8 +113,13 @@ impl Instance {
     /// instance; the error is the message to log.
     pub fn new(args: InstantiateArgs) -> Result<Instance, String> {
         let function = args.function;
-        if args.instance_name.is_empty() {
-            return Err(format!("{function}: the instance name is empty"));
+        // (both versions: "a non-empty string ... with at least one character that is not a
+        // white space")
+        if args.instance_name.trim().is_empty() {
+            return Err(format!(
+                "{function}: the instance name {:?} is empty or white space only",
+                args.instance_name
+            ));
         }
         let dir = match args.version {
             Version::Fmi2 => resource_dir(args.resource_location),
@@ -233,6 +238,15 @@ impl Instance {
             self.enabled = [logging_on; LOG_CATEGORIES.len()];
             return Ok(());
         }
+        // Events (the debug messages of fmi2OK calls) are logged for exactly the categories
+        // of a call that switches logging on ("only debug messages according to the
+        // categories argument shall be printed"): unless it names them, they are off. The
+        // status categories keep what they were unless named (errors are logged unless
+        // switched off).
+        let mut enabled = self.enabled;
+        if logging_on {
+            enabled[LOG_EVENTS] = false;
+        }
         for c in categories {
             let Some(i) = LOG_CATEGORIES
                 .iter()
@@ -245,11 +259,13 @@ impl Instance {
                 )));
             };
             if i == LOG_ALL {
-                self.enabled = [logging_on; LOG_CATEGORIES.len()];
+                enabled = [logging_on; LOG_CATEGORIES.len()];
             } else {
-                self.enabled[i] = logging_on;
+                enabled[i] = logging_on;
             }
         }
+        // (an unknown category above leaves the settings as they were)
+        self.enabled = enabled;
         if logging_on {
             self.logging_on = true;
         }

@@ -23,7 +23,7 @@ pub const LOG_CATEGORIES: [(&CStr, &str); 6] = [
     (c"logAll", "All of the above"),
 ];
 
-const LOG_EVENTS: usize = 0;
+pub(crate) const LOG_EVENTS: usize = 0;
 pub(crate) const LOG_ALL: usize = 5;
 
 /// The log category of a status.

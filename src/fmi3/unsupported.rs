@@ -51,7 +51,7 @@ no_variables! {
     fmi3SetUInt64(_values: *const fmi3UInt64, _n_values: usize) => "UInt64", SET_VALUES;
     fmi3GetBinary(_value_sizes: *mut usize, _values: *mut fmi3Binary, _n_values: usize) => "Binary", FMI3_GET_VALUES;
     fmi3SetBinary(_value_sizes: *const usize, _values: *const fmi3Binary, _n_values: usize) => "Binary", SET_VALUES;
-    fmi3GetClock(_values: *mut fmi3Clock) => "Clock", GET_VALUES;
+    fmi3GetClock(_values: *mut fmi3Clock) => "Clock", FMI3_GET_VALUES;
     fmi3SetClock(_values: *const fmi3Clock) => "Clock", SET_VALUES;
 }
 

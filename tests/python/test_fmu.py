@@ -337,8 +337,11 @@ def test_wrong_guid_returns_null_and_logs(unzipped, make_instance, log):
     assert "%s%n%d" in text
 
 
-def test_empty_instance_name_returns_null_and_logs(unzipped, make_instance, log):
-    inst = make_instance(unzipped[SCENES[0]], "", instantiate=False)
+@pytest.mark.parametrize("name", ["", "   ", "\t"])
+def test_empty_instance_name_returns_null_and_logs(unzipped, make_instance, log, name):
+    """The name must hold "at least one character that is no white space" (white space
+    alone was accepted)."""
+    inst = make_instance(unzipped[SCENES[0]], name, instantiate=False)
     with pytest.raises(Exception, match="Failed to instantiate"):
         inst.slave.instantiate(callbacks=log.callbacks)
     assert "instance name" in log.text()
@@ -373,6 +376,25 @@ def test_unknown_log_category_is_an_error(unzipped, make_instance, log):
     with pytest.raises(FMICallException):
         inst.slave.setDebugLogging(True, ["noSuchCategory"])
     assert "noSuchCategory" in log.text()
+
+
+def test_switching_categories_on_logs_the_events_only_when_named(unzipped, make_instance, log):
+    """FMI 2.0: with loggingOn and categories, "only debug messages according to the
+    categories argument shall be printed" (naming logStatusWarning let the events through)."""
+    inst = make_instance(unzipped[SCENES[0]], "categories", callbacks=log.callbacks)
+    inst.slave.setDebugLogging(True, ["logStatusWarning"])
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.slave.exitInitializationMode()
+    inst.slave.reset()
+    assert not [m for m in log.messages if m[1] == "logEvents"], log.messages
+    inst.slave.setDebugLogging(True, ["logEvents"])
+    inst.slave.reset()
+    assert [m for m in log.messages if m[1] == "logEvents"], log.messages
+    # errors stay logged (they are switched off only by name)
+    with pytest.raises(FMICallException):
+        inst.step(0.001)  # before initialisation: illegal
+    assert any(m[1] == "logStatusError" for m in log.messages)
 
 
 def bouncing_ball_with_stiffness():
