@@ -82,6 +82,16 @@ impl Scene {
                 ));
             }
         }
+        if !(1..=MAX_STEPS_LIMIT).contains(&s.max_steps) {
+            return Err(err(
+                "[solver]".into(),
+                "max_steps",
+                format!(
+                    "must be in [1, {MAX_STEPS_LIMIT}] (got {}): the steps one communication step may take",
+                    s.max_steps
+                ),
+            ));
+        }
         if let Err((field, msg)) = check_max_step(s) {
             return Err(err("[solver]".into(), field, msg));
         }
@@ -477,6 +487,15 @@ pub(super) fn validate_law_keys(origin: &str, item: &str, c: &ContactSpec, mater
                     format!("must be > 0 (got {v}): no penetration could be admitted"),
                 ));
             }
+            if v < MIN_MAX_PENETRATION {
+                return Err(err(
+                    "max_penetration",
+                    format!(
+                        "must be at least {MIN_MAX_PENETRATION:e} m (got {}): a step could pass through so thin a band of admitted penetrations unseen, and the sphere through the surface",
+                        short(v)
+                    ),
+                ));
+            }
             magnitude(origin, item, "max_penetration", v)?;
         }
         let nonnegative_keys = [
@@ -547,6 +566,14 @@ pub const MIN_MAX_STEP: f64 = 1e-9;
 /// velocities, gravity) or an angle \[rad\] in a scene: the model forms squares and products
 /// of them, which overflow or lose all precision beyond this.
 pub const MAX_MAGNITUDE: f64 = 1e12;
+
+/// The most `solver.max_steps` (the range of an FMI Integer).
+pub const MAX_STEPS_LIMIT: u64 = i32::MAX as u64;
+
+/// The least `max_penetration` \[m\]: a contact acts while `0 < δ < max_penetration`, and a
+/// band much thinner than this (1e-17 m and below, near the rounding of positions of a metre)
+/// could be stepped across unseen (a ball fell through the floor without an error).
+pub const MIN_MAX_PENETRATION: f64 = 1e-9;
 
 /// Most communication points of the default experiment (`stop_time / interval`).
 pub const MAX_COMMUNICATION_POINTS: f64 = 1e9;

@@ -211,7 +211,7 @@ impl Simulation {
                 return Err(SimError::Variable(format!(
                     "parameter {} = {} is out of its allowed range {}",
                     var.name,
-                    x,
+                    crate::scene::short(x),
                     r.describe()
                 )));
             }

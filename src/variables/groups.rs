@@ -145,7 +145,7 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
                 format!("{}.max_penetration", g.name),
                 d,
                 Some("m"),
-                pos,
+                Range::open_above(MIN_MAX_PENETRATION, false),
                 t(GroupKey::MaxPenetration),
                 false,
                 "largest admissible penetration",

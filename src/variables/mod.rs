@@ -5,7 +5,10 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
-use crate::scene::{ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, RTOL_RANGE};
+use crate::scene::{
+    ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, MAX_STEPS_LIMIT,
+    MIN_MAX_PENETRATION, RTOL_RANGE,
+};
 
 /// Value type as seen by FMI.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -278,7 +281,7 @@ pub struct Range {
 }
 
 impl Range {
-    fn open_above(min: f64, min_exclusive: bool) -> Range {
+    pub(crate) fn open_above(min: f64, min_exclusive: bool) -> Range {
         Range {
             min,
             min_exclusive,
@@ -286,7 +289,7 @@ impl Range {
             max_exclusive: false,
         }
     }
-    fn closed([min, max]: [f64; 2]) -> Range {
+    pub(crate) fn closed([min, max]: [f64; 2]) -> Range {
         Range {
             min,
             min_exclusive: false,
@@ -310,15 +313,7 @@ impl Range {
     }
     /// Human-readable form, e.g. `(0, inf)`, `[0, 0.5)` or `[1e-14, 0.01]`.
     pub fn describe(&self) -> String {
-        // the shorter of plain and scientific notation
-        let num = |x: f64| {
-            let (plain, sci) = (format!("{x}"), format!("{x:e}"));
-            if sci.len() < plain.len() {
-                sci
-            } else {
-                plain
-            }
-        };
+        let num = crate::scene::short;
         format!(
             "{}{}, {}{}",
             if self.min_exclusive { "(" } else { "[" },

@@ -166,7 +166,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             format!("{}.max_penetration", c.name),
             c.max_penetration_or_default(),
             Some("m"),
-            pos,
+            Range::open_above(MIN_MAX_PENETRATION, false),
             VarRef::MaxPenetration(i),
             if c.max_penetration.is_some() {
                 "largest admissible penetration (a deeper one fails the step)"
@@ -475,12 +475,7 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
                       with fmi3Warning where early return is allowed, else fmi3Error; fmi3Discard, the \
                       instance unchanged, when it reached no further)"
             .into(),
-        range: Some(Range {
-            min: 1.0,
-            min_exclusive: false,
-            max: i32::MAX as f64,
-            max_exclusive: false,
-        }),
+        range: Some(Range::closed([1.0, MAX_STEPS_LIMIT as f64])),
         target: VarRef::SolverMaxSteps,
         depends_on_inputs: false,
     });

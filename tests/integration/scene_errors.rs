@@ -105,6 +105,13 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     ("other", "law = \"hertz\"", "law = \"kelvin_voigt\"", &["contact \"tip_wall\"", "stiffness"]),
     ("other", "name = \"arm\"", "name = \"ground\"", &["name", "reserved"]),
     ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\nstop_time = -1.0\n", &["[model]", "stop_time"]),
+    // a band of admitted penetrations too thin to be seen (the sphere passed through the
+    // surface without an error)
+    ("other", "radius = 0.02", "radius = 0.02\nmax_penetration = 1e-300", &["contact \"tip_wall\"", "max_penetration", "at least 1e-9"]),
+    // a step budget beyond an FMI Integer (reported before as a parameter, with no file or
+    // item, its value rounded through a float)
+    ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\n[solver]\nmax_steps = 9223372036854775807\n", &["[solver]", "max_steps", "9223372036854775807"]),
+    ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\n[solver]\nmax_steps = 0\n", &["[solver]", "max_steps", "[1, 2147483647]"]),
 ];
 
 /// Arm and tip joined to each other and to nothing else.
