@@ -18,7 +18,7 @@ pub use groups::{shape_item, BroadPhaseMethod, BroadPhaseSection, ContactGroupSp
 pub use inputs::{InputSpec, InputType};
 pub use validate::{
     check_max_step, item_name, quote, short, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
-    MAX_STEPS_LIMIT, MIN_MAX_PENETRATION, MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE,
+    MAX_STEPS_LIMIT, MIN_MAX_PENETRATION, MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE, RUNAWAY_SPEED,
 };
 use validate::{check_name, length, magnitude, validate_law_keys, vector};
 

@@ -25,7 +25,7 @@ use crate::forward::{evaluate, Rhs};
 use crate::kinematics::{kinematics, poses_and_velocities_at_state};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
-use crate::scene::Law;
+use crate::scene::{Law, RUNAWAY_SPEED};
 
 /// A failed advance: the last good time and what went wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -365,10 +365,6 @@ fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     }
     Ok(())
 }
-
-/// A speed no rigid mechanism reaches [m/s or rad/s]: a velocity coordinate beyond it is
-/// taken for an integration that blew up (before the kinetic energy overflows).
-pub const RUNAWAY_SPEED: f64 = 1e8;
 
 /// What makes the state `y` of a step's end a blow-up, if anything: a non-finite number, or a
 /// velocity beyond [`RUNAWAY_SPEED`]. (Positions are not bounded: bodies flying apart for a

@@ -109,6 +109,17 @@ impl Scene {
         let mut names: HashSet<&str> = HashSet::new();
         let mut unique = |item: &str, name| -> Result<(), SceneError> {
             check_name(origin, item, name)?;
+            if RESERVED_NAMES.contains(&name) {
+                return Err(SceneError::new(
+                    origin,
+                    item,
+                    "name",
+                    format!(
+                        "{} is reserved for the FMU's own variables (time, solver.*, energy.*)",
+                        quote(name)
+                    ),
+                ));
+            }
             if !names.insert(name) {
                 return Err(SceneError::new(
                     origin,
@@ -160,6 +171,19 @@ impl Scene {
             vector(origin, &item, "position", &b.position)?;
             vector(origin, &item, "velocity", &b.velocity)?;
             vector(origin, &item, "angular_velocity", &b.angular_velocity)?;
+            for (field, v) in [("velocity", b.velocity), ("angular_velocity", b.angular_velocity)] {
+                let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if speed > RUNAWAY_SPEED {
+                    return Err(err(
+                        item.clone(),
+                        field,
+                        format!(
+                            "a speed of {} is beyond {RUNAWAY_SPEED:e}, which no rigid mechanism reaches (the run would stop at once as blown up)",
+                            short(speed)
+                        ),
+                    ));
+                }
+            }
             let q = b.orientation;
             let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
             if !(n.is_finite() && (n - 1.0).abs() < 1e-6) {
@@ -332,10 +356,18 @@ impl Scene {
                             ));
                         }
                     }
+                    let mut seen = HashSet::new();
                     for jn in names {
                         let Some(j) = joints.get(jn.as_str()) else {
                             return Err(err(item, field, format!("unknown joint {}", quote(jn))));
                         };
+                        if !seen.insert(jn.as_str()) {
+                            return Err(err(
+                                item,
+                                field,
+                                format!("names joint {} twice (it would take the force twice)", quote(jn)),
+                            ));
+                        }
                         if !matches!(j.kind, JointType::Revolute | JointType::Prismatic) {
                             return Err(err(item, field, format!("joint {} is not a 1-DOF joint", quote(jn))));
                         }
@@ -566,6 +598,16 @@ pub const MIN_MAX_STEP: f64 = 1e-9;
 /// velocities, gravity) or an angle \[rad\] in a scene: the model forms squares and products
 /// of them, which overflow or lose all precision beyond this.
 pub const MAX_MAGNITUDE: f64 = 1e12;
+
+/// A speed no rigid mechanism reaches \[m/s or rad/s\]: the engine takes a velocity coordinate
+/// beyond it for an integration that blew up (before the kinetic energy overflows), so an
+/// initial velocity may not reach it.
+pub const RUNAWAY_SPEED: f64 = 1e8;
+
+/// Names no item may take: the FMU's own variables are `time` (FMI 3.0's independent
+/// variable), `solver.*` and `energy.*` (an input named `time` made a second variable of that
+/// name, one named `solver` or `energy` a variable beside the structured names under it).
+pub const RESERVED_NAMES: [&str; 3] = ["time", "solver", "energy"];
 
 /// The most `solver.max_steps` (the range of an FMI Integer).
 pub const MAX_STEPS_LIMIT: u64 = i32::MAX as u64;

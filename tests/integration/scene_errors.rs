@@ -104,6 +104,13 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     ("other", "u_axis = [0.0, 1.0, 0.0]", "u_axis = [-1.0, 0.0, 0.0]", &["contact \"tip_wall\"", "u_axis", "perpendicular"]),
     ("other", "law = \"hertz\"", "law = \"kelvin_voigt\"", &["contact \"tip_wall\"", "stiffness"]),
     ("other", "name = \"arm\"", "name = \"ground\"", &["name", "reserved"]),
+    // a speed the engine takes for a blow-up (validation allowed it, the run then stopped at
+    // once advising a tighter tolerance)
+    ("other", "mass = 0.2", "mass = 0.2\nangular_velocity = [0.0, 2e8, 0.0]", &["body \"tip\"", "angular_velocity", "beyond 1e8"]),
+    // names of the FMU's own variables (an input named "time" made a second variable "time")
+    ("other", "name = \"arm\"", "name = \"time\"", &["body \"time\"", "name", "reserved"]),
+    ("other", "name = \"weld\"", "name = \"solver\"", &["joint \"solver\"", "name", "reserved"]),
+    ("other", "name = \"tip_wall\"", "name = \"energy\"", &["contact \"energy\"", "name", "reserved"]),
     ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\nstop_time = -1.0\n", &["[model]", "stop_time"]),
     // a band of admitted penetrations too thin to be seen (the sphere passed through the
     // surface without an error)
@@ -202,6 +209,8 @@ const ADDED_ITEMS: &[(&str, &[&str])] = &[
     ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = [\"pivot\", \"nothing\"]\n", &["input \"u\"", "joints", "unknown joint \"nothing\""]),
     ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"pivot\"\njoints = [\"pivot\"]\n", &["input \"u\"", "joints", "not both"]),
     ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = []\n", &["input \"u\"", "joint", "required"]),
+    // a joint named twice took the force twice (and the one it replaced none)
+    ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoints = [\"pivot\", \"pivot\"]\n", &["input \"u\"", "joints", "twice"]),
     ("[[input]]\nname = \"u\"\ntype = \"force\"\nbody = \"arm\"\ndirection = [1.0, 0.0, 0.0]\njoint = \"pivot\"\n", &["input \"u\"", "joint", "not used by a force or torque input"]),
     ("[[input]]\nname = \"u\"\ntype = \"torque\"\nbody = \"arm\"\ndirection = [1.0, 0.0, 0.0]\njoints = [\"pivot\"]\n", &["input \"u\"", "joints", "not used by a force or torque input"]),
     ("[[input]]\nname = \"u\"\ntype = \"joint_force\"\njoint = \"pivot\"\nbody = \"arm\"\n", &["input \"u\"", "body", "not used by a joint_force input"]),
