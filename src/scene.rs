@@ -11,6 +11,7 @@ use std::path::Path;
 
 #[macro_use]
 pub(crate) mod keys;
+pub(crate) mod exact;
 mod groups;
 mod inputs;
 mod validate;
@@ -97,6 +98,7 @@ pub struct ModelSection {
     pub description: String,
     /// Gravity vector \[m/s^2\].
     #[serde(default = "default_gravity")]
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub gravity: [f64; 3],
     /// Default experiment stop time \[s\].
     #[serde(default = "default_stop_time")]
@@ -280,17 +282,22 @@ pub struct BodySpec {
     /// Mass \[kg\].
     pub mass: f64,
     /// Principal moments of inertia about the centre of mass \[kg m^2\].
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub inertia: [f64; 3],
     /// Centre of mass, world frame \[m\].
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub position: [f64; 3],
     /// Orientation quaternion (w, x, y, z) of the principal axes.
     #[serde(default = "identity_quaternion")]
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub orientation: [f64; 4],
     /// Centre-of-mass velocity, world frame \[m/s\].
     #[serde(default)]
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub velocity: [f64; 3],
     /// Angular velocity, world frame \[rad/s\].
     #[serde(default)]
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub angular_velocity: [f64; 3],
 }
 
@@ -344,8 +351,10 @@ pub struct JointSpec {
     /// Child body name.
     pub child: String,
     /// Joint point, world frame \[m\]. Default: the child's centre of mass.
+    #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
     pub anchor: Option<[f64; 3]>,
     /// Joint axis, world frame (revolute and prismatic).
+    #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
     pub axis: Option<[f64; 3]>,
 }
 
@@ -358,10 +367,12 @@ pub struct SpringDamperSpec {
     /// First body.
     pub body_a: String,
     /// Attachment point on body_a, world frame \[m\].
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub point_a: [f64; 3],
     /// Second body.
     pub body_b: String,
     /// Attachment point on body_b, world frame \[m\].
+    #[serde(deserialize_with = "crate::scene::exact::array")]
     pub point_b: [f64; 3],
     /// Stiffness \[N/m\].
     pub stiffness: f64,
@@ -448,6 +459,7 @@ scene_item! {
         /// Body that carries the sphere.
         pub sphere_body: String,
         /// Sphere centre, world frame \[m\].
+        #[serde(deserialize_with = "crate::scene::exact::array")]
         pub center: [f64; 3],
         /// Sphere radius \[m\].
         pub radius: f64,
@@ -458,6 +470,7 @@ scene_item! {
         /// Material of the other shape.
         pub material: Option<String>,
         /// sphere_sphere: centre of the other sphere, world frame \[m\].
+        #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
         pub other_center: Option<[f64; 3]>,
         /// sphere_sphere: radius of the other sphere \[m\].
         pub other_radius: Option<f64>,

@@ -41,6 +41,7 @@ scene_item! {
         /// Material (for the Hertz stiffness).
         pub material: Option<String>,
         /// sphere: centre, world frame \[m\] (default: the body's centre of mass).
+        #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
         pub center: Option<[f64; 3]>,
         /// sphere: radius \[m\].
         pub radius: Option<f64>,
@@ -85,6 +86,7 @@ scene_item! {
         /// Name: the prefix of the group pair's FMU variables.
         pub name: String,
         /// The sphere group, then the group of the shapes they touch.
+        #[serde(deserialize_with = "crate::scene::exact::array")]
         pub groups: [String; 2],
         /// Force law.
         pub law: Law,

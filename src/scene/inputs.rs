@@ -119,6 +119,7 @@ pub struct InputSpec {
     /// on every wheel).
     pub joints: Option<Vec<String>>,
     /// World direction (force, torque).
+    #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
     pub direction: Option<[f64; 3]>,
     /// Start value.
     #[serde(default)]

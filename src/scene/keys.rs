@@ -21,24 +21,32 @@ macro_rules! surface_keys {
         scene_item! { [$($rest),*] $(#[$meta])* pub struct $name {
             $($fields)*
             /// Plane: centre of the rectangle \[m\].
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub origin: Option<[f64; 3]>,
             /// Plane: outward normal.
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub normal: Option<[f64; 3]>,
             /// Plane: first in-plane axis.
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub u_axis: Option<[f64; 3]>,
             /// Plane: side lengths [lu, lv] \[m\].
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub size: Option<[f64; 2]>,
             /// Cylinder: a point on the axis (the middle of the patch's length) \[m\].
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub axis_point: Option<[f64; 3]>,
             /// Cylinder: axis direction.
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub axis: Option<[f64; 3]>,
             /// Cylinder: radius ρ \[m\].
             pub cylinder_radius: Option<f64>,
             /// Cylinder: length of the patch along the axis \[m\].
             pub length: Option<f64>,
             /// Cylinder: angular range [min, max] from `ref_axis` \[rad\].
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub theta_range: Option<[f64; 2]>,
             /// Cylinder: direction (perpendicular to the axis) where θ = 0.
+            #[serde(default, deserialize_with = "crate::scene::exact::option_array")]
             pub ref_axis: Option<[f64; 3]>,
             /// Cylinder: the side the spheres touch, outside (convex) or inside (concave).
             #[serde(default)]

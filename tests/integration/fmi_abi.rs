@@ -484,9 +484,12 @@ fn stepped_once(name: &str) -> (RwLockWriteGuard<'static, ()>, Unpacked, Compone
 #[test]
 fn freed_and_garbage_component_handles_are_errors_not_crashes() {
     let (_alone, u, c) = stepped_once("stale component");
+    // (a state of another instance: the states an instance made are freed with it)
+    let other = u.instantiate();
+    other.init();
     let mut state: fmi2FMUstate = ptr::null_mut();
     // SAFETY: a live instance and a state slot.
-    unsafe { assert_eq!(fmi2GetFMUstate(c.0, &mut state), OK) };
+    unsafe { assert_eq!(fmi2GetFMUstate(other.0, &mut state), OK) };
     let freed = c.0;
     drop(c); // fmi2FreeInstance
     let mut elsewhere = 1.5;
@@ -500,8 +503,7 @@ fn freed_and_garbage_component_handles_are_errors_not_crashes() {
         every_call_on_a_dead_handle_is_an_error(state);
     }
     assert_eq!(elsewhere, 1.5);
-    // The state outlives its instance and is freed through another one.
-    let other = u.instantiate();
+    // The state is still live and is freed through its instance.
     // SAFETY: a live instance and a live state.
     unsafe {
         assert_eq!(fmi2FreeFMUstate(other.0, &mut state), OK);

@@ -77,6 +77,10 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     // a value of the wrong type and an unknown key are reported the same way
     ("unparsable", "mass = 1.0", "mass = \"heavy\"", &["line", "toml"]),
     ("unparsable", "mass = 1.0", "mass = 1.0\ncolour = \"red\"", &["line", "colour"]),
+    // numbers beyond a fixed-length array's were dropped without a word
+    ("unparsable", "[0.01, 0.02, 0.02]", "[0.01, 0.02, 0.02, 0.03]", &["line", "invalid length 4, expected an array of length 3"]),
+    ("unparsable", "origin = [0.5, 0.0, -1.0]", "origin = [0.5, 0.0, -1.0, \"junk\"]", &["line", "junk"]),
+    ("unparsable", "size = [1.0, 1.0]", "size = [1.0, 1.0, 1.0]", &["line", "invalid length 3, expected an array of length 2"]),
     ("unknown_body", "parent = \"ground\"", "parent = \"grund\"", &["joint \"pivot\"", "parent", "unknown body \"grund\""]),
     ("unknown_body", "child = \"tip\"", "child = \"tap\"", &["joint \"weld\"", "child", "unknown body"]),
     ("unknown_body", "sphere_body = \"tip\"", "sphere_body = \"top\"", &["contact \"tip_wall\"", "sphere_body", "unknown body"]),
