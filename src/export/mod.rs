@@ -17,7 +17,7 @@
 use crate::fmi::lifecycle::Version;
 use crate::guid::guid;
 use crate::scene::{Scene, SceneError};
-use crate::simulation::Simulation;
+use crate::simulation::{SimError, Simulation};
 use crate::variables::VariableTable;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -119,9 +119,13 @@ pub fn export_fmu_binaries(
     let origin = scene_path.display().to_string();
     let scene = Scene::from_str(&text, &origin)?;
     let mut trial = Simulation::new(scene.clone(), &origin);
-    trial.initialize(0.0).map_err(|e| ExportError::Model {
-        path: scene_path.to_path_buf(),
-        message: e.to_string(),
+    trial.initialize(0.0).map_err(|e| match e {
+        // (a scene error names the file itself)
+        SimError::Scene(e) => ExportError::Scene(e),
+        e => ExportError::Model {
+            path: scene_path.to_path_buf(),
+            message: e.to_string(),
+        },
     })?;
     let libraries = binaries
         .iter()

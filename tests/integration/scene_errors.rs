@@ -273,6 +273,30 @@ fn command_line_reports_bad_scenes_in_one_line() {
 }
 
 #[test]
+fn export_names_the_file_once_for_a_mistake_found_when_the_model_is_compiled() {
+    // (a joint cycle is found by the compilation, not by the checks of the scene: export
+    // printed the file twice, "error: x.toml: x.toml: body ...")
+    let p = temp_scene(
+        "cycle_export.toml",
+        &scene(MODEL, MATERIALS, BODIES, CYCLE_JOINTS, CONTACTS),
+    );
+    let out = std::env::temp_dir().join("contact_fmu_cycle_export.fmu");
+    let binary = format!("linux64={}", p.display());
+    let (ok, err) = common::run_command(&[
+        "export",
+        p.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--platforms",
+        "linux64",
+        "--binary",
+        &binary,
+    ]);
+    common::assert_refused_in_one_line("export", &p, (ok, err.clone()), &["cycle"]);
+    assert_eq!(err.matches("cycle_export.toml").count(), 1, "{err}");
+}
+
+#[test]
 fn a_run_of_more_communication_points_than_a_scene_may_declare_is_refused_before_it_starts() {
     // `simulate --interval 1e-300` (or `--stop-time 1e300`) ran on for ever at t = 0: the
     // scene's own experiment is checked for at most 1e9 points, the overrides were not
