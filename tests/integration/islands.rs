@@ -345,3 +345,20 @@ fn an_islands_errors_name_contacts_as_the_scene_does() {
     }
     assert_eq!(names[0], names[1], "islands against one integrator");
 }
+
+#[test]
+fn a_budget_spent_on_rounds_too_short_for_the_margin_says_to_raise_the_margin() {
+    // margin 1e-12 m: every round ends after a body moved a third of a picometre, the budget
+    // of rounds runs out at once; the message gave only "shorter communication steps"
+    let text = std::fs::read_to_string(common::bundled("pile_of_balls"))
+        .unwrap()
+        .replace("margin = 0.002", "margin = 1e-12");
+    assert!(text.contains("margin = 1e-12"));
+    let mut sim = Simulation::from_scene_str(&text, "tiny_margin.toml").unwrap();
+    sim.initialize(0.0).unwrap();
+    let err = sim.step_to(1e-3).unwrap_err().to_string();
+    assert!(
+        err.contains("rounds of the islands") && err.contains("raise the margin") && err.contains("margin = 1e-12 m"),
+        "{err}"
+    );
+}
