@@ -535,6 +535,10 @@ fn default_restitution() -> f64 {
 /// True when positive principal moments of inertia satisfy the triangle inequality
 /// (I1 + I2 ≥ I3 and its permutations, to a relative 1e-9): the moments of a physical body.
 pub fn inertia_is_physical([a, b, c]: [f64; 3]) -> bool {
+    // (compared relative to the largest, so that no sum overflows: with moments near f64::MAX
+    // the tolerance became infinite and any three moments passed)
+    let s = a.max(b).max(c);
+    let (a, b, c) = (a / s, b / s, c / s);
     let tol = 1e-9 * (a + b + c);
     a + b >= c - tol && b + c >= a - tol && a + c >= b - tol
 }

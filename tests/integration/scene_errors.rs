@@ -93,6 +93,8 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     ("inertia", "[0.01, 0.02, 0.02]", "[0.01, -0.02, 0.02]", &["body \"arm\"", "inertia", "positive definite"]),
     ("inertia", "[0.01, 0.02, 0.02]", "[0.0, 0.02, 0.02]", &["body \"arm\"", "inertia"]),
     ("inertia", "[0.01, 0.02, 0.02]", "[0.01, 0.02, 0.05]", &["body \"arm\"", "inertia", "triangle"]),
+    // (near f64::MAX the check's tolerance overflowed to infinity and let these through)
+    ("inertia", "[0.01, 0.02, 0.02]", "[1.7e308, 1e307, 1e307]", &["body \"arm\"", "inertia", "triangle"]),
     ("zero_axis", "axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]", &["joint \"pivot\"", "axis", "zero"]),
     ("zero_axis", "normal = [-1.0, 0.0, 0.0]", "normal = [0.0, 0.0, 0.0]", &["contact \"tip_wall\"", "normal"]),
     ("poisson", "poisson_ratio = 0.3", "poisson_ratio = 0.5", &["material \"steel\"", "poisson_ratio", "[0, 0.5)"]),
