@@ -9,8 +9,10 @@ readings. Modes:
 
   loaded     the library is loaded once; --cycles cycles
   reloaded   fmpy's own pattern: every cycle loads the library and unloads it again
-  leak-state control: like `loaded`, but the FMU state is never freed (a deliberate leak of
-             one saved state per cycle): shows the size of leak the measurement detects
+  leak-state control: like `loaded`, and a second instance that lives for the whole run saves
+             one FMU state per cycle that is never freed (a deliberate leak of one saved
+             state per cycle; a state the cycle's own instance made would be freed with it):
+             shows the size of leak the measurement detects
   leak-instance control: the instance is never freed
 
 Prints a table and writes docs/instance_cycles.csv (mode, fmu, cycles, rss at start and end
@@ -92,6 +94,15 @@ def run(unz, mode, cycles, warmup, every):
     kept = None
     if mode != "reloaded":
         kept = unz.slave()
+    keeper = None
+    if mode == "leak-state":
+        # (an instance frees the states it made when it is freed: the leaked states are made
+        # by a second instance that lives for the whole run)
+        keeper = unz.slave()
+        keeper.instantiate()
+        keeper.setupExperiment(startTime=0.0)
+        keeper.enterInitializationMode()
+        keeper.exitInitializationMode()
 
     def one():
         if mode == "reloaded":
@@ -99,7 +110,9 @@ def run(unz, mode, cycles, warmup, every):
             cycle(s, unz.step)
             s.freeLibrary()
         else:
-            cycle(kept, unz.step, free_state=mode != "leak-state", free_instance=mode != "leak-instance")
+            cycle(kept, unz.step, free_instance=mode != "leak-instance")
+            if keeper is not None:
+                keeper.getFMUstate()  # never freed
 
     for _ in range(warmup):
         one()

@@ -280,7 +280,8 @@ class Sequence:
             inst["state"] = ERROR
         elif status == 4:
             inst["state"] = FATAL
-        elif status == 2:
+        elif status == 2 and name.endswith("DoStep"):
+            # (a step's discard; a status query's leaves the instance as it was)
             inst["state"] = FAILED
 
     def model(self, inst):
@@ -569,9 +570,10 @@ class Sequence:
                        describe="new" if entry is None else f"overwrite {entry['handle'].value:#x}")
         if st == 0 and inst["alive"] and entry is None and ptr is not None:
             self.states.append({"fmu": fmu, "handle": slot, "state": inst["state"], "time": inst["time"],
-                                "stop": inst["stop"], "alive": True})
+                                "stop": inst["stop"], "alive": True, "owner": inst})
         elif st == 0 and entry is not None:
-            entry.update(state=inst["state"], time=inst["time"], stop=inst["stop"])
+            # (a state is the instance's that last wrote it)
+            entry.update(state=inst["state"], time=inst["time"], stop=inst["stop"], owner=inst)
         return st
 
     def pick_state(self, fmu=None):
@@ -673,9 +675,9 @@ class Sequence:
         if st == 0 and inst["alive"] and entry is None and ptr is not None:
             # its lifecycle is unknown to the shadow: read after a restore
             self.states.append({"fmu": fmu, "handle": slot, "state": UNKNOWN, "time": inst["time"], "stop": None,
-                                "alive": True})
+                                "alive": True, "owner": inst})
         elif st == 0 and entry is not None:
-            entry.update(state=UNKNOWN)
+            entry.update(state=UNKNOWN, owner=inst)
         return st
 
     def status_query(self, inst, which):
@@ -734,7 +736,10 @@ class Sequence:
         self.call(inst["fmu"], self.fn("FreeInstance"), inst["handle"], describe=f"{inst['handle'].value}")
         if inst["alive"]:
             inst["alive"] = False
-            # its states stay valid (they belong to the library, not the instance)
+            # the states it made (last wrote) are freed with it
+            for s in self.states:
+                if s.get("owner") is inst:
+                    s["alive"] = False
 
     # -- the sequence --------------------------------------------------------------------
 

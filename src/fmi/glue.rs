@@ -4,8 +4,9 @@
 //!
 //! Safety, for every function here: `c` and FMU-state values may be anything (they are looked
 //! up in the registries before use), but one instance, and one state, is not used or freed on
-//! two threads at once (FMI 2.0 and 3.0 alike). Each function's `# Safety` names its other
-//! pointers.
+//! two threads at once (FMI 2.0 and 3.0 alike); a state is freed with the instance that made
+//! it (that last wrote it), so another instance uses it only while its maker lives and is not
+//! being freed. Each function's `# Safety` names its other pointers.
 
 use super::instance::{Access, Instance, InstantiateArgs};
 use super::lifecycle::Version;
@@ -73,13 +74,16 @@ pub(crate) unsafe fn free_instance(c: *mut c_void, version: Version) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: nothing else uses `c` (this function's contract).
         if unsafe { instance(c, version) }.is_some() {
-            // SAFETY: as above; the borrow has ended.
-            drop(unsafe { INSTANCES.release(c as *mut Instance) });
             // The states it made go with it (FreeInstance "frees all the allocated memory
             // and other resources that have been allocated by the functions of the FMU
             // interface"): the host's handles to them are stale from now on, and refused.
-            // SAFETY: the host uses none of its states while it frees the instance.
+            // (first, while the instance still holds its address: an instance made at the
+            // same address once this one is freed owns its own states)
+            // SAFETY: no instance uses a state of this one while it is freed (the module's
+            // contract).
             drop(unsafe { STATES.release_owned_by(c as usize) });
+            // SAFETY: as above; the borrow has ended.
+            drop(unsafe { INSTANCES.release(c as *mut Instance) });
         }
     }));
 }

@@ -92,6 +92,9 @@ pub struct Instance {
     /// FMI 3.0: steps end at contact events.
     early_return: bool,
     enabled: [bool; LOG_CATEGORIES.len()],
+    /// Whether a `SetDebugLogging` call has chosen categories (before, events are logged by
+    /// the instantiation's `loggingOn` alone).
+    categories_chosen: bool,
     /// The state-machine state.
     pub(crate) state: LifeState,
     sim: Simulation,
@@ -147,6 +150,7 @@ impl Instance {
             logging_on: args.logging_on,
             early_return: args.early_return,
             enabled: [true; LOG_CATEGORIES.len()],
+            categories_chosen: false,
             state: LifeState::Instantiated,
             sim,
             model_hash: crate::guid::model_hash(&scene_text),
@@ -236,15 +240,16 @@ impl Instance {
             // is logged, not even errors)
             self.logging_on = logging_on;
             self.enabled = [logging_on; LOG_CATEGORIES.len()];
+            self.categories_chosen = true;
             return Ok(());
         }
-        // Events (the debug messages of fmi2OK calls) are logged for exactly the categories
-        // of a call that switches logging on ("only debug messages according to the
-        // categories argument shall be printed"): unless it names them, they are off. The
-        // status categories keep what they were unless named (errors are logged unless
-        // switched off).
+        // Each call switches the categories it names, on or off, and leaves the others as
+        // they are; the first that switches categories on also ends the events' default
+        // (logged with the instantiation's loggingOn), so that events are logged only once
+        // named ("only debug messages according to the categories argument shall be
+        // printed"). Errors are logged unless switched off.
         let mut enabled = self.enabled;
-        if logging_on {
+        if logging_on && !self.categories_chosen {
             enabled[LOG_EVENTS] = false;
         }
         for c in categories {
@@ -266,6 +271,7 @@ impl Instance {
         }
         // (an unknown category above leaves the settings as they were)
         self.enabled = enabled;
+        self.categories_chosen = true;
         if logging_on {
             self.logging_on = true;
         }

@@ -410,6 +410,15 @@ impl Scene {
             return Err(err("restitution", format!("must be in [0, 1] (got {})", c.restitution)));
         }
         length(origin, item, "radius", c.radius)?;
+        if c.max_penetration.is_none() && c.radius < MIN_MAX_PENETRATION {
+            return Err(err(
+                "radius",
+                format!(
+                    "{} m is below {MIN_MAX_PENETRATION:e} m, the least max_penetration, which defaults to the radius: give max_penetration",
+                    short(c.radius)
+                ),
+            ));
+        }
         vector(origin, item, "center", &c.center)?;
         for (f, m) in [("sphere_material", &c.sphere_material), ("material", &c.material)] {
             if let Some(m) = m {

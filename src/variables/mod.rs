@@ -7,7 +7,7 @@
 use crate::compile::Parameters;
 use crate::scene::{
     ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, MAX_STEPS_LIMIT,
-    MIN_MAX_PENETRATION, RTOL_RANGE,
+    MIN_MAX_PENETRATION, RTOL_RANGE, RUNAWAY_SPEED,
 };
 
 /// Value type as seen by FMI.

@@ -481,7 +481,6 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
     });
     // Spring-dampers and initial velocities as parameters (after the variables above, so
     // their value references do not move).
-    let finite = Range::closed([-1e12, 1e12]);
     for (i, sd) in scene.spring_damper.iter().enumerate() {
         let free = sd.free_length_or_default();
         v.push(param(
@@ -509,11 +508,13 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
             "length at which the spring force is zero (default: the initial distance)",
         ));
     }
+    // (a speed beyond RUNAWAY_SPEED is taken for a blow-up at the first step)
+    let speed = Range::closed([-RUNAWAY_SPEED, RUNAWAY_SPEED]);
     for (i, b) in scene.body.iter().enumerate() {
         let what = "initial centre-of-mass velocity, world frame (projected onto the joints)";
         let velocity = |k| VarRef::InitialVelocity(i, k);
         v.extend(param_triple(
-            &b.name, "velocity", b.velocity, "m/s", finite, velocity, what,
+            &b.name, "velocity", b.velocity, "m/s", speed, velocity, what,
         ));
         let what = "initial angular velocity, world frame (projected onto the joints)";
         let angular_velocity = |k| VarRef::InitialAngularVelocity(i, k);
@@ -522,7 +523,7 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
             "angular_velocity",
             b.angular_velocity,
             "rad/s",
-            finite,
+            speed,
             angular_velocity,
             what,
         ));

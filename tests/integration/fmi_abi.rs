@@ -721,17 +721,24 @@ fn the_states_an_instance_made_are_freed_with_it() {
     assert_eq!(a.step(0.0, 1e-3), OK);
     let mut states: Vec<fmi2FMUstate> = vec![ptr::null_mut(); 3];
     let mut of_b: fmi2FMUstate = ptr::null_mut();
+    let mut kept_by_b: fmi2FMUstate = ptr::null_mut();
     // SAFETY: the instances are live and every slot is valid.
     unsafe {
         for s in &mut states {
             assert_eq!(fmi2GetFMUstate(a.0, s), OK);
         }
         assert_eq!(fmi2GetFMUstate(b.0, &mut of_b), OK);
+        assert_eq!(fmi2GetFMUstate(b.0, &mut kept_by_b), OK);
         // while `a` lives, its states restore into `b` too
         assert_eq!(fmi2SetFMUstate(b.0, states[0]), OK);
         // a state of `b` written over by `a` is `a`'s from then on
         assert_eq!(fmi2GetFMUstate(a.0, &mut of_b), OK);
         drop(a);
+        // `b`'s own state lives on, and restores (before any stale handle puts `b` in the
+        // error state)
+        assert_eq!(fmi2SetFMUstate(b.0, kept_by_b), OK);
+        assert_eq!(fmi2FreeFMUstate(b.0, &mut kept_by_b), OK);
+        assert!(kept_by_b.is_null());
         for s in states.iter_mut().chain([&mut of_b]) {
             let stale = *s;
             assert_eq!(
@@ -742,4 +749,21 @@ fn the_states_an_instance_made_are_freed_with_it() {
             assert_eq!(*s, stale, "the host's handle is left as it was");
         }
     }
+}
+
+#[test]
+fn a_live_state_is_freed_through_another_instance() {
+    let _handles = shared();
+    let u = Unpacked::new("freed elsewhere");
+    let (a, b) = (u.instantiate(), u.instantiate());
+    a.init();
+    let mut state: fmi2FMUstate = ptr::null_mut();
+    // SAFETY: live instances and a valid slot.
+    unsafe {
+        assert_eq!(fmi2GetFMUstate(a.0, &mut state), OK);
+        assert_eq!(fmi2FreeFMUstate(b.0, &mut state), OK);
+    }
+    assert!(state.is_null());
+    // and `a` goes on
+    assert_eq!(a.step(0.0, 1e-3), OK);
 }

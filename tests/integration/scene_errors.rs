@@ -121,6 +121,8 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     // a band of admitted penetrations too thin to be seen (the sphere passed through the
     // surface without an error)
     ("other", "radius = 0.02", "radius = 0.02\nmax_penetration = 1e-300", &["contact \"tip_wall\"", "max_penetration", "at least 1e-9"]),
+    // (max_penetration defaults to the radius: its parameter's start would be below its min)
+    ("other", "radius = 0.02", "radius = 1e-10", &["contact \"tip_wall\"", "radius", "give max_penetration"]),
     // a step budget beyond an FMI Integer (reported before as a parameter, with no file or
     // item, its value rounded through a float)
     ("other", "[model]\nname = \"bad\"\n", "[model]\nname = \"bad\"\n[solver]\nmax_steps = 9223372036854775807\n", &["[solver]", "max_steps", "9223372036854775807"]),

@@ -391,6 +391,12 @@ def test_switching_categories_on_logs_the_events_only_when_named(unzipped, make_
     inst.slave.setDebugLogging(True, ["logEvents"])
     inst.slave.reset()
     assert [m for m in log.messages if m[1] == "logEvents"], log.messages
+    # a later call naming another category leaves the events on (each call switches the
+    # categories it names)
+    log.clear()
+    inst.slave.setDebugLogging(True, ["logStatusDiscard"])
+    inst.slave.reset()
+    assert [m for m in log.messages if m[1] == "logEvents"], log.messages
     # errors stay logged (they are switched off only by name)
     with pytest.raises(FMICallException):
         inst.step(0.001)  # before initialisation: illegal
