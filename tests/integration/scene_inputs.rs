@@ -631,17 +631,7 @@ fn a_model_name_of_200_characters_exports_a_complete_fmu() {
     // a stand-in library (this test is about the names, not the library)
     let library = p.with_file_name("stand-in.so");
     std::fs::write(&library, "not a real library").unwrap();
-    let binary = format!("linux64={}", library.display());
-    let (ok, err) = run_command(&[
-        "export",
-        p.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--platforms",
-        "linux64",
-        "--binary",
-        &binary,
-    ]);
+    let (ok, err) = common::export_linux64_with(&p, &out, &library);
     assert!(ok, "{err}");
     let mut zip = zip::ZipArchive::new(std::fs::File::open(&out).unwrap()).unwrap();
     let entries: Vec<String> = zip.file_names().map(str::to_string).collect();

@@ -124,6 +124,22 @@ pub fn run_command(args: &[&str]) -> (bool, String) {
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// Runs `contact-fmu export <scene> -o <out>` for linux64 alone with `library` as its library
+/// (any file: tests of the scene and the names, not of the library); returns (success, stderr).
+pub fn export_linux64_with(scene: &Path, out: &Path, library: &Path) -> (bool, String) {
+    let binary = format!("linux64={}", library.display());
+    run_command(&[
+        "export",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--platforms",
+        "linux64",
+        "--binary",
+        &binary,
+    ])
+}
+
 /// Asserts that a command's `(success, stderr)` (of `run_command` on the scene file `scene`) is
 /// a refusal in one line naming the file and holding every fragment, without a panic; `label`
 /// names the case.
