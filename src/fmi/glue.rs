@@ -122,35 +122,34 @@ pub(crate) fn call<S: From<fmi2Status>>(
     S::from(outer.unwrap_or(fmi2Status::fmi2Fatal))
 }
 
-/// A slice from a C array, or a failure when the array is NULL but its length is not 0.
+/// Whether a C array of `n` elements of `T` at a pointer that `is_null` is one to read
+/// (false: no elements), or the failure: NULL with a length that is not 0, or a count beyond
+/// what memory holds (its bytes above `isize::MAX`: a host's mistake, such as a negative size
+/// passed as `size_t`), refused before a slice is made of it.
+fn array_to_read<T>(is_null: bool, n: usize, what: &str) -> FmiResult<bool> {
+    if n == 0 {
+        Ok(false)
+    } else if is_null {
+        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
+    } else if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
+        Err(Failure::error(format!(
+            "{what}: {n} values are more than memory can hold (a negative size passed as size_t?)"
+        )))
+    } else {
+        Ok(true)
+    }
+}
+
+/// A slice from a C array, or a failure ([`array_to_read`]).
 ///
 /// # Safety
 /// When not NULL, `p` points to `n` valid elements that nothing writes during `'a`.
 pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> FmiResult<&'a [T]> {
-    if n == 0 {
-        Ok(&[])
-    } else if p.is_null() {
-        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
-    } else if n > max_len::<T>() {
-        Err(too_long(n, what))
-    } else {
-        // SAFETY: `p` is not NULL and points to `n` valid elements (this function's contract).
-        Ok(unsafe { std::slice::from_raw_parts(p, n) })
+    if !array_to_read::<T>(p.is_null(), n, what)? {
+        return Ok(&[]);
     }
-}
-
-/// The most elements of type `T` an array can hold (its bytes at most `isize::MAX`): a larger
-/// count is a host's mistake (a negative size passed as `size_t`), refused before a slice is
-/// made of it.
-fn max_len<T>() -> usize {
-    isize::MAX as usize / std::mem::size_of::<T>().max(1)
-}
-
-/// The refusal of a count of `n` elements that no array holds.
-fn too_long(n: usize, what: &str) -> Failure {
-    Failure::error(format!(
-        "{what}: {n} values are more than memory can hold (a negative size passed as size_t?)"
-    ))
+    // SAFETY: `p` is not NULL and points to `n` valid elements (this function's contract).
+    Ok(unsafe { std::slice::from_raw_parts(p, n) })
 }
 
 /// A mutable slice from a C array (see [`fn@slice`]).
@@ -159,17 +158,11 @@ fn too_long(n: usize, what: &str) -> Failure {
 /// When not NULL, `p` points to `n` valid, writable elements that nothing else accesses
 /// during `'a`.
 pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> FmiResult<&'a mut [T]> {
-    if n == 0 {
-        Ok(&mut [])
-    } else if p.is_null() {
-        Err(Failure::error(format!("{what} is NULL but {n} values were requested")))
-    } else if n > max_len::<T>() {
-        Err(too_long(n, what))
-    } else {
-        // SAFETY: `p` is not NULL and points to `n` writable elements (this function's
-        // contract).
-        Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
+    if !array_to_read::<T>(p.is_null(), n, what)? {
+        return Ok(&mut []);
     }
+    // SAFETY: `p` is not NULL and points to `n` writable elements (this function's contract).
+    Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
 }
 
 /// A string argument, or `None` for NULL.

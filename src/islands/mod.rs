@@ -466,18 +466,18 @@ impl Islands {
                 return Err(EngineError {
                     time: self.time,
                     message: format!(
-                        "solver.max_steps = {} rounds of the islands did not reach t = {t_end} (stopped at t = {}); {}",
+                        "solver.max_steps = {} rounds of the islands did not reach t = {t_end} (stopped at t = {}); \
+                         {}take shorter communication steps or raise solver.max_steps",
                         m.solver.max_steps,
                         self.time,
                         if grouped {
                             format!(
                                 "a round ends once a body may have moved {ROUND_FRACTION} of broad_phase.margin = \
-                                 {:e} m: raise the margin if it is small for the bodies' speeds, or take shorter \
-                                 communication steps or raise solver.max_steps",
+                                 {:e} m: raise the margin if it is small for the bodies' speeds, or ",
                                 m.groups.margin
                             )
                         } else {
-                            "take shorter communication steps or raise solver.max_steps".to_string()
+                            String::new()
                         }
                     ),
                     step_limit: true,

@@ -55,15 +55,12 @@ impl Simulation {
                     // (the value is the host's once the joint moved: a refused move changes
                     // nothing, and the value and the model's input stay equal)
                     self.move_drive(i, value)?;
-                    self.values[vr] = value;
-                    return Ok(());
-                }
-                self.values[vr] = value;
-                // (no settling: an input that moves no drive changes no state, and a changed
-                // value restarts the method, which settles first)
-                if let Some(c) = self.compiled.as_mut() {
+                } else if let Some(c) = self.compiled.as_mut() {
+                    // (no settling: an input that moves no drive changes no state, and a
+                    // changed value restarts the method, which settles first)
                     set_input(&c.model, &mut c.data, i, value);
                 }
+                self.values[vr] = value;
                 Ok(())
             }
             _ => Err(SimError::Variable(format!(
