@@ -14,14 +14,16 @@ pub(crate) mod keys;
 pub(crate) mod exact;
 mod groups;
 mod inputs;
+mod rules;
 mod validate;
 pub use groups::{shape_item, BroadPhaseMethod, BroadPhaseSection, ContactGroupSpec, ShapeSpec, ShapeType};
 pub use inputs::{InputSpec, InputType};
-pub use validate::{
+pub use rules::{
     check_max_step, item_name, quote, short, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
     MAX_STEPS_LIMIT, MIN_MAX_PENETRATION, MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE, RUNAWAY_SPEED,
 };
-use validate::{check_name, length, magnitude, validate_law_keys, vector};
+use rules::{check_name, length, magnitude, vector};
+use validate::validate_law_keys;
 
 /// An error in a scene: names the file (origin), the item and the field.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]

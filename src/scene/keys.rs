@@ -98,7 +98,8 @@ macro_rules! surface_checks {
             /// Checks every surface key given, whether or not the item's type uses it: points
             /// finite, directions nonzero, lengths positive, the extent ordered.
             pub(crate) fn check_surface_keys(&self, origin: &str, item: &str) -> Result<(), $crate::scene::SceneError> {
-                use $crate::scene::validate::{direction, each_given, length, surface_extent, vector};
+                use $crate::scene::rules::{direction, each_given, length, vector};
+                use $crate::scene::validate::surface_extent;
                 let points = [("origin", self.origin), ("axis_point", self.axis_point)];
                 each_given(points, |f, v| vector(origin, item, f, &v))?;
                 let directions = [
