@@ -385,6 +385,13 @@ pub fn first_contact_step(m: &Model, d: &Data) -> f64 {
 /// [`first_contact_step`]) and `rtol_power` a power of `rtol` ([`Data::step_rtol_powers`]);
 /// None for a contact without a sphere body or with a law that stores no energy.
 fn touch_step(m: &Model, d: &Data, i: usize, speed: f64, rtol_power: f64) -> Option<f64> {
+    Some(0.5 * rtol_power * energy_penetration(m, d, i, speed)? / speed)
+}
+
+/// The penetration `δ_max` \[m\] at which the law `F = K δⁿ` of contact `i` stores the kinetic
+/// energy of its sphere's body at the normal speed `speed` (`K δ_maxⁿ⁺¹/(n + 1) = m v²/2`);
+/// None for a contact without a sphere body or with a law that stores no energy.
+fn energy_penetration(m: &Model, d: &Data, i: usize, speed: f64) -> Option<f64> {
     let c = &d.contacts[i];
     let b = c.sphere_body?;
     let (k, n) = (c.stiffness, c.exponent);
@@ -392,8 +399,32 @@ fn touch_step(m: &Model, d: &Data, i: usize, speed: f64, rtol_power: f64) -> Opt
     if !(k > 0.0 && n > 0.0 && mass > 0.0 && speed > 0.0) {
         return None;
     }
-    let delta_max = crate::math::powf((n + 1.0) * mass * speed * speed / (2.0 * k), 1.0 / (n + 1.0));
-    Some(0.5 * rtol_power * delta_max / speed)
+    Some(crate::math::powf(
+        (n + 1.0) * mass * speed * speed / (2.0 * k),
+        1.0 / (n + 1.0),
+    ))
+}
+
+/// The active continuous-law contact with the shortest time scale `δ_max / v` at the current
+/// state (`v` its closing speed there, at least the speed it touched with, floored at its
+/// `min_impact_velocity`; `δ_max` as in [`first_contact_step`]): (contact, time scale \[s\],
+/// `v` \[m/s\]). A Hertz contact lasts about 2.94 of it. None when no such contact is active.
+pub fn shortest_contact_time(m: &Model, d: &Data) -> Option<(usize, f64, f64)> {
+    let mut shortest: Option<(usize, f64, f64)> = None;
+    for i in 0..d.contacts.len() {
+        if !contact::exerts_force(d, i) {
+            continue;
+        }
+        let speed = d.events.aux[i].1.max(d.contact_memory[i].impact_velocity);
+        let Some(delta_max) = energy_penetration(m, d, i, speed) else {
+            continue;
+        };
+        let time = delta_max / speed;
+        if shortest.is_none_or(|(_, t, _)| time < t) {
+            shortest = Some((i, time, speed));
+        }
+    }
+    shortest
 }
 
 /// True when `a` and `b` hold the same numbers bit for bit (a test without an early exit,

@@ -22,6 +22,7 @@ use crate::contact;
 use crate::contact::any_resting;
 use crate::dynamics;
 use crate::forward::{evaluate, Rhs};
+use crate::integrator::IntegratorError;
 use crate::kinematics::{kinematics, poses_and_velocities_at_state};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
@@ -355,8 +356,12 @@ fn take_step(m: &Model, d: &mut Data, t_end: f64) -> Result<(), EngineError> {
     let stepped = with_stepper(m, d, |s, rhs| s.method.step(rhs, t_end));
     d.force_contacts_listed = false;
     if let Err(e) = stepped? {
+        let mut message = e.to_string();
+        if let IntegratorError::StepSizeUnderflow(_) = e {
+            message.push_str(&too_short_contact(m, d).unwrap_or_default());
+        }
         stop_after_failure(d);
-        return Err(fail(d, e.to_string()));
+        return Err(fail(d, message));
     }
     if let Some(what) = d.solver.method().and_then(|i| runaway(m, i.y())) {
         stop_after_failure(d);
@@ -406,6 +411,36 @@ pub fn blow_up(m: &Model, time: f64, what: &str) -> String {
         ),
     };
     format!("the integration blew up in the step after t = {time} ({what}): {remedy}")
+}
+
+/// A contact whose time scale is below this share of the time cannot be resolved by steps
+/// there: its first step after the touch (`0.5 rtol^{1/(n+1)}` of it, see
+/// [`events::first_contact_step`]) is rounding noise against the time well before.
+const UNRESOLVABLE_CONTACT_TIME: f64 = 1e-8;
+
+/// The note a step size underflow gets when an active contact is too stiff (or its body too
+/// light) for steps at the present time to resolve its contact: the contact named, its time
+/// scale, stiffness, body and speed; None otherwise.
+fn too_short_contact(m: &Model, d: &Data) -> Option<String> {
+    use crate::scene::short;
+    let (i, time, speed) = events::shortest_contact_time(m, d)?;
+    (time < UNRESOLVABLE_CONTACT_TIME * d.time.abs()).then_some(())?;
+    let c = &d.contacts[i];
+    let body = &m.bodies[c.sphere_body?];
+    // (derived numbers to three digits, in the shorter notation)
+    let three = |x: f64| short(format!("{x:.2e}").parse().unwrap_or(x));
+    Some(format!(
+        "; contact {:?} is in contact there with a time scale of {} s (the penetration that stores the \
+         kinetic energy of its sphere's body, over the closing speed: stiffness {}, body {:?} of {} kg, \
+         closing at {} m/s), too short for steps at that time to resolve: check its stiffness (or materials) \
+         and the body's mass",
+        contact::elements::contact_name(m, d, i),
+        three(time),
+        three(c.stiffness),
+        body.name,
+        short(body.mass),
+        three(speed),
+    ))
 }
 
 /// Accepts the whole step: the state moves to its end; the event functions there become the

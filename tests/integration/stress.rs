@@ -92,6 +92,31 @@ fn penetration_beyond_max_penetration_fails_clearly() {
     );
 }
 
+/// A contact far too stiff for its body (K = 1e300) fails the first step after the touch with
+/// "step size underflow", and the message names the contact and gives its time scale, the
+/// closed form `δ_max / v` of the Hertz law at the impact speed.
+#[test]
+fn a_contact_too_stiff_to_resolve_is_named_with_its_time_scale() {
+    let (k, v0) = (1e300, 1.0);
+    let mut scene = scenes::ball_plane("stiff", Law::Hertz, 1.0, v0, 1e-3, false, 2e-3, 1e-4);
+    scene.contact[0].stiffness = Some(k);
+    let out = record(&spec(&scene, Method::Dopri5, 2e-3, 1e-4), &[]).unwrap();
+    let msg = out.failure.expect("the run must fail");
+    assert!(msg.contains("step size underflow"), "{msg}");
+    assert!(
+        msg.contains("contact \"floor\" is in contact there"),
+        "the contact is not named: {msg}"
+    );
+    assert!(msg.contains("body \"ball\""), "the body is not named: {msg}");
+    let after = msg.split("time scale of ").nth(1).expect("a time scale");
+    let time: f64 = after.split(' ').next().unwrap().parse().expect("a number");
+    let closed_form = hertz_max_penetration(M, v0, k) / v0;
+    assert!(
+        (time / closed_form - 1.0).abs() < 0.01,
+        "time scale {time:e} s against the closed form {closed_form:e} s"
+    );
+}
+
 /// Steel at 50 m/s and at 1e-3 m/s: finishes, stays within max_penetration, hertz_ln gives
 /// the same rebound ratio at both speeds (the law is rate-scaled by δ̇⁻).
 #[test]
