@@ -10,7 +10,7 @@ use crate::dynamics;
 use crate::forward::{evaluate_output_kinematics, evaluate_outputs};
 use crate::kinematics::com_velocity;
 use crate::model::{Data, Model};
-use crate::variables::VarRef;
+use crate::variables::{LawKey, VarRef};
 use nalgebra::Vector3;
 
 /// The energies of the energy balance \[J\]: `total() + dissipated` stays at its initial value.
@@ -80,7 +80,9 @@ pub fn needs(target: VarRef) -> Needs {
     match target {
         VarRef::BodyPosition(..) | VarRef::BodyVelocity(..) | VarRef::BodyQuaternion(..) => Needs::State,
         VarRef::BodyAngularVelocity(..) => Needs::Kinematics,
-        VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::SolverEvents | VarRef::Stiffness(_) => Needs::Nothing,
+        VarRef::SolverSteps | VarRef::SolverRhsEvals | VarRef::SolverEvents | VarRef::Contact(_, LawKey::Stiffness) => {
+            Needs::Nothing
+        }
         _ => Needs::Everything,
     }
 }
@@ -228,17 +230,6 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         | VarRef::PlaneSize(..)
         | VarRef::CylinderRadius(_)
         | VarRef::CylinderLength(_)
-        | VarRef::ContactLaw(_)
-        | VarRef::Restitution(_)
-        | VarRef::Exponent(_)
-        | VarRef::Damping(_)
-        | VarRef::MaxPenetration(_)
-        | VarRef::MinImpactVelocity(_)
-        | VarRef::Friction(_)
-        | VarRef::StaticFriction(_)
-        | VarRef::StribeckVelocity(_)
-        | VarRef::ViscousFriction(_)
-        | VarRef::StictionVelocity(_)
         | VarRef::SolverMethod
         | VarRef::SolverRtol
         | VarRef::SolverAtol
@@ -251,7 +242,9 @@ pub fn evaluated(m: &Model, d: &Data, target: VarRef) -> Option<f64> {
         | VarRef::InitialAngularVelocity(..)
         | VarRef::Group(..)
         | VarRef::Input(_) => return None,
-        VarRef::Stiffness(i) => d.contacts[i].stiffness,
+        // (a contact's law constants are parameters, but a stiffness the materials give)
+        VarRef::Contact(i, LawKey::Stiffness) => d.contacts[i].stiffness,
+        VarRef::Contact(..) => return None,
         // a free body's coordinates: its centre of mass, the quaternion (normalised as the
         // kinematics do), the centre-of-mass velocity
         VarRef::BodyPosition(b, k) => match state_slot(m, target) {

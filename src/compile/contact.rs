@@ -4,7 +4,7 @@
 
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::elements::element;
-use crate::model::contact::{ContactElement, LawConstants, OtherSide, Shape, SphereSide};
+use crate::model::contact::{ContactElement, OtherSide, Shape, SphereSide};
 use crate::scene::keys::Surface;
 use crate::scene::{item_name, ContactSpec, ContactType, SceneError, Side};
 use crate::spatial::triad;
@@ -60,18 +60,7 @@ pub(super) fn compile_contact(
         bound_radius,
         material: material(&c.material),
     };
-    let law = LawConstants {
-        law: p.law,
-        restitution: p.restitution,
-        exponent: p.exponent,
-        damping: p.damping,
-        max_penetration: Some(p.max_penetration),
-        min_impact_velocity: p.min_impact_velocity,
-        stiffness: p.stiffness,
-        friction: p.friction,
-        impulse_method: c.impulse_method,
-    };
-    element(c.name.clone(), &sphere, &other, &law)
+    element(c.name.clone(), &sphere, &other, &p.law)
         .map_err(|message| SceneError::new(origin, item_name("contact", &c.name), "stiffness", message))
 }
 

@@ -8,7 +8,8 @@
 use crate::contact::Friction;
 use crate::model::contact::LawConstants;
 use crate::scene::{
-    check_law, check_max_step, inertia_is_physical, item_name, ContactType, Law, Scene, SceneError, Side, SolverSection,
+    check_law, check_max_step, inertia_is_physical, item_name, ContactSpec, ContactType, Law, Scene, SceneError, Side,
+    SolverSection,
 };
 
 /// Elastic constants of a material.
@@ -20,25 +21,12 @@ pub struct MaterialValues {
     pub poisson_ratio: f64,
 }
 
-/// The settable constants of a contact.
+/// The settable constants of a contact: its law constants (those of a contact group pair, with
+/// `max_penetration` always given) and the sizes of its two shapes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactValues {
-    /// Force law.
-    pub law: Law,
-    /// Coefficient of restitution.
-    pub restitution: f64,
-    /// Exponent n.
-    pub exponent: f64,
-    /// Kelvin-Voigt damping \[N s/m\].
-    pub damping: f64,
-    /// Largest admissible penetration \[m\].
-    pub max_penetration: f64,
-    /// Floor on δ̇⁻ \[m/s\].
-    pub min_impact_velocity: f64,
-    /// Stiffness, when the scene gives one (else derived from the materials).
-    pub stiffness: Option<f64>,
-    /// Friction constants.
-    pub friction: Friction,
+    /// The law and its constants.
+    pub law: LawConstants,
     /// Sphere radius \[m\].
     pub radius: f64,
     /// sphere_sphere: radius of the other sphere \[m\].
@@ -49,6 +37,23 @@ pub struct ContactValues {
     pub cylinder_radius: f64,
     /// sphere_cylinder: length of the patch \[m\].
     pub length: f64,
+}
+
+/// The law constants a contact of the scene gives (a declared one, or the template contact of a
+/// group pair), with the defaults of the keys it leaves out; `max_penetration` as given (None:
+/// the sphere's radius).
+pub fn law_constants(c: &ContactSpec) -> LawConstants {
+    LawConstants {
+        law: c.law,
+        restitution: c.restitution,
+        exponent: c.exponent.unwrap_or(1.5),
+        damping: c.damping.unwrap_or(0.0),
+        max_penetration: c.max_penetration,
+        min_impact_velocity: c.min_impact_velocity_or_default(),
+        stiffness: c.stiffness,
+        friction: Friction::from_values(c.friction_or_default()),
+        impulse_method: c.impulse_method,
+    }
 }
 
 /// The settable constants of a spring-damper.
@@ -116,14 +121,10 @@ impl Parameters {
                 .contact
                 .iter()
                 .map(|c| ContactValues {
-                    law: c.law,
-                    restitution: c.restitution,
-                    exponent: c.exponent.unwrap_or(1.5),
-                    damping: c.damping.unwrap_or(0.0),
-                    max_penetration: c.max_penetration_or_default(),
-                    min_impact_velocity: c.min_impact_velocity_or_default(),
-                    stiffness: c.stiffness,
-                    friction: Friction::from_values(c.friction_or_default()),
+                    law: LawConstants {
+                        max_penetration: Some(c.max_penetration_or_default()),
+                        ..law_constants(c)
+                    },
                     radius: c.radius,
                     other_radius: c.other_radius.unwrap_or(1.0),
                     size: c.size.unwrap_or([1.0, 1.0]),
@@ -134,20 +135,7 @@ impl Parameters {
             groups: scene
                 .contact_group
                 .iter()
-                .map(|g| {
-                    let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
-                    LawConstants {
-                        law: g.law,
-                        restitution: g.restitution,
-                        exponent: g.exponent.unwrap_or(1.5),
-                        damping: g.damping.unwrap_or(0.0),
-                        max_penetration: g.max_penetration,
-                        min_impact_velocity: template.min_impact_velocity_or_default(),
-                        stiffness: g.stiffness,
-                        friction: Friction::from_values(template.friction_or_default()),
-                        impulse_method: g.impulse_method,
-                    }
-                })
+                .map(|g| law_constants(&scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0])))
                 .collect(),
             solver: scene.solver.clone(),
             input_start: scene.input_start_values(),
@@ -186,6 +174,7 @@ impl Parameters {
             }
         }
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
+            let v = &v.law;
             let materials = c.sphere_material.is_some() && c.material.is_some();
             let has_stiffness = v.stiffness.is_some();
             let Err((field, msg)) = check_law(v.law, v.restitution, has_stiffness, materials) else {

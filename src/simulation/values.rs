@@ -222,7 +222,7 @@ impl Simulation {
 /// `friction`, where the scene gives no such key; a group pair's `static_friction` its
 /// `friction`, likewise.
 pub(super) fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
-    use crate::variables::GroupKey;
+    use crate::variables::LawKey;
     let n = scene.contact.len();
     let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
     let (mut static_friction, mut friction) = (vec![None; n], vec![None; n]);
@@ -230,12 +230,12 @@ pub(super) fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>
     let (mut pair_static, mut pair_friction) = (vec![None; np], vec![None; np]);
     for (vr, var) in table.vars.iter().enumerate() {
         match var.target {
-            VarRef::MaxPenetration(i) => max_penetration[i] = Some(vr),
+            VarRef::Contact(i, LawKey::MaxPenetration) => max_penetration[i] = Some(vr),
             VarRef::SphereRadius(i) => radius[i] = Some(vr),
-            VarRef::StaticFriction(i) => static_friction[i] = Some(vr),
-            VarRef::Friction(i) => friction[i] = Some(vr),
-            VarRef::Group(p, GroupKey::StaticFriction) => pair_static[p] = Some(vr),
-            VarRef::Group(p, GroupKey::Friction) => pair_friction[p] = Some(vr),
+            VarRef::Contact(i, LawKey::StaticFriction) => static_friction[i] = Some(vr),
+            VarRef::Contact(i, LawKey::Friction) => friction[i] = Some(vr),
+            VarRef::Group(p, LawKey::StaticFriction) => pair_static[p] = Some(vr),
+            VarRef::Group(p, LawKey::Friction) => pair_friction[p] = Some(vr),
             _ => {}
         }
     }

@@ -5,6 +5,7 @@
 //! The value reference of a variable is its index in [`VariableTable::vars`].
 
 use crate::compile::Parameters;
+use crate::model::contact::LawConstants;
 use crate::scene::{
     ContactType, InputType, JointType, Law, Method, Scene, ATOL_RANGE, MAX_MAGNITUDE, MAX_STEPS_LIMIT,
     MIN_MAX_PENETRATION, RTOL_RANGE, RUNAWAY_SPEED,
@@ -91,30 +92,10 @@ pub enum VarRef {
     Mass(usize),
     /// body index, component 0..3: principal moment of inertia
     Inertia(usize, usize),
-    /// contact index: law (`<contact>.law` and its Integer twin `<contact>.law_index`)
-    ContactLaw(usize),
-    /// contact index: e
-    Restitution(usize),
-    /// contact index: exponent n
-    Exponent(usize),
-    /// contact index: Kelvin-Voigt damping
-    Damping(usize),
-    /// contact index: δ_max
-    MaxPenetration(usize),
-    /// contact index: floor of δ̇⁻
-    MinImpactVelocity(usize),
-    /// contact index: K (parameter or calculated)
-    Stiffness(usize),
-    /// contact index: Coulomb friction coefficient μ
-    Friction(usize),
-    /// contact index: static friction coefficient μ_s
-    StaticFriction(usize),
-    /// contact index: Stribeck velocity
-    StribeckVelocity(usize),
-    /// contact index: viscous friction coefficient σ
-    ViscousFriction(usize),
-    /// contact index: regularisation (stiction) velocity
-    StictionVelocity(usize),
+    /// contact index, key: a law constant (`<contact>.law` and its Integer twin
+    /// `<contact>.law_index`, `<contact>.restitution`, …; `<contact>.stiffness` is a calculated
+    /// parameter where the materials give it)
+    Contact(usize, LawKey),
     /// contact index: radius of the sphere
     SphereRadius(usize),
     /// contact index: radius of the other sphere (sphere_sphere)
@@ -194,7 +175,7 @@ pub enum VarRef {
     /// solver.events
     SolverEvents,
     /// contact group pair index, key: a law constant of every contact of the pair
-    Group(usize, GroupKey),
+    Group(usize, LawKey),
     /// body index, component: total contact force on the body, world frame
     BodyContactForce(usize, usize),
     /// body index, component: total contact torque about the centre of mass, world frame
@@ -205,10 +186,10 @@ pub enum VarRef {
     GroupLargestPenetration(usize),
 }
 
-/// The law constants of a contact group pair that are FMU parameters (`<pair>.<key>`, the
-/// keys of a `[[contact]]`).
+/// The law constants of a contact or of a contact group pair that are FMU parameters
+/// (`<contact>.<key>`, `<pair>.<key>`: the law keys of a `[[contact]]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GroupKey {
+pub enum LawKey {
     /// `law` (and its Integer twin `law_index`)
     Law,
     /// `restitution`
@@ -505,22 +486,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::PoissonRatio(i) => params.materials[i].poisson_ratio = x,
         VarRef::Mass(i) => params.masses[i] = x,
         VarRef::Inertia(b, k) => params.inertias[b][k] = x,
-        VarRef::ContactLaw(i) => {
-            if let Some(l) = Law::from_value(x as i64) {
-                params.contacts[i].law = l;
-            }
-        }
-        VarRef::Restitution(i) => params.contacts[i].restitution = x,
-        VarRef::Exponent(i) => params.contacts[i].exponent = x,
-        VarRef::Damping(i) => params.contacts[i].damping = x,
-        VarRef::MaxPenetration(i) => params.contacts[i].max_penetration = x,
-        VarRef::MinImpactVelocity(i) => params.contacts[i].min_impact_velocity = x,
-        VarRef::Stiffness(i) => params.contacts[i].stiffness = Some(x),
-        VarRef::Friction(i) => params.contacts[i].friction.mu = x,
-        VarRef::StaticFriction(i) => params.contacts[i].friction.mu_static = x,
-        VarRef::StribeckVelocity(i) => params.contacts[i].friction.stribeck_velocity = x,
-        VarRef::ViscousFriction(i) => params.contacts[i].friction.viscous = x,
-        VarRef::StictionVelocity(i) => params.contacts[i].friction.stiction_velocity = x,
+        VarRef::Contact(i, key) => set_law_value(&mut params.contacts[i].law, key, x),
         VarRef::SphereRadius(i) => params.contacts[i].radius = x,
         VarRef::OtherRadius(i) => params.contacts[i].other_radius = x,
         VarRef::PlaneSize(i, k) => params.contacts[i].size[k] = x,
@@ -541,27 +507,7 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         VarRef::InitialVelocity(b, k) => params.velocities[b][k] = x,
         VarRef::InitialAngularVelocity(b, k) => params.angular_velocities[b][k] = x,
         VarRef::Input(i) => params.input_start[i] = x,
-        VarRef::Group(p, key) => {
-            let g = &mut params.groups[p];
-            match key {
-                GroupKey::Law => {
-                    if let Some(l) = Law::from_value(x as i64) {
-                        g.law = l;
-                    }
-                }
-                GroupKey::Restitution => g.restitution = x,
-                GroupKey::Exponent => g.exponent = x,
-                GroupKey::Damping => g.damping = x,
-                GroupKey::MaxPenetration => g.max_penetration = Some(x),
-                GroupKey::MinImpactVelocity => g.min_impact_velocity = x,
-                GroupKey::Stiffness => g.stiffness = Some(x),
-                GroupKey::Friction => g.friction.mu = x,
-                GroupKey::StaticFriction => g.friction.mu_static = x,
-                GroupKey::StribeckVelocity => g.friction.stribeck_velocity = x,
-                GroupKey::ViscousFriction => g.friction.viscous = x,
-                GroupKey::StictionVelocity => g.friction.stiction_velocity = x,
-            }
-        }
+        VarRef::Group(p, key) => set_law_value(&mut params.groups[p], key, x),
         VarRef::BodyPosition(..)
         | VarRef::BodyVelocity(..)
         | VarRef::BodyAngularVelocity(..)
@@ -589,5 +535,28 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::BodyContactTorque(..)
         | VarRef::GroupActive(_)
         | VarRef::GroupLargestPenetration(_) => {}
+    }
+}
+
+/// Writes the value `x` of the law constant `key` into `law` (a contact's or a group pair's). A
+/// law value that is no item (0, the start of the Integer twin `law_index`) changes nothing.
+fn set_law_value(law: &mut LawConstants, key: LawKey, x: f64) {
+    match key {
+        LawKey::Law => {
+            if let Some(l) = Law::from_value(x as i64) {
+                law.law = l;
+            }
+        }
+        LawKey::Restitution => law.restitution = x,
+        LawKey::Exponent => law.exponent = x,
+        LawKey::Damping => law.damping = x,
+        LawKey::MaxPenetration => law.max_penetration = Some(x),
+        LawKey::MinImpactVelocity => law.min_impact_velocity = x,
+        LawKey::Stiffness => law.stiffness = Some(x),
+        LawKey::Friction => law.friction.mu = x,
+        LawKey::StaticFriction => law.friction.mu_static = x,
+        LawKey::StribeckVelocity => law.friction.stribeck_velocity = x,
+        LawKey::ViscousFriction => law.friction.viscous = x,
+        LawKey::StictionVelocity => law.friction.stiction_velocity = x,
     }
 }

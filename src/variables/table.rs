@@ -135,7 +135,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             format!("{}.law", c.name),
             EnumType::ContactLaw,
             c.law as i64,
-            VarRef::ContactLaw(i),
+            VarRef::Contact(i, LawKey::Law),
             "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
         ));
         v.push(tunable(param(
@@ -143,7 +143,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             c.restitution,
             None,
             Range::closed([0.0, 1.0]),
-            VarRef::Restitution(i),
+            VarRef::Contact(i, LawKey::Restitution),
             "coefficient of restitution e",
         )));
         v.push(tunable(param(
@@ -151,7 +151,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             c.exponent.unwrap_or(1.5),
             None,
             Range::open_above(1.0, false),
-            VarRef::Exponent(i),
+            VarRef::Contact(i, LawKey::Exponent),
             "force exponent n of the penetration (1.5 for Hertz)",
         )));
         v.push(tunable(param(
@@ -159,7 +159,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             c.damping.unwrap_or(0.0),
             Some("N.s/m"),
             nonneg,
-            VarRef::Damping(i),
+            VarRef::Contact(i, LawKey::Damping),
             "Kelvin-Voigt damping coefficient",
         )));
         v.push(param(
@@ -167,7 +167,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             c.max_penetration_or_default(),
             Some("m"),
             Range::open_above(MIN_MAX_PENETRATION, false),
-            VarRef::MaxPenetration(i),
+            VarRef::Contact(i, LawKey::MaxPenetration),
             if c.max_penetration.is_some() {
                 "largest admissible penetration (a deeper one fails the step)"
             } else {
@@ -180,7 +180,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             c.min_impact_velocity_or_default(),
             Some("m/s"),
             nonneg,
-            VarRef::MinImpactVelocity(i),
+            VarRef::Contact(i, LawKey::MinImpactVelocity),
             "floor on the remembered impact velocity; impulse law: approach speeds below it rest instead of bouncing",
         ));
         let k = Variable {
@@ -206,7 +206,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
                 "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)".into()
             },
             range: c.stiffness.map(|_| pos),
-            target: VarRef::Stiffness(i),
+            target: VarRef::Contact(i, LawKey::Stiffness),
             depends_on_inputs: false,
         };
         v.push(k);
@@ -537,7 +537,7 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
             format!("{}.law_index", c.name),
             EnumType::ContactLaw,
             &format!("{}.law", c.name),
-            VarRef::ContactLaw(i),
+            VarRef::Contact(i, LawKey::Law),
         ));
     }
     v.push(integer_twin(
@@ -550,11 +550,11 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
     for (i, c) in scene.contact.iter().enumerate() {
         let [mu, mu_s, v_st, sigma, v_s] = c.friction_or_default();
         for (key, value, unit, range, target, description) in [
-            ("friction", mu, None, nonneg, VarRef::Friction(i), "Coulomb (sliding) friction coefficient mu (0: frictionless)"),
-            ("static_friction", mu_s, None, nonneg, VarRef::StaticFriction(i), "static friction coefficient mu_s, the peak of the Stribeck curve at zero slip"),
-            ("stribeck_velocity", v_st, Some("m/s"), pos, VarRef::StribeckVelocity(i), "Stribeck velocity: the coefficient falls from mu_s to mu as exp(-(slip/v_st)^2)"),
-            ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::ViscousFriction(i), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
-            ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::StictionVelocity(i), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
+            ("friction", mu, None, nonneg, VarRef::Contact(i, LawKey::Friction), "Coulomb (sliding) friction coefficient mu (0: frictionless)"),
+            ("static_friction", mu_s, None, nonneg, VarRef::Contact(i, LawKey::StaticFriction), "static friction coefficient mu_s, the peak of the Stribeck curve at zero slip"),
+            ("stribeck_velocity", v_st, Some("m/s"), pos, VarRef::Contact(i, LawKey::StribeckVelocity), "Stribeck velocity: the coefficient falls from mu_s to mu as exp(-(slip/v_st)^2)"),
+            ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::Contact(i, LawKey::ViscousFriction), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
+            ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::Contact(i, LawKey::StictionVelocity), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
         ] {
             v.push(tunable(param(format!("{}.{key}", c.name), value, unit, range, target, description)));
         }
