@@ -352,6 +352,7 @@ pub const UNITS: &[Unit] = &[
 ];
 
 mod groups;
+mod law;
 mod motion;
 mod table;
 

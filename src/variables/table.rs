@@ -3,6 +3,7 @@
 //! added later, after every variable that was there before them (so that no value reference
 //! of an earlier scene moves).
 
+use super::law::{law_value, law_variable, FRICTION_KEYS};
 use super::*;
 
 /// A Real parameter, fixed after initialisation, checked against `range`.
@@ -96,7 +97,6 @@ fn with_display(mut var: Variable, display: &'static str) -> Variable {
 /// Materials, bodies (mass), contacts (law and its constants).
 pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
     let pos = Range::open_above(0.0, true);
-    let nonneg = Range::open_above(0.0, false);
     for (i, m) in scene.material.iter().enumerate() {
         v.push(param(
             format!("{}.youngs_modulus", m.name),
@@ -131,85 +131,62 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
         ));
     }
     for (i, c) in scene.contact.iter().enumerate() {
+        let law = crate::compile::law_constants(c);
+        let t = |key| VarRef::Contact(i, key);
         v.push(enum_param(
             format!("{}.law", c.name),
             EnumType::ContactLaw,
             c.law as i64,
-            VarRef::Contact(i, LawKey::Law),
+            t(LawKey::Law),
             "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
         ));
-        v.push(tunable(param(
-            format!("{}.restitution", c.name),
-            c.restitution,
-            None,
-            Range::closed([0.0, 1.0]),
-            VarRef::Contact(i, LawKey::Restitution),
-            "coefficient of restitution e",
-        )));
-        v.push(tunable(param(
-            format!("{}.exponent", c.name),
-            c.exponent.unwrap_or(1.5),
-            None,
-            Range::open_above(1.0, false),
-            VarRef::Contact(i, LawKey::Exponent),
-            "force exponent n of the penetration (1.5 for Hertz)",
-        )));
-        v.push(tunable(param(
-            format!("{}.damping", c.name),
-            c.damping.unwrap_or(0.0),
-            Some("N.s/m"),
-            nonneg,
-            VarRef::Contact(i, LawKey::Damping),
-            "Kelvin-Voigt damping coefficient",
-        )));
-        v.push(param(
-            format!("{}.max_penetration", c.name),
-            c.max_penetration_or_default(),
-            Some("m"),
-            Range::open_above(MIN_MAX_PENETRATION, false),
-            VarRef::Contact(i, LawKey::MaxPenetration),
-            if c.max_penetration.is_some() {
-                "largest admissible penetration (a deeper one fails the step)"
-            } else {
-                "largest admissible penetration (a deeper one fails the step); by default the sphere radius, \
-                 following its parameter while this one keeps its start value"
-            },
-        ));
-        v.push(param(
-            format!("{}.min_impact_velocity", c.name),
-            c.min_impact_velocity_or_default(),
-            Some("m/s"),
-            nonneg,
-            VarRef::Contact(i, LawKey::MinImpactVelocity),
-            "floor on the remembered impact velocity; impulse law: approach speeds below it rest instead of bouncing",
-        ));
-        let k = Variable {
-            name: format!("{}.stiffness", c.name),
-            vtype: VarType::Real,
-            causality: if c.stiffness.is_some() {
-                Causality::Parameter
-            } else {
-                Causality::CalculatedParameter
-            },
-            variability: if c.stiffness.is_some() {
-                Variability::Tunable
-            } else {
-                Variability::Fixed
-            },
-            start: c.stiffness,
-            // N/m^n: the unit depends on the exponent n, so it is stated in the description.
-            unit: None,
-            display_unit: None,
-            description: if c.stiffness.is_some() {
-                "contact stiffness K of F = K delta^n [N/m^n]".into()
-            } else {
-                "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)".into()
-            },
-            range: c.stiffness.map(|_| pos),
-            target: VarRef::Contact(i, LawKey::Stiffness),
-            depends_on_inputs: false,
+        for key in [LawKey::Restitution, LawKey::Exponent, LawKey::Damping] {
+            let value = law_value(&law, key).unwrap_or_default();
+            v.push(law_variable(&c.name, key, value, t(key), ""));
+        }
+        // (by default the sphere's radius, as the start value)
+        let max_penetration = LawKey::MaxPenetration;
+        let scope = if c.max_penetration.is_some() {
+            ""
+        } else {
+            "; by default the sphere radius, following its parameter while this one keeps its start value"
         };
-        v.push(k);
+        v.push(law_variable(
+            &c.name,
+            max_penetration,
+            c.max_penetration_or_default(),
+            t(max_penetration),
+            scope,
+        ));
+        let min_impact_velocity = LawKey::MinImpactVelocity;
+        let value = law.min_impact_velocity;
+        v.push(law_variable(
+            &c.name,
+            min_impact_velocity,
+            value,
+            t(min_impact_velocity),
+            "",
+        ));
+        // a stiffness the scene does not give is derived from the materials: a calculated
+        // parameter
+        let stiffness = LawKey::Stiffness;
+        v.push(match c.stiffness {
+            Some(k) => law_variable(&c.name, stiffness, k, t(stiffness), ""),
+            None => Variable {
+                name: format!("{}.stiffness", c.name),
+                vtype: VarType::Real,
+                causality: Causality::CalculatedParameter,
+                variability: Variability::Fixed,
+                start: None,
+                unit: None,
+                display_unit: None,
+                description: "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)"
+                    .into(),
+                range: None,
+                target: t(stiffness),
+                depends_on_inputs: false,
+            },
+        });
     }
 }
 
@@ -548,15 +525,10 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
     ));
     // Friction (after everything above, so that no value reference moves).
     for (i, c) in scene.contact.iter().enumerate() {
-        let [mu, mu_s, v_st, sigma, v_s] = c.friction_or_default();
-        for (key, value, unit, range, target, description) in [
-            ("friction", mu, None, nonneg, VarRef::Contact(i, LawKey::Friction), "Coulomb (sliding) friction coefficient mu (0: frictionless)"),
-            ("static_friction", mu_s, None, nonneg, VarRef::Contact(i, LawKey::StaticFriction), "static friction coefficient mu_s, the peak of the Stribeck curve at zero slip"),
-            ("stribeck_velocity", v_st, Some("m/s"), pos, VarRef::Contact(i, LawKey::StribeckVelocity), "Stribeck velocity: the coefficient falls from mu_s to mu as exp(-(slip/v_st)^2)"),
-            ("viscous_friction", sigma, Some("s/m"), nonneg, VarRef::Contact(i, LawKey::ViscousFriction), "viscous friction: the coefficient grows by viscous_friction * slip speed"),
-            ("stiction_velocity", v_s, Some("m/s"), pos, VarRef::Contact(i, LawKey::StictionVelocity), "regularisation velocity of the continuous friction law: full friction above it, proportional below (creep)"),
-        ] {
-            v.push(tunable(param(format!("{}.{key}", c.name), value, unit, range, target, description)));
+        let law = crate::compile::law_constants(c);
+        for key in FRICTION_KEYS {
+            let value = law_value(&law, key).unwrap_or_default();
+            v.push(law_variable(&c.name, key, value, VarRef::Contact(i, key), ""));
         }
     }
     for (i, c) in scene.contact.iter().enumerate() {
