@@ -68,9 +68,7 @@ pub fn compile_with_candidates(
     data.state[model.nq..model.nq + model.nv].copy_from_slice(&qvel);
     data.eval_state.copy_from_slice(&data.state);
     kinematics(&model, &mut data);
-    for b in 0..model.bodies.len() {
-        data.broad_reference[b] = (data.body_pos[b], data.body_quat[b]);
-    }
+    crate::contact::groups::take_reference_poses(&model, &mut data);
     Ok((model, data))
 }
 

@@ -1,8 +1,33 @@
-//! Contact groups at run time: how far the bodies' group shapes moved since the candidate
-//! pairs were found ([`super::broad`]), and the bounds that keep the candidate list sound.
+//! Contact groups at run time: the broad-phase stage (the candidate pairs found again at the
+//! data's poses, [`super::broad`]), how far the bodies' group shapes moved since, and the bounds
+//! that keep the candidate list sound.
 
+use super::elements::{check_new_pairs, former_indices};
+use crate::model::groups::Candidate;
 use crate::model::{Data, Model};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+/// The broad phase as a stage of the data: the candidate pairs at the poses of `d` (its
+/// kinematics evaluated) and each one's index in the list `listed` the data holds (or
+/// `elements::NOT_LISTED`). A pair new to the list that touches already is an error: the bounds
+/// on the step were broken (it cannot happen while no body is accelerated far beyond gravity
+/// within one step). Nothing in `d` changes; [`take_reference_poses`] follows once the new list
+/// is taken.
+pub fn find_candidates(m: &Model, d: &Data, listed: &[Candidate]) -> Result<(Vec<Candidate>, Vec<usize>), String> {
+    let found = m.groups.find(&|b| pose(d, b));
+    let mut former = Vec::new();
+    former_indices(listed, &found, &mut former);
+    check_new_pairs(m, d, &found, &former)?;
+    Ok((found, former))
+}
+
+/// Makes the bodies' present poses the reference the group shapes' displacements are measured
+/// from (when the candidate pairs were found again).
+pub fn take_reference_poses(m: &Model, d: &mut Data) {
+    for b in 0..m.bodies.len() {
+        d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
+    }
+}
 
 /// The pose of body `b` in `d` (the ground: the origin).
 pub fn pose(d: &Data, b: Option<usize>) -> (Vector3<f64>, Matrix3<f64>) {

@@ -34,7 +34,7 @@
 //! [`Islands::record`]), so a restored simulation continues bit for bit.
 
 use crate::compile::Parameters;
-use crate::contact::elements::{check_new_pairs, former_indices, set_candidates};
+use crate::contact::elements::set_candidates;
 use crate::contact::groups;
 use crate::engine::{self, EngineError};
 use crate::integrator::ExplicitHold;
@@ -621,14 +621,10 @@ impl Islands {
     /// again. A candidate pair new to the list that already touches is an error (the bounds on
     /// the step were broken), found before anything changes.
     fn rebuild(&mut self, m: &Model, d: &mut Data) -> Result<(), EngineError> {
-        let found = m.groups.find(&|b| groups::pose(d, b));
-        let mut former = Vec::new();
-        former_indices(d.partition.list(), &found, &mut former);
         // (checked before anything changes: on an error the islands stay as they are)
-        check_new_pairs(m, d, &found, &former).map_err(|message| fail(self.time, message))?;
-        for b in 0..m.bodies.len() {
-            d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
-        }
+        let (found, former) =
+            groups::find_candidates(m, d, d.partition.list()).map_err(|message| fail(self.time, message))?;
+        groups::take_reference_poses(m, d);
         d.time = self.time;
         let memory = self.memory_of_islands(m, &d.partition);
         let old = std::mem::take(&mut self.parts);

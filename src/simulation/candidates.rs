@@ -50,17 +50,13 @@ impl Simulation {
         let (m, d) = (&c.model, &mut c.data);
         d.eval_state.copy_from_slice(&d.state);
         crate::kinematics::kinematics(m, d);
-        let found = m.groups.find(&|b| groups::pose(d, b));
         let time = d.time;
+        // (a pair new to the list that touches already is refused before the data changes)
+        let (found, _) =
+            groups::find_candidates(m, d, &d.candidates).map_err(|message| SimError::Step { time, message })?;
         let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
-        // a pair new to the list that touches already: checked before the list changes
-        let mut former = Vec::new();
-        elements::former_indices(&d.candidates, &found, &mut former);
-        elements::check_new_pairs(m, d, &found, &former).map_err(|message| SimError::Step { time, message })?;
         elements::set_contact_list(m, d, &found, contacts);
-        for b in 0..m.bodies.len() {
-            d.broad_reference[b] = (d.body_pos[b], d.body_quat[b]);
-        }
+        groups::take_reference_poses(m, d);
         d.outputs_valid = false;
         d.kinematics_valid = false;
         d.planned_kinematics = false;

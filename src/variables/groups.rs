@@ -2,7 +2,6 @@
 //! contact force and torque, per group pair its outputs.
 
 use super::law::{law_value, law_variable, FRICTION_KEYS};
-use super::table::enum_param;
 use super::*;
 
 /// The variables of the contact groups, after every other (so that no value reference of a

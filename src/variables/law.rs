@@ -2,7 +2,6 @@
 //! contact group pair (`<pair>.<key>`): each key declared once (its unit, range, whether a host
 //! may change it after initialisation, its description) and read from the law constants.
 
-use super::table::{param, tunable};
 use super::*;
 
 /// The keys of the friction law, in the order of their variables.
@@ -21,7 +20,7 @@ pub(super) fn law_variable(item: &str, key: LawKey, value: f64, target: VarRef, 
     let pos = Range::open_above(0.0, true);
     let nonneg = Range::open_above(0.0, false);
     let (name, unit, range, is_tunable, description) = match key {
-        LawKey::Law => unreachable!("the law is an enumeration parameter (table::enum_param)"),
+        LawKey::Law => unreachable!("the law is an enumeration parameter (enum_param)"),
         LawKey::Restitution => (
             "restitution",
             None,

@@ -457,6 +457,54 @@ fn output_variable(
     }
 }
 
+/// A Real parameter, fixed after initialisation, checked against `range`.
+fn param(
+    name: String,
+    start: f64,
+    unit: Option<&'static str>,
+    range: Range,
+    target: VarRef,
+    description: &str,
+) -> Variable {
+    Variable {
+        name,
+        vtype: VarType::Real,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(start),
+        unit,
+        display_unit: None,
+        description: description.to_string(),
+        range: Some(range),
+        target,
+        depends_on_inputs: false,
+    }
+}
+
+/// `var`, tunable: contact-law constants may change between communication points (docs/fmi.md).
+fn tunable(mut var: Variable) -> Variable {
+    var.variability = Variability::Tunable;
+    var
+}
+
+/// An enumeration parameter of type `enum_type` (its items numbered from 1), fixed after
+/// initialisation, starting at item `start`.
+fn enum_param(name: String, enum_type: EnumType, start: i64, target: VarRef, description: String) -> Variable {
+    Variable {
+        name,
+        vtype: VarType::Enumeration(enum_type),
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        start: Some(start as f64),
+        unit: None,
+        display_unit: None,
+        description,
+        range: Some(Range::closed([1.0, enum_type.items().len() as f64])),
+        target,
+        depends_on_inputs: false,
+    }
+}
+
 fn integer_twin(name: String, e: EnumType, enum_name: &str, target: VarRef) -> Variable {
     let items: Vec<String> = e.items().iter().map(|(n, i)| format!("{i} = {n}")).collect();
     Variable {

@@ -6,30 +6,6 @@
 use super::law::{law_value, law_variable, FRICTION_KEYS};
 use super::*;
 
-/// A Real parameter, fixed after initialisation, checked against `range`.
-pub(super) fn param(
-    name: String,
-    start: f64,
-    unit: Option<&'static str>,
-    range: Range,
-    target: VarRef,
-    description: &str,
-) -> Variable {
-    Variable {
-        name,
-        vtype: VarType::Real,
-        causality: Causality::Parameter,
-        variability: Variability::Fixed,
-        start: Some(start),
-        unit,
-        display_unit: None,
-        description: description.to_string(),
-        range: Some(range),
-        target,
-        depends_on_inputs: false,
-    }
-}
-
 /// The Real parameters `<owner>.<key>[1]` … `[3]` of the triple `values`: component `k` sets
 /// `target(k)`.
 fn param_triple(
@@ -51,36 +27,6 @@ fn param_triple(
             description,
         )
     })
-}
-
-/// `var`, tunable: contact-law constants may change between communication points (docs/fmi.md).
-pub(super) fn tunable(mut var: Variable) -> Variable {
-    var.variability = Variability::Tunable;
-    var
-}
-
-/// An enumeration parameter of type `enum_type` (its items numbered from 1), fixed after
-/// initialisation, starting at item `start`.
-pub(super) fn enum_param(
-    name: String,
-    enum_type: EnumType,
-    start: i64,
-    target: VarRef,
-    description: String,
-) -> Variable {
-    Variable {
-        name,
-        vtype: VarType::Enumeration(enum_type),
-        causality: Causality::Parameter,
-        variability: Variability::Fixed,
-        start: Some(start as f64),
-        unit: None,
-        display_unit: None,
-        description,
-        range: Some(Range::closed([1.0, enum_type.items().len() as f64])),
-        target,
-        depends_on_inputs: false,
-    }
 }
 
 /// An output that no input changes at once.
