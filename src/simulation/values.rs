@@ -222,35 +222,30 @@ impl Simulation {
 /// `friction`, where the scene gives no such key; a group pair's `static_friction` its
 /// `friction`, likewise.
 pub(super) fn follows(scene: &Scene, table: &VariableTable) -> Vec<Option<usize>> {
-    use crate::variables::LawKey;
-    let n = scene.contact.len();
-    let (mut max_penetration, mut radius) = (vec![None; n], vec![None; n]);
-    let (mut static_friction, mut friction) = (vec![None; n], vec![None; n]);
-    let np = scene.contact_group.len();
-    let (mut pair_static, mut pair_friction) = (vec![None; np], vec![None; np]);
-    for (vr, var) in table.vars.iter().enumerate() {
-        match var.target {
-            VarRef::Contact(i, LawKey::MaxPenetration) => max_penetration[i] = Some(vr),
-            VarRef::SphereRadius(i) => radius[i] = Some(vr),
-            VarRef::Contact(i, LawKey::StaticFriction) => static_friction[i] = Some(vr),
-            VarRef::Contact(i, LawKey::Friction) => friction[i] = Some(vr),
-            VarRef::Group(p, LawKey::StaticFriction) => pair_static[p] = Some(vr),
-            VarRef::Group(p, LawKey::Friction) => pair_friction[p] = Some(vr),
-            _ => {}
-        }
-    }
+    use crate::variables::LawKey::{Friction, MaxPenetration, StaticFriction};
+    let reference: std::collections::HashMap<VarRef, usize> = table
+        .vars
+        .iter()
+        .enumerate()
+        .map(|(vr, var)| (var.target, vr))
+        .collect();
     let mut follows = vec![None; table.vars.len()];
-    for (i, c) in scene.contact.iter().enumerate() {
-        if let (None, Some(m), Some(r)) = (c.max_penetration, max_penetration[i], radius[i]) {
-            follows[m] = Some(r);
+    let mut follow = |follower: VarRef, leader: VarRef| {
+        if let (Some(&f), Some(&l)) = (reference.get(&follower), reference.get(&leader)) {
+            follows[f] = Some(l);
         }
-        if let (None, Some(s), Some(f)) = (c.static_friction, static_friction[i], friction[i]) {
-            follows[s] = Some(f);
+    };
+    for (i, c) in scene.contact.iter().enumerate() {
+        if c.max_penetration.is_none() {
+            follow(VarRef::Contact(i, MaxPenetration), VarRef::SphereRadius(i));
+        }
+        if c.static_friction.is_none() {
+            follow(VarRef::Contact(i, StaticFriction), VarRef::Contact(i, Friction));
         }
     }
     for (p, g) in scene.contact_group.iter().enumerate() {
-        if let (None, Some(s), Some(f)) = (g.static_friction, pair_static[p], pair_friction[p]) {
-            follows[s] = Some(f);
+        if g.static_friction.is_none() {
+            follow(VarRef::Group(p, StaticFriction), VarRef::Group(p, Friction));
         }
     }
     follows

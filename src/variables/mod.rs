@@ -82,7 +82,7 @@ named_enum! {
 }
 
 /// What a variable refers to inside the simulation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum VarRef {
     /// material index: E
     YoungsModulus(usize),
@@ -188,7 +188,7 @@ pub enum VarRef {
 
 /// The law constants of a contact or of a contact group pair that are FMU parameters
 /// (`<contact>.<key>`, `<pair>.<key>`: the law keys of a `[[contact]]`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum LawKey {
     /// `law` (and its Integer twin `law_index`)
     Law,

@@ -374,6 +374,21 @@ fn a_group_pair_parameter_acts_on_every_pair() {
     }
 }
 
+/// A group pair's `static_friction` follows its `friction` while the scene gives none and the
+/// host sets friction alone (as a declared contact's does); set apart, it keeps its own value.
+#[test]
+fn a_group_pairs_static_friction_follows_its_friction() {
+    let mut s = common::open(three_balls(0.5));
+    assert_eq!(get(&mut s, "ball_floor.static_friction"), 0.0);
+    s.set_by_name("ball_floor.friction", 0.3).unwrap();
+    assert_eq!(get(&mut s, "ball_floor.static_friction"), 0.3);
+    // the other pair's own constants stay
+    assert_eq!(get(&mut s, "ball_ball.static_friction"), 0.0);
+    s.set_by_name("ball_floor.static_friction", 0.5).unwrap();
+    s.set_by_name("ball_floor.friction", 0.2).unwrap();
+    assert_eq!(get(&mut s, "ball_floor.static_friction"), 0.5);
+}
+
 #[test]
 fn body_and_group_pair_outputs() {
     // two balls resting at their static Hertz penetrations on a floor (the second twice as
