@@ -413,26 +413,26 @@ pub fn blow_up(m: &Model, time: f64, what: &str) -> String {
     format!("the integration blew up in the step after t = {time} ({what}): {remedy}")
 }
 
-/// A contact whose time scale is below this share of the time cannot be resolved by steps
-/// there: its first step after the touch (`0.5 rtol^{1/(n+1)}` of it, see
-/// [`events::first_contact_step`]) is rounding noise against the time well before.
-const UNRESOLVABLE_CONTACT_TIME: f64 = 1e-8;
-
 /// The note a step size underflow gets when an active contact is too stiff (or its body too
-/// light) for steps at the present time to resolve its contact: the contact named, its time
-/// scale, stiffness, body and speed; None otherwise.
+/// light) for any step to resolve: its first step after a touch (`0.5 rtol^{1/(n+1)}` of its
+/// time scale, [`events::first_contact_step`]) is not longer than the rounding gap under which
+/// the integrator gives up (`ROUNDOFF_GAP` times the time, counted as at least 1 s, so that a
+/// contact too stiff at t = 0 is named too). The contact named, its time scale, stiffness,
+/// body and speed; None when no active contact is that short (the underflow has another cause).
 fn too_short_contact(m: &Model, d: &Data) -> Option<String> {
+    use crate::integrator::core::ROUNDOFF_GAP;
     use crate::scene::short;
     let (i, time, speed) = events::shortest_contact_time(m, d)?;
-    (time < UNRESOLVABLE_CONTACT_TIME * d.time.abs()).then_some(())?;
+    let first_step = 0.5 * d.step_rtol_powers[i][0] * time;
+    (first_step <= ROUNDOFF_GAP * d.time.abs().max(1.0)).then_some(())?;
     let c = &d.contacts[i];
     let body = &m.bodies[c.sphere_body?];
     // (derived numbers to three digits, in the shorter notation)
     let three = |x: f64| short(format!("{x:.2e}").parse().unwrap_or(x));
     Some(format!(
         "; contact {:?} is in contact there with a time scale of {} s (the penetration that stores the \
-         kinetic energy of its sphere's body, over the closing speed: stiffness {}, body {:?} of {} kg, \
-         closing at {} m/s), too short for steps at that time to resolve: check its stiffness (or materials) \
+         kinetic energy of its sphere's body at its normal speed, over that speed: stiffness {}, body {:?} of \
+         {} kg, normal speed {} m/s), too short for any step to resolve: check its stiffness (or materials) \
          and the body's mass",
         contact::elements::contact_name(m, d, i),
         three(time),

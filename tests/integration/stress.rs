@@ -117,6 +117,44 @@ fn a_contact_too_stiff_to_resolve_is_named_with_its_time_scale() {
     );
 }
 
+/// A steel ball resting on its floor (10 µm into it; the floor's stiffness `contact_k`, or the
+/// materials' Hertz stiffness) beside two free bodies joined by a spring of stiffness `spring`,
+/// run as one integrator (the scene of the test below).
+fn ball_beside_a_spring(spring: f64, contact_k: Option<f64>) -> Scene {
+    use contact_fmu::scene::{BodySpec, SpringDamperSpec};
+    let mut scene = scenes::ball_plane("beside", Law::HertzLn, 0.8, 0.0, -1e-5, true, 1.0, 1e-3);
+    scene.contact[0].stiffness = contact_k;
+    scene.solver.islands = false;
+    for (name, x) in [("a", 1.0), ("b", 1.1)] {
+        scene.body.push(BodySpec::sphere(name, 1.0, 0.05, [x, 0.0, 1.0]));
+    }
+    let spring = SpringDamperSpec::new("sp", "a", [1.0, 0.0, 1.0], "b", [1.1, 0.0, 1.0], spring);
+    scene.spring_damper.push(spring.free_length(0.09));
+    scene
+}
+
+/// The underflow's note names a contact only where that contact is the cause: not the resting
+/// steel ball when a spring of 1e300 N/m fails the step at t = 1e6 s (the ball's contact
+/// resolves there: with a spring of 50 N/m the same scene runs), and the ball when its own
+/// modulus is 1e300 and it rests on the floor from t = 0.
+#[test]
+fn the_underflow_note_names_a_contact_only_where_it_is_the_cause() {
+    let run = |scene: Scene, t0: f64| {
+        let mut s = contact_fmu::simulation::Simulation::new(scene, "beside.toml");
+        s.initialize(t0).unwrap();
+        s.step_to(t0 + 1e-2).map_err(|e| e.to_string())
+    };
+    run(ball_beside_a_spring(50.0, None), 1e6).expect("the soft spring runs");
+    let msg = run(ball_beside_a_spring(1e300, None), 1e6).expect_err("the stiff spring fails");
+    assert!(msg.contains("step size underflow"), "{msg}");
+    assert!(
+        !msg.contains("in contact there"),
+        "the resolvable contact is blamed: {msg}"
+    );
+    let msg = run(ball_beside_a_spring(50.0, Some(1e300)), 0.0).expect_err("the stiff ball fails");
+    assert!(msg.contains("contact \"floor\" is in contact there"), "{msg}");
+}
+
 /// Steel at 50 m/s and at 1e-3 m/s: finishes, stays within max_penetration, hertz_ln gives
 /// the same rebound ratio at both speeds (the law is rate-scaled by δ̇⁻).
 #[test]
