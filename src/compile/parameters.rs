@@ -56,6 +56,15 @@ pub fn law_constants(c: &ContactSpec) -> LawConstants {
     }
 }
 
+/// [`law_constants`] of a declared `[[contact]]`: its `max_penetration` always given (by default
+/// its sphere's radius).
+pub fn contact_law_constants(c: &ContactSpec) -> LawConstants {
+    LawConstants {
+        max_penetration: Some(c.max_penetration_or_default()),
+        ..law_constants(c)
+    }
+}
+
 /// The settable constants of a spring-damper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringValues {
@@ -121,10 +130,7 @@ impl Parameters {
                 .contact
                 .iter()
                 .map(|c| ContactValues {
-                    law: LawConstants {
-                        max_penetration: Some(c.max_penetration_or_default()),
-                        ..law_constants(c)
-                    },
+                    law: contact_law_constants(c),
                     radius: c.radius,
                     other_radius: c.other_radius.unwrap_or(1.0),
                     size: c.size.unwrap_or([1.0, 1.0]),

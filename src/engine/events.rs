@@ -408,7 +408,8 @@ fn energy_penetration(m: &Model, d: &Data, i: usize, speed: f64) -> Option<f64> 
 /// The active continuous-law contact with the shortest time scale `δ_max / v` at the current
 /// state (`v` its normal speed: its closing speed there, at least the speed it touched with,
 /// which is floored at its `min_impact_velocity`; `δ_max` as in [`first_contact_step`]):
-/// (contact, time scale \[s\], `v` \[m/s\]). A Hertz contact lasts about 2.94 of it. None when no such contact is active.
+/// (contact, time scale \[s\], `v` \[m/s\]). A Hertz contact lasts about 2.94 of it. None when
+/// no such contact is active.
 pub fn shortest_contact_time(m: &Model, d: &Data) -> Option<(usize, f64, f64)> {
     let mut shortest: Option<(usize, f64, f64)> = None;
     for i in 0..d.contacts.len() {

@@ -1,6 +1,7 @@
 //! The law constants as FMU parameters, alike for a declared contact (`<contact>.<key>`) and a
 //! contact group pair (`<pair>.<key>`): each key declared once (its unit, range, whether a host
-//! may change it after initialisation, its description) and read from the law constants.
+//! may change it after initialisation, its description), read from the law constants and
+//! written into them.
 
 use super::*;
 
@@ -126,5 +127,28 @@ pub(super) fn law_value(law: &LawConstants, key: LawKey) -> Option<f64> {
         LawKey::StribeckVelocity => Some(f.stribeck_velocity),
         LawKey::ViscousFriction => Some(f.viscous),
         LawKey::StictionVelocity => Some(f.stiction_velocity),
+    }
+}
+
+/// Writes the value `x` of the law constant `key` into `law` (a contact's or a group pair's). A
+/// law value that is no item (0, the start of the Integer twin `law_index`) changes nothing.
+pub(super) fn set_law_value(law: &mut LawConstants, key: LawKey, x: f64) {
+    match key {
+        LawKey::Law => {
+            if let Some(l) = Law::from_value(x as i64) {
+                law.law = l;
+            }
+        }
+        LawKey::Restitution => law.restitution = x,
+        LawKey::Exponent => law.exponent = x,
+        LawKey::Damping => law.damping = x,
+        LawKey::MaxPenetration => law.max_penetration = Some(x),
+        LawKey::MinImpactVelocity => law.min_impact_velocity = x,
+        LawKey::Stiffness => law.stiffness = Some(x),
+        LawKey::Friction => law.friction.mu = x,
+        LawKey::StaticFriction => law.friction.mu_static = x,
+        LawKey::StribeckVelocity => law.friction.stribeck_velocity = x,
+        LawKey::ViscousFriction => law.friction.viscous = x,
+        LawKey::StictionVelocity => law.friction.stiction_velocity = x,
     }
 }

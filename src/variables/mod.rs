@@ -353,6 +353,7 @@ pub const UNITS: &[Unit] = &[
 
 mod groups;
 mod law;
+use law::set_law_value;
 mod motion;
 mod table;
 
@@ -584,28 +585,5 @@ pub fn set_parameter(params: &mut Parameters, target: VarRef, x: f64) {
         | VarRef::BodyContactTorque(..)
         | VarRef::GroupActive(_)
         | VarRef::GroupLargestPenetration(_) => {}
-    }
-}
-
-/// Writes the value `x` of the law constant `key` into `law` (a contact's or a group pair's). A
-/// law value that is no item (0, the start of the Integer twin `law_index`) changes nothing.
-fn set_law_value(law: &mut LawConstants, key: LawKey, x: f64) {
-    match key {
-        LawKey::Law => {
-            if let Some(l) = Law::from_value(x as i64) {
-                law.law = l;
-            }
-        }
-        LawKey::Restitution => law.restitution = x,
-        LawKey::Exponent => law.exponent = x,
-        LawKey::Damping => law.damping = x,
-        LawKey::MaxPenetration => law.max_penetration = Some(x),
-        LawKey::MinImpactVelocity => law.min_impact_velocity = x,
-        LawKey::Stiffness => law.stiffness = Some(x),
-        LawKey::Friction => law.friction.mu = x,
-        LawKey::StaticFriction => law.friction.mu_static = x,
-        LawKey::StribeckVelocity => law.friction.stribeck_velocity = x,
-        LawKey::ViscousFriction => law.friction.viscous = x,
-        LawKey::StictionVelocity => law.friction.stiction_velocity = x,
     }
 }

@@ -77,7 +77,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
         ));
     }
     for (i, c) in scene.contact.iter().enumerate() {
-        let law = crate::compile::law_constants(c);
+        let law = crate::compile::contact_law_constants(c);
         let t = |key| VarRef::Contact(i, key);
         v.push(enum_param(
             format!("{}.law", c.name),
@@ -86,38 +86,26 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
             t(LawKey::Law),
             "contact force law: continuous (kelvin_voigt, hertz, hertz_ln, hunt_crossley, flores) or piecewise (impulse)".into(),
         ));
-        for key in [LawKey::Restitution, LawKey::Exponent, LawKey::Damping] {
+        let number = |key, scope| {
             let value = law_value(&law, key).unwrap_or_default();
-            v.push(law_variable(&c.name, key, value, t(key), ""));
-        }
-        // (by default the sphere's radius, as the start value)
-        let max_penetration = LawKey::MaxPenetration;
-        let scope = if c.max_penetration.is_some() {
-            ""
-        } else {
-            "; by default the sphere radius, following its parameter while this one keeps its start value"
+            law_variable(&c.name, key, value, t(key), scope)
         };
-        v.push(law_variable(
-            &c.name,
-            max_penetration,
-            c.max_penetration_or_default(),
-            t(max_penetration),
-            scope,
+        for key in [LawKey::Restitution, LawKey::Exponent, LawKey::Damping] {
+            v.push(number(key, ""));
+        }
+        v.push(number(
+            LawKey::MaxPenetration,
+            if c.max_penetration.is_some() {
+                ""
+            } else {
+                "; by default the sphere radius, following its parameter while this one keeps its start value"
+            },
         ));
-        let min_impact_velocity = LawKey::MinImpactVelocity;
-        let value = law.min_impact_velocity;
-        v.push(law_variable(
-            &c.name,
-            min_impact_velocity,
-            value,
-            t(min_impact_velocity),
-            "",
-        ));
+        v.push(number(LawKey::MinImpactVelocity, ""));
         // a stiffness the scene does not give is derived from the materials: a calculated
         // parameter
-        let stiffness = LawKey::Stiffness;
         v.push(match c.stiffness {
-            Some(k) => law_variable(&c.name, stiffness, k, t(stiffness), ""),
+            Some(_) => number(LawKey::Stiffness, ""),
             None => Variable {
                 name: format!("{}.stiffness", c.name),
                 vtype: VarType::Real,
@@ -129,7 +117,7 @@ pub(super) fn parameters(scene: &Scene, v: &mut Vec<Variable>) {
                 description: "contact stiffness K of F = K delta^n [N/m^n], derived from the two materials (Hertz)"
                     .into(),
                 range: None,
-                target: t(stiffness),
+                target: t(LawKey::Stiffness),
                 depends_on_inputs: false,
             },
         });
