@@ -1,66 +1,100 @@
-//! One contact element from its scene entry and parameter values: the shape in its body's
-//! frame (radii and sizes from the parameters), the stiffness (given, or Hertz's from the
-//! materials and the radii), the law constants.
+//! What a shape brings to a contact element, and a declared contact compiled as a group pair.
+//!
+//! A `[[contact]]` is a pair of two one-shape groups with the contact's law: its sphere and its
+//! other shape are written as two `[[shape]]`s ([`contact_shapes`]), each placed by the one
+//! function that places every group shape ([`shape_sides`]), and the element is made from the
+//! sphere side of the first, the other side of the second and the law, as a group pair's
+//! candidate is ([`crate::contact::elements::candidate_element`]). So the two scene forms
+//! become the same element by the same arithmetic.
 
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::elements::element;
 use crate::model::contact::{ContactElement, OtherSide, Shape, SphereSide};
 use crate::scene::keys::Surface;
-use crate::scene::{item_name, ContactSpec, ContactType, SceneError, Side};
+use crate::scene::{item_name, ContactSpec, ContactType, SceneError, ShapeSpec, ShapeType, Side};
 use crate::spatial::triad;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 
-/// Compiles one contact with its parameter values `p` (materials: `materials`, in scene
-/// order; `material_of` maps their names to indices). `body_of` maps names to body indices
-/// (None = ground), `local_point` and `local_dir` express world points and directions in a
-/// body's initial frame.
-#[allow(clippy::too_many_arguments)]
+/// Where the compiler places shapes: the bodies by name, their initial poses and the materials'
+/// values.
+pub(super) struct Placing<'a> {
+    /// A body's index by name (None = ground).
+    pub body_of: &'a dyn Fn(&str) -> Option<usize>,
+    /// A body's initial pose (position, orientation; None = ground).
+    pub pose0: &'a dyn Fn(Option<usize>) -> (Vector3<f64>, UnitQuaternion<f64>),
+    /// A material's index by name.
+    pub material_of: &'a dyn Fn(&str) -> Option<usize>,
+    /// The materials' values, in scene order.
+    pub materials: &'a [MaterialValues],
+}
+
+impl Placing<'_> {
+    /// A world point in the initial frame of body `b`.
+    pub fn local_point(&self, b: Option<usize>, p: Vector3<f64>) -> Vector3<f64> {
+        let (r, q) = (self.pose0)(b);
+        q.inverse() * (p - r)
+    }
+
+    /// A world direction in the initial frame of body `b`.
+    pub fn local_dir(&self, b: Option<usize>, v: Vector3<f64>) -> Vector3<f64> {
+        let (_, q) = (self.pose0)(b);
+        q.inverse() * v
+    }
+
+    /// Young's modulus and Poisson's ratio of the material named (None: none named).
+    fn material(&self, name: &Option<String>) -> Option<[f64; 2]> {
+        name.as_ref()
+            .and_then(|n| (self.material_of)(n))
+            .map(|i| [self.materials[i].youngs_modulus, self.materials[i].poisson_ratio])
+    }
+}
+
+/// The two one-shape groups a declared contact stands for, with its parameter values `p`: its
+/// sphere, and the shape it touches (the inverse of [`crate::scene::Scene::group_pair_contact`];
+/// the groups are named after the contact).
+pub(super) fn contact_shapes(c: &ContactSpec, p: &ContactValues) -> [ShapeSpec; 2] {
+    let sphere = ShapeSpec {
+        material: c.sphere_material.clone(),
+        ..ShapeSpec::sphere(&format!("{}.sphere", c.name), &c.sphere_body, c.center, p.radius)
+    };
+    let kind = match c.kind {
+        ContactType::SphereSphere => ShapeType::Sphere,
+        ContactType::SpherePlane => ShapeType::Plane,
+        ContactType::SphereCylinder => ShapeType::Cylinder,
+    };
+    let surface = c.surface();
+    let other = ShapeSpec {
+        material: c.material.clone(),
+        center: Some(c.other_center.unwrap_or_default()),
+        radius: Some(p.other_radius),
+        origin: surface.origin,
+        normal: surface.normal,
+        u_axis: surface.u_axis,
+        size: Some(p.size),
+        axis_point: surface.axis_point,
+        axis: surface.axis,
+        cylinder_radius: Some(p.cylinder_radius),
+        length: Some(p.length),
+        theta_range: surface.theta_range,
+        ref_axis: surface.ref_axis,
+        side: surface.side,
+        ..ShapeSpec::new(&format!("{}.other", c.name), kind, &c.body)
+    };
+    [sphere, other]
+}
+
+/// Compiles one declared contact with its parameter values `p`: the element of its two shapes
+/// ([`contact_shapes`]) and its law.
 pub(super) fn compile_contact(
     c: &ContactSpec,
     p: &ContactValues,
-    materials: &[MaterialValues],
-    material_of: &dyn Fn(&str) -> Option<usize>,
+    placing: &Placing,
     origin: &str,
-    body_of: &dyn Fn(&str) -> Option<usize>,
-    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
-    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
 ) -> Result<ContactElement, SceneError> {
-    let material = |name: &Option<String>| {
-        name.as_ref()
-            .and_then(|n| material_of(n))
-            .map(|i| [materials[i].youngs_modulus, materials[i].poisson_ratio])
-    };
-    let sphere_body = body_of(&c.sphere_body);
-    let sphere = SphereSide {
-        body: sphere_body,
-        center: local_point(sphere_body, to_v(c.center)),
-        radius: p.radius,
-        material: material(&c.sphere_material),
-    };
-    let body = body_of(&c.body);
-    let dims = Dimensions {
-        other_radius: p.other_radius,
-        size: p.size,
-        cylinder_radius: p.cylinder_radius,
-        length: p.length,
-    };
-    let (shape, bound_radius) = other_shape(
-        c.kind,
-        c.other_center,
-        &c.surface(),
-        &dims,
-        body,
-        local_point,
-        local_dir,
-    );
-    let other = OtherSide {
-        body,
-        kind: c.kind,
-        shape,
-        bound_radius,
-        material: material(&c.material),
-    };
-    element(c.name.clone(), &sphere, &other, &p.law)
+    let [sphere, other] = contact_shapes(c, p);
+    let (sphere_side, _) = shape_sides(&sphere, placing);
+    let (_, other_side) = shape_sides(&other, placing);
+    element(c.name.clone(), &sphere_side, &other_side, &p.law)
         .map_err(|message| SceneError::new(origin, item_name("contact", &c.name), "stiffness", message))
 }
 
@@ -68,36 +102,70 @@ fn to_v(a: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
 }
 
+/// What shape `s` brings to a contact element: as the sphere of a pair, and as the other shape
+/// (a sphere's centre defaults to its body's initial position; unset sizes are 1 m, which a
+/// checked scene never leaves unset where they are used).
+pub(super) fn shape_sides(s: &ShapeSpec, placing: &Placing) -> (SphereSide, OtherSide) {
+    let body = (placing.body_of)(&s.body);
+    let center = s.center.unwrap_or_else(|| (placing.pose0)(body).0.into());
+    let material = placing.material(&s.material);
+    let sphere = SphereSide {
+        body,
+        center: placing.local_point(body, to_v(center)),
+        radius: s.radius.unwrap_or(1.0),
+        material,
+    };
+    let kind = match s.kind {
+        ShapeType::Sphere => ContactType::SphereSphere,
+        ShapeType::Plane => ContactType::SpherePlane,
+        ShapeType::Cylinder => ContactType::SphereCylinder,
+    };
+    let dims = Dimensions {
+        other_radius: s.radius.unwrap_or(1.0),
+        size: s.size.unwrap_or([1.0, 1.0]),
+        cylinder_radius: s.cylinder_radius.unwrap_or(1.0),
+        length: s.length.unwrap_or(1.0),
+    };
+    let (shape, bound_radius) = other_shape(kind, center, &s.surface(), &dims, body, placing);
+    let other = OtherSide {
+        body,
+        kind,
+        shape,
+        bound_radius,
+        material,
+    };
+    (sphere, other)
+}
+
 /// The sizes of the other shape (parameters a host may set).
-pub(super) struct Dimensions {
+struct Dimensions {
     /// sphere_sphere: radius of the other sphere \[m\].
-    pub other_radius: f64,
+    other_radius: f64,
     /// sphere_plane: side lengths of the rectangle \[m\].
-    pub size: [f64; 2],
+    size: [f64; 2],
     /// sphere_cylinder: cylinder radius \[m\].
-    pub cylinder_radius: f64,
+    cylinder_radius: f64,
     /// sphere_cylinder: length of the patch \[m\].
-    pub length: f64,
+    length: f64,
 }
 
 /// The shape a sphere touches, in the frame of `body`, and the radius of a bounding sphere
 /// around its reference point: a sphere centred at `center` (world), or the plane or cylinder
 /// `surface` with the sizes `dims`.
-pub(super) fn other_shape(
+fn other_shape(
     kind: ContactType,
-    center: Option<[f64; 3]>,
+    center: [f64; 3],
     surface: &Surface,
     dims: &Dimensions,
     body: Option<usize>,
-    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
-    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    placing: &Placing,
 ) -> (Shape, f64) {
     match kind {
         ContactType::SphereSphere => {
             let r2 = dims.other_radius;
             (
                 Shape::Sphere {
-                    center: local_point(body, to_v(center.unwrap_or_default())),
+                    center: placing.local_point(body, to_v(center)),
                     radius: r2,
                 },
                 r2,
@@ -110,10 +178,10 @@ pub(super) fn other_shape(
             let [lu, lv] = dims.size;
             (
                 Shape::Plane {
-                    origin: local_point(body, to_v(surface.origin.unwrap_or_default())),
-                    normal: local_dir(body, n),
-                    u: local_dir(body, u),
-                    v: local_dir(body, w),
+                    origin: placing.local_point(body, to_v(surface.origin.unwrap_or_default())),
+                    normal: placing.local_dir(body, n),
+                    u: placing.local_dir(body, u),
+                    v: placing.local_dir(body, w),
                     half: [lu / 2.0, lv / 2.0],
                 },
                 0.5 * (lu * lu + lv * lv).sqrt(),
@@ -128,9 +196,9 @@ pub(super) fn other_shape(
             };
             (
                 Shape::Cylinder {
-                    point: local_point(body, to_v(surface.axis_point.unwrap_or_default())),
-                    axis: local_dir(body, k),
-                    reference: local_dir(body, reference),
+                    point: placing.local_point(body, to_v(surface.axis_point.unwrap_or_default())),
+                    axis: placing.local_dir(body, k),
+                    reference: placing.local_dir(body, reference),
                     radius: rho,
                     half_length: len / 2.0,
                     theta_range: surface.theta_range,

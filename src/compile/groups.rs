@@ -2,13 +2,13 @@
 //! pairs (found by the broad phase at the initial configuration, or given), and one contact
 //! element per candidate, compiled as the `[[contact]]` the group pair stands for.
 
-use super::contact::{other_shape, Dimensions};
+use super::contact::{shape_sides, Placing};
 use super::parameters::Parameters;
 use crate::contact::elements::candidate_element;
-use crate::model::contact::{ContactElement, OtherSide, SphereSide};
+use crate::model::contact::ContactElement;
 use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
-use crate::scene::{item_name, ContactType, Scene, SceneError, ShapeType};
-use nalgebra::{UnitQuaternion, Vector3};
+use crate::scene::{item_name, Scene, SceneError, ShapeType};
+use nalgebra::Vector3;
 use std::collections::HashMap;
 
 /// The scene's group numbering: the shapes' groups in their order, then those a group pair
@@ -25,20 +25,14 @@ fn group_numbering(scene: &Scene) -> HashMap<&str, usize> {
 }
 
 /// Builds the groups and the contact elements of `candidates` (None: the broad phase's pairs
-/// at the initial configuration). `pose0` gives a body's initial pose, the other closures are
-/// those of [`compile_contact`](super::contact::compile_contact).
-#[allow(clippy::too_many_arguments)]
+/// at the initial configuration), the shapes placed by `placing`.
 pub(super) fn compile_groups(
     scene: &Scene,
     params: &Parameters,
     origin: &str,
     n_explicit: usize,
     candidates: Option<&[Candidate]>,
-    pose0: &dyn Fn(Option<usize>) -> (Vector3<f64>, UnitQuaternion<f64>),
-    material_of: &dyn Fn(&str) -> Option<usize>,
-    body_of: &dyn Fn(&str) -> Option<usize>,
-    local_point: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
-    local_dir: &dyn Fn(Option<usize>, Vector3<f64>) -> Vector3<f64>,
+    placing: &Placing,
 ) -> Result<(Groups, Vec<ContactElement>), SceneError> {
     // shapes that no group pair names touch nothing
     if scene.contact_group.is_empty() {
@@ -69,28 +63,28 @@ pub(super) fn compile_groups(
         .shape
         .iter()
         .map(|s| {
-            let body = body_of(&s.body);
+            let body = (placing.body_of)(&s.body);
             let (center, bound) = match s.kind {
                 ShapeType::Sphere => {
-                    let c = s.center.map(v).unwrap_or_else(|| pose0(body).0);
-                    (local_point(body, c), Bound::Ball(s.radius.unwrap_or(0.0)))
+                    let c = s.center.map(v).unwrap_or_else(|| (placing.pose0)(body).0);
+                    (placing.local_point(body, c), Bound::Ball(s.radius.unwrap_or(0.0)))
                 }
                 ShapeType::Plane => {
                     let n = v(s.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
                     let u = v(s.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
                     let [lu, lv] = s.size.unwrap_or([1.0, 1.0]);
                     (
-                        local_point(body, v(s.origin.unwrap_or_default())),
+                        placing.local_point(body, v(s.origin.unwrap_or_default())),
                         Bound::Rectangle(
-                            local_dir(body, u) * (0.5 * lu),
-                            local_dir(body, n.cross(&u)) * (0.5 * lv),
+                            placing.local_dir(body, u) * (0.5 * lu),
+                            placing.local_dir(body, n.cross(&u)) * (0.5 * lv),
                         ),
                     )
                 }
                 ShapeType::Cylinder => {
                     let (rho, len) = (s.cylinder_radius.unwrap_or(1.0), s.length.unwrap_or(1.0));
                     (
-                        local_point(body, v(s.axis_point.unwrap_or_default())),
+                        placing.local_point(body, v(s.axis_point.unwrap_or_default())),
                         Bound::Ball((rho * rho + 0.25 * len * len).sqrt()),
                     )
                 }
@@ -111,43 +105,8 @@ pub(super) fn compile_groups(
             }
         })
         .collect();
-    let material = |name: &Option<String>| {
-        name.as_ref()
-            .and_then(|n| material_of(n))
-            .map(|i| [params.materials[i].youngs_modulus, params.materials[i].poisson_ratio])
-    };
     // what each shape brings to a contact element, as the sphere and as the other shape
-    let mut sphere_sides = Vec::with_capacity(scene.shape.len());
-    let mut other_sides = Vec::with_capacity(scene.shape.len());
-    for s in &scene.shape {
-        let body = body_of(&s.body);
-        let center = s.center.unwrap_or_else(|| pose0(body).0.into());
-        sphere_sides.push(SphereSide {
-            body,
-            center: local_point(body, v(center)),
-            radius: s.radius.unwrap_or(1.0),
-            material: material(&s.material),
-        });
-        let kind = match s.kind {
-            ShapeType::Sphere => ContactType::SphereSphere,
-            ShapeType::Plane => ContactType::SpherePlane,
-            ShapeType::Cylinder => ContactType::SphereCylinder,
-        };
-        let dims = Dimensions {
-            other_radius: s.radius.unwrap_or(1.0),
-            size: s.size.unwrap_or([1.0, 1.0]),
-            cylinder_radius: s.cylinder_radius.unwrap_or(1.0),
-            length: s.length.unwrap_or(1.0),
-        };
-        let (shape, bound_radius) = other_shape(kind, Some(center), &s.surface(), &dims, body, local_point, local_dir);
-        other_sides.push(OtherSide {
-            body,
-            kind,
-            shape,
-            bound_radius,
-            material: material(&s.material),
-        });
-    }
+    let (sphere_sides, other_sides) = scene.shape.iter().map(|s| shape_sides(s, placing)).unzip();
     let mut groups = Groups {
         shapes,
         ngroups,
@@ -179,7 +138,7 @@ pub(super) fn compile_groups(
             c.to_vec()
         }
         None => groups.find(&|b| {
-            let (p, q) = pose0(b);
+            let (p, q) = (placing.pose0)(b);
             (p, *q.to_rotation_matrix().matrix())
         }),
     };

@@ -9,7 +9,8 @@
 //! matrix is block diagonal with one dense block per independent tree.
 //!
 //! - `parameters`: the values a host may set (their defaults from the scene).
-//! - `contact`: one contact element from its scene entry (shape, stiffness, law constants).
+//! - `contact`: what a shape brings to a contact element, and a declared contact compiled as
+//!   the pair of its two one-shape groups (the same path as a group pair's candidate).
 //! - `groups`: the contact groups (group shapes, candidate pairs, their contact elements).
 //! - `velocities`: the initial joint rates from the scene's body velocities.
 
@@ -322,37 +323,17 @@ pub fn compile_model(
         .collect();
 
     let material_index = scene.material_index();
+    let placing = contact::Placing {
+        body_of: &|n| to_body(n),
+        pose0: &|b| pose(b),
+        material_of: &|n| material_index.get(n).copied(),
+        materials: &params.materials,
+    };
     let mut contacts = Vec::with_capacity(scene.contact.len());
     for (c, p) in scene.contact.iter().zip(&params.contacts) {
-        contacts.push(contact::compile_contact(
-            c,
-            p,
-            &params.materials,
-            &|n| material_index.get(n).copied(),
-            origin,
-            &|n| to_body(n),
-            &|b, p| local_point(b, p),
-            &|b, v| {
-                let (_, q) = pose(b);
-                q.inverse() * v
-            },
-        )?);
+        contacts.push(contact::compile_contact(c, p, &placing, origin)?);
     }
-    let (groups, group_contacts) = groups::compile_groups(
-        scene,
-        params,
-        origin,
-        contacts.len(),
-        candidates,
-        &|b| pose(b),
-        &|n| material_index.get(n).copied(),
-        &|n| to_body(n),
-        &|b, p| local_point(b, p),
-        &|b, v| {
-            let (_, q) = pose(b);
-            q.inverse() * v
-        },
-    )?;
+    let (groups, group_contacts) = groups::compile_groups(scene, params, origin, contacts.len(), candidates, &placing)?;
     contacts.extend(group_contacts);
     // One constraint row per impulse-law contact after the loop rows (its resting mode).
     crate::contact::elements::reserve_constraint_rows(&mut contacts, nc);

@@ -85,6 +85,104 @@ fn groups_give_the_trajectory_of_the_explicit_pair_list() {
     assert!(diff < 1e-5, "difference {diff}");
 }
 
+/// A declared `[[contact]]` is compiled as the pair of its two one-shape groups: for every
+/// kind of shape, on rotated bodies and on the ground, off-centre spheres, materials (the
+/// stiffness derived) and friction, cylinder patches inside and outside with an angular range,
+/// the element of each contact of the explicit list is the element of its group pair's
+/// candidate, field by field to the bit (its name apart).
+#[test]
+fn a_declared_contact_is_the_element_of_its_two_one_shape_groups() {
+    let q = |axis: [f64; 3], angle: f64| UnitQuaternion::from_scaled_axis(Vector3::from(axis).normalize() * angle);
+    let bodies = [
+        BodySpec::new("a", 0.3, [1e-4, 2e-4, 3e-4], [0.01, 0.02, 0.03]).orientation(q([1.0, 2.0, 3.0], 0.7)),
+        BodySpec::new("b", 0.5, [2e-4; 3], [0.05, -0.01, 0.02]).orientation(q([-1.0, 0.5, 0.2], 1.9)),
+        BodySpec::new("c", 0.2, [1e-4; 3], [-0.04, 0.03, 0.01]),
+    ];
+    let shapes = vec![
+        ShapeSpec::sphere("s", "a", [0.015, 0.02, 0.03], 0.01).material("steel"),
+        ShapeSpec::sphere("s", "b", [0.05, -0.01, 0.02], 0.012).material("rubber"),
+        ShapeSpec {
+            center: None, // at its body's centre of mass
+            ..ShapeSpec::sphere("t", "c", [0.0; 3], 0.008)
+        },
+        ShapeSpec::plane(
+            "w",
+            "b",
+            Plane::new([0.06, 0.0, 0.0], [0.3, 1.0, 0.2], [1.0, -0.3, 0.0], [0.04, 0.07]),
+        )
+        .material("steel"),
+        ShapeSpec::plane("w", GROUND, Plane::horizontal([0.0, 0.0, -0.05], [0.3, 0.2])).material("rubber"),
+        ShapeSpec {
+            side: Side::Inside,
+            theta_range: Some([-0.5, 2.0]),
+            ref_axis: Some([1.0, 0.0, 0.0]),
+            ..ShapeSpec::cylinder("w", GROUND, Cylinder::new([0.0, 0.0, 0.01], [0.0, 0.3, 1.0], 0.2, 0.15))
+                .material("rubber")
+        },
+        ShapeSpec::cylinder("w", "c", Cylinder::new([-0.03, 0.0, 0.0], [1.0, 0.0, 0.2], 0.02, 0.05)).material("steel"),
+    ];
+    let mut scene = SceneBuilder::new("declared_as_groups")
+        .gravity([0.0; 3])
+        .material(MaterialSpec::steel())
+        .material(MaterialSpec::new("rubber", 5e7, 0.45))
+        .bodies(bodies)
+        .shapes(shapes)
+        .contact_group(
+            ContactGroupSpec::new("ss", "s", "s", Law::HertzLn)
+                .restitution(0.6)
+                .friction(0.3),
+        )
+        .contact_group(
+            ContactGroupSpec::new("st", "s", "t", Law::Hertz)
+                .stiffness(3e7)
+                .exponent(1.4),
+        )
+        .contact_group(
+            ContactGroupSpec::new("sw", "s", "w", Law::Flores)
+                .restitution(0.4)
+                .friction(0.2)
+                .static_friction(0.35)
+                .stribeck_velocity(0.01),
+        )
+        .contact_group(
+            ContactGroupSpec::new("tw", "t", "w", Law::KelvinVoigt)
+                .stiffness(1e6)
+                .damping(50.0),
+        )
+        .build();
+    scene.broad_phase.margin = Some(10.0);
+    let (mg, dg) = compile(scene.clone());
+    let e = explicit(&scene);
+    let (_, de) = compile(e.clone());
+    assert_eq!(de.contacts.len(), e.contact.len());
+    assert_eq!(
+        dg.contacts.len(),
+        de.contacts.len(),
+        "every pair is a candidate at a margin of 10 m"
+    );
+    assert_eq!(de.contacts.len(), 13, "1 + 2 + 7 + 3 pairs not on one body");
+    let unnamed = |c: &contact_fmu::model::contact::ContactElement| {
+        format!(
+            "{:?}",
+            contact_fmu::model::contact::ContactElement {
+                name: String::new(),
+                ..c.clone()
+            }
+        )
+    };
+    let mut kinds = std::collections::HashSet::new();
+    for (i, (g, d)) in dg.contacts.iter().zip(&de.contacts).enumerate() {
+        let name = contact::elements::contact_name(&mg, &dg, i);
+        assert_eq!(unnamed(g), unnamed(d), "{name} against {}", d.name);
+        kinds.insert(format!("{:?} {:?} {}", d.kind, d.law, d.stiffness_derived));
+    }
+    println!(
+        "{} contacts, the same elements as their group pairs' candidates: {kinds:?}",
+        de.contacts.len()
+    );
+    assert!(kinds.len() >= 6, "{kinds:?}");
+}
+
 /// A random scene: bodies at random poses carrying spheres (some off their centre of mass,
 /// some overlapping or touching, some just out of reach), a few rectangles and cylinder
 /// patches on bodies and on the ground; groups `a` (spheres), `b` (spheres), `w` (planes and
