@@ -1,15 +1,16 @@
 //! The broad phase: the pairs of a model's group shapes ([`crate::model::groups`]) within
 //! reach (sweep and prune along x, or a uniform grid).
 //!
-//! The model holds the contacts of the group pairs as ordinary contact elements
-//! (`Model::contacts[n_explicit..]`), one per *candidate*: a pair of shapes whose bounding
-//! boxes, each grown by half the margin, overlap at the configuration where the list was
-//! made (the reference poses, `Data::broad_reference`). A pair left out is farther apart than
-//! the margin there, so it cannot touch while every body's shapes have moved less than half
-//! the margin: the engine bounds each step so that no body's shapes move farther than that
-//! (`groups::time_to_margin`), stops once one has moved a quarter of it (`groups::stale`), and the
-//! caller then makes the list again at the present configuration (`Simulation` recompiles
-//! the model with the new list and carries the state over).
+//! The data holds the contacts of the group pairs as ordinary contact elements
+//! (`Data::contacts[n_explicit..]`, the model's `initial_contacts` at the start), one per
+//! *candidate*: a pair of shapes whose bounding boxes, each grown by half the margin, overlap
+//! at the configuration where the list was made (the reference poses, `Data::broad_reference`).
+//! A pair left out is farther apart than the margin there, so it cannot touch while every
+//! body's shapes have moved less than half the margin: the engine bounds each step so that no
+//! body's shapes move farther than that (`groups::time_to_margin`), stops once one has moved a
+//! quarter of it (`groups::stale`), and the caller then makes the list again at the present
+//! configuration, in the data, the model unchanged (`groups::find_candidates`, then
+//! `elements::set_contact_list`, which carries each listed pair's memory over).
 
 pub use crate::model::groups::{Bound, Candidate, GroupShape, Groups, STALE_FRACTION};
 use crate::scene::BroadPhaseMethod;
