@@ -1,11 +1,11 @@
 //! What a shape brings to a contact element, and a declared contact compiled as a group pair.
 //!
 //! A `[[contact]]` is a pair of two one-shape groups with the contact's law: its sphere and its
-//! other shape are written as two `[[shape]]`s ([`contact_shapes`]), each placed by the one
-//! function that places every group shape ([`shape_sides`]), and the element is made from the
-//! sphere side of the first, the other side of the second and the law, as a group pair's
-//! candidate is ([`crate::contact::elements::candidate_element`]). So the two scene forms
-//! become the same element by the same arithmetic.
+//! other shape are written as two `[[shape]]`s ([`contact_shapes`]), placed by the functions
+//! that place every group shape ([`sphere_side`], [`other_side`]), and the element is made from
+//! the first's sphere side, the second's other side and the law by [`element`], as a group
+//! pair's candidate is ([`crate::contact::elements::candidate_element`]). So the two scene
+//! forms become the same element by the same arithmetic.
 
 use super::parameters::{ContactValues, MaterialValues};
 use crate::contact::elements::element;
@@ -15,8 +15,8 @@ use crate::scene::{item_name, ContactSpec, ContactType, SceneError, ShapeSpec, S
 use crate::spatial::triad;
 use nalgebra::{UnitQuaternion, Vector3};
 
-/// Where the compiler places shapes: the bodies by name, their initial poses and the materials'
-/// values.
+/// What the compiler places shapes (and springs' points) by: the bodies by name, their initial
+/// poses and the materials' values.
 pub(super) struct Placing<'a> {
     /// A body's index by name (None = ground).
     pub body_of: &'a dyn Fn(&str) -> Option<usize>,
@@ -49,13 +49,14 @@ impl Placing<'_> {
     }
 }
 
-/// The two one-shape groups a declared contact stands for, with its parameter values `p`: its
-/// sphere, and the shape it touches (the inverse of [`crate::scene::Scene::group_pair_contact`];
-/// the groups are named after the contact).
+/// The two one-shape groups a declared contact stands for, with its parameter values `p` (the
+/// sizes a host may set): its sphere, and the shape it touches. It undoes
+/// [`crate::scene::Scene::group_pair_contact`] up to the element they give (it sets every size,
+/// used or not); the groups are unnamed (nothing looks them up).
 pub(super) fn contact_shapes(c: &ContactSpec, p: &ContactValues) -> [ShapeSpec; 2] {
     let sphere = ShapeSpec {
         material: c.sphere_material.clone(),
-        ..ShapeSpec::sphere(&format!("{}.sphere", c.name), &c.sphere_body, c.center, p.radius)
+        ..ShapeSpec::sphere("", &c.sphere_body, c.center, p.radius)
     };
     let kind = match c.kind {
         ContactType::SphereSphere => ShapeType::Sphere,
@@ -78,7 +79,7 @@ pub(super) fn contact_shapes(c: &ContactSpec, p: &ContactValues) -> [ShapeSpec; 
         theta_range: surface.theta_range,
         ref_axis: surface.ref_axis,
         side: surface.side,
-        ..ShapeSpec::new(&format!("{}.other", c.name), kind, &c.body)
+        ..ShapeSpec::new("", kind, &c.body)
     };
     [sphere, other]
 }
@@ -92,29 +93,39 @@ pub(super) fn compile_contact(
     origin: &str,
 ) -> Result<ContactElement, SceneError> {
     let [sphere, other] = contact_shapes(c, p);
-    let (sphere_side, _) = shape_sides(&sphere, placing);
-    let (_, other_side) = shape_sides(&other, placing);
-    element(c.name.clone(), &sphere_side, &other_side, &p.law)
-        .map_err(|message| SceneError::new(origin, item_name("contact", &c.name), "stiffness", message))
+    element(
+        c.name.clone(),
+        &sphere_side(&sphere, placing),
+        &other_side(&other, placing),
+        &p.law,
+    )
+    .map_err(|message| SceneError::new(origin, item_name("contact", &c.name), "stiffness", message))
 }
 
 fn to_v(a: [f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
 }
 
-/// What shape `s` brings to a contact element: as the sphere of a pair, and as the other shape
-/// (a sphere's centre defaults to its body's initial position; unset sizes are 1 m, which a
-/// checked scene never leaves unset where they are used).
-pub(super) fn shape_sides(s: &ShapeSpec, placing: &Placing) -> (SphereSide, OtherSide) {
+/// A sphere's centre, world frame: given, or its body's initial position.
+fn sphere_center(s: &ShapeSpec, body: Option<usize>, placing: &Placing) -> [f64; 3] {
+    s.center.unwrap_or_else(|| (placing.pose0)(body).0.into())
+}
+
+/// What shape `s` brings to a contact element as the sphere of a pair (unset sizes are 1 m,
+/// which a checked scene never leaves unset where they are used; likewise below).
+pub(super) fn sphere_side(s: &ShapeSpec, placing: &Placing) -> SphereSide {
     let body = (placing.body_of)(&s.body);
-    let center = s.center.unwrap_or_else(|| (placing.pose0)(body).0.into());
-    let material = placing.material(&s.material);
-    let sphere = SphereSide {
+    SphereSide {
         body,
-        center: placing.local_point(body, to_v(center)),
+        center: placing.local_point(body, to_v(sphere_center(s, body, placing))),
         radius: s.radius.unwrap_or(1.0),
-        material,
-    };
+        material: placing.material(&s.material),
+    }
+}
+
+/// What shape `s` brings to a contact element as the shape a sphere touches.
+pub(super) fn other_side(s: &ShapeSpec, placing: &Placing) -> OtherSide {
+    let body = (placing.body_of)(&s.body);
     let kind = match s.kind {
         ShapeType::Sphere => ContactType::SphereSphere,
         ShapeType::Plane => ContactType::SpherePlane,
@@ -126,18 +137,18 @@ pub(super) fn shape_sides(s: &ShapeSpec, placing: &Placing) -> (SphereSide, Othe
         cylinder_radius: s.cylinder_radius.unwrap_or(1.0),
         length: s.length.unwrap_or(1.0),
     };
+    let center = sphere_center(s, body, placing);
     let (shape, bound_radius) = other_shape(kind, center, &s.surface(), &dims, body, placing);
-    let other = OtherSide {
+    OtherSide {
         body,
         kind,
         shape,
         bound_radius,
-        material,
-    };
-    (sphere, other)
+        material: placing.material(&s.material),
+    }
 }
 
-/// The sizes of the other shape (parameters a host may set).
+/// The sizes of the shape a sphere touches.
 struct Dimensions {
     /// sphere_sphere: radius of the other sphere \[m\].
     other_radius: f64,

@@ -1,8 +1,9 @@
 //! The contact groups of a scene: the group shapes in their bodies' frames, the candidate
 //! pairs (found by the broad phase at the initial configuration, or given), and one contact
-//! element per candidate, compiled as the `[[contact]]` the group pair stands for.
+//! element per candidate: its sphere shape's sphere side, its other shape's other side and its
+//! group pair's law (the path a declared `[[contact]]` takes too, see `contact.rs`).
 
-use super::contact::{shape_sides, Placing};
+use super::contact::{other_side, sphere_side, Placing};
 use super::parameters::Parameters;
 use crate::contact::elements::candidate_element;
 use crate::model::contact::ContactElement;
@@ -106,7 +107,8 @@ pub(super) fn compile_groups(
         })
         .collect();
     // what each shape brings to a contact element, as the sphere and as the other shape
-    let (sphere_sides, other_sides) = scene.shape.iter().map(|s| shape_sides(s, placing)).unzip();
+    let sphere_sides = scene.shape.iter().map(|s| sphere_side(s, placing)).collect();
+    let other_sides = scene.shape.iter().map(|s| other_side(s, placing)).collect();
     let mut groups = Groups {
         shapes,
         ngroups,

@@ -299,9 +299,12 @@ pub fn compile_model(
         });
         nc += 1;
     }
-    let local_point = |b: Option<usize>, p: Vector3<f64>| -> Vector3<f64> {
-        let (r, q) = pose(b);
-        q.inverse() * (p - r)
+    let material_index = scene.material_index();
+    let placing = contact::Placing {
+        body_of: &|n| to_body(n),
+        pose0: &|b| pose(b),
+        material_of: &|n| material_index.get(n).copied(),
+        materials: &params.materials,
     };
     let springs: Vec<SpringDamper> = scene
         .spring_damper
@@ -312,9 +315,9 @@ pub fn compile_model(
             SpringDamper {
                 name: s.name.clone(),
                 body_a: a,
-                point_a: local_point(a, to_v(s.point_a)),
+                point_a: placing.local_point(a, to_v(s.point_a)),
                 body_b: b,
-                point_b: local_point(b, to_v(s.point_b)),
+                point_b: placing.local_point(b, to_v(s.point_b)),
                 stiffness: p.stiffness,
                 damping: p.damping,
                 free_length: p.free_length,
@@ -322,13 +325,6 @@ pub fn compile_model(
         })
         .collect();
 
-    let material_index = scene.material_index();
-    let placing = contact::Placing {
-        body_of: &|n| to_body(n),
-        pose0: &|b| pose(b),
-        material_of: &|n| material_index.get(n).copied(),
-        materials: &params.materials,
-    };
     let mut contacts = Vec::with_capacity(scene.contact.len());
     for (c, p) in scene.contact.iter().zip(&params.contacts) {
         contacts.push(contact::compile_contact(c, p, &placing, origin)?);

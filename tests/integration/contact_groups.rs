@@ -9,11 +9,12 @@ use crate::common;
 
 use common::{compile, get, start, Rng, ORIGIN};
 use contact_fmu::bench::scenes::{sphere_box_groups, BALL_MASS, BALL_RADIUS};
+use contact_fmu::compile::Parameters;
 use contact_fmu::contact::broad::Candidate;
 use contact_fmu::contact::{self, geometry};
 use contact_fmu::kinematics::frame;
 use contact_fmu::scene::{
-    BodySpec, BroadPhaseMethod, ContactGroupSpec, Law, MaterialSpec, Scene, ShapeSpec, Side, GROUND,
+    BodySpec, BroadPhaseMethod, ContactGroupSpec, ContactType, Law, MaterialSpec, Scene, ShapeSpec, Side, GROUND,
 };
 use contact_fmu::scene_builder::{Cylinder, Plane, SceneBuilder};
 use contact_fmu::simulation::{SimError, Simulation};
@@ -89,7 +90,8 @@ fn groups_give_the_trajectory_of_the_explicit_pair_list() {
 /// kind of shape, on rotated bodies and on the ground, off-centre spheres, materials (the
 /// stiffness derived) and friction, cylinder patches inside and outside with an angular range,
 /// the element of each contact of the explicit list is the element of its group pair's
-/// candidate, field by field to the bit (its name apart).
+/// candidate, field by field to the bit (its name apart); and the sizes a host sets as
+/// parameters make the element the same keys in the scene make.
 #[test]
 fn a_declared_contact_is_the_element_of_its_two_one_shape_groups() {
     let q = |axis: [f64; 3], angle: f64| UnitQuaternion::from_scaled_axis(Vector3::from(axis).normalize() * angle);
@@ -180,7 +182,30 @@ fn a_declared_contact_is_the_element_of_its_two_one_shape_groups() {
         "{} contacts, the same elements as their group pairs' candidates: {kinds:?}",
         de.contacts.len()
     );
-    assert!(kinds.len() >= 6, "{kinds:?}");
+    assert_eq!(kinds.len(), 6, "{kinds:?}");
+    // the sizes a host sets (parameters) reach the element as the scene's keys do: the
+    // explicit scene compiled with the parameter values of one whose sizes were edited
+    let mut edited = e.clone();
+    for c in &mut edited.contact {
+        c.radius *= 1.25;
+        match c.kind {
+            ContactType::SphereSphere => c.other_radius = c.other_radius.map(|r| 0.8 * r),
+            ContactType::SpherePlane => c.size = c.size.map(|[u, v]| [1.1 * u, 0.9 * v]),
+            ContactType::SphereCylinder => {
+                c.cylinder_radius = c.cylinder_radius.map(|r| 1.05 * r);
+                c.length = c.length.map(|l| 1.2 * l);
+            }
+        }
+    }
+    let (_, d_keys) = compile(edited.clone());
+    let (_, d_set) = contact_fmu::compile::compile_with(&e, &Parameters::of_scene(&edited), ORIGIN)
+        .unwrap_or_else(|err| panic!("{err}"));
+    for (k, s) in d_keys.contacts.iter().zip(&d_set.contacts) {
+        assert_eq!(format!("{k:?}"), format!("{s:?}"), "{}: the sizes set", k.name);
+    }
+    for (k, d) in d_keys.contacts.iter().zip(&de.contacts) {
+        assert_ne!(format!("{k:?}"), format!("{d:?}"), "{}: the sizes were edited", k.name);
+    }
 }
 
 /// A random scene: bodies at random poses carrying spheres (some off their centre of mass,
