@@ -164,73 +164,32 @@ impl Parameters {
                 .iter()
                 .filter(|s| g.groups.contains(&s.group))
                 .all(|s| s.material.is_some());
-            if let Err((field, msg)) = check_law(v.law, v.restitution, v.stiffness.is_some(), materials) {
-                let msg = if v.law != g.law || v.restitution != g.restitution {
-                    format!(
-                        "parameters \"{n}.law\" = {} ({}), \"{n}.restitution\" = {}: {msg}",
-                        v.law as i64,
-                        v.law.name(),
-                        v.restitution,
-                        n = g.name
-                    )
-                } else {
-                    msg
-                };
-                return Err(SceneError::new(origin, item_name("contact_group", &g.name), field, msg));
+            let no_stiffness = |derived: &str| {
+                format!(
+                    "this FMU has no \"{}.stiffness\" parameter (the scene gives this group pair no stiffness key{derived})",
+                    g.name
+                )
+            };
+            let item = item_name("contact_group", &g.name);
+            let scene_law = (g.law, g.restitution);
+            if let Some((field, msg)) = law_parameter_error(&item, &g.name, scene_law, v, materials, no_stiffness) {
+                return Err(SceneError::new(origin, item, field, msg));
             }
         }
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
-            let v = &v.law;
             let materials = c.sphere_material.is_some() && c.material.is_some();
-            let has_stiffness = v.stiffness.is_some();
-            let Err((field, msg)) = check_law(v.law, v.restitution, has_stiffness, materials) else {
-                continue;
+            let calculated = |derived: &str| {
+                format!(
+                    "\"{}.stiffness\" is a calculated parameter of this FMU (the scene gives this contact no stiffness \
+                     key{derived})",
+                    c.name
+                )
             };
             let item = item_name("contact", &c.name);
-            let law = format!("parameter \"{}.law\" = {} ({})", c.name, v.law as i64, v.law.name());
-            let others = || {
-                Law::ALL
-                    .iter()
-                    .filter(|l| check_law(**l, v.restitution, has_stiffness, materials).is_ok())
-                    .map(|l| format!("{} = {}", l.name(), *l as i64))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
-            let (field, msg) = match field {
-                "stiffness" if v.law != c.law => (
-                    "law",
-                    format!(
-                        "{law} needs a contact stiffness, but \"{name}.stiffness\" is a calculated parameter of \
-                         this FMU (the scene gives this contact no stiffness key{derived}): choose another law \
-                         ({}), or add stiffness to contact {name:?} in the scene and export the FMU again",
-                        others(),
-                        name = c.name,
-                        derived = if materials {
-                            "; it is derived from the materials for the Hertz family"
-                        } else {
-                            ""
-                        },
-                    ),
-                ),
-                "restitution" if v.law != c.law => (
-                    "law",
-                    format!(
-                        "{law} needs a restitution e > 0, but \"{}.restitution\" = {}: set e > 0 or choose another law",
-                        c.name, v.restitution
-                    ),
-                ),
-                "restitution" if v.restitution != c.restitution => (
-                    "restitution",
-                    format!(
-                        "parameter \"{}.restitution\" = {}: the {} law needs e > 0",
-                        c.name,
-                        v.restitution,
-                        v.law.name()
-                    ),
-                ),
-                _ => (field, msg),
-            };
-            return Err(SceneError::new(origin, item, field, msg));
+            let scene_law = (c.law, c.restitution);
+            if let Some((field, msg)) = law_parameter_error(&item, &c.name, scene_law, &v.law, materials, calculated) {
+                return Err(SceneError::new(origin, item, field, msg));
+            }
         }
         Ok(())
     }
@@ -271,4 +230,62 @@ impl Parameters {
         }
         Ok(())
     }
+}
+
+/// What is wrong with the law constants `v` a host set for the declared contact or group pair
+/// `name` (the scene's `item`; its scene's law and restitution: `scene_law`; `materials`: every shape it touches has
+/// a material), the field to name and the message (None: nothing). A law chosen by parameter
+/// that needs a stiffness the scene does not give says why the host cannot give one
+/// (`no_stiffness`, told whether the Hertz family derives it from the materials) and which laws
+/// would do.
+fn law_parameter_error(
+    item: &str,
+    name: &str,
+    (scene_law, scene_restitution): (Law, f64),
+    v: &LawConstants,
+    materials: bool,
+    no_stiffness: impl Fn(&str) -> String,
+) -> Option<(&'static str, String)> {
+    let has_stiffness = v.stiffness.is_some();
+    let (field, msg) = check_law(v.law, v.restitution, has_stiffness, materials).err()?;
+    let law = format!("parameter \"{name}.law\" = {} ({})", v.law as i64, v.law.name());
+    Some(match field {
+        "stiffness" if v.law != scene_law => {
+            let others = Law::ALL
+                .iter()
+                .filter(|l| check_law(**l, v.restitution, has_stiffness, materials).is_ok())
+                .map(|l| format!("{} = {}", l.name(), *l as i64))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let derived = if materials {
+                "; it is derived from the materials for the Hertz family"
+            } else {
+                ""
+            };
+            (
+                "law",
+                format!(
+                    "{law} needs a contact stiffness, but {}: choose another law ({others}), or add stiffness to \
+                     {item} in the scene and export the FMU again",
+                    no_stiffness(derived)
+                ),
+            )
+        }
+        "restitution" if v.law != scene_law => (
+            "law",
+            format!(
+                "{law} needs a restitution e > 0, but \"{name}.restitution\" = {}: set e > 0 or choose another law",
+                v.restitution
+            ),
+        ),
+        "restitution" if v.restitution != scene_restitution => (
+            "restitution",
+            format!(
+                "parameter \"{name}.restitution\" = {}: the {} law needs e > 0",
+                v.restitution,
+                v.law.name()
+            ),
+        ),
+        _ => (field, msg),
+    })
 }

@@ -454,6 +454,52 @@ fn three_balls(restitution: f64) -> Scene {
     .build()
 }
 
+/// A law chosen by parameter for a group pair that the pair cannot take is refused with the
+/// message a declared contact gets (one check for both): the parameter and its value, why no
+/// stiffness can be set (the group pair's scene gives none, so the FMU has no such parameter),
+/// the laws that would do, and the way out.
+#[test]
+fn a_law_a_group_pair_cannot_take_is_refused_as_a_contacts_is() {
+    let refused = |scene: Scene, name: &str, value: f64| {
+        let mut s = common::open(scene);
+        s.set_by_name(name, value).unwrap_or_else(|e| panic!("{e}"));
+        match s.initialize(0.0) {
+            Err(SimError::Scene(e)) => e,
+            other => panic!("{name} = {value}: {other:?}"),
+        }
+    };
+    // hertz without a stiffness or materials (the scene's law is the impulse law)
+    let e = refused(three_balls(0.5), "ball_floor.law", 2.0);
+    println!("{e}");
+    assert_eq!(
+        (e.item.as_str(), e.field.as_str()),
+        ("contact_group \"ball_floor\"", "law")
+    );
+    for f in [
+        "parameter \"ball_floor.law\" = 2 (hertz)",
+        "needs a contact stiffness",
+        "this FMU has no \"ball_floor.stiffness\" parameter",
+        "impulse = 6",
+        "add stiffness to contact_group \"ball_floor\"",
+    ] {
+        assert!(e.message.contains(f), "{:?} lacks {f:?}", e.message);
+    }
+    assert!(!e.message.contains("hertz = 2"), "hertz is no way out: {}", e.message);
+    // flores with the scene's restitution 0
+    let e = refused(three_balls(0.0), "ball_ball.law", 5.0);
+    println!("{e}");
+    assert_eq!(
+        (e.item.as_str(), e.field.as_str()),
+        ("contact_group \"ball_ball\"", "law")
+    );
+    assert!(
+        e.message
+            .contains("parameter \"ball_ball.law\" = 5 (flores) needs a restitution e > 0"),
+        "{}",
+        e.message
+    );
+}
+
 #[test]
 fn a_group_pair_parameter_acts_on_every_pair() {
     let g = 9.81;
