@@ -233,11 +233,11 @@ impl Parameters {
 }
 
 /// What is wrong with the law constants `v` a host set for the declared contact or group pair
-/// `name` (the scene's `item`; its scene's law and restitution: `scene_law`; `materials`: every shape it touches has
-/// a material), the field to name and the message (None: nothing). A law chosen by parameter
-/// that needs a stiffness the scene does not give says why the host cannot give one
-/// (`no_stiffness`, told whether the Hertz family derives it from the materials) and which laws
-/// would do.
+/// `name` (the scene's `item`, whose law and restitution are `scene_law`; `materials`: every
+/// shape it touches has a material): the field to name and the message (None: nothing). A law
+/// chosen by parameter that needs a stiffness the scene does not give says why the host cannot
+/// give one (`no_stiffness`, told whether the Hertz family derives it from the materials) and
+/// which laws would do.
 fn law_parameter_error(
     item: &str,
     name: &str,
