@@ -170,10 +170,11 @@ impl Parameters {
                     g.name
                 )
             };
-            let item = item_name("contact_group", &g.name);
             let scene_law = (g.law, g.restitution);
-            if let Some((field, msg)) = law_parameter_error(&item, &g.name, scene_law, v, materials, no_stiffness) {
-                return Err(SceneError::new(origin, item, field, msg));
+            if let Some((field, msg)) =
+                law_parameter_error("contact_group", &g.name, scene_law, v, materials, no_stiffness)
+            {
+                return Err(SceneError::new(origin, item_name("contact_group", &g.name), field, msg));
             }
         }
         for (c, v) in scene.contact.iter().zip(&self.contacts) {
@@ -185,10 +186,11 @@ impl Parameters {
                     c.name
                 )
             };
-            let item = item_name("contact", &c.name);
             let scene_law = (c.law, c.restitution);
-            if let Some((field, msg)) = law_parameter_error(&item, &c.name, scene_law, &v.law, materials, calculated) {
-                return Err(SceneError::new(origin, item, field, msg));
+            if let Some((field, msg)) =
+                law_parameter_error("contact", &c.name, scene_law, &v.law, materials, calculated)
+            {
+                return Err(SceneError::new(origin, item_name("contact", &c.name), field, msg));
             }
         }
         Ok(())
@@ -233,13 +235,13 @@ impl Parameters {
 }
 
 /// What is wrong with the law constants `v` a host set for the declared contact or group pair
-/// `name` (the scene's `item`, whose law and restitution are `scene_law`; `materials`: every
+/// `name` (a scene item of `kind`, whose law and restitution are `scene_law`; `materials`: every
 /// shape it touches has a material): the field to name and the message (None: nothing). A law
 /// chosen by parameter that needs a stiffness the scene does not give says why the host cannot
 /// give one (`no_stiffness`, told whether the Hertz family derives it from the materials) and
 /// which laws would do.
 fn law_parameter_error(
-    item: &str,
+    kind: &str,
     name: &str,
     (scene_law, scene_restitution): (Law, f64),
     v: &LawConstants,
@@ -266,7 +268,7 @@ fn law_parameter_error(
                 "law",
                 format!(
                     "{law} needs a contact stiffness, but {}: choose another law ({others}), or add stiffness to \
-                     {item} in the scene and export the FMU again",
+                     {kind} {name:?} in the scene and export the FMU again",
                     no_stiffness(derived)
                 ),
             )

@@ -15,6 +15,7 @@ mod constant_rows;
 mod contact;
 mod contact_detection;
 mod contact_groups;
+mod contact_groups_as_contacts;
 mod contact_impacts;
 mod continuation;
 mod early_return;
