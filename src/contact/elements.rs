@@ -166,21 +166,33 @@ pub fn contact_list(m: &Model, d: &Data, found: &[Candidate]) -> Result<Vec<Cont
     Ok(contacts)
 }
 
+/// The contact memory of each candidate pair of a new list, from the data's: by the pair's
+/// index in the data's list (`former`, of [`former_indices`]); a pair new to the list starts
+/// apart.
+pub fn kept_memory<'a>(m: &Model, d: &'a Data, former: &'a [usize]) -> impl Iterator<Item = ContactMemory> + 'a {
+    let n = m.groups.n_explicit;
+    former.iter().map(move |&i| match i {
+        NOT_LISTED => ContactMemory::default(),
+        i => d.contact_memory.get(n + i).copied().unwrap_or_default(),
+    })
+}
+
 /// Makes `contacts`, the [`contact_list`] of the candidate pairs `found`, the data's: their
-/// constraint rows, step powers and work buffers. A pair that was listed before keeps its
-/// contact memory; a new one starts apart.
-pub fn set_contact_list(m: &Model, d: &mut Data, found: &[Candidate], mut contacts: Vec<ContactElement>) {
+/// constraint rows, step powers and work buffers. A pair that was listed before (`former`: each
+/// pair's index in the data's list, of [`former_indices`]) keeps its contact memory; a new one
+/// starts apart.
+pub fn set_contact_list(
+    m: &Model,
+    d: &mut Data,
+    found: &[Candidate],
+    former: &[usize],
+    mut contacts: Vec<ContactElement>,
+) {
     let n = m.groups.n_explicit;
     let nc = reserve_constraint_rows(&mut contacts, m.fixed_rows());
-    let old: rustc_hash::FxHashMap<Candidate, ContactMemory> = d
-        .candidates
-        .iter()
-        .copied()
-        .zip(d.contact_memory[n..].iter().copied())
-        .collect();
+    let kept: Vec<ContactMemory> = kept_memory(m, d, former).collect();
     d.contact_memory.truncate(n);
-    d.contact_memory
-        .extend(found.iter().map(|c| old.get(c).copied().unwrap_or_default()));
+    d.contact_memory.extend(kept);
     crate::model::step_rtol_powers(&contacts, m.solver.rtol, &mut d.step_rtol_powers);
     d.contacts = contacts;
     d.candidates = found.to_vec();
@@ -196,7 +208,9 @@ pub fn set_contact_list(m: &Model, d: &mut Data, found: &[Candidate], mut contac
 /// [`set_contact_list`]); on an error the data is unchanged.
 pub fn set_candidates(m: &Model, d: &mut Data, found: &[Candidate]) -> Result<(), String> {
     let contacts = contact_list(m, d, found)?;
-    set_contact_list(m, d, found, contacts);
+    let mut former = Vec::new();
+    former_indices(&d.candidates, found, &mut former);
+    set_contact_list(m, d, found, &former, contacts);
     Ok(())
 }
 

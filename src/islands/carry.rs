@@ -3,7 +3,7 @@
 //! list by its index in the former list (`contact::elements::former_indices`).
 
 use super::Islands;
-use crate::contact::elements::{former_indices, NOT_LISTED};
+use crate::contact::elements::{former_indices, kept_memory};
 use crate::model::contact::ContactMemory;
 use crate::model::groups::Candidate;
 use crate::model::partition::Partition;
@@ -25,13 +25,7 @@ pub(super) fn memory_of_scene(m: &Model, d: &Data, list: &[Candidate]) -> Memory
     former_indices(&d.candidates, list, &mut at);
     Memory {
         explicit: d.contact_memory[..n].to_vec(),
-        candidates: at
-            .iter()
-            .map(|&i| match i {
-                NOT_LISTED => ContactMemory::default(),
-                i => d.contact_memory.get(n + i).copied().unwrap_or_default(),
-            })
-            .collect(),
+        candidates: kept_memory(m, d, &at).collect(),
     }
 }
 

@@ -52,10 +52,10 @@ impl Simulation {
         crate::kinematics::kinematics(m, d);
         let time = d.time;
         // (a pair new to the list that touches already is refused before the data changes)
-        let (found, _) =
+        let (found, former) =
             groups::find_candidates(m, d, &d.candidates).map_err(|message| SimError::Step { time, message })?;
         let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
-        elements::set_contact_list(m, d, &found, contacts);
+        elements::set_contact_list(m, d, &found, &former, contacts);
         groups::take_reference_poses(m, d);
         d.outputs_valid = false;
         d.kinematics_valid = false;
