@@ -19,7 +19,7 @@ mod groups;
 pub mod parameters;
 mod velocities;
 
-pub use parameters::{contact_law_constants, law_constants, Parameters};
+pub use parameters::{contact_law_constants, group_law_constants, law_constants, Parameters};
 
 use crate::kinematics::kinematics;
 use crate::model::contact::ContactElement;

@@ -8,8 +8,8 @@
 use crate::contact::Friction;
 use crate::model::contact::LawConstants;
 use crate::scene::{
-    check_law, check_max_step, inertia_is_physical, item_name, ContactSpec, ContactType, Law, Scene, SceneError, Side,
-    SolverSection,
+    check_law, check_max_step, inertia_is_physical, item_name, ContactGroupSpec, ContactSpec, ContactType, Law, Scene,
+    SceneError, Side, SolverSection,
 };
 
 /// Elastic constants of a material.
@@ -63,6 +63,12 @@ pub fn contact_law_constants(c: &ContactSpec) -> LawConstants {
         max_penetration: Some(c.max_penetration_or_default()),
         ..law_constants(c)
     }
+}
+
+/// [`law_constants`] of the contact group pair `g` of `scene`: those of the `[[contact]]` it
+/// stands for (any two of the scene's shapes give the same).
+pub fn group_law_constants(scene: &Scene, g: &ContactGroupSpec) -> LawConstants {
+    law_constants(&scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]))
 }
 
 /// The settable constants of a spring-damper.
@@ -141,7 +147,7 @@ impl Parameters {
             groups: scene
                 .contact_group
                 .iter()
-                .map(|g| law_constants(&scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0])))
+                .map(|g| group_law_constants(scene, g))
                 .collect(),
             solver: scene.solver.clone(),
             input_start: scene.input_start_values(),

@@ -28,8 +28,7 @@ pub(super) fn group_variables(scene: &Scene, v: &mut Vec<Variable>) {
             &format!("{}.law", g.name),
             t(LawKey::Law),
         ));
-        let template = scene.group_pair_contact(g, &g.name, &scene.shape[0], &scene.shape[0]);
-        let law = crate::compile::law_constants(&template);
+        let law = crate::compile::group_law_constants(scene, g);
         let keys = [
             LawKey::Restitution,
             LawKey::Exponent,

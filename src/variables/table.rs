@@ -459,7 +459,7 @@ pub(super) fn later_parameters(scene: &Scene, v: &mut Vec<Variable>) {
     ));
     // Friction (after everything above, so that no value reference moves).
     for (i, c) in scene.contact.iter().enumerate() {
-        let law = crate::compile::law_constants(c);
+        let law = crate::compile::contact_law_constants(c);
         for key in FRICTION_KEYS {
             let value = law_value(&law, key).unwrap_or_default();
             v.push(law_variable(&c.name, key, value, VarRef::Contact(i, key), ""));
