@@ -6,10 +6,9 @@
 use super::contact::{other_side, sphere_side, Placing};
 use super::parameters::Parameters;
 use crate::contact::elements::candidate_element;
-use crate::model::contact::ContactElement;
+use crate::model::contact::{ContactElement, OtherSide, Shape, SphereSide};
 use crate::model::groups::{Bound, Candidate, GroupShape, Groups};
-use crate::scene::{item_name, Scene, SceneError, ShapeType};
-use nalgebra::Vector3;
+use crate::scene::{item_name, Scene, SceneError};
 use std::collections::HashMap;
 
 /// The scene's group numbering: the shapes' groups in their order, then those a group pair
@@ -45,7 +44,6 @@ pub(super) fn compile_groups(
             Vec::new(),
         ));
     }
-    let v = |a: [f64; 3]| Vector3::new(a[0], a[1], a[2]);
     let group_index = group_numbering(scene);
     let ngroups = group_index.len();
     let mut touch = vec![None; ngroups * ngroups];
@@ -60,37 +58,21 @@ pub(super) fn compile_groups(
     let nb = scene.body.len();
     let mut reach = vec![0.0_f64; nb];
     let mut has_shape = vec![false; nb];
+    // what each shape brings to a contact element, as the sphere and as the other shape
+    let sphere_sides: Vec<SphereSide> = scene.shape.iter().map(|s| sphere_side(s, placing)).collect();
+    let other_sides: Vec<OtherSide> = scene.shape.iter().map(|s| other_side(s, placing)).collect();
+    // the broad phase's bound of each: that of the shape a sphere touches
     let shapes: Vec<GroupShape> = scene
         .shape
         .iter()
-        .map(|s| {
-            let body = (placing.body_of)(&s.body);
-            let (center, bound) = match s.kind {
-                ShapeType::Sphere => {
-                    let c = s.center.map(v).unwrap_or_else(|| (placing.pose0)(body).0);
-                    (placing.local_point(body, c), Bound::Ball(s.radius.unwrap_or(0.0)))
-                }
-                ShapeType::Plane => {
-                    let n = v(s.normal.unwrap_or([0.0, 0.0, 1.0])).normalize();
-                    let u = v(s.u_axis.unwrap_or([1.0, 0.0, 0.0])).normalize();
-                    let [lu, lv] = s.size.unwrap_or([1.0, 1.0]);
-                    (
-                        placing.local_point(body, v(s.origin.unwrap_or_default())),
-                        Bound::Rectangle(
-                            placing.local_dir(body, u) * (0.5 * lu),
-                            placing.local_dir(body, n.cross(&u)) * (0.5 * lv),
-                        ),
-                    )
-                }
-                ShapeType::Cylinder => {
-                    let (rho, len) = (s.cylinder_radius.unwrap_or(1.0), s.length.unwrap_or(1.0));
-                    (
-                        placing.local_point(body, v(s.axis_point.unwrap_or_default())),
-                        Bound::Ball((rho * rho + 0.25 * len * len).sqrt()),
-                    )
-                }
+        .zip(&other_sides)
+        .map(|(s, o)| {
+            let (center, bound) = match &o.shape {
+                Shape::Sphere { center, radius } => (*center, Bound::Ball(*radius)),
+                Shape::Plane { origin, u, v, half, .. } => (*origin, Bound::Rectangle(u * half[0], v * half[1])),
+                Shape::Cylinder { point, .. } => (*point, Bound::Ball(o.bound_radius)),
             };
-            if let Some(b) = body {
+            if let Some(b) = o.body {
                 let extent = match bound {
                     Bound::Ball(r) => r,
                     Bound::Rectangle(u, w) => (u.norm_squared() + w.norm_squared()).sqrt(),
@@ -99,16 +81,13 @@ pub(super) fn compile_groups(
                 has_shape[b] = true;
             }
             GroupShape {
-                body,
+                body: o.body,
                 group: group_index[s.group.as_str()],
                 center,
                 bound,
             }
         })
         .collect();
-    // what each shape brings to a contact element, as the sphere and as the other shape
-    let sphere_sides = scene.shape.iter().map(|s| sphere_side(s, placing)).collect();
-    let other_sides = scene.shape.iter().map(|s| other_side(s, placing)).collect();
     let mut groups = Groups {
         shapes,
         ngroups,
