@@ -55,7 +55,16 @@ impl Simulation {
         let (found, former) =
             groups::find_candidates(m, d, &d.candidates).map_err(|message| SimError::Step { time, message })?;
         let contacts = elements::contact_list(m, d, &found).map_err(|message| SimError::Step { time, message })?;
+        // The method's last step reaches past this point when the list went stale at a restart
+        // inside an advance (an input a host changed, or a contact event) and the advance
+        // ended at a communication point within the next step: that step's end values are
+        // of the former list and reference poses (the new list's are not evaluated there), so
+        // the method starts again here.
+        let restart = d.solver.ahead_of(d.time);
         elements::set_contact_list(m, d, &found, &former, contacts);
+        if restart {
+            d.solver.started = false;
+        }
         groups::take_reference_poses(m, d);
         d.outputs_valid = false;
         d.kinematics_valid = false;

@@ -71,3 +71,95 @@ fn a_body_without_shapes_beside_contact_groups_runs() {
         );
     }
 }
+
+/// One spinning ball over a floor of another contact group, a force input, margin 1 cm.
+const PUSHED_BALL: &str = r#"
+[model]
+name = "pushed_ball"
+
+[solver]
+islands = ISLANDS
+
+[broad_phase]
+margin = 0.01
+
+[[material]]
+name = "steel"
+youngs_modulus = 210e9
+poisson_ratio = 0.3
+
+[[body]]
+name = "b1"
+mass = 0.1
+inertia = [4e-6, 4e-6, 4e-6]
+position = [0.0, 0.0, 0.05]
+velocity = [0.2, 0.0, 0.0]
+angular_velocity = [0.0, 3.0, 1.0]
+
+[[shape]]
+group = "balls"
+type = "sphere"
+body = "b1"
+radius = 0.02
+material = "steel"
+
+[[shape]]
+group = "floor"
+type = "plane"
+body = "ground"
+origin = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [2.0, 2.0]
+material = "steel"
+
+[[contact_group]]
+name = "bf"
+groups = ["balls", "floor"]
+law = "hertz_ln"
+restitution = 0.6
+
+[[input]]
+name = "push"
+type = "force"
+body = "b1"
+direction = [1.0, 0.0, 0.0]
+start = 0.0
+"#;
+
+/// An input a host changes restarts the method at that communication point, where the ball's
+/// shapes had moved past the stale fraction of the margin (its spin counts): the candidate
+/// list was then found stale only at the next communication point, inside the method's next
+/// step, and made again there while that step's end values were the former list's (the
+/// groups' entry zeroed), so the step bound became 0 and the one integrator made no progress
+/// until `solver.max_steps` ran out. Now the method starts again where the list is made, and
+/// the ball flies on: its centre follows the free flight under gravity and the pushing force
+/// from the change on (a quadratic in time, which Dormand-Prince integrates to rounding), with
+/// one integrator as with islands.
+#[test]
+fn a_candidate_list_made_again_inside_the_methods_step_restarts_it() {
+    let (force, mass, g, t_change) = (1.0, 0.1, 9.81, 0.01);
+    for islands in [false, true] {
+        let text = PUSHED_BALL.replace("ISLANDS", &islands.to_string());
+        let mut sim = contact_fmu::simulation::Simulation::from_scene_str(&text, "pushed_ball.toml").unwrap();
+        sim.initialize(0.0).unwrap();
+        let mut worst = 0.0_f64;
+        for k in 1..=50 {
+            let t = k as f64 * 1e-3;
+            if k == 11 {
+                sim.set_by_name("push", force).unwrap();
+            }
+            sim.step_to(t).unwrap_or_else(|e| panic!("islands = {islands}: {e}"));
+            let r = common::vec_out(&mut sim, "b1.r");
+            let tp = (t - t_change).max(0.0);
+            let x = 0.2 * t + 0.5 * force / mass * tp * tp;
+            let z = 0.05 - 0.5 * g * t * t;
+            worst = worst.max((r.x - x).abs()).max((r.z - z).abs());
+        }
+        println!("islands = {islands}: largest deviation from the free flight {worst:.2e} m");
+        assert!(
+            worst < 1e-12,
+            "islands = {islands}: the ball left its free flight by {worst:e} m"
+        );
+    }
+}
