@@ -457,9 +457,12 @@ fn anything_to_check(d: &Data) -> bool {
     })
 }
 
-/// The first test of the tunnelling check: contact `i`'s δ crossed zero over the step.
+/// The first test of the tunnelling check: contact `i`'s δ crossed zero over the step, or it
+/// may have left and come back within it: in a hair and opening at the step's start (right
+/// after an impact, which is located a hair past δ = 0), in and closing at its end.
 fn may_tunnel(d: &Data, i: usize) -> bool {
-    d.events.aux[i].0 <= 0.0 && d.events.aux_new[i].0 > 0.0
+    let ((delta0, rate0), (delta1, rate1)) = (d.events.aux[i], d.events.aux_new[i]);
+    delta1 > 0.0 && (delta0 <= 0.0 || (rate0 < 0.0 && rate1 > 0.0))
 }
 
 /// The first test of the visit check: contact `i` closed at the step's start and opens at
@@ -513,7 +516,10 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         }
     }
     // Tunnelling: δ of a contact that is not in contact crossed zero without its event
-    // function turning positive at the end of the step (it passed δ_max or the patch).
+    // function turning positive at the end of the step (it passed δ_max or the patch). A
+    // contact a hair in at the step's start (after an impact) that opened and closes again
+    // crossed zero from where δ was least, if it left at all (a ball bouncing in a groove
+    // under a long step: it left the wall and came back through it).
     for i in 0..n_contacts {
         if d.contact_memory[i].active || !may_tunnel(d, i) || d.events.g_new[i] > 0.0 {
             continue;
@@ -522,10 +528,25 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         interpolate_contact(m, d, i, t0);
         contact_kinematics(m, d, i);
         let d0_exact = contact::gap(d, i).delta;
-        if d0_exact > 0.0 {
-            continue;
-        }
-        let t = locate(m, d, Probe::Delta(i), t0, t1, d0_exact, d1, t_first);
+        let (t_from, d_from) = if d0_exact <= 0.0 {
+            (t0, d0_exact)
+        } else {
+            let r0 = probe_at(m, d, Probe::Rate(i), t0);
+            let r1 = probe_at(m, d, Probe::Rate(i), t1);
+            if !(r0 < 0.0 && r1 > 0.0) {
+                continue;
+            }
+            let t_least = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t_first);
+            if t_least >= t_first {
+                continue;
+            }
+            let d_least = probe_at(m, d, Probe::Delta(i), t_least);
+            if d_least > 0.0 {
+                continue;
+            }
+            (t_least, d_least)
+        };
+        let t = locate(m, d, Probe::Delta(i), t_from, t1, d_from, d1, t_first);
         if t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0 {
             any = true;
             t_first = t;

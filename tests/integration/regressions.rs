@@ -163,3 +163,66 @@ fn a_candidate_list_made_again_inside_the_methods_step_restarts_it() {
         );
     }
 }
+
+/// A steel ball dropped into a groove (inside a cylinder of radius 50 mm along y) under the
+/// impulse law, e = 0.7: after an impact, located a hair past δ = 0, the contact opens with δ
+/// a hair positive; a step of free flight (bounded by the time to fall a ball radius) could
+/// then carry the ball off the wall and back through it, ending beyond max_penetration where
+/// the event function is negative again: no sign change, and the tunnelling check took only a
+/// δ that crossed zero from below. The ball fell through the wall at the 8th bounce. Now a
+/// contact that opened from a hair in and closes again is checked from where δ was least.
+#[test]
+fn an_impulse_contact_that_opens_from_a_hair_in_is_found_when_it_comes_back() {
+    let text = r#"
+[model]
+name = "groove"
+
+[[material]]
+name = "steel"
+youngs_modulus = 210e9
+poisson_ratio = 0.3
+
+[[body]]
+name = "ball"
+mass = 0.0329
+inertia = [1.316e-06, 1.316e-06, 1.316e-06]
+position = [0.02, 0.0, -0.03]
+velocity = [0.0, 0.1, 0.0]
+
+[[contact]]
+name = "groove"
+type = "sphere_cylinder"
+law = "impulse"
+restitution = 0.7
+sphere_body = "ball"
+center = [0.02, 0.0, -0.03]
+radius = 0.01
+body = "ground"
+axis_point = [0.0, 0.0, 0.0]
+axis = [0.0, 1.0, 0.0]
+cylinder_radius = 0.05
+length = 0.5
+side = "inside"
+"#;
+    let mut sim = contact_fmu::simulation::Simulation::from_scene_str(text, "groove.toml").unwrap();
+    sim.initialize(0.0).unwrap();
+    let e0 = sim.energies().unwrap();
+    let (mut farthest, mut gained) = (0.0_f64, f64::NEG_INFINITY);
+    for k in 1..=300 {
+        sim.step_to(k as f64 * 1e-3).unwrap();
+        let r = common::vec_out(&mut sim, "ball.r");
+        farthest = farthest.max(r.x.hypot(r.z));
+        let e = sim.energies().unwrap();
+        gained = gained.max((e.kinetic + e.potential) - (e0.kinetic + e0.potential));
+    }
+    let impacts = common::get(&mut sim, "groove.impacts");
+    println!(
+        "farthest from the axis {farthest:.9} m (wall at 0.04 m), {impacts} impacts, energy gained {gained:.1e} J"
+    );
+    assert!(
+        farthest < 0.04 + 1e-9,
+        "the ball passed the wall: {farthest} m from the axis"
+    );
+    assert!(impacts >= 10.0, "{impacts} impacts");
+    assert!(gained < 1e-12, "the impacts gained {gained} J");
+}
