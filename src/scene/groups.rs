@@ -5,7 +5,7 @@
 
 use super::{
     item_name, length, magnitude, quote, validate_law_keys, vector, ContactSpec, ContactType, ImpulseMethod, Law,
-    Scene, SceneError, GROUND,
+    Scene, SceneError, Side, GROUND,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
@@ -344,6 +344,28 @@ impl Scene {
                 }
             }
             declared.insert((a, b), &g.name);
+            // the geometry of each pair, checked as a `[[contact]]`'s is: an inside cylinder
+            // must be larger than every sphere it may hold
+            let largest_sphere = (self.shape.iter().enumerate())
+                .filter(|(_, s)| s.group == a)
+                .filter_map(|(k, s)| Some((k, s.radius?)))
+                .reduce(|x, y| if y.1 > x.1 { y } else { x });
+            for (k, s) in self.shape.iter().enumerate().filter(|(_, s)| s.group == b) {
+                let (Some((ks, r)), Some(rc)) = (largest_sphere, s.cylinder_radius) else {
+                    continue;
+                };
+                if s.kind == ShapeType::Cylinder && s.side == Side::Inside && rc <= r {
+                    return Err(err(
+                        "groups",
+                        format!(
+                            "{} is an inside cylinder of cylinder_radius {rc} m, no larger than the sphere of {} \
+                             (radius {r} m): an inside cylinder must exceed the sphere radius",
+                            shape_item(k, s),
+                            shape_item(ks, &self.shape[ks]),
+                        ),
+                    ));
+                }
+            }
             let materials = groups[a].1 && groups[b].1;
             // the law keys, checked on the contact the pair stands for
             let template = ShapeSpec::sphere(a, GROUND, [0.0; 3], 1.0);

@@ -486,6 +486,21 @@ fn bad_group_input_is_a_clear_error() {
             parse_error(&base, |s| s.shape[3].size = None),
             "test.toml: shape 4 (group \"floor\", body \"ground\"): size: required for a plane shape",
         ),
+        (
+            // an inside cylinder no larger than a sphere of the pair: refused as the
+            // `[[contact]]` of the same two shapes is (its stiffness would not be finite)
+            parse_error(&base, |s| {
+                let groove = Cylinder::new([0.0, 0.0, 0.05], [0.0, 1.0, 0.0], 0.01, 0.5);
+                s.shape.push(ShapeSpec {
+                    side: Side::Inside,
+                    ..ShapeSpec::cylinder("groove", GROUND, groove)
+                });
+                s.contact_group.push(ContactGroupSpec::new("ball_groove", "balls", "groove", Law::Impulse));
+            }),
+            "test.toml: contact_group \"ball_groove\": groups: shape 5 (group \"groove\", body \"ground\") is an \
+             inside cylinder of cylinder_radius 0.01 m, no larger than the sphere of shape 1 (group \"balls\", body \
+             \"ball0\") (radius 0.01 m): an inside cylinder must exceed the sphere radius",
+        ),
     ];
     for (got, want) in cases {
         assert_eq!(got, want);
