@@ -452,23 +452,90 @@ fn anything_to_check(d: &Data) -> bool {
         modes::crossed(g[i], g_new[i])
             || modes::crossed(g[n + i], g_new[n + i])
             || modes::crossed(g[2 * n + i], g_new[2 * n + i])
-            || (!active && (may_tunnel(d, i) || may_visit(d, i)))
+            || (!active && (may_tunnel(d, i) || may_visit(d, i) || may_return(d, i)))
             || (d.log_peaks && active && passed_peak(d, i))
     })
 }
 
-/// The first test of the tunnelling check: contact `i`'s δ crossed zero over the step, or it
-/// may have left and come back within it: in a hair and opening at the step's start (right
-/// after an impact, which is located a hair past δ = 0), in and closing at its end.
+/// The first test of the tunnelling check: contact `i`'s δ crossed zero over the step.
 fn may_tunnel(d: &Data, i: usize) -> bool {
-    let ((delta0, rate0), (delta1, rate1)) = (d.events.aux[i], d.events.aux_new[i]);
-    delta1 > 0.0 && (delta0 <= 0.0 || (rate0 < 0.0 && rate1 > 0.0))
+    d.events.aux[i].0 <= 0.0 && d.events.aux_new[i].0 > 0.0
 }
 
 /// The first test of the visit check: contact `i` closed at the step's start and opens at
 /// its end.
 fn may_visit(d: &Data, i: usize) -> bool {
     d.events.aux[i].1 > 0.0 && d.events.aux_new[i].1 < 0.0
+}
+
+/// The first test of the return check: contact `i` was in and opening at the step's start
+/// (right after an impact, which is located a hair past δ = 0).
+fn may_return(d: &Data, i: usize) -> bool {
+    d.events.aux[i].0 > 0.0 && d.events.aux[i].1 < 0.0
+}
+
+/// Samples of the dense output over a step that starts right after an impact, where the
+/// contact may have left, come back in and left again ([`returned_within`]).
+const RETURN_SAMPLES: usize = 16;
+
+/// The instant contact `i`, in and opening at the step's start `t0` (right after an impact),
+/// touched again within the step (before `t_first`), if it left and came back in: its least δ
+/// is the first root of its rate, bracketed by the first of [`RETURN_SAMPLES`] instants of the
+/// dense output at which it closes (it closes from there until δ is largest, which the samples
+/// miss only where that is shorter than their spacing); its largest δ after that the next root
+/// (or the step's end); a touch where δ crossed zero in between, on the patch. (A ball
+/// bouncing in a groove, or on a convex cylinder, under a step of free flight came back
+/// through the wall unseen when its event function was not positive at the step's end:
+/// beyond max_penetration, or out again.)
+fn returned_within(m: &Model, d: &mut Data, i: usize, t0: f64, t1: f64, t_first: f64) -> Option<f64> {
+    let sample = |k: usize| {
+        if k == RETURN_SAMPLES {
+            t1
+        } else {
+            t0 + (t1 - t0) * k as f64 / RETURN_SAMPLES as f64
+        }
+    };
+    let r0 = probe_at(m, d, Probe::Rate(i), t0);
+    if r0.is_nan() || r0 >= 0.0 {
+        return None;
+    }
+    // the least δ: the first sample at which it closes brackets it
+    let (mut ta, mut ra, mut next) = (t0, r0, None);
+    for k in 1..=RETURN_SAMPLES {
+        let t = sample(k);
+        if t >= t_first {
+            return None;
+        }
+        let r = probe_at(m, d, Probe::Rate(i), t);
+        if r > 0.0 {
+            next = Some((k, t, r));
+            break;
+        }
+        (ta, ra) = (t, r);
+    }
+    let (k_closing, tb, rb) = next?;
+    let t_least = locate(m, d, Probe::Rate(i), ta, tb, ra, rb, t_first);
+    let d_least = probe_at(m, d, Probe::Delta(i), t_least);
+    if t_least >= t_first || d_least > 0.0 {
+        return None;
+    }
+    // the largest δ after it: the first later sample at which it opens brackets it
+    let (mut tc, mut rc, mut t_most) = (tb, rb, t1);
+    for k in k_closing + 1..=RETURN_SAMPLES {
+        let t = sample(k);
+        let r = probe_at(m, d, Probe::Rate(i), t);
+        if r <= 0.0 {
+            t_most = locate(m, d, Probe::Rate(i), tc, t, rc, r, t_first);
+            break;
+        }
+        (tc, rc) = (t, r);
+    }
+    let d_most = probe_at(m, d, Probe::Delta(i), t_most);
+    if d_most <= 0.0 {
+        return None;
+    }
+    let t = locate(m, d, Probe::Delta(i), t_least, t_most, d_least, d_most, t_first);
+    (t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0).then_some(t)
 }
 
 /// The first test of the peak log: contact `i` closed at the step's start and no longer at
@@ -516,10 +583,7 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         }
     }
     // Tunnelling: δ of a contact that is not in contact crossed zero without its event
-    // function turning positive at the end of the step (it passed δ_max or the patch). A
-    // contact a hair in at the step's start (after an impact) that opened and closes again
-    // crossed zero from where δ was least, if it left at all (a ball bouncing in a groove
-    // under a long step: it left the wall and came back through it).
+    // function turning positive at the end of the step (it passed δ_max or the patch).
     for i in 0..n_contacts {
         if d.contact_memory[i].active || !may_tunnel(d, i) || d.events.g_new[i] > 0.0 {
             continue;
@@ -528,25 +592,10 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         interpolate_contact(m, d, i, t0);
         contact_kinematics(m, d, i);
         let d0_exact = contact::gap(d, i).delta;
-        let (t_from, d_from) = if d0_exact <= 0.0 {
-            (t0, d0_exact)
-        } else {
-            let r0 = probe_at(m, d, Probe::Rate(i), t0);
-            let r1 = probe_at(m, d, Probe::Rate(i), t1);
-            if !(r0 < 0.0 && r1 > 0.0) {
-                continue;
-            }
-            let t_least = locate(m, d, Probe::Rate(i), t0, t1, r0, r1, t_first);
-            if t_least >= t_first {
-                continue;
-            }
-            let d_least = probe_at(m, d, Probe::Delta(i), t_least);
-            if d_least > 0.0 {
-                continue;
-            }
-            (t_least, d_least)
-        };
-        let t = locate(m, d, Probe::Delta(i), t_from, t1, d_from, d1, t_first);
+        if d0_exact > 0.0 {
+            continue;
+        }
+        let t = locate(m, d, Probe::Delta(i), t0, t1, d0_exact, d1, t_first);
         if t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0 {
             any = true;
             t_first = t;
@@ -575,6 +624,18 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if g_peak > 0.0 {
             let g_start = probe_at(m, d, Probe::Event(i), t0);
             let t = locate(m, d, Probe::Event(i), t0, t_peak, g_start, g_peak, t_first);
+            any = true;
+            t_first = t_first.min(t);
+        }
+    }
+    // A return: an inactive contact in and opening at the step's start (right after an
+    // impact) that left and came back in within the step, with no sign change of its event
+    // function (beyond max_penetration at the step's end, or out again).
+    for i in 0..n_contacts {
+        if d.contact_memory[i].active || !may_return(d, i) || d.events.g_new[i] > 0.0 {
+            continue;
+        }
+        if let Some(t) = returned_within(m, d, i, t0, t1, t_first) {
             any = true;
             t_first = t_first.min(t);
         }

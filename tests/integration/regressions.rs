@@ -164,65 +164,90 @@ fn a_candidate_list_made_again_inside_the_methods_step_restarts_it() {
     }
 }
 
-/// A steel ball dropped into a groove (inside a cylinder of radius 50 mm along y) under the
-/// impulse law, e = 0.7: after an impact, located a hair past δ = 0, the contact opens with δ
-/// a hair positive; a step of free flight (bounded by the time to fall a ball radius) could
-/// then carry the ball off the wall and back through it, ending beyond max_penetration where
-/// the event function is negative again: no sign change, and the tunnelling check took only a
-/// δ that crossed zero from below. The ball fell through the wall at the 8th bounce. Now a
-/// contact that opened from a hair in and closes again is checked from where δ was least.
-#[test]
-fn an_impulse_contact_that_opens_from_a_hair_in_is_found_when_it_comes_back() {
-    let text = r#"
+/// A ball (radius 10 mm, 32.9 g) over a cylinder of radius 50 mm along y through the origin,
+/// `side` inside (a groove) or outside (a bump), under the impulse law with restitution `e`,
+/// dropped from (x, 0, z) with 0.1 m/s along the axis.
+fn ball_and_cylinder(side: &str, x: f64, z: f64, e: f64) -> String {
+    format!(
+        r#"
 [model]
-name = "groove"
+name = "ball_and_cylinder"
 
-[[material]]
-name = "steel"
-youngs_modulus = 210e9
-poisson_ratio = 0.3
+[solver]
+atol = 1e-11
 
 [[body]]
 name = "ball"
 mass = 0.0329
 inertia = [1.316e-06, 1.316e-06, 1.316e-06]
-position = [0.02, 0.0, -0.03]
+position = [{x:?}, 0.0, {z:?}]
 velocity = [0.0, 0.1, 0.0]
 
 [[contact]]
-name = "groove"
+name = "wall"
 type = "sphere_cylinder"
 law = "impulse"
-restitution = 0.7
+restitution = {e:?}
 sphere_body = "ball"
-center = [0.02, 0.0, -0.03]
+center = [{x:?}, 0.0, {z:?}]
 radius = 0.01
 body = "ground"
 axis_point = [0.0, 0.0, 0.0]
 axis = [0.0, 1.0, 0.0]
 cylinder_radius = 0.05
 length = 0.5
-side = "inside"
-"#;
-    let mut sim = contact_fmu::simulation::Simulation::from_scene_str(text, "groove.toml").unwrap();
+side = "{side}"
+"#
+    )
+}
+
+/// Runs [`ball_and_cylinder`] for `t_end` in 1 ms communication steps: the ball's least and
+/// largest distance from the axis, its impacts, and the largest gain of its mechanical energy.
+fn bounces_on_the_cylinder(text: &str, t_end: f64) -> (f64, f64, f64, f64) {
+    let mut sim = contact_fmu::simulation::Simulation::from_scene_str(text, "ball_and_cylinder.toml").unwrap();
     sim.initialize(0.0).unwrap();
     let e0 = sim.energies().unwrap();
-    let (mut farthest, mut gained) = (0.0_f64, f64::NEG_INFINITY);
-    for k in 1..=300 {
+    let (mut nearest, mut farthest, mut gained) = (f64::INFINITY, 0.0_f64, f64::NEG_INFINITY);
+    for k in 1..=(t_end / 1e-3).round() as usize {
         sim.step_to(k as f64 * 1e-3).unwrap();
         let r = common::vec_out(&mut sim, "ball.r");
+        nearest = nearest.min(r.x.hypot(r.z));
         farthest = farthest.max(r.x.hypot(r.z));
         let e = sim.energies().unwrap();
         gained = gained.max((e.kinetic + e.potential) - (e0.kinetic + e0.potential));
     }
-    let impacts = common::get(&mut sim, "groove.impacts");
-    println!(
-        "farthest from the axis {farthest:.9} m (wall at 0.04 m), {impacts} impacts, energy gained {gained:.1e} J"
-    );
+    (nearest, farthest, common::get(&mut sim, "wall.impacts"), gained)
+}
+
+/// After an impact, located a hair past δ = 0, the contact opens with δ a hair positive; a step
+/// of free flight (bounded by the time to fall a ball radius) could then carry the ball off the
+/// wall and back through it, ending where the event function is not positive: beyond
+/// max_penetration in a groove, out again over a bump. Neither the crossing of δ = 0 from
+/// below (the tunnelling check) nor a contact closing at the step's start (the visit check)
+/// took it: the ball fell through the groove at its 8th bounce, and passed 1.6 mm into the
+/// bump at its 11th. Now a contact in and opening at the step's start is checked for a return
+/// within the step (`returned_within`): the ball stays out of both walls, to the hair an
+/// impact is located past, and the impacts take no energy in.
+#[test]
+fn an_impulse_contact_that_leaves_and_comes_back_within_a_step_is_found() {
+    let groove = ball_and_cylinder("inside", 0.02, -0.03, 0.7);
+    let (_, farthest, impacts, gained) = bounces_on_the_cylinder(&groove, 0.3);
+    println!("groove: farthest from the axis {farthest:.12} m (wall at 0.04 m), {impacts} impacts, energy gained {gained:.1e} J");
     assert!(
         farthest < 0.04 + 1e-9,
-        "the ball passed the wall: {farthest} m from the axis"
+        "the ball passed the groove's wall: {farthest} m from the axis"
     );
-    assert!(impacts >= 10.0, "{impacts} impacts");
-    assert!(gained < 1e-12, "the impacts gained {gained} J");
+    assert!(impacts >= 10.0, "{impacts} impacts in the groove");
+    assert!(gained < 1e-12, "the impacts in the groove gained {gained} J");
+    let bump = ball_and_cylinder("outside", 0.00581064001176799, 0.0686483794730102, 0.6436844990307057);
+    let (nearest, _, impacts, gained) = bounces_on_the_cylinder(&bump, 0.3);
+    println!(
+        "bump: nearest to the axis {nearest:.12} m (wall at 0.06 m), {impacts} impacts, energy gained {gained:.1e} J"
+    );
+    assert!(
+        nearest > 0.06 - 1e-9,
+        "the ball passed into the bump: {nearest} m from the axis"
+    );
+    assert!(impacts >= 10.0, "{impacts} impacts on the bump");
+    assert!(gained < 1e-12, "the impacts on the bump gained {gained} J");
 }
