@@ -4,7 +4,7 @@
 use crate::checkpoint::Snapshot;
 use crate::export::{export_command, fmu_folder};
 use crate::fmi::lifecycle::Version;
-use crate::scene::{short, MAX_COMMUNICATION_POINTS};
+use crate::scene::{short, Num, MAX_COMMUNICATION_POINTS};
 use crate::simulation::{RunError, SimError, Simulation};
 use crate::variables::VarType;
 use std::io::Write;
@@ -169,7 +169,9 @@ pub fn run_simulation(
         eprintln!("warning: {w}");
     }
     result.map_err(|e| match e {
-        RunError::Step(SimError::Step { time, message }) => format!("simulation failed at t = {time}: {message}"),
+        RunError::Step(SimError::Step { time, message }) => {
+            format!("simulation failed at t = {}: {message}", Num(time))
+        }
         other => other.to_string(),
     })?;
     let seconds = start.elapsed().as_secs_f64();

@@ -19,7 +19,7 @@ mod validate;
 pub use groups::{shape_item, BroadPhaseMethod, BroadPhaseSection, ContactGroupSpec, ShapeSpec, ShapeType};
 pub use inputs::{InputSpec, InputType};
 pub use rules::{
-    check_max_step, item_name, quote, short, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
+    check_max_step, item_name, quote, short, Num, ATOL_RANGE, MAX_COMMUNICATION_POINTS, MAX_MAGNITUDE, MAX_MODEL_NAME,
     MAX_STEPS_LIMIT, MIN_MAX_PENETRATION, MIN_MAX_STEP, RK4_DEFAULT_STEP, RTOL_RANGE, RUNAWAY_SPEED,
 };
 use rules::{check_name, length, magnitude, vector};

@@ -26,11 +26,11 @@ use crate::integrator::IntegratorError;
 use crate::kinematics::{kinematics, poses_and_velocities_at_state};
 use crate::model::data::Stepper;
 use crate::model::{Data, Model};
-use crate::scene::{Law, RUNAWAY_SPEED};
+use crate::scene::{Law, Num, RUNAWAY_SPEED};
 
 /// A failed advance: the last good time and what went wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("at t = {time}: {message}")]
+#[error("at t = {}: {message}", Num(*.time))]
 pub struct EngineError {
     /// Last time reached with a valid state \[s\].
     pub time: f64,
@@ -217,7 +217,7 @@ pub fn advance_deferring(
 /// events.
 fn advance_steps(m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
     if t_end.is_nan() || t_end < d.time {
-        return Err(fail(d, format!("cannot integrate backwards to {t_end}")));
+        return Err(fail(d, format!("cannot integrate backwards to {}", Num(t_end))));
     }
     d.outputs_valid = false;
     d.kinematics_valid = false;
@@ -296,9 +296,10 @@ fn step_limit(d: &Data, max_steps: u64, t_end: f64) -> EngineError {
     EngineError {
         time: d.time,
         message: format!(
-            "solver.max_steps = {max_steps} integrator steps did not reach t = {t_end} (stopped at t = {}); \
+            "solver.max_steps = {max_steps} integrator steps did not reach t = {} (stopped at t = {}); \
              take shorter communication steps or raise solver.max_steps",
-            d.time
+            Num(t_end),
+            Num(d.time)
         ),
         step_limit: true,
     }

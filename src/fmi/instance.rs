@@ -13,7 +13,7 @@ use super::log::{category_of, Failure, FmiResult, Sink, LOG_ALL, LOG_CATEGORIES,
 use super::saved::SavedState;
 use super::types::*;
 use super::uri::{resource_dir, resource_folder};
-use crate::simulation::{SimError, Simulation};
+use crate::simulation::{Num, SimError, Simulation};
 use crate::variables::{Causality, VarType, Variability, Variable};
 use std::ffi::{CStr, CString};
 use std::os::raw::c_int;
@@ -698,21 +698,6 @@ impl Instance {
             saved.version.number(),
             self.version.number()
         )))
-    }
-}
-
-/// A time or step size in a message: as Rust writes it, except very large or small magnitudes,
-/// which get an exponent (`1e300` rather than 301 digits).
-struct Num(f64);
-
-impl std::fmt::Display for Num {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let a = self.0.abs();
-        if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
-            write!(f, "{}", self.0)
-        } else {
-            write!(f, "{:e}", self.0)
-        }
     }
 }
 

@@ -43,6 +43,7 @@ use crate::model::data::FreshIntegrators;
 use crate::model::groups::Candidate;
 use crate::model::partition::Partition;
 use crate::model::{ContactEvent, Counters, Data, Model};
+use crate::scene::Num;
 #[cfg(test)]
 use crate::scene::Scene;
 use rustc_hash::FxHashMap as HashMap;
@@ -442,7 +443,7 @@ impl Islands {
     /// further are taken back to it, and the result is `Ok(true)`.
     pub fn advance(&mut self, m: &Model, d: &mut Data, t_end: f64, stop_at_events: bool) -> Result<bool, EngineError> {
         if t_end.is_nan() || t_end < self.time {
-            return Err(fail(self.time, format!("cannot integrate backwards to {t_end}")));
+            return Err(fail(self.time, format!("cannot integrate backwards to {}", Num(t_end))));
         }
         for island in &mut self.parts {
             island.take_inputs(d);
@@ -466,10 +467,11 @@ impl Islands {
                 return Err(EngineError {
                     time: self.time,
                     message: format!(
-                        "solver.max_steps = {} rounds of the islands did not reach t = {t_end} (stopped at t = {}); \
+                        "solver.max_steps = {} rounds of the islands did not reach t = {} (stopped at t = {}); \
                          {}take shorter communication steps or raise solver.max_steps",
                         m.solver.max_steps,
-                        self.time,
+                        Num(t_end),
+                        Num(self.time),
                         if grouped {
                             format!(
                                 "a round ends once a body may have moved {ROUND_FRACTION} of broad_phase.margin = \
@@ -540,10 +542,11 @@ impl Islands {
                     if e.step_limit {
                         e.message = format!(
                             "solver.max_steps = {per_island} integrator steps per island and communication step \
-                             ({n} islands now, {used} steps in all in this one) did not reach t = {t_end} (stopped at \
+                             ({n} islands now, {used} steps in all in this one) did not reach t = {} (stopped at \
                              t = {}, in the island of body {name:?}); take shorter communication steps or raise \
                              solver.max_steps",
-                            self.time
+                            Num(t_end),
+                            Num(self.time)
                         );
                     }
                     return Err(e);

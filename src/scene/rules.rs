@@ -91,6 +91,21 @@ pub fn short(x: f64) -> String {
     }
 }
 
+/// A time or step size in a message: as Rust writes it, except very large or small
+/// magnitudes, which get an exponent (`1e300` rather than 301 digits).
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// A name as messages show it: quoted and escaped (`"arm"`, `"a\tb"`), a long one cut to its
 /// first 40 characters.
 pub fn quote(name: &str) -> String {

@@ -10,6 +10,8 @@ use crate::engine::{self, EngineError};
 use crate::islands::Islands;
 use crate::model::{state, ContactEvent, Counters, Data, Model};
 use crate::outputs::{self, Energies};
+/// How messages show a time or step size (the FMI layer's too).
+pub use crate::scene::Num;
 use crate::scene::{Scene, SceneError};
 use crate::variables::{Causality, VarRef, Variable, VariableTable};
 use std::path::Path;
@@ -34,7 +36,7 @@ pub enum SimError {
     #[error("{0}")]
     Variable(String),
     /// The integration failed at `time`; the state is the last good one.
-    #[error("at t = {time}: {message}")]
+    #[error("at t = {}: {message}", Num(*.time))]
     Step {
         /// Last time successfully reached \[s\].
         time: f64,
@@ -43,7 +45,7 @@ pub enum SimError {
     },
     /// The step stopped at `solver.max_steps` integrator steps, at `time`: the state there
     /// is valid and the simulation can go on from it.
-    #[error("at t = {time}: {message}")]
+    #[error("at t = {}: {message}", Num(*.time))]
     StepLimit {
         /// Time reached \[s\].
         time: f64,
@@ -754,7 +756,9 @@ fn refreshes_over_budget(m: &Model, time: f64, t_end: f64, refreshes: u64) -> Si
         time,
         message: format!(
             "solver.max_steps = {budget} integrator steps did not reach t = {t_end} (stopped at t = {time}); \
-             the contact groups' candidate pairs were found again {refreshes} times in them, {advice}"
+             the contact groups' candidate pairs were found again {refreshes} times in them, {advice}",
+            t_end = Num(t_end),
+            time = Num(time),
         ),
     }
 }

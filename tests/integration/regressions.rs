@@ -251,3 +251,21 @@ fn an_impulse_contact_that_leaves_and_comes_back_within_a_step_is_found() {
     assert!(impacts >= 10.0, "{impacts} impacts on the bump");
     assert!(gained < 1e-12, "the impacts on the bump gained {gained} J");
 }
+
+/// A communication step to t = 1e300 (how hosts and the FMI fuzzer test the step budget)
+/// stops at `solver.max_steps`; its message wrote the times as Rust's plain decimals, 1e300
+/// as 301 digits. Now very large and small times get an exponent, the others stay as they
+/// were, with one integrator and with islands.
+#[test]
+fn messages_write_very_large_and_small_times_with_an_exponent() {
+    let pile = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/pile_of_balls/scene.toml");
+    let ball = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu/bouncing_ball/scene.toml");
+    for path in [ball, pile] {
+        let mut sim = contact_fmu::simulation::Simulation::from_file(&path).unwrap();
+        sim.initialize(0.0).unwrap();
+        let e = sim.step_to(1e300).unwrap_err().to_string();
+        println!("{e}");
+        assert!(e.contains("did not reach t = 1e300 (stopped at t = "), "{e}");
+        assert!(!e.contains("00000000000000000000"), "{e}");
+    }
+}
