@@ -110,6 +110,16 @@ impl Scene {
         let mut names: HashSet<&str> = HashSet::new();
         let mut unique = |item: &str, name| -> Result<(), SceneError> {
             check_name(origin, item, name)?;
+            if name == GROUND {
+                // (a material, contact or group pair named so would be accepted, and read as
+                // the world wherever a body may be named)
+                return Err(SceneError::new(
+                    origin,
+                    item,
+                    "name",
+                    "\"ground\" is reserved for the fixed world".to_string(),
+                ));
+            }
             if RESERVED_NAMES.contains(&name) {
                 return Err(SceneError::new(
                     origin,

@@ -483,6 +483,10 @@ fn bad_group_input_is_a_clear_error() {
             "test.toml: [broad_phase]: margin: must be > 0 (got -1)",
         ),
         (
+            parse_error(&base, |s| s.contact_group[0].name = "ground".into()),
+            "test.toml: contact_group \"ground\": name: \"ground\" is reserved for the fixed world",
+        ),
+        (
             parse_error(&base, |s| s.shape[3].size = None),
             "test.toml: shape 4 (group \"floor\", body \"ground\"): size: required for a plane shape",
         ),

@@ -110,6 +110,9 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     ("other", "u_axis = [0.0, 1.0, 0.0]", "u_axis = [-1.0, 0.0, 0.0]", &["contact \"tip_wall\"", "u_axis", "perpendicular"]),
     ("other", "law = \"hertz\"", "law = \"kelvin_voigt\"", &["contact \"tip_wall\"", "stiffness"]),
     ("other", "name = \"arm\"", "name = \"ground\"", &["name", "reserved"]),
+    // (only a body named "ground" was refused; a material or contact so named was accepted)
+    ("other", "name = \"steel\"", "name = \"ground\"", &["material \"ground\"", "name", "reserved for the fixed world"]),
+    ("other", "name = \"tip_wall\"", "name = \"ground\"", &["contact \"ground\"", "name", "reserved for the fixed world"]),
     // a speed the engine takes for a blow-up (validation allowed it, the run then stopped at
     // once advising a tighter tolerance)
     ("other", "mass = 0.2", "mass = 0.2\nangular_velocity = [0.0, 2e8, 0.0]", &["body \"tip\"", "angular_velocity", "beyond 1e8"]),
