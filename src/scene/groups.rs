@@ -283,6 +283,19 @@ impl Scene {
                 length(origin, &item, "radius", radius)?;
             }
             s.check_surface_keys(origin, &item)?;
+            let (surface, what) = match s.kind {
+                ShapeType::Sphere => ((false, false), "a sphere shape"),
+                ShapeType::Plane => ((true, false), "a plane shape"),
+                ShapeType::Cylinder => ((false, true), "a cylinder shape"),
+            };
+            s.refuse_unused_surface_keys(origin, &item, surface, what)?;
+            if s.kind != ShapeType::Sphere {
+                for (f, given) in [("center", s.center.is_some()), ("radius", s.radius.is_some())] {
+                    if given {
+                        return Err(SceneError::new(origin, &item, f, format!("not used by {what}")));
+                    }
+                }
+            }
             match s.kind {
                 ShapeType::Sphere => {
                     need("radius", s.radius.is_some())?;

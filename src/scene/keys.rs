@@ -114,6 +114,47 @@ macro_rules! surface_checks {
                 surface_extent(origin, item, self.size, self.theta_range)
             }
 
+            /// Refuses a surface key the item's type does not use, naming it: the plane's keys
+            /// unless `plane`, the cylinder's (and `side = "inside"`) unless `cylinder`; `what`
+            /// names the type in the message ("a plane shape"). (A key of another type was
+            /// ignored without a word.)
+            pub(crate) fn refuse_unused_surface_keys(
+                &self,
+                origin: &str,
+                item: &str,
+                (plane, cylinder): (bool, bool),
+                what: &str,
+            ) -> Result<(), $crate::scene::SceneError> {
+                let plane_keys = [
+                    ("origin", self.origin.is_some()),
+                    ("normal", self.normal.is_some()),
+                    ("u_axis", self.u_axis.is_some()),
+                    ("size", self.size.is_some()),
+                ];
+                let cylinder_keys = [
+                    ("axis_point", self.axis_point.is_some()),
+                    ("axis", self.axis.is_some()),
+                    ("cylinder_radius", self.cylinder_radius.is_some()),
+                    ("length", self.length.is_some()),
+                    ("theta_range", self.theta_range.is_some()),
+                    ("ref_axis", self.ref_axis.is_some()),
+                    ("side", self.side == $crate::scene::Side::Inside),
+                ];
+                let unused = (!plane).then_some(plane_keys).into_iter().flatten();
+                let unused = unused.chain((!cylinder).then_some(cylinder_keys).into_iter().flatten());
+                for (key, given) in unused {
+                    if given {
+                        return Err($crate::scene::SceneError::new(
+                            origin,
+                            item,
+                            key,
+                            format!("not used by {what}"),
+                        ));
+                    }
+                }
+                Ok(())
+            }
+
             /// Checks that a plane has the keys it needs (`need` reports a missing one) and
             /// that its axes are perpendicular.
             pub(crate) fn check_plane(

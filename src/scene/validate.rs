@@ -446,6 +446,24 @@ impl Scene {
             length(origin, item, "other_radius", v)?;
         }
         c.check_surface_keys(origin, item)?;
+        // ... and refused where this type does not use it
+        let what = format!("a {} contact", kind_name(c.kind));
+        let surface = match c.kind {
+            ContactType::SphereSphere => (false, false),
+            ContactType::SpherePlane => (true, false),
+            ContactType::SphereCylinder => (false, true),
+        };
+        c.refuse_unused_surface_keys(origin, item, surface, &what)?;
+        if c.kind != ContactType::SphereSphere {
+            for (f, given) in [
+                ("other_center", c.other_center.is_some()),
+                ("other_radius", c.other_radius.is_some()),
+            ] {
+                if given {
+                    return Err(err(f, format!("not used by {what}")));
+                }
+            }
+        }
         let need = |f: &str, present: bool| -> Result<(), SceneError> {
             if present {
                 Ok(())

@@ -487,6 +487,15 @@ fn bad_group_input_is_a_clear_error() {
             "test.toml: contact_group \"ground\": name: \"ground\" is reserved for the fixed world",
         ),
         (
+            // keys of another type of shape (they were ignored without a word)
+            parse_error(&base, |s| s.shape[3].radius = Some(0.3)),
+            "test.toml: shape 4 (group \"floor\", body \"ground\"): radius: not used by a plane shape",
+        ),
+        (
+            parse_error(&base, |s| s.shape[0].normal = Some([0.0, 0.0, 1.0])),
+            "test.toml: shape 1 (group \"balls\", body \"ball0\"): normal: not used by a sphere shape",
+        ),
+        (
             parse_error(&base, |s| s.shape[3].size = None),
             "test.toml: shape 4 (group \"floor\", body \"ground\"): size: required for a plane shape",
         ),

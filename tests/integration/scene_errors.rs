@@ -110,6 +110,9 @@ const MISTAKES: &[(&str, &str, &str, &[&str])] = &[
     ("other", "u_axis = [0.0, 1.0, 0.0]", "u_axis = [-1.0, 0.0, 0.0]", &["contact \"tip_wall\"", "u_axis", "perpendicular"]),
     ("other", "law = \"hertz\"", "law = \"kelvin_voigt\"", &["contact \"tip_wall\"", "stiffness"]),
     ("other", "name = \"arm\"", "name = \"ground\"", &["name", "reserved"]),
+    // a key of another type of contact (it was ignored without a word)
+    ("other", "radius = 0.02", "radius = 0.02\nother_radius = 0.01", &["contact \"tip_wall\"", "other_radius", "not used by a sphere_plane contact"]),
+    ("other", "radius = 0.02", "radius = 0.02\nside = \"inside\"", &["contact \"tip_wall\"", "side", "not used by a sphere_plane contact"]),
     // (only a body named "ground" was refused; a material or contact so named was accepted)
     ("other", "name = \"steel\"", "name = \"ground\"", &["material \"ground\"", "name", "reserved for the fixed world"]),
     ("other", "name = \"tip_wall\"", "name = \"ground\"", &["contact \"ground\"", "name", "reserved for the fixed world"]),
