@@ -23,7 +23,7 @@ pub use parameters::{contact_law_constants, group_law_constants, law_constants, 
 
 use crate::kinematics::kinematics;
 use crate::model::contact::ContactElement;
-use crate::model::groups::Candidate;
+use crate::model::groups::{Candidate, Groups};
 use crate::model::{nq_of, nv_of, Body, Data, Drive, Input, LoopConstraint, Model, Plan, SpringDamper, TreeJoint};
 use crate::scene::{item_name, InputType, JointSpec, JointType, Law, Scene, SceneError};
 use crate::spatial::triad;
@@ -333,7 +333,7 @@ pub fn compile_model(
     contacts.extend(group_contacts);
     // One constraint row per impulse-law contact after the loop rows (its resting mode).
     crate::contact::elements::reserve_constraint_rows(&mut contacts, nc);
-    let warnings = contact_warnings(&contacts);
+    let warnings = contact_warnings(&contacts, &groups);
 
     let inputs = scene
         .input
@@ -453,19 +453,24 @@ pub(crate) fn initial_pose(scene: &Scene, b: Option<usize>) -> (Vector3<f64>, Un
     }
 }
 
-/// The warnings a model's contacts give (a Kelvin-Voigt law with damping).
-pub(crate) fn contact_warnings(contacts: &[ContactElement]) -> Vec<String> {
-    contacts
+/// The warnings a model's contacts give (a Kelvin-Voigt law with damping): its declared
+/// contacts' (the first `groups.n_explicit` of `contacts`) and its group pairs'.
+pub(crate) fn contact_warnings(contacts: &[ContactElement], groups: &Groups) -> Vec<String> {
+    let pulls = |law: Law, damping: f64| law == Law::KelvinVoigt && damping > 0.0;
+    let warning = |item: String| {
+        format!(
+            "{item}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; the force is cut \
+             at zero there (docs/contact.md)"
+        )
+    };
+    let declared = contacts[..groups.n_explicit.min(contacts.len())]
         .iter()
-        .filter(|c| c.law == Law::KelvinVoigt && c.damping > 0.0)
-        .map(|c| {
-            format!(
-                "contact {:?}: kelvin_voigt jumps to c·δ̇⁻ at touch and would pull before separation; \
-                 the force is cut at zero there (docs/contact.md)",
-                c.name
-            )
-        })
-        .collect()
+        .filter(|c| pulls(c.law, c.damping))
+        .map(|c| warning(format!("contact {:?}", c.name)));
+    let pairs = (groups.laws.iter().zip(&groups.pair_names))
+        .filter(|(l, _)| pulls(l.law, l.damping))
+        .map(|(_, name)| warning(format!("contact_group {name:?}")));
+    declared.chain(pairs).collect()
 }
 
 /// Checks that every body reaches the ground through its tree joints (`parent_joint`,

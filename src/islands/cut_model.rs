@@ -378,7 +378,7 @@ impl ModelCutter {
                 &mut out.groups,
             );
         }
-        out.warnings = contact_warnings(contacts);
+        out.warnings = contact_warnings(contacts, &out.groups);
         out.gravity = m.gravity;
         out.nq = nq;
         out.nv = nv;

@@ -1,7 +1,7 @@
 //! A group pair and the `[[contact]]`s it stands for, compiled and checked alike: a declared
 //! contact is the pair of its two one-shape groups (the same contact elements, bit for bit,
-//! with sizes from the scene or set as parameters), and a law a host sets is refused with one
-//! check for both.
+//! with sizes from the scene or set as parameters), a law a host sets is refused with one
+//! check for both, and a Kelvin-Voigt law with damping warns for both.
 //!
 //! `cargo test --release --test integration contact_groups_as_contacts:: -- --nocapture` prints
 //! what was compared.
@@ -183,4 +183,35 @@ fn a_law_a_group_pair_cannot_take_is_refused_as_a_contacts_is() {
         "{}",
         e.message
     );
+}
+
+/// A Kelvin-Voigt law with damping warns that it would pull before separation for a group
+/// pair as for the `[[contact]]`s it stands for (the group pair's warning was missing), once
+/// per pair, naming it.
+#[test]
+fn a_kelvin_voigt_law_with_damping_warns_for_a_group_pair_as_for_its_contacts() {
+    let mut scene = three_balls(0.8);
+    let pair = &mut scene.contact_group[0];
+    (pair.law, pair.stiffness, pair.damping) = (Law::KelvinVoigt, Some(1e5), Some(10.0));
+    let name = pair.name.clone();
+    let mut groups = common::start(scene.clone());
+    let warned = groups.warnings().unwrap();
+    println!("{warned:?}");
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(
+        warned[0].starts_with(&format!("contact_group {name:?}: kelvin_voigt jumps")),
+        "{warned:?}"
+    );
+    let mut declared = common::start(explicit(&scene));
+    let warned_declared = declared.warnings().unwrap();
+    let contacts = explicit(&scene)
+        .contact
+        .iter()
+        .filter(|c| c.law == Law::KelvinVoigt)
+        .count();
+    assert!(contacts > 1);
+    assert_eq!(warned_declared.len(), contacts, "{warned_declared:?}");
+    // the same words after the item
+    let tail = |w: &str| w.split_once(": ").map(|(_, t)| t.to_string()).unwrap();
+    assert!(warned_declared.iter().all(|w| tail(w) == tail(&warned[0])));
 }
