@@ -292,15 +292,24 @@ impl Range {
         };
         v.is_finite() && lo && hi
     }
-    /// Human-readable form, e.g. `(0, inf)`, `[0, 0.5)` or `[1e-14, 0.01]`.
+    /// Human-readable form, e.g. `(0, inf)`, `[0, 0.5)` or `[1e-14, 0.01]` (an infinite end is
+    /// open: [`Range::contains`] takes finite values only).
     pub fn describe(&self) -> String {
         let num = crate::scene::short;
         format!(
             "{}{}, {}{}",
-            if self.min_exclusive { "(" } else { "[" },
+            if self.min_exclusive || self.min.is_infinite() {
+                "("
+            } else {
+                "["
+            },
             num(self.min),
             num(self.max),
-            if self.max_exclusive { ")" } else { "]" }
+            if self.max_exclusive || self.max.is_infinite() {
+                ")"
+            } else {
+                "]"
+            }
         )
     }
 }

@@ -302,3 +302,15 @@ fn invalid_inertia_radius_and_size_are_refused_naming_the_variable() {
         assert!(e.contains(&format!("parameter {name} = ")), "{e}");
     }
 }
+
+/// A range with an infinite end is written open there: `inf` is refused as out of `[0, inf)`;
+/// the message said `[0, inf]`, a range that holds it (found by a review).
+#[test]
+fn an_infinite_end_of_a_range_is_written_open() {
+    let ball = Scene::from_file(&common::bundled("bouncing_ball")).unwrap();
+    let e = refused(&ball, &[("ball_floor.viscous_friction", f64::INFINITY)]);
+    assert!(
+        e.contains("parameter ball_floor.viscous_friction = inf is out of its allowed range [0, inf)"),
+        "{e}"
+    );
+}
