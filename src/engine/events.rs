@@ -27,6 +27,10 @@ enum Probe {
     Delta(usize),
     /// Penetration rate δ̇ of contact `i` (peaks).
     Rate(usize),
+    /// Whether inactive contact `i` holds (positive) where the δ of a check peaked: its event
+    /// function, but for the impulse law without the hold at 0 while it opens (which is for
+    /// the state right after an impact, and would hide a touch at a peak, where δ̇ ≤ 0).
+    Touch(usize),
 }
 
 /// Evaluates the event functions and the per-contact (δ, δ̇) at `d.eval_state` into
@@ -213,7 +217,7 @@ fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
     } else {
         let i = match probe {
             Probe::Event(k) => k % n_contacts,
-            Probe::Delta(i) | Probe::Rate(i) => i,
+            Probe::Delta(i) | Probe::Rate(i) | Probe::Touch(i) => i,
         };
         interpolate_contact(m, d, i, t);
         contact_kinematics(m, d, i);
@@ -224,6 +228,17 @@ fn probe_at(m: &Model, d: &mut Data, probe: Probe, t: f64) -> f64 {
         Probe::Event(k) => modes::slip_event_value(d, k - 2 * n_contacts),
         Probe::Delta(i) => contact::gap(d, i).delta,
         Probe::Rate(i) => contact::gap(d, i).delta_dot,
+        Probe::Touch(i) => {
+            let c = &d.contacts[i];
+            if c.law == Law::Impulse && !d.contact_memory[i].active {
+                match contact::broad_phase(c, d) {
+                    Some((stand_in, _)) => stand_in,
+                    None => contact::event_function(c, &contact::gap(d, i)),
+                }
+            } else {
+                modes::contact_event_values(d, i, d.clamp_events).0
+            }
+        }
     }
 }
 
@@ -441,8 +456,8 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
 /// False when no contact passes the first test of any check of [`first_event`] over the
 /// step whose start and end values are in `d.events` (`g`, `aux`; `g_new`, `aux_new`): no
 /// event function changed its sign, no contact apart crossed δ = 0 or turned from closing to
-/// opening with its event function not positive, and no active one passed a peak (when peaks
-/// are logged). The common step: one pass instead of the checks' several.
+/// opening with its event function not positive, none was in and opening at the step's start
+/// (a return after an impact), and no active one passed a peak (when peaks are logged). The common step: one pass instead of the checks' several.
 fn anything_to_check(d: &Data) -> bool {
     let n = d.contacts.len();
     let ev = &d.events;
@@ -499,17 +514,20 @@ fn returned_within(m: &Model, d: &mut Data, i: usize, t0: f64, t1: f64, t_first:
     if r0.is_nan() || r0 >= 0.0 {
         return None;
     }
-    // the least δ: the first sample at which it closes brackets it
+    // the least δ: the first sample at which it closes brackets it (up to `t_first`)
     let (mut ta, mut ra, mut next) = (t0, r0, None);
     for k in 1..=RETURN_SAMPLES {
-        let t = sample(k);
-        if t >= t_first {
+        let t = sample(k).min(t_first);
+        let r = probe_at(m, d, Probe::Rate(i), t);
+        if r.is_nan() {
             return None;
         }
-        let r = probe_at(m, d, Probe::Rate(i), t);
         if r > 0.0 {
             next = Some((k, t, r));
             break;
+        }
+        if t >= t_first {
+            return None;
         }
         (ta, ra) = (t, r);
     }
@@ -524,6 +542,9 @@ fn returned_within(m: &Model, d: &mut Data, i: usize, t0: f64, t1: f64, t_first:
     for k in k_closing + 1..=RETURN_SAMPLES {
         let t = sample(k);
         let r = probe_at(m, d, Probe::Rate(i), t);
+        if r.is_nan() {
+            return None;
+        }
         if r <= 0.0 {
             t_most = locate(m, d, Probe::Rate(i), tc, t, rc, r, t_first);
             break;
@@ -535,7 +556,7 @@ fn returned_within(m: &Model, d: &mut Data, i: usize, t0: f64, t1: f64, t_first:
         return None;
     }
     let t = locate(m, d, Probe::Delta(i), t_least, t_most, d_least, d_most, t_first);
-    (t < t_first && probe_at(m, d, Probe::Event(i), t) > 0.0).then_some(t)
+    (t < t_first && probe_at(m, d, Probe::Touch(i), t) > 0.0).then_some(t)
 }
 
 /// The first test of the peak log: contact `i` closed at the step's start and no longer at
@@ -620,10 +641,10 @@ pub fn first_event(m: &Model, d: &mut Data) -> Option<f64> {
         if t_peak >= t_first {
             continue;
         }
-        let g_peak = probe_at(m, d, Probe::Event(i), t_peak);
+        let g_peak = probe_at(m, d, Probe::Touch(i), t_peak);
         if g_peak > 0.0 {
-            let g_start = probe_at(m, d, Probe::Event(i), t0);
-            let t = locate(m, d, Probe::Event(i), t0, t_peak, g_start, g_peak, t_first);
+            let g_start = probe_at(m, d, Probe::Touch(i), t0);
+            let t = locate(m, d, Probe::Touch(i), t0, t_peak, g_start, g_peak, t_first);
             any = true;
             t_first = t_first.min(t);
         }

@@ -250,6 +250,26 @@ fn an_impulse_contact_that_leaves_and_comes_back_within_a_step_is_found() {
     );
     assert!(impacts >= 10.0, "{impacts} impacts on the bump");
     assert!(gained < 1e-12, "the impacts on the bump gained {gained} J");
+    // a graze inside one step after a bounce off the bump, for the visit check (the contact
+    // closes at the step's start and opens at its end): where δ peaked, the impulse law's
+    // event function is held at 0 while the contact opens, so the touch was never taken
+    // (0.34 mm into the bump at 0.30 s; found by a review)
+    let graze = ball_and_cylinder(
+        "outside",
+        -0.008424406314240638,
+        0.11018687858041187,
+        0.7893495160869972,
+    );
+    let (nearest, _, impacts, gained) = bounces_on_the_cylinder(&graze, 0.4);
+    println!(
+        "graze: nearest to the axis {nearest:.12} m (wall at 0.06 m), {impacts} impacts, energy gained {gained:.1e} J"
+    );
+    assert!(
+        nearest > 0.06 - 1e-9,
+        "the ball grazed into the bump: {nearest} m from the axis"
+    );
+    assert!(impacts >= 2.0, "{impacts} impacts on the bump");
+    assert!(gained < 1e-12, "the grazing impacts gained {gained} J");
 }
 
 /// A communication step to t = 1e300 (how hosts and the FMI fuzzer test the step budget)
