@@ -358,16 +358,17 @@ impl Scene {
             }
             declared.insert((a, b), &g.name);
             // the geometry of each pair, checked as a `[[contact]]`'s is: an inside cylinder
-            // must be larger than every sphere it may hold
-            let largest_sphere = (self.shape.iter().enumerate())
-                .filter(|(_, s)| s.group == a)
-                .filter_map(|(k, s)| Some((k, s.radius?)))
-                .reduce(|x, y| if y.1 > x.1 { y } else { x });
+            // must be larger than every sphere it may hold (those on other bodies: shapes on
+            // one body never touch)
             for (k, s) in self.shape.iter().enumerate().filter(|(_, s)| s.group == b) {
-                let (Some((ks, r)), Some(rc)) = (largest_sphere, s.cylinder_radius) else {
+                let (ShapeType::Cylinder, Side::Inside, Some(rc)) = (s.kind, s.side, s.cylinder_radius) else {
                     continue;
                 };
-                if s.kind == ShapeType::Cylinder && s.side == Side::Inside && rc <= r {
+                let largest_sphere = (self.shape.iter().enumerate())
+                    .filter(|(_, sp)| sp.group == a && sp.body != s.body)
+                    .filter_map(|(ks, sp)| Some((ks, sp.radius?)))
+                    .reduce(|x, y| if y.1 > x.1 { y } else { x });
+                if let Some((ks, r)) = largest_sphere.filter(|&(_, r)| rc <= r) {
                     return Err(err(
                         "groups",
                         format!(

@@ -518,6 +518,24 @@ fn bad_group_input_is_a_clear_error() {
     for (got, want) in cases {
         assert_eq!(got, want);
     }
+    // an inside cylinder smaller than a sphere on its own body (the ground): that pair never
+    // exists (shapes on one body never touch), and the groove is accepted
+    let mut grooved = base.clone();
+    grooved.shape.push(ShapeSpec {
+        side: Side::Inside,
+        ..ShapeSpec::cylinder(
+            "groove",
+            GROUND,
+            Cylinder::new([0.0, 0.0, 0.05], [0.0, 1.0, 0.0], 0.05, 0.5),
+        )
+    });
+    grooved
+        .shape
+        .push(ShapeSpec::sphere("balls", GROUND, [1.0, 0.0, -0.2], 0.1));
+    grooved
+        .contact_group
+        .push(ContactGroupSpec::new("ball_groove", "balls", "groove", Law::Impulse));
+    grooved.validate(ORIGIN).unwrap();
     // an unknown key in a shape
     let text = base.to_toml().replacen("radius = 0.01", "radius = 0.01\nradios = 1", 1);
     let e = Scene::from_str(&text, ORIGIN).unwrap_err().to_string();
