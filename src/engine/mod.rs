@@ -411,7 +411,10 @@ pub fn blow_up(m: &Model, time: f64, what: &str) -> String {
             s.rtol, s.atol
         ),
     };
-    format!("the integration blew up in the step after t = {time} ({what}): {remedy}")
+    format!(
+        "the integration blew up in the step after t = {} ({what}): {remedy}",
+        Num(time)
+    )
 }
 
 /// The note a step size underflow gets when an active contact is too stiff (or its body too

@@ -55,13 +55,13 @@ pub struct Stats {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IntegratorError {
     /// The step size fell below the smallest representable increment.
-    #[error("step size underflow at t = {0} (the problem is too stiff for this method or the state is not finite)")]
+    #[error("step size underflow at t = {} (the problem is too stiff for this method or the state is not finite)", crate::scene::Num(*.0))]
     StepSizeUnderflow(f64),
     /// The right-hand side returned a non-finite value.
-    #[error("the right-hand side is not finite at t = {0}")]
+    #[error("the right-hand side is not finite at t = {}", crate::scene::Num(*.0))]
     NotFinite(f64),
     /// Newton iterations did not converge (implicit methods).
-    #[error("Newton iteration failed to converge at t = {0}")]
+    #[error("Newton iteration failed to converge at t = {}", crate::scene::Num(*.0))]
     NewtonFailure(f64),
 }
 

@@ -11,6 +11,7 @@ use super::island_state::{self, IslandsState};
 use super::{Counters, Data, EnergyWatch, Model};
 use crate::integrator::{Integrator, Stats};
 use crate::model::groups::Candidate;
+use crate::scene::Num;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 named_enum! {
@@ -204,24 +205,32 @@ fn continued_step_fits(started: bool, method: &(dyn Integrator + Send), pending:
     let close = 16.0 * f64::EPSILON * time.abs().max(1e-300);
     if !(t_prev <= time && time <= t + close) {
         return Err(format!(
-            "state: the integrator continues a step from t = {t_prev} to {t}, which does not hold the state's \
-             time {time}"
+            "state: the integrator continues a step from t = {} to {}, which does not hold the state's time {}",
+            Num(t_prev),
+            Num(t),
+            Num(time)
         ));
     }
     if t > time && pending < time {
         return Err(format!(
-            "state: the integrator's next event, at t = {pending}, comes before the state's time {time}"
+            "state: the integrator's next event, at t = {}, comes before the state's time {}",
+            Num(pending),
+            Num(time)
         ));
     }
     let h = method.next_step();
     if !(h.is_finite() && h >= 0.0) {
-        return Err(format!("state: the integrator's next step {h} is not a step size"));
+        return Err(format!(
+            "state: the integrator's next step {} is not a step size",
+            Num(h)
+        ));
     }
     let mut at_time = vec![0.0; method.y().len()];
     method.interpolate(time.min(t), &mut at_time);
     if method.y().iter().chain(&at_time).any(|x| !x.is_finite()) {
         return Err(format!(
-            "state: the integrator continues a step whose state at t = {time} or at its end is not finite"
+            "state: the integrator continues a step whose state at t = {} or at its end is not finite",
+            Num(time)
         ));
     }
     Ok(())
