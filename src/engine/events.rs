@@ -457,7 +457,8 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
 /// step whose start and end values are in `d.events` (`g`, `aux`; `g_new`, `aux_new`): no
 /// event function changed its sign, no contact apart crossed δ = 0 or turned from closing to
 /// opening with its event function not positive, none was in and opening at the step's start
-/// (a return after an impact), and no active one passed a peak (when peaks are logged). The common step: one pass instead of the checks' several.
+/// (a return after an impact), and no active one passed a peak (when peaks are logged). The
+/// common step: one pass instead of the checks' several.
 fn anything_to_check(d: &Data) -> bool {
     let n = d.contacts.len();
     let ev = &d.events;
