@@ -2,9 +2,10 @@
 """Random drops of a ball onto a cylinder under the impulse law: how many pass its wall.
 
 A steel ball (radius 10 mm, 32.9 g) is dropped with 0.1 m/s along the axis of a cylinder of
-radius 50 mm (along y through the origin), inside it (a groove: the ball starts within 39 mm
-of the axis, below it) or onto it (a bump: the ball starts 62-112 mm above the axis, within
-15 mm to either side), with a restitution drawn from [0.3, 0.95], and runs 0.6 s with
+radius 50 mm along y through the origin (tests/integration/scenes/ball_and_cylinder.toml,
+the scene of the regression test), inside it (a groove: the ball starts within 39 mm of the
+axis, below it) or onto it (a bump: the ball starts 62-112 mm above the axis, within 15 mm to
+either side), with a restitution drawn from [0.3, 0.95], and runs 0.6 s with
 `contact-fmu simulate` (1 ms outputs). A drop passes the wall when the ball's centre comes
 more than 1e-7 m beyond rho - R (groove) or inside rho + R (bump). The figures of
 docs/contact.md ("A return after an impact, and grazes under the impulse law"):
@@ -25,36 +26,24 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-SCENE = """[model]
-name = "drop"
-stop_time = 0.6
-interval = 0.001
+# the scene of the regression test, whose drop lines are replaced
+SCENE = os.path.join(ROOT, "tests", "integration", "scenes", "ball_and_cylinder.toml")
 
-[solver]
-atol = 1e-11
 
-[[body]]
-name = "ball"
-mass = 0.0329
-inertia = [1.316e-06, 1.316e-06, 1.316e-06]
-position = [{x!r}, 0.0, {z!r}]
-velocity = [0.0, 0.1, 0.0]
-
-[[contact]]
-name = "wall"
-type = "sphere_cylinder"
-law = "impulse"
-restitution = {e!r}
-sphere_body = "ball"
-center = [{x!r}, 0.0, {z!r}]
-radius = 0.01
-body = "ground"
-axis_point = [0.0, 0.0, 0.0]
-axis = [0.0, 1.0, 0.0]
-cylinder_radius = 0.05
-length = 0.5
-side = "{side}"
-"""
+def scene_text(x, z, e, side):
+    """The scene with the ball dropped from (x, 0, z), restitution e, the cylinder's side."""
+    lines = []
+    with open(SCENE) as f:
+        for line in f.read().splitlines():
+            key = line.split(" = ")[0]
+            if key in ("position", "center"):
+                line = f"{key} = [{x!r}, 0.0, {z!r}]"
+            elif key == "restitution":
+                line = f"restitution = {e!r}"
+            elif key == "side":
+                line = f'side = "{side}"'
+            lines.append(line)
+    return "\n".join(lines) + "\n"
 
 
 def drop(rng, side):
@@ -81,8 +70,9 @@ def main():
         for k in range(args.drops):
             x, z, e = drop(rng, args.side)
             with open(scene, "w") as f:
-                f.write(SCENE.format(x=x, z=z, e=e, side=args.side))
-            run = subprocess.run([args.binary, "simulate", scene, "--csv", out, "--quiet"], capture_output=True, text=True)
+                f.write(scene_text(x, z, e, args.side))
+            command = [args.binary, "simulate", scene, "--csv", out, "--quiet"]
+            run = subprocess.run(command, capture_output=True, text=True)
             if run.returncode != 0:
                 failed += 1
                 print(f"drop {k}: exit {run.returncode}: {run.stderr.strip()[-200:]}")
@@ -93,8 +83,10 @@ def main():
             beyond = 0.06 - min(distance) if args.side == "outside" else max(distance) - 0.04
             if beyond > 1e-7:
                 passed += 1
-                print(f"drop {k}: x = {x!r}, z = {z!r}, e = {e!r}: {beyond * 1e3:.3f} mm beyond the wall")
-    print(f"{args.side}, seed {args.seed}: {passed} of {args.drops} drops passed the wall ({failed} runs failed)")
+                where = f"x = {x!r}, z = {z!r}, e = {e!r}"
+                print(f"drop {k}: {where}: {beyond * 1e3:.3f} mm beyond the wall")
+    summary = f"{passed} of {args.drops} drops passed the wall ({failed} runs failed)"
+    print(f"{args.side}, seed {args.seed}: {summary}")
 
 
 if __name__ == "__main__":
