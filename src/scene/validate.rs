@@ -111,8 +111,7 @@ impl Scene {
         let mut unique = |item: &str, name| -> Result<(), SceneError> {
             check_name(origin, item, name)?;
             if name == GROUND {
-                // (a material, contact or group pair named so would be accepted, and read as
-                // the world wherever a body may be named)
+                // (for every item: a material, contact or group pair so named was accepted)
                 return Err(SceneError::new(
                     origin,
                     item,
@@ -158,9 +157,6 @@ impl Scene {
         let mut bodies = HashSet::new();
         for b in &self.body {
             let item = item_name("body", &b.name);
-            if b.name == GROUND {
-                return Err(err(item, "name", "\"ground\" is reserved for the fixed world".into()));
-            }
             unique(&item, &b.name)?;
             bodies.insert(b.name.as_str());
             positive(origin, &item, "mass", b.mass)?;
